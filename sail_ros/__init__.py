@@ -1,0 +1,1 @@
+"""sail_ros: deployment dynamics and vibration of a four-quadrant solar sail."""

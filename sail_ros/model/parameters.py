@@ -1,0 +1,132 @@
+"""Physical and discretisation parameters of the sail (SI units).
+
+Defaults are those of model.md §10: a 100 m square sail whose fully deployed
+booms are 70.71 m long, CP1/Kapton-class film at 1 psi prestress, and the
+seed's validation setting of no boom axial load.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import yaml
+
+
+@dataclasses.dataclass(frozen=True)
+class SailParameters:
+    """Parameters of the four-boom, four-quadrant sail.
+
+    Attributes:
+        sail_side: side `a` of the square sail [m]; full boom length a/sqrt(2).
+        boom_bending_stiffness: boom `EI` [N m^2].
+        boom_linear_density: boom mass per length `rho_B` [kg/m].
+        membrane_thickness: film thickness `h` [m].
+        membrane_density: film density `rho` [kg/m^3]; areal density rho h.
+        membrane_prestress: isotropic film prestress `sigma` [Pa]; N0 = sigma h.
+        boom_axial_load: axial compression `P` on each boom [N] (>= 0).
+        n_boom_modes: cantilever modes per boom `n_B` (>= 1).
+        n_membrane_modes: clamped-triangle modes per quadrant `n_M` (>= 1).
+    """
+
+    sail_side: float = 100.0
+    boom_bending_stiffness: float = 6000.0
+    boom_linear_density: float = 0.1
+    membrane_thickness: float = 2.5e-6
+    membrane_density: float = 1430.0
+    membrane_prestress: float = 6890.0
+    boom_axial_load: float = 0.0
+    n_boom_modes: int = 4
+    n_membrane_modes: int = 6
+
+    # fields that must be > 0; the others must be >= 0 (mode counts >= 1)
+    _POSITIVE = ("sail_side", "boom_bending_stiffness", "boom_linear_density")
+    _MODE_COUNTS = ("n_boom_modes", "n_membrane_modes")
+
+    def __post_init__(self):
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if field.name in self._MODE_COUNTS:
+                if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                    raise ValueError(
+                        f"{field.name} must be an integer >= 1, got {value!r}"
+                    )
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"{field.name} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"{field.name} must be finite, got {value!r}")
+            if field.name in self._POSITIVE and value <= 0:
+                raise ValueError(f"{field.name} must be > 0, got {value!r}")
+            if value < 0:
+                raise ValueError(f"{field.name} must be >= 0, got {value!r}")
+            object.__setattr__(self, field.name, float(value))
+
+    # derived quantities -------------------------------------------------
+    @property
+    def full_boom_length(self) -> float:
+        """Fully deployed boom length a/sqrt(2) [m]."""
+        return self.sail_side / math.sqrt(2.0)
+
+    @property
+    def membrane_areal_density(self) -> float:
+        """rho_M = rho h [kg/m^2]."""
+        return self.membrane_density * self.membrane_thickness
+
+    @property
+    def membrane_tension(self) -> float:
+        """N0 = sigma h [N/m]."""
+        return self.membrane_prestress * self.membrane_thickness
+
+    # (de)serialisation --------------------------------------------------
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def replace(self, **changes) -> SailParameters:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def from_dict(cls, values: dict) -> SailParameters:
+        """Build from a mapping; unknown keys raise ValueError naming them."""
+        if not isinstance(values, dict):
+            raise ValueError(f"sail parameters must be a mapping, got {values!r}")
+        unknown = sorted(set(values) - set(cls.field_names()))
+        if unknown:
+            raise ValueError(
+                f"unknown sail parameter(s) {', '.join(map(repr, unknown))}; "
+                f"known: {', '.join(cls.field_names())}"
+            )
+        return cls(**values)
+
+    @classmethod
+    def from_yaml(cls, path) -> SailParameters:
+        """Read a YAML file holding the fields, either at top level or under `sail:`.
+
+        A ROS 2 params file (`<node>: ros__parameters: sail: {...}`) works too.
+        """
+        with open(path) as stream:
+            document = yaml.safe_load(stream) or {}
+        return cls.from_dict(_find_sail_section(document, Path(path)))
+
+    def to_yaml(self, path) -> None:
+        with open(path, "w") as stream:
+            yaml.safe_dump({"sail": self.to_dict()}, stream, sort_keys=False)
+
+
+def _find_sail_section(document, path: Path) -> dict:
+    if not isinstance(document, dict):
+        raise ValueError(f"{path}: expected a mapping at top level, got {document!r}")
+    if "sail" in document:
+        return document["sail"]
+    for value in document.values():  # ROS 2 params file: <node>: ros__parameters:
+        if isinstance(value, dict) and "ros__parameters" in value:
+            section = value["ros__parameters"].get("sail")
+            if section is not None:
+                return section
+    return document

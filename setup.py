@@ -1,0 +1,31 @@
+"""ament_python packaging: `ros2 run sail_ros <tool>` runs lib/sail_ros/<tool>."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+from sail_ros.cli import TOOLS
+
+package_name = "sail_ros"
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+        ("share/" + package_name + "/config", glob("config/*.yaml")),
+        ("share/" + package_name + "/msg_docs", glob("msg_docs/*.md")),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="sail_ros maintainers",
+    maintainer_email="maintainers@sail-ros.dev",
+    description="Real-time deployment dynamics of a four-quadrant solar sail.",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [f"{name} = {target}" for name, target in TOOLS.items()]
+        + ["sail-ros = sail_ros.cli:main"],
+    },
+)
