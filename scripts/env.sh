@@ -8,3 +8,6 @@ export HOME="${HOME:-$_sail_root/.venv}"
 export MPLBACKEND="${MPLBACKEND:-Agg}"
 export PATH="$_sail_root/.venv/bin:$PATH"
 unset _sail_root
+# The model works on small dense matrices, where one BLAS thread is fastest;
+# parallel tools use processes instead.
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"

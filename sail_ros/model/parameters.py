@@ -49,9 +49,7 @@ class SailParameters:
             value = getattr(self, field.name)
             if field.name in self._MODE_COUNTS:
                 if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                    raise ValueError(
-                        f"{field.name} must be an integer >= 1, got {value!r}"
-                    )
+                    raise ValueError(f"{field.name} must be an integer >= 1, got {value!r}")
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise ValueError(f"{field.name} must be a number, got {value!r}")

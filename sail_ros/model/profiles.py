@@ -1,0 +1,168 @@
+"""Boom motion: lengths, rates and accelerations of the four booms against time.
+
+A profile is any callable `t -> (lengths, rates, accelerations)` returning
+three arrays of 4 values (order a, b, c, d; m, m/s, m/s^2). Profiles here
+also answer `is_static(t0, t1)`, which lets the stepper reuse an exact
+propagator while the booms stand still.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from sail_ros.model.sail_model import per_boom
+
+
+class StaticProfile:
+    """Booms held at fixed lengths [m]."""
+
+    def __init__(self, lengths):
+        self.lengths = per_boom(lengths, "lengths", positive=True)
+        self._zero = np.zeros(4)
+
+    def __call__(self, t):
+        return self.lengths, self._zero, self._zero
+
+    def is_static(self, t0, t1) -> bool:
+        return True
+
+
+class CycloidalProfile:
+    """The smooth deployment of model.md §9, per boom.
+
+        L = L0 + (Lf - L0) (tau - sin(2 pi tau) / (2 pi)),   tau = (t - t0) / T
+
+    Rate and acceleration are zero at both ends; peak rate `2 (Lf - L0) / T`,
+    peak acceleration `2 pi (Lf - L0) / T^2`. Before `t0` the booms rest at
+    `start`, after `t0 + T` at `end`.
+
+    Args:
+        start: initial lengths L0 [m] (scalar or 4 values).
+        end: final lengths Lf [m].
+        duration: T [s].
+        t0: start time [s].
+    """
+
+    def __init__(self, start, end, duration: float, t0: float = 0.0):
+        self.start = per_boom(start, "start", positive=True)
+        self.end = per_boom(end, "end", positive=True)
+        if not (math.isfinite(duration) and duration > 0):
+            raise ValueError(f"duration must be finite and > 0, got {duration!r}")
+        if not math.isfinite(t0):
+            raise ValueError(f"t0 must be finite, got {t0!r}")
+        self.duration, self.t0 = float(duration), float(t0)
+        self._zero = np.zeros(4)
+
+    @classmethod
+    def within_limits(cls, start, end, max_rate: float, max_acceleration: float, t0=0.0):
+        """The fastest cycloidal move from `start` to `end` that keeps
+        |rate| <= max_rate [m/s] and |acceleration| <= max_acceleration [m/s^2]."""
+        if not (max_rate > 0 and max_acceleration > 0):
+            raise ValueError(
+                f"max_rate and max_acceleration must be > 0, got {max_rate!r}, {max_acceleration!r}"
+            )
+        travel = float(np.max(np.abs(per_boom(end, "end") - per_boom(start, "start"))))
+        duration = max(
+            2.0 * travel / max_rate,
+            math.sqrt(2.0 * math.pi * travel / max_acceleration),
+            1e-3,
+        )
+        return cls(start, end, duration, t0)
+
+    @property
+    def t_end(self) -> float:
+        return self.t0 + self.duration
+
+    def __call__(self, t):
+        tau = (t - self.t0) / self.duration
+        if tau <= 0.0:
+            return self.start, self._zero, self._zero
+        if tau >= 1.0:
+            return self.end, self._zero, self._zero
+        travel = self.end - self.start
+        angle = 2.0 * math.pi * tau
+        lengths = self.start + travel * (tau - math.sin(angle) / (2.0 * math.pi))
+        rates = travel / self.duration * (1.0 - math.cos(angle))
+        accelerations = travel * (2.0 * math.pi / self.duration**2) * math.sin(angle)
+        return lengths, rates, accelerations
+
+    def is_static(self, t0, t1) -> bool:
+        return t1 <= self.t0 or t0 >= self.t_end or np.array_equal(self.start, self.end)
+
+
+class WaypointProfile:
+    """Booms through waypoints along a cubic spline (continuous rate and acceleration).
+
+    Args:
+        times: strictly increasing waypoint times [s], at least 2.
+        lengths: waypoint lengths [m], shape (len(times),) for all booms alike
+            or (len(times), 4) per boom.
+        start_rates: rates at the first waypoint [m/s] (scalar or 4 values).
+        end_rates: rates at the last waypoint [m/s]; the booms hold their last
+            length after it, so leave this 0 unless the profile is replaced
+            before then.
+    """
+
+    def __init__(self, times, lengths, start_rates=0.0, end_rates=0.0):
+        times = np.asarray(times, dtype=float)
+        if times.ndim != 1 or times.size < 2:
+            raise ValueError(f"times must hold at least 2 values, got {times.tolist()!r}")
+        if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+            raise ValueError(
+                f"times must be finite and strictly increasing, got {times.tolist()!r}"
+            )
+        lengths = np.asarray(lengths, dtype=float)
+        if lengths.shape == times.shape:
+            lengths = np.repeat(lengths[:, None], 4, axis=1)
+        if lengths.shape != (times.size, 4):
+            raise ValueError(
+                f"lengths must have shape ({times.size},) or ({times.size}, 4), got {lengths.shape}"
+            )
+        if not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
+            raise ValueError(f"lengths must be finite and > 0, got {lengths.tolist()!r}")
+        self.times, self.lengths = times, lengths
+        self._start_rates = per_boom(start_rates, "start_rates")
+        self._end_rates = per_boom(end_rates, "end_rates")
+        self._spline = CubicSpline(
+            times, lengths, axis=0, bc_type=((1, self._start_rates), (1, self._end_rates))
+        )
+        self._rate = self._spline.derivative(1)
+        self._acceleration = self._spline.derivative(2)
+        self._zero = np.zeros(4)
+
+    @property
+    def t_end(self) -> float:
+        return float(self.times[-1])
+
+    def __call__(self, t):
+        if t <= self.times[0]:
+            return self.lengths[0], self._start_rates, self._zero
+        if t >= self.times[-1]:
+            return self.lengths[-1], self._end_rates, self._zero
+        return self._spline(t), self._rate(t), self._acceleration(t)
+
+    def is_static(self, t0, t1) -> bool:
+        after = t0 >= self.times[-1] and not np.any(self._end_rates)
+        before = t1 <= self.times[0] and not np.any(self._start_rates)
+        return bool(after or before)
+
+    def extremes(self, samples_per_segment: int = 64):
+        """Lowest and highest length [m], largest |rate| [m/s] and |acceleration|
+        [m/s^2] over the profile, per boom (4 values each)."""
+        t = np.concatenate(
+            [
+                np.linspace(a, b, samples_per_segment, endpoint=False)
+                for a, b in zip(self.times[:-1], self.times[1:], strict=True)
+            ]
+            + [self.times[-1:]]
+        )
+        lengths = self._spline(t)
+        return (
+            lengths.min(axis=0),
+            lengths.max(axis=0),
+            np.abs(self._rate(t)).max(axis=0),
+            np.abs(self._acceleration(t)).max(axis=0),
+        )

@@ -1,0 +1,258 @@
+"""The whole sail: four booms and four membrane quadrants (seed Eq. 2 and 3).
+
+    M qdd + (Md + G - G^T) qd + (Gd + K - N) q = 0
+
+with `q = [p_a, p_b, p_c, p_d, q_ab, q_bc, q_cd, q_da]` (model.md §6).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from sail_ros.model.assembly import (
+    BOOMS,
+    DAMPING,
+    MASS,
+    QUADRANTS,
+    STIFFNESS,
+    STIFFNESS_EQ,
+    SystemAssembler,
+)
+from sail_ros.model.basis import triangle_mode_indices
+from sail_ros.model.integrals import (
+    boom_integrals,
+    default_quadrature_order,
+    quadrant_integrals,
+)
+from sail_ros.model.parameters import SailParameters
+
+
+def per_boom(value, name: str, positive: bool = False) -> np.ndarray:
+    """A scalar (all booms) or 4 values (order a, b, c, d) as a float array of 4.
+
+    Raises ValueError naming `name` and the value when the shape is wrong, a
+    value is not finite, or (with `positive`) a value is <= 0.
+    """
+    array = np.asarray(value, dtype=float)
+    if array.ndim == 0:
+        array = np.full(4, float(array))
+    elif array.shape != (4,):
+        raise ValueError(f"{name} must be a scalar or 4 values (booms a, b, c, d), got {value!r}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if positive and np.any(array <= 0.0):
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    return array
+
+
+class SailModel:
+    """Modal model of the four-boom, four-quadrant sail.
+
+    The reference integrals for `(n_B, n_M)` are built once (and cached across
+    instances); every call below only scales and adds them.
+
+    Args:
+        params: physical parameters and mode counts.
+        quadrature_order: Gauss points per direction for the reference
+            integrals; the default resolves every basis product.
+    """
+
+    def __init__(self, params: SailParameters | None = None, quadrature_order: int | None = None):
+        self.params = params if params is not None else SailParameters()
+        nb, nm = self.params.n_boom_modes, self.params.n_membrane_modes
+        self.n_boom_modes, self.n_membrane_modes = nb, nm
+        order = quadrature_order or default_quadrature_order(nb, nm)
+        self.boom_integrals = boom_integrals(nb, order)
+        self.quadrant_integrals = quadrant_integrals(nb, nm, order)
+        self.assembler = SystemAssembler(
+            self.boom_integrals,
+            self.quadrant_integrals,
+            nb,
+            nm,
+            boom_linear_density=self.params.boom_linear_density,
+            boom_bending_stiffness=self.params.boom_bending_stiffness,
+            boom_axial_load=self.params.boom_axial_load,
+            membrane_areal_density=self.params.membrane_areal_density,
+            membrane_tension=self.params.membrane_tension,
+        )
+        self.n = self.assembler.n
+        self._tip_rows = self._tip_matrix()
+
+    # layout ------------------------------------------------------------------
+    def boom_slice(self, boom: str) -> slice:
+        """Coordinates `p_k` of boom `k` in the system vector."""
+        k = _boom_index(boom)
+        return slice(k * self.n_boom_modes, (k + 1) * self.n_boom_modes)
+
+    def membrane_slice(self, quadrant: str) -> slice:
+        """Coordinates `q_xy` of quadrant `xy` in the system vector."""
+        names = [name for name, _, _ in QUADRANTS]
+        if quadrant not in names:
+            raise ValueError(f"quadrant must be one of {', '.join(names)}, got {quadrant!r}")
+        q = names.index(quadrant)
+        start = 4 * self.n_boom_modes + q * self.n_membrane_modes
+        return slice(start, start + self.n_membrane_modes)
+
+    @property
+    def coordinate_names(self) -> list[str]:
+        """One self-describing name per generalised coordinate, in system order.
+
+        `boom_a_mode_1` ... (cantilever mode i of boom a), then
+        `membrane_ab_mode_2_1` ... (triangle mode (m, n) of quadrant ab).
+        """
+        names = [f"boom_{b}_mode_{i + 1}" for b in BOOMS for i in range(self.n_boom_modes)]
+        pairs = triangle_mode_indices(self.n_membrane_modes)
+        names += [f"membrane_{q}_mode_{m}_{k}" for q, _, _ in QUADRANTS for m, k in pairs]
+        return names
+
+    # matrices ----------------------------------------------------------------
+    def evaluate(self, outputs, lengths, rates=0.0, accelerations=0.0) -> np.ndarray:
+        """Matrices named by `outputs` (see `assembly`), stacked (len(outputs), n, n)."""
+        return self.assembler.evaluate(
+            per_boom(lengths, "lengths", positive=True),
+            per_boom(rates, "rates"),
+            per_boom(accelerations, "accelerations"),
+            outputs,
+        )
+
+    def matrices(self, lengths, rates=0.0, accelerations=0.0):
+        """`M, C, K` of `M qdd + C qd + K q = 0` (seed Eq. 2).
+
+        `C = Md + G - G^T` and `K = Gd + K_elastic - N` (model.md §4).
+
+        Args:
+            lengths: boom lengths [m], a scalar (all booms) or 4 values (a, b, c, d).
+            rates: extension rates [m/s], same form.
+            accelerations: extension accelerations [m/s^2], same form.
+        """
+        M, C, K = self.evaluate((MASS, DAMPING, STIFFNESS_EQ), lengths, rates, accelerations)
+        return M, C, K
+
+    def mass_and_stiffness(self, lengths):
+        """`M` and the elastic `K` (membrane tension, bending, axial load) [SI]."""
+        M, K = self.evaluate((MASS, STIFFNESS), lengths)
+        return M, K
+
+    # analysis ----------------------------------------------------------------
+    def natural_frequencies(self, lengths) -> np.ndarray:
+        """Natural frequencies [rad/s], ascending, at fixed lengths (rates 0).
+
+        Solves `K v = omega^2 M v`. A buckled configuration (an axial load
+        above the critical one) has a negative eigenvalue; it is returned as
+        `-sqrt(-omega^2)`, so negative entries mark divergent modes.
+        """
+        M, K = self.mass_and_stiffness(lengths)
+        omega2 = scipy.linalg.eigh(K, M, eigvals_only=True)
+        return np.sign(omega2) * np.sqrt(np.abs(omega2))
+
+    def state_matrix(self, lengths, rates=0.0, accelerations=0.0) -> np.ndarray:
+        """`A` of the first-order form `xd = A x`, `x = [qd; q]` (seed Eq. 3).
+
+        `A = [-M^-1 C, -M^-1 K_eq; I, 0]`.
+        """
+        M, C, K = self.matrices(lengths, rates, accelerations)
+        n = self.n
+        factor = scipy.linalg.cho_factor(M)
+        A = np.zeros((2 * n, 2 * n))
+        A[:n, :n] = -scipy.linalg.cho_solve(factor, C)
+        A[:n, n:] = -scipy.linalg.cho_solve(factor, K)
+        A[n:, :n] = np.eye(n)
+        return A
+
+    def eigenvalues(self, lengths, rates=0.0) -> np.ndarray:
+        """Eigenvalues [1/s] of Eq. 3 at frozen lengths with constant rates.
+
+        Accelerations are zero. Sorted by imaginary part, then real part; any
+        positive real part means the frozen system is unstable.
+        """
+        eig = np.linalg.eigvals(self.state_matrix(lengths, rates, 0.0))
+        return eig[np.lexsort((eig.real, eig.imag))]
+
+    # time integration ----------------------------------------------------------
+    def stepper(self, profile, q0=None, qd0=None, t0: float = 0.0, **options):
+        """A `SailStepper` holding this model's state (see `stepper.py`).
+
+        `options`: `max_step` [s], `resolved_frequency` [rad/s].
+        """
+        from sail_ros.model.stepper import SailStepper
+
+        return SailStepper(self, profile, q0=q0, qd0=qd0, t0=t0, **options)
+
+    def simulate(
+        self, profile, t_end: float, q0=None, qd0=None, t_eval=None, progress=None, **options
+    ):
+        """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`.
+
+        Args:
+            profile: callable `t -> (lengths, rates, accelerations)` (see `profiles`).
+            t_end: final time [s], > 0.
+            q0, qd0: initial coordinates and velocities (default rest).
+            t_eval: increasing output times in [0, t_end]; default a uniform
+                grid with the stepper's `max_step` spacing (0.2 s).
+            progress: optional callable `progress(t)` after each output time.
+            options: `max_step` [s], `resolved_frequency` [rad/s].
+
+        Returns:
+            `(t, q, qd)`: times (k,), coordinates (k, n), velocities (k, n).
+        """
+        if not (np.isfinite(t_end) and t_end > 0):
+            raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
+        stepper = self.stepper(profile, q0=q0, qd0=qd0, **options)
+        if t_eval is None:
+            count = int(np.ceil(t_end / stepper.max_step - 1e-9))
+            t_eval = np.linspace(0.0, t_end, count + 1)
+        t_eval = np.asarray(t_eval, dtype=float)
+        if t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)):
+            raise ValueError(
+                f"t_eval must be a non-empty 1-D array of finite times, got {t_eval!r}"
+            )
+        if np.any(np.diff(t_eval) < 0) or t_eval[0] < 0 or t_eval[-1] > t_end:
+            raise ValueError(f"t_eval must increase within [0, t_end = {t_end}], got {t_eval!r}")
+        q = np.empty((t_eval.size, self.n))
+        qd = np.empty((t_eval.size, self.n))
+        for i, t in enumerate(t_eval):
+            stepper.advance(t)
+            q[i], qd[i] = stepper.q, stepper.qd
+            if progress is not None:
+                progress(t)
+        return t_eval.copy(), q, qd
+
+    # derived quantities --------------------------------------------------------
+    def _tip_matrix(self) -> np.ndarray:
+        rows = np.zeros((4, self.n))
+        for k, boom in enumerate(BOOMS):
+            rows[k, self.boom_slice(boom)] = self.boom_integrals.tip
+        return rows
+
+    def tip_deflections(self, q) -> np.ndarray:
+        """Boom-tip deflections `u_k(L_k) = psi(1)^T p_k` [m] (4 values, a..d).
+
+        `q` may be one state (n,) or a series (..., n); works for velocities too.
+        """
+        return np.asarray(q) @ self._tip_rows.T
+
+    def mode_state(self, boom: str = "a", tip_deflection: float = 0.1) -> np.ndarray:
+        """Coordinates with boom `boom` bent in its first cantilever mode, all else 0.
+
+        Args:
+            boom: "a", "b", "c" or "d".
+            tip_deflection: the tip deflection of that boom [m].
+        """
+        if not np.isfinite(tip_deflection):
+            raise ValueError(f"tip_deflection must be finite, got {tip_deflection!r}")
+        q = np.zeros(self.n)
+        q[self.boom_slice(boom).start] = tip_deflection / self.boom_integrals.tip[0]
+        return q
+
+    def energy(self, q, qd, lengths) -> float:
+        """Mechanical energy `1/2 qd^T M qd + 1/2 q^T K q` [J] at the given lengths."""
+        M, K = self.mass_and_stiffness(lengths)
+        q, qd = np.asarray(q), np.asarray(qd)
+        return 0.5 * float(qd @ M @ qd) + 0.5 * float(q @ K @ q)
+
+
+def _boom_index(boom: str) -> int:
+    if boom not in BOOMS:
+        raise ValueError(f"boom must be one of a, b, c, d, got {boom!r}")
+    return BOOMS.index(boom)

@@ -1,0 +1,1 @@
+"""Command-line tools (`sail-ros <tool>`): thin shells around `sail_ros.model`."""

@@ -1,0 +1,63 @@
+"""Options shared by the tools: which sail, and how to print it."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import yaml
+
+from sail_ros.model import SailParameters
+
+
+def add_sail_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("sail")
+    group.add_argument(
+        "--config", metavar="YAML",
+        help="sail parameters file (keys of SailParameters, at top level or under `sail:`); "
+        "default: the built-in defaults (config/sail.yaml)",
+    )
+    group.add_argument(
+        "--set", metavar="KEY=VALUE", action="append", default=[],
+        help="override one parameter, e.g. --set n_boom_modes=10 (repeatable)",
+    )
+
+
+def sail_parameters(args: argparse.Namespace) -> SailParameters:
+    """Parameters from --config and --set; ValueError names a bad key or value."""
+    params = SailParameters.from_yaml(args.config) if args.config else SailParameters()
+    changes = {}
+    for item in args.set:
+        key, separator, text = item.partition("=")
+        if not separator:
+            raise ValueError(f"--set expects KEY=VALUE, got {item!r}")
+        changes[key.strip()] = yaml.safe_load(text)
+    if changes:
+        params = SailParameters.from_dict({**params.to_dict(), **changes})
+    return params
+
+
+def describe_parameters(params: SailParameters) -> str:
+    """The parameters in one block, with units, for printing next to results."""
+    return "\n".join([
+        f"  sail side a             {params.sail_side:g} m (full boom length "
+        f"{params.full_boom_length:.4g} m)",
+        f"  boom EI                 {params.boom_bending_stiffness:g} N m^2",
+        f"  boom rho_B              {params.boom_linear_density:g} kg/m",
+        f"  film h, rho             {params.membrane_thickness:g} m, "
+        f"{params.membrane_density:g} kg/m^3 (rho_M = {params.membrane_areal_density:.4g} kg/m^2)",
+        f"  film prestress          {params.membrane_prestress:g} Pa "
+        f"(N0 = {params.membrane_tension:.4g} N/m)",
+        f"  boom axial load P       {params.boom_axial_load:g} N",
+        f"  modes n_B, n_M          {params.n_boom_modes}, {params.n_membrane_modes} "
+        f"({4 * params.n_boom_modes + 4 * params.n_membrane_modes} coordinates)",
+    ])
+
+
+def run(main_body, args) -> int:
+    """Run a tool body; a ValueError becomes a one-line error and exit code 2."""
+    try:
+        return main_body(args) or 0
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2

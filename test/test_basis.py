@@ -1,0 +1,104 @@
+"""Basis functions against their defining equations (model.md §2)."""
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from sail_ros.model.basis import (
+    cantilever_modes,
+    cantilever_roots,
+    triangle_eigenvalues,
+    triangle_mode_indices,
+    triangle_modes,
+)
+from sail_ros.model.integrals import collapsed_gauss_triangle, gauss_unit_interval
+
+N_MODES = 30
+
+
+def test_cantilever_roots_solve_frequency_equation():
+    roots = cantilever_roots(N_MODES)
+    # independent root-finding of the textbook equation for the first few
+    for i in range(6):
+        expected = brentq(
+            lambda b: np.cos(b) * np.cosh(b) + 1.0, i * np.pi + 0.5, (i + 1) * np.pi + 0.5
+        )
+        assert roots[i] == pytest.approx(expected, rel=1e-13)
+    # large roots approach (i - 1/2) pi from either side, exponentially fast
+    i = np.arange(1, N_MODES + 1)
+    assert np.all(np.abs(roots[8:] - (i[8:] - 0.5) * np.pi) < 1e-6)
+    assert np.all(np.diff(roots) > 2.8)
+
+
+def test_cantilever_modes_solve_beam_equation_to_30_modes():
+    """psi'''' = beta^4 psi, clamped at 0, free at 1: holds without cancellation."""
+    beta = cantilever_roots(N_MODES)[:, None]
+    x = np.linspace(0.0, 1.0, 101)
+    psi = cantilever_modes(N_MODES, x)
+    fourth = cantilever_modes(N_MODES, x, derivative=4)
+    assert np.max(np.abs(fourth / beta**4 - psi)) < 1e-12
+    ends = [
+        cantilever_modes(N_MODES, [0.0], 0),
+        cantilever_modes(N_MODES, [0.0], 1) / beta,
+        cantilever_modes(N_MODES, [1.0], 2) / beta**2,
+        cantilever_modes(N_MODES, [1.0], 3) / beta**3,
+    ]
+    for value in ends:
+        assert np.max(np.abs(value)) < 1e-12
+
+
+def test_cantilever_modes_are_orthonormal_with_tip_two():
+    x, w = gauss_unit_interval(300)
+    psi = cantilever_modes(N_MODES, x)
+    curvature = cantilever_modes(N_MODES, x, derivative=2)
+    beta = cantilever_roots(N_MODES)
+    np.testing.assert_allclose((psi * w) @ psi.T, np.eye(N_MODES), atol=1e-12)
+    np.testing.assert_allclose(
+        (curvature * w) @ curvature.T / np.outer(beta**2, beta**2), np.eye(N_MODES), atol=1e-12
+    )
+    tip = cantilever_modes(N_MODES, [1.0])[:, 0]
+    np.testing.assert_allclose(np.abs(tip), 2.0, rtol=1e-12)
+
+
+def test_cantilever_derivatives_match_finite_differences():
+    x = np.array([0.13, 0.5, 0.91])
+    h = 1e-6
+    for k in range(3):
+        numeric = (cantilever_modes(8, x + h, k) - cantilever_modes(8, x - h, k)) / (2 * h)
+        exact = cantilever_modes(8, x, k + 1)
+        np.testing.assert_allclose(numeric, exact, rtol=1e-6, atol=1e-6 * np.abs(exact).max())
+
+
+def test_triangle_mode_order():
+    pairs = triangle_mode_indices(10)
+    assert pairs[:7] == ((2, 1), (3, 1), (3, 2), (4, 1), (4, 2), (4, 3), (5, 1))
+    keys = [(m * m + n * n, m) for m, n in triangle_mode_indices(40)]
+    assert keys == sorted(keys)
+    assert all(m > n >= 1 for m, n in triangle_mode_indices(40))
+
+
+def test_triangle_modes_orthonormal_clamped_and_eigen():
+    n = 20
+    xi, eta, w = collapsed_gauss_triangle(80)
+    phi, phi_xi, phi_eta = triangle_modes(n, xi, eta)
+    np.testing.assert_allclose((phi * w) @ phi.T, np.eye(n), atol=1e-12)
+    dirichlet = (phi_xi * w) @ phi_xi.T + (phi_eta * w) @ phi_eta.T
+    np.testing.assert_allclose(dirichlet, np.diag(triangle_eigenvalues(n)), atol=1e-9)
+    s = np.linspace(0.0, 1.0, 37)
+    for edge_xi, edge_eta in ((s, 0 * s), (0 * s, s), (s, 1.0 - s)):
+        assert np.max(np.abs(triangle_modes(n, edge_xi, edge_eta)[0])) < 1e-12
+
+
+def test_triangle_gradients_match_finite_differences():
+    xi, eta, h = np.array([0.2, 0.4]), np.array([0.3, 0.1]), 1e-6
+    phi, phi_xi, phi_eta = triangle_modes(6, xi, eta)
+    np.testing.assert_allclose(
+        (triangle_modes(6, xi + h, eta)[0] - triangle_modes(6, xi - h, eta)[0]) / (2 * h),
+        phi_xi,
+        atol=1e-6,
+    )
+    np.testing.assert_allclose(
+        (triangle_modes(6, xi, eta + h)[0] - triangle_modes(6, xi, eta - h)[0]) / (2 * h),
+        phi_eta,
+        atol=1e-6,
+    )
