@@ -17,6 +17,7 @@ all requested matrices together:
     STIFFNESS_EQ         K_eq = Gd + K - N         (Eq. 2)
     STIFFNESS            K, the elastic part (bending, axial load, tension)
     GYROSCOPIC           G                         (canonical form)
+    GYROSCOPIC_SKEW      G - G^T                   (canonical form)
     STIFFNESS_CANONICAL  K - N                     (canonical form)
 """
 
@@ -30,8 +31,8 @@ BOOMS = ("a", "b", "c", "d")
 # quadrant name, first boom, second boom (model.md §1 and Tab. 1)
 QUADRANTS = (("ab", 0, 1), ("bc", 1, 2), ("cd", 2, 3), ("da", 3, 0))
 # Outputs of one evaluation, in this order.
-MASS, DAMPING, STIFFNESS_EQ, STIFFNESS, GYROSCOPIC, STIFFNESS_CANONICAL = range(6)
-N_OUTPUTS = 6
+MASS, DAMPING, STIFFNESS_EQ, STIFFNESS, GYROSCOPIC, GYROSCOPIC_SKEW, STIFFNESS_CANONICAL = range(7)
+N_OUTPUTS = 7
 ALL_OUTPUTS = tuple(range(N_OUTPUTS))
 
 
@@ -62,7 +63,7 @@ class SystemAssembler:
         self._rho_m = membrane_areal_density
         self._n0 = membrane_tension
 
-        # Constant term matrices; the coefficient code below follows this order.
+        # Constant term matrices, in the column order of the tables at the end of this module.
         boom_terms = np.stack(
             [
                 boom.psi_psi,  # 0: M, Md
@@ -93,79 +94,104 @@ class SystemAssembler:
         # Flat system index of every entry of every boom and quadrant block.
         boom_slots = [np.arange(k * nb, (k + 1) * nb) for k in range(4)]
         membrane_slots = [np.arange(4 * nb + q * nm, 4 * nb + (q + 1) * nm) for q in range(4)]
-        targets = []
-        for slots in boom_slots:
-            targets.append((slots[:, None] * self.n + slots[None, :]).ravel())
+        self._boom_targets = np.stack(
+            [(slots[:, None] * self.n + slots[None, :]).ravel() for slots in boom_slots]
+        )
+        quad_targets = []
         for q, (_, first, second) in enumerate(QUADRANTS):
             slots = np.concatenate([boom_slots[first], boom_slots[second], membrane_slots[q]])
-            targets.append((slots[:, None] * self.n + slots[None, :]).ravel())
-        self._flat_targets = np.concatenate(targets)
-        self._scatters = {}
-
+            quad_targets.append((slots[:, None] * self.n + slots[None, :]).ravel())
+        self._quad_targets = np.stack(quad_targets)
+        self._plans = {}
         self._first = np.array([f for _, f, _ in QUADRANTS])
         self._second = np.array([s for _, _, s in QUADRANTS])
 
-    def _scatter(self, outputs: tuple[int, ...]) -> np.ndarray:
-        """Flat indices into a stack of len(outputs) n x n matrices."""
-        if outputs not in self._scatters:
-            offsets = self.n * self.n * np.arange(len(outputs))[:, None]
-            self._scatters[outputs] = (self._flat_targets[None, :] + offsets).ravel()
-        return self._scatters[outputs]
+    def _plan(self, outputs: tuple[int, ...]):
+        """Feature columns per (output, term) and scatter indices for `outputs`."""
+        if outputs not in self._plans:
+            k = len(outputs)
+            offsets = (self.n * self.n * np.arange(k))[None, :, None]
+            scatter = np.concatenate(
+                [
+                    (self._boom_targets[:, None, :] + offsets).ravel(),
+                    (self._quad_targets[:, None, :] + offsets).ravel(),
+                ]
+            )
+            self._plans[outputs] = (
+                _BOOM_FEATURE_OF_TERM[list(outputs)],
+                _QUAD_FEATURE_OF_TERM[list(outputs)],
+                scatter,
+            )
+        return self._plans[outputs]
 
     def evaluate(self, lengths, rates, accelerations, outputs=ALL_OUTPUTS) -> np.ndarray:
         """The requested matrices stacked, shape (len(outputs), n, n).
 
         Arguments are arrays of 4 values (m, m/s, m/s^2), already validated;
-        `outputs` a tuple of MASS, DAMPING, STIFFNESS_EQ, STIFFNESS,
-        GYROSCOPIC, STIFFNESS_CANONICAL (in any order).
+        `outputs` a tuple of the output constants above, in any order.
         """
         L, Ld, Ldd = lengths, rates, accelerations
         rho_b, rho_m = self._rho_b, self._rho_m
-
-        cb = np.zeros((4, N_OUTPUTS, 6))  # boom, output, term
-        cb[:, MASS, 0] = rho_b * L
-        cb[:, DAMPING, 0] = rho_b * Ld
-        cb[:, DAMPING, 1] = rho_b * Ld
-        cb[:, STIFFNESS_EQ, 2] = rho_b * Ldd
-        cb[:, STIFFNESS_EQ, 3] = -rho_b * Ld**2 / L
-        elastic_b = np.stack([self._ei / L**3, -self._p / L], axis=1)
-        cb[:, STIFFNESS_EQ, 4:6] = elastic_b
-        cb[:, STIFFNESS, 4:6] = elastic_b
-        cb[:, GYROSCOPIC, 2] = rho_b * Ld
-        cb[:, STIFFNESS_CANONICAL, 3] = -rho_b * Ld**2 / L
-        cb[:, STIFFNESS_CANONICAL, 4:6] = elastic_b
-
-        La, Lda, Ldda = L[self._first], Ld[self._first], Ldd[self._first]
-        Lb, Ldb, Lddb = L[self._second], Ld[self._second], Ldd[self._second]
-        cq = np.zeros((4, N_OUTPUTS, 10))  # quadrant, output, term
-        cq[:, MASS, 0] = rho_m * La * Lb
-        cq[:, DAMPING, 0] = rho_m * (Lda * Lb + La * Ldb)
-        cq[:, DAMPING, 1] = rho_m * Lb * Lda
-        cq[:, DAMPING, 2] = rho_m * La * Ldb
-        cq[:, STIFFNESS_EQ, 3] = rho_m * (Lda * Ldb + Lb * Ldda)
-        cq[:, STIFFNESS_EQ, 4] = rho_m * (Lda * Ldb + La * Lddb)
-        cq[:, STIFFNESS_EQ, 5] = -rho_m * Lb * Lda**2 / La
-        cq[:, STIFFNESS_EQ, 6] = -rho_m * Lda * Ldb
-        cq[:, STIFFNESS_EQ, 7] = -rho_m * La * Ldb**2 / Lb
-        tension_q = np.stack([self._n0 * Lb / La, self._n0 * La / Lb], axis=1)
-        cq[:, STIFFNESS_EQ, 8:10] = tension_q
-        cq[:, STIFFNESS, 8:10] = tension_q
-        cq[:, GYROSCOPIC, 3] = rho_m * Lb * Lda
-        cq[:, GYROSCOPIC, 4] = rho_m * La * Ldb
-        cq[:, STIFFNESS_CANONICAL, 5:8] = cq[:, STIFFNESS_EQ, 5:8]
-        cq[:, STIFFNESS_CANONICAL, 8:10] = tension_q
-
-        k = len(outputs)
-        cb = cb[:, list(outputs), :]
-        cq = cq[:, list(outputs), :]
-        boom_values = (cb.reshape(4 * k, 6) @ self._boom_terms).reshape(4, k, -1)
-        quad_values = (cq.reshape(4 * k, 10) @ self._quad_terms).reshape(4, k, -1)
-        values = np.concatenate(
+        boom_features = np.stack(
             [
-                boom_values.transpose(1, 0, 2).reshape(k, -1),
-                quad_values.transpose(1, 0, 2).reshape(k, -1),
+                np.zeros(4),
+                rho_b * L,
+                rho_b * Ld,
+                rho_b * Ldd,
+                -rho_b * Ld**2 / L,
+                self._ei / L**3,
+                -self._p / L,
             ],
             axis=1,
         )
-        out = np.bincount(self._scatter(outputs), weights=values.ravel(), minlength=k * self.n**2)
+        La, Lda, Ldda = L[self._first], Ld[self._first], Ldd[self._first]
+        Lb, Ldb, Lddb = L[self._second], Ld[self._second], Ldd[self._second]
+        quad_features = np.stack(
+            [
+                np.zeros(4),
+                rho_m * La * Lb,
+                rho_m * (Lda * Lb + La * Ldb),
+                rho_m * Lb * Lda,
+                rho_m * La * Ldb,
+                rho_m * (Lda * Ldb + Lb * Ldda),
+                rho_m * (Lda * Ldb + La * Lddb),
+                -rho_m * Lb * Lda**2 / La,
+                -rho_m * Lda * Ldb,
+                -rho_m * La * Ldb**2 / Lb,
+                self._n0 * Lb / La,
+                self._n0 * La / Lb,
+            ],
+            axis=1,
+        )
+        boom_columns, quad_columns, scatter = self._plan(outputs)
+        k = len(outputs)
+        # coefficient of every (boom or quadrant, output, term), times the term matrices
+        boom_values = boom_features[:, boom_columns].reshape(4 * k, -1) @ self._boom_terms
+        quad_values = quad_features[:, quad_columns].reshape(4 * k, -1) @ self._quad_terms
+        values = np.concatenate([boom_values.ravel(), quad_values.ravel()])
+        out = np.bincount(scatter, weights=values, minlength=k * self.n * self.n)
         return out.reshape(k, self.n, self.n)
+
+
+# Which feature (column of the feature arrays in `evaluate`) scales each term
+# matrix in each output; column 0 is zero. Rows: outputs; columns: terms.
+# Boom features: 0, rho L, rho Ld, rho Ldd, -rho Ld^2/L, EI/L^3, -P/L.
+_BOOM_FEATURE_OF_TERM = np.zeros((N_OUTPUTS, 6), dtype=np.intp)
+_BOOM_FEATURE_OF_TERM[MASS, 0] = 1
+_BOOM_FEATURE_OF_TERM[DAMPING, [0, 1]] = 2  # Md and G - G^T
+_BOOM_FEATURE_OF_TERM[STIFFNESS_EQ, 2:6] = [3, 4, 5, 6]  # Gd, -N, bending, axial load
+_BOOM_FEATURE_OF_TERM[STIFFNESS, 4:6] = [5, 6]
+_BOOM_FEATURE_OF_TERM[GYROSCOPIC, 2] = 2
+_BOOM_FEATURE_OF_TERM[GYROSCOPIC_SKEW, 1] = 2
+_BOOM_FEATURE_OF_TERM[STIFFNESS_CANONICAL, 3:6] = [4, 5, 6]
+# Quadrant features: 0, rho La Lb, rho (Lda Lb + La Ldb), rho Lb Lda, rho La Ldb,
+# rho (Lda Ldb + Lb Ldda), rho (Lda Ldb + La Lddb), -rho Lb Lda^2/La, -rho Lda Ldb,
+# -rho La Ldb^2/Lb, N0 Lb/La, N0 La/Lb.
+_QUAD_FEATURE_OF_TERM = np.zeros((N_OUTPUTS, 10), dtype=np.intp)
+_QUAD_FEATURE_OF_TERM[MASS, 0] = 1
+_QUAD_FEATURE_OF_TERM[DAMPING, 0:3] = [2, 3, 4]
+_QUAD_FEATURE_OF_TERM[STIFFNESS_EQ, 3:10] = [5, 6, 7, 8, 9, 10, 11]
+_QUAD_FEATURE_OF_TERM[STIFFNESS, 8:10] = [10, 11]
+_QUAD_FEATURE_OF_TERM[GYROSCOPIC, 3:5] = [3, 4]
+_QUAD_FEATURE_OF_TERM[GYROSCOPIC_SKEW, 1:3] = [3, 4]
+_QUAD_FEATURE_OF_TERM[STIFFNESS_CANONICAL, 5:10] = [7, 8, 9, 10, 11]

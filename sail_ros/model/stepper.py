@@ -34,7 +34,7 @@ from math import factorial
 import numpy as np
 import scipy.linalg
 
-from sail_ros.model.assembly import GYROSCOPIC, MASS, STIFFNESS_CANONICAL
+from sail_ros.model.assembly import GYROSCOPIC, GYROSCOPIC_SKEW, MASS, STIFFNESS_CANONICAL
 from sail_ros.model.basis import cantilever_roots
 from sail_ros.model.sail_model import SailModel, per_boom
 
@@ -62,6 +62,9 @@ def _diagonal_pade_partial_fractions(order: int):
 
 PADE_ORDER = 4
 _PADE_CONSTANT, _PADE_POLES, _PADE_RESIDUES = _diagonal_pade_partial_fractions(PADE_ORDER)
+_PADE_WEIGHTS = -_PADE_RESIDUES / _PADE_POLES  # r_k (hB - z_k)^-1 = -(r_k / z_k) (I - tau_k B)^-1
+# matrices one moving step needs, in this order
+_STEP_MATRICES = (MASS, GYROSCOPIC_SKEW, STIFFNESS_CANONICAL, GYROSCOPIC)
 PHASE_PER_STEP = 1.5  # rad: omega_r * h, keeps the (4,4) Padé phase error ~1e-6 per step
 
 
@@ -223,23 +226,22 @@ class SailStepper:
         """x1 = R(h B) x0 with R the (4,4) Padé approximant of exp, by partial fractions:
         R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x], and
         (hB - z)^-1 x = -(1/z) (I - tau B)^-1 x with tau = h / z."""
-        M, G, K = self.model.assembler.evaluate(
-            lengths, rates, accelerations, (MASS, GYROSCOPIC, STIFFNESS_CANONICAL)
-        )
+        mats = self.model.assembler.evaluate(lengths, rates, accelerations, _STEP_MATRICES)
+        M, skew, K, G = mats
         q0, p0 = self._q, self._p
-        skew = G - G.T
         taus = h / _PADE_POLES
         # (I - tau B) y = x  <=>  [M + tau (G - G^T) + tau^2 K] u = x_p - (G + tau K) x_q,
         # y_q = x_q + tau u,  y_p = M u + G y_q
-        systems = M + taus[:, None, None] * skew + (taus**2)[:, None, None] * K
+        powers = np.stack([np.ones_like(taus), taus, taus**2], axis=1)
+        flat = mats[:3].reshape(3, -1)
+        systems = (powers.real @ flat + 1j * (powers.imag @ flat)).reshape(taus.size, *M.shape)
         Gq, Kq = G @ q0, K @ q0
         rhs = (p0 - Gq)[None, :] - taus[:, None] * Kq[None, :]
         u = np.linalg.solve(systems, rhs[:, :, None])[:, :, 0]
         yq = q0[None, :] + taus[:, None] * u
-        yp = u @ M.T + yq @ G.T
-        weights = -_PADE_RESIDUES / _PADE_POLES
-        q1 = _PADE_CONSTANT * q0 + 2.0 * (weights @ yq).real
-        p1 = _PADE_CONSTANT * p0 + 2.0 * (weights @ yp).real
+        yp = u @ M + yq @ G.T  # M is symmetric
+        q1 = _PADE_CONSTANT * q0 + 2.0 * (_PADE_WEIGHTS @ yq).real
+        p1 = _PADE_CONSTANT * p0 + 2.0 * (_PADE_WEIGHTS @ yp).real
         return q1, p1
 
     def _static_step(self, lengths, h):
