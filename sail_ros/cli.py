@@ -12,6 +12,8 @@ import sys
 TOOLS = {
     "modes": "sail_ros.tools.modes:main",
     "deploy": "sail_ros.tools.deploy:main",
+    "recorder": "sail_ros.nodes.recorder:main",
+    "replay": "sail_ros.nodes.replay:main",
 }
 
 

@@ -1,0 +1,433 @@
+"""Node `sail_recorder`: record topics into MCAP bags that rosbag2, Foxglove and rosbags read.
+
+Subscribes (raw, no deserialisation) to the configured topics as soon as a
+publisher of each appears in the graph, learning its type and QoS from the
+publishers, and hands the CDR bytes to a `BagWriter` running in its own
+thread. Log time is the DDS reception time and publish time the DDS source
+time [ns since the Unix epoch]. The parameters of the simulator node are
+stored in every file as the MCAP metadata record `sail_sim_parameters`.
+
+SIGINT/SIGTERM: take what DDS has already received, finish the file(s)
+(summary, metadata.yaml) and exit 0. A write error (disk full, no
+permission): log the path and the OS error, exit 1; what was written stays
+readable up to its last complete chunk. A bad parameter: exit 2.
+
+    sail-ros recorder -o run1
+    sail-ros recorder --all-topics --max-file-duration-s 600
+    sail-ros recorder --ros-args --params-file config/recorder.yaml
+"""
+
+from __future__ import annotations
+
+import datetime
+import functools
+import queue
+import sys
+import threading
+import time
+
+import rclpy
+import yaml
+from rcl_interfaces.srv import GetParameters, ListParameters
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.logging import get_logger
+from rclpy.node import Node
+from rclpy.parameter import parameter_value_to_python
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+
+from sail_ros.bag import COMPRESSIONS, BagWriteError, BagWriter
+from sail_ros.nodes.ros_args import (
+    ConfigError,
+    ParamSpec,
+    StopSignals,
+    declare,
+    make_parser,
+    message_class,
+    overrides,
+    parse_command_line,
+)
+
+NODE_NAME = "sail_recorder"
+PARAMETERS_METADATA = "sail_sim_parameters"
+DEFAULT_TOPICS = [
+    "/sail/boom_state",
+    "/sail/modal_state",
+    "/sail/tip_deflection",
+    "/sail/shape",
+    "/sail/boom_length_cmd",
+    "/sail/deploy_cmd",
+    "/clock",
+    "/diagnostics",
+]
+GRAPH_PERIOD_S = 0.5  # how often new topics and the parameter node are looked for
+PARAMETER_WAIT_WARNING_S = 5.0  # warn once if the parameter node is still absent
+SERVICE_TIMEOUT_S = 5.0  # a parameter request without answer is retried after this
+DRAIN_QUIET_S = 0.1  # at shutdown, stop taking messages once none came for this long
+DRAIN_MAX_S = 2.0  # ... or after this long, if publishers keep sending
+
+SPECS = [
+    ParamSpec("output", "", "bag folder to create (must be absent or empty); holds "
+              "<name>_<index>.mcap and metadata.yaml; empty: sail_<UTC time> in the "
+              "working directory", short="-o"),
+    ParamSpec("topics", list(DEFAULT_TOPICS), "topics to record; each is subscribed once a "
+              "publisher of it appears (ignored when all_topics is true)"),
+    ParamSpec("all_topics", False, "record every topic with a publisher, except hidden ones "
+              "(a name part starting with '_'), including topics that appear later"),
+    ParamSpec("compression", "zstd", "chunk compression", choices=tuple(COMPRESSIONS)),
+    ParamSpec("chunk_size_bytes", 1 << 20, "close a chunk when its messages reach this size "
+              "[bytes]", minimum=1024, maximum=1 << 30),
+    ParamSpec("max_chunk_duration_s", 1.0, "close a chunk at most this long after its first "
+              "message [s]; a kill loses at most this much", minimum=0.01, maximum=3600.0),
+    ParamSpec("max_file_size_bytes", 0, "start a new file when the current one reaches this "
+              "size [bytes]; 0: never (else >= 1024)", minimum=0),
+    ParamSpec("max_file_duration_s", 0.0, "start a new file when the current one spans this "
+              "much log time [s]; 0: never", minimum=0.0),
+    ParamSpec("parameter_node", "/sail_sim", "node whose parameters are stored in each file "
+              f"as metadata '{PARAMETERS_METADATA}'; empty: none"),
+    ParamSpec("qos_depth", 100, "history depth of each subscription [messages]: how many "
+              "may wait while the recorder is busy", minimum=1, maximum=100000),
+]
+
+
+def default_output() -> str:
+    """`sail_<UTC date-time>`, like rosbag2's `rosbag2_<date-time>`."""
+    return "sail_" + datetime.datetime.now(datetime.UTC).strftime("%Y_%m_%d-%H_%M_%S")
+
+
+def qos_entry(profile: QoSProfile) -> dict:
+    """The rosbag2 (metadata version 9) entry of an offered QoS profile."""
+    return {
+        "history": profile.history.name.lower(),
+        "depth": profile.depth,
+        "reliability": profile.reliability.name.lower(),
+        "durability": profile.durability.name.lower(),
+        "deadline": _rmw_time(profile.deadline),
+        "lifespan": _rmw_time(profile.lifespan),
+        "liveliness": profile.liveliness.name.lower(),
+        "liveliness_lease_duration": _rmw_time(profile.liveliness_lease_duration),
+        "avoid_ros_namespace_conventions": bool(profile.avoid_ros_namespace_conventions),
+    }
+
+
+def _rmw_time(duration) -> dict:
+    sec, nsec = divmod(duration.nanoseconds, 1_000_000_000)
+    return {"sec": sec, "nsec": nsec}
+
+
+def subscription_qos(offered: list[QoSProfile], depth: int) -> QoSProfile:
+    """A request every publisher can serve, as rosbag2 makes it: reliable only if
+    all offer reliable, transient local only if all offer it."""
+    reliable = all(p.reliability == ReliabilityPolicy.RELIABLE for p in offered)
+    latched = all(p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in offered)
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+    )
+
+
+def yaml_value(value) -> str:
+    """A parameter value as one line of YAML: 100.0, true, [1, 2], abc."""
+    if not isinstance(value, bool | int | float | str):  # an array; a byte array holds bytes
+        value = [item[0] if isinstance(item, bytes) else item for item in value]
+    text = yaml.safe_dump(value, default_flow_style=True, width=1 << 30)
+    return text.removesuffix("\n...\n").strip()
+
+
+def is_hidden(topic: str) -> bool:
+    """ROS hides names with a part starting with '_' (e.g. service event topics)."""
+    return any(part.startswith("_") for part in topic.split("/"))
+
+
+class _BagThread:
+    """Owns the BagWriter in a thread of its own; calls arrive through a queue.
+
+    Writing (compression, fsync) then never delays taking messages from DDS.
+    """
+
+    _STOP = object()
+
+    def __init__(self, writer: BagWriter):
+        self.writer = writer
+        self.failed = threading.Event()
+        self.error: Exception | None = None  # a BagWriteError unless something is broken
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._thread = threading.Thread(target=self._run, name="bag_writer", daemon=True)
+        self._thread.start()
+
+    def submit(self, method, *args) -> None:
+        """Run `method(*args)` (a BagWriter method) in the writer thread, in order."""
+        self._queue.put((method, args))
+
+    def close(self) -> None:
+        """Write what was submitted, finish the files and end the thread."""
+        self._queue.put(self._STOP)
+        self._thread.join()
+
+    def _run(self) -> None:
+        writer = self.writer
+        try:
+            while True:
+                try:
+                    item = self._queue.get(timeout=writer.seconds_to_next_tick())
+                except queue.Empty:
+                    item = None
+                if item is self._STOP:
+                    break
+                if item is not None:
+                    method, args = item
+                    method(*args)
+                writer.tick()
+        except Exception as error:  # any failure must stop the recording loudly, not silently
+            self.error = error
+            self.failed.set()
+        try:
+            writer.close()
+        except Exception as error:
+            self.error = self.error or error
+            self.failed.set()
+
+
+class Recorder(Node):
+    """The `sail_recorder` node; `run` records until stopped."""
+
+    def __init__(self, parameter_overrides=()):
+        super().__init__(NODE_NAME, parameter_overrides=list(parameter_overrides))
+        self.config = declare(self, SPECS)
+        self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
+        output = self.config["output"] or default_output()
+        try:
+            writer = BagWriter(
+                output,
+                compression=self.config["compression"],
+                chunk_size=self.config["chunk_size_bytes"],
+                max_chunk_duration_s=self.config["max_chunk_duration_s"],
+                max_file_size_bytes=self.config["max_file_size_bytes"],
+                max_file_duration_s=self.config["max_file_duration_s"],
+                on_new_file=self._on_new_file,
+            )
+        except ValueError as error:
+            raise ConfigError(str(error)) from None
+        self.bag = _BagThread(writer)
+        self._recording: dict[str, object] = {}
+        self._ignored: set[str] = set()
+        self._received = 0  # messages taken from DDS, for draining at shutdown
+        self._started = time.monotonic()
+
+        parameter_node = self.config["parameter_node"].rstrip("/")
+        self._parameter_node = parameter_node
+        self._sim_parameters: dict[str, str] | None = None  # last fetched
+        self._refetch = threading.Event()  # set by a split, from the writer thread
+        self._request_started: float | None = None
+        self._warned_absent = False
+        if parameter_node:
+            self._list_client = self.create_client(ListParameters,
+                                                   f"{parameter_node}/list_parameters")
+            self._get_client = self.create_client(GetParameters,
+                                                  f"{parameter_node}/get_parameters")
+            # wakes the executor from the writer thread when a split needs the parameters
+            self._refetch_guard = self.create_guard_condition(self._poll_parameters)
+        self._poll_timer = self.create_timer(GRAPH_PERIOD_S, self._poll)
+        self.get_logger().info(f"recording into '{writer.path}'")
+
+    # -- running ----------------------------------------------------------------------------
+
+    def run(self, stop: StopSignals) -> int:
+        """Record until a stop signal or a write error; returns the exit code."""
+        executor = SingleThreadedExecutor(context=self.context)
+        executor.add_node(self)
+        self._poll()
+        while not stop.event.is_set() and not self.bag.failed.is_set():
+            executor.spin_once(timeout_sec=0.1)
+        self._poll_timer.cancel()
+        if stop.received:
+            self.get_logger().info(f"{stop.received}: finishing the recording")
+        if not self.bag.failed.is_set():
+            self._drain(executor)
+        for subscription in self._recording.values():
+            self.destroy_subscription(subscription)
+        self.bag.close()
+        executor.remove_node(self)
+        return self._report()
+
+    def _drain(self, executor) -> None:
+        """Take what DDS already holds, until nothing arrives for DRAIN_QUIET_S (and
+        a parameter request in flight is answered)."""
+        start = last_change = time.monotonic()
+        last_count = self._received
+        while time.monotonic() - start < DRAIN_MAX_S and (
+                time.monotonic() - last_change < DRAIN_QUIET_S
+                or self._request_started is not None):
+            executor.spin_once(timeout_sec=0.02)
+            if self._received != last_count:
+                last_count, last_change = self._received, time.monotonic()
+
+    def _report(self) -> int:
+        logger = self.get_logger()
+        if self._parameter_node and self._sim_parameters is None:
+            logger.warning(f"parameter node '{self._parameter_node}' never answered: no "
+                           f"'{PARAMETERS_METADATA}' metadata in the bag")
+        writer = self.bag.writer
+        counts = writer.topic_counts
+        files = ", ".join(path.name for path in writer.files)
+        failed = self.bag.error is not None
+        if failed:
+            logger.error(f"recording failed: {self.bag.error}")
+        where = f"{len(writer.files)} file(s) in '{writer.path.resolve()}': {files}"
+        if failed:
+            logger.error(f"{sum(counts.values())} messages were written to {where}; those in "
+                         "chunks completed before the failure are readable")
+        else:
+            logger.info(f"{sum(counts.values())} messages in {where}")
+        for topic, count in sorted(counts.items()):
+            logger.info(f"  {topic}: {count} messages")
+        return 1 if failed else 0
+
+    # -- topics -----------------------------------------------------------------------------
+
+    def _resolve(self, topic: str) -> str:
+        try:
+            return self.resolve_topic_name(topic)
+        except Exception as error:  # rclpy raises several kinds for a bad name
+            raise ConfigError(f"topics: {topic!r} is not a valid topic name ({error})") from None
+
+    def _poll(self) -> None:
+        self._subscribe_new_topics()
+        if self._parameter_node:
+            self._poll_parameters()
+
+    def _subscribe_new_topics(self) -> None:
+        for topic, _ in self.get_topic_names_and_types():
+            if topic in self._recording or topic in self._ignored:
+                continue
+            if not (topic in self._wanted or (self.config["all_topics"] and not is_hidden(topic))):
+                continue
+            publishers = self.get_publishers_info_by_topic(topic)
+            if publishers:
+                self._subscribe(topic, publishers)
+
+    def _subscribe(self, topic: str, publishers) -> None:
+        logger = self.get_logger()
+        type_names = sorted({p.topic_type for p in publishers})
+        if len(type_names) > 1:
+            logger.warning(f"not recording {topic}: publishers disagree on its type "
+                           f"({', '.join(type_names)})")
+            self._ignored.add(topic)
+            return
+        type_name = type_names[0]
+        try:
+            msg_class = message_class(type_name)
+        except (ImportError, ValueError) as error:
+            logger.warning(f"not recording {topic}: type {type_name} is not installed ({error})")
+            self._ignored.add(topic)
+            return
+        offered = [p.qos_profile for p in publishers]
+        if len({(p.reliability, p.durability) for p in offered}) > 1:
+            logger.warning(f"{topic}: publishers offer different reliability/durability; "
+                           "subscribing with what all of them serve")
+        type_hash = str(publishers[0].topic_type_hash)
+        self.bag.submit(self.bag.writer.add_topic, topic, type_name,
+                        [qos_entry(p) for p in offered],
+                        type_hash if type_hash.startswith("RIHS01_") else None)
+        qos = subscription_qos(offered, self.config["qos_depth"])
+        self._recording[topic] = self.create_subscription(
+            msg_class, topic, functools.partial(self._on_message, topic), qos, raw=True)
+        logger.info(f"recording {topic} ({type_name}, {qos.reliability.name.lower()}, "
+                    f"{qos.durability.name.lower()})")
+
+    def _on_message(self, topic: str, data: bytes, info: dict) -> None:
+        log_time = info.get("received_timestamp") or time.time_ns()
+        publish_time = info.get("source_timestamp") or log_time
+        sequence = (info.get("publication_sequence_number") or 0) & 0xFFFFFFFF
+        self.bag.submit(self.bag.writer.write, topic, data, log_time, publish_time, sequence)
+        self._received += 1
+
+    # -- simulator parameters ---------------------------------------------------------------
+
+    def _on_new_file(self, path) -> None:
+        """A split (writer thread): the new file gets the parameters too."""
+        if self._parameter_node:
+            self._refetch.set()
+            self._refetch_guard.trigger()
+
+    def _poll_parameters(self) -> None:
+        if self._request_started is not None:
+            if time.monotonic() - self._request_started < SERVICE_TIMEOUT_S:
+                return
+            self.get_logger().warning(f"'{self._parameter_node}' did not answer a parameter "
+                                      f"request within {SERVICE_TIMEOUT_S} s; asking again")
+            self._request_started = None
+        if self._sim_parameters is not None and not self._refetch.is_set():
+            return
+        if not (self._list_client.service_is_ready() and self._get_client.service_is_ready()):
+            if self._refetch.is_set() and self._sim_parameters is not None:
+                # a split while the node is gone: the new file gets the last values it had
+                self._refetch.clear()
+                self.get_logger().warning(f"'{self._parameter_node}' is gone; the new file "
+                                          "gets the parameters fetched before")
+                self.bag.submit(self.bag.writer.add_metadata, PARAMETERS_METADATA,
+                                self._sim_parameters)
+            elif (not self._warned_absent
+                  and time.monotonic() - self._started > PARAMETER_WAIT_WARNING_S):
+                self._warned_absent = True
+                self.get_logger().warning(f"parameter node '{self._parameter_node}' not "
+                                          "found yet; its parameters are stored once it appears")
+            return
+        self._refetch.clear()
+        self._request_started = time.monotonic()
+        future = self._list_client.call_async(ListParameters.Request(depth=0))  # 0: all
+        future.add_done_callback(self._on_parameter_names)
+
+    def _on_parameter_names(self, future) -> None:
+        names = list(future.result().result.names)
+        request = GetParameters.Request(names=names)
+        self._get_client.call_async(request).add_done_callback(
+            functools.partial(self._on_parameter_values, names))
+
+    def _on_parameter_values(self, names: list[str], future) -> None:
+        self._request_started = None
+        values = {}
+        for name, value in zip(names, future.result().values, strict=True):
+            python_value = parameter_value_to_python(value)
+            if python_value is not None:  # NOT_SET
+                values[name] = yaml_value(python_value)
+        first = self._sim_parameters is None
+        self._sim_parameters = values
+        self.bag.submit(self.bag.writer.add_metadata, PARAMETERS_METADATA, values)
+        if first:
+            self.get_logger().info(f"stored {len(values)} parameters of "
+                                   f"'{self._parameter_node}'")
+
+
+def main(argv=None) -> int:
+    """`sail-ros recorder [options] [--ros-args ...]`; returns the exit code."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS)
+    try:
+        namespace, ros_argv = parse_command_line(parser, NODE_NAME, argv)
+    except SystemExit as exit_:
+        return exit_.code if isinstance(exit_.code, int) else 2
+    rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
+    logger = get_logger(NODE_NAME)
+    try:
+        with StopSignals() as stop:
+            try:
+                recorder = Recorder(overrides(namespace, SPECS))
+            except ConfigError as error:
+                logger.error(str(error))
+                return 2
+            except BagWriteError as error:
+                logger.error(f"cannot start recording: {error}")
+                return 1
+            try:
+                return recorder.run(stop)
+            finally:
+                recorder.destroy_node()
+    finally:
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,251 @@
+"""Node `sail_replay`: republish a recorded bag with its recorded timing.
+
+Plays an MCAP file or bag folder written by `sail_recorder` or by
+`ros2 bag record -s mcap`, publishing each message's CDR bytes as recorded
+(no deserialisation) at `log time / rate` after the start, with the QoS the
+original publishers offered (reliability, durability, depth). By default it
+also publishes `/clock` from the recorded log times, and the recorded
+`/clock` messages are then not played (`--no-clock` plays them instead).
+Needs nothing but the bag and the installed message packages; exits when
+done unless `loop`.
+
+    sail-ros replay run1
+    sail-ros replay run1/run1_0.mcap --rate 2 --start-offset-s 10 --topics /sail/boom_state
+    sail-ros replay run1 --loop --ros-args --params-file config/replay.yaml
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import threading
+import time
+
+import rclpy
+from rclpy.duration import Duration
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.logging import get_logger
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+
+from sail_ros.bag import BagReader
+from sail_ros.nodes.ros_args import (
+    ConfigError,
+    ParamSpec,
+    StopSignals,
+    declare,
+    make_parser,
+    message_class,
+    overrides,
+    parse_command_line,
+)
+
+NODE_NAME = "sail_replay"
+CLOCK_TOPIC = "/clock"
+
+SPECS = [
+    ParamSpec("bag", "", "MCAP file or bag folder to play (also the first positional argument)"),
+    ParamSpec("rate", 1.0, "playback speed factor: 2.0 plays twice as fast", minimum=0.001,
+              maximum=1000.0),
+    ParamSpec("start_offset_s", 0.0, "start this far into the recording [s of log time]",
+              minimum=0.0),
+    ParamSpec("loop", False, "play again from start_offset_s when done, until stopped"),
+    ParamSpec("topics", [], "topics to play; empty: every recorded topic"),
+    ParamSpec("clock", True, f"publish {CLOCK_TOPIC} from the recorded log times (and skip the "
+              f"recorded {CLOCK_TOPIC}); false: play the recorded {CLOCK_TOPIC} like any topic"),
+    ParamSpec("clock_frequency_hz", 100.0, f"rate of generated {CLOCK_TOPIC} messages [Hz of "
+              "wall time]", minimum=1.0, maximum=10000.0),
+    ParamSpec("qos_depth", 100, "history depth of a publisher whose recorded QoS has none "
+              "[messages]", minimum=1, maximum=100000),
+    ParamSpec("delay_s", 0.0, "wait this long after creating the publishers, before the "
+              "first message [s]", minimum=0.0),
+    ParamSpec("wait_for_subscribers", 0, "before the first message, wait until every played "
+              "topic has at least this many subscribers", minimum=0),
+    ParamSpec("wait_for_all_acked_s", 0.0, "at the end, wait up to this long until reliable "
+              "subscribers acknowledged everything [s]; 0: exit at once", minimum=0.0),
+]
+
+
+def publisher_qos(profiles: list[dict], default_depth: int) -> QoSProfile:
+    """A publisher QoS from the recorded offers (rosbag2 entries): their reliability
+    and durability, their depth if they kept a fixed one, else `default_depth`."""
+    first = profiles[0] if profiles else {}
+    same = all((p.get("reliability"), p.get("durability"))
+               == (first.get("reliability"), first.get("durability")) for p in profiles)
+    if not same:
+        first = {}  # mixed offers: the ROS default, which every subscriber can match
+    depth = first.get("depth") or 0
+    if first.get("history") != "keep_last" or depth <= 0:
+        depth = default_depth
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        reliability=(ReliabilityPolicy.BEST_EFFORT if first.get("reliability") == "best_effort"
+                     else ReliabilityPolicy.RELIABLE),
+        durability=(DurabilityPolicy.TRANSIENT_LOCAL
+                    if first.get("durability") == "transient_local"
+                    else DurabilityPolicy.VOLATILE),
+    )
+
+
+class Replay(Node):
+    """The `sail_replay` node; `play` publishes the bag."""
+
+    def __init__(self, parameter_overrides=()):
+        super().__init__(NODE_NAME, parameter_overrides=list(parameter_overrides))
+        self.config = declare(self, SPECS)
+        if not self.config["bag"]:
+            raise ConfigError("bag: no bag given (a file or folder, e.g. `sail-ros replay run1`)")
+        try:
+            self.reader = BagReader(self.config["bag"])
+        except (FileNotFoundError, ValueError) as error:
+            raise ConfigError(f"bag: {error}") from None
+        for path in self.reader.incomplete_files:
+            self.get_logger().warning(f"'{path}' has no summary (recording interrupted): "
+                                      "playing it up to its last complete chunk")
+        recorded = self.reader.topics()
+        wanted = self.config["topics"] or list(recorded)
+        missing = sorted(set(wanted) - set(recorded))
+        if missing:
+            self.get_logger().warning(f"not in the bag: {', '.join(missing)}")
+        if self.config["clock"]:
+            wanted = [topic for topic in wanted if topic != CLOCK_TOPIC]
+        self._players = {}
+        for topic in sorted(set(wanted) & set(recorded)):
+            info = recorded[topic]
+            try:
+                msg_class = message_class(info.type_name)
+            except (ImportError, ValueError) as error:
+                self.get_logger().warning(f"not playing {topic}: type {info.type_name!r} is "
+                                          f"not installed ({error})")
+                continue
+            qos = publisher_qos(info.offered_qos_profiles, self.config["qos_depth"])
+            self._players[topic] = self.create_publisher(msg_class, topic, qos)
+        if not self._players:
+            raise ConfigError(f"topics: nothing to play from '{self.config['bag']}' (it has: "
+                              f"{', '.join(sorted(recorded)) or 'no topics'})")
+        self._message_count = sum(recorded[topic].message_count for topic in self._players)
+        self._clock_publisher = None
+        if self.config["clock"]:
+            self._clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(depth=10))
+
+    def play(self, stop: threading.Event) -> int:
+        """Publish the bag (again and again if `loop`) until done or `stop`; exit code."""
+        logger = self.get_logger()
+        if not self._wait_for_subscribers(stop):
+            return 0
+        played = 0
+        started = time.monotonic()
+        logger.info(f"playing {self._message_count} messages on {len(self._players)} "
+                    f"topic(s) from '{self.config['bag']}' at rate {self.config['rate']}")
+        while not stop.is_set():
+            played += self._play_once(stop)
+            if not self.config["loop"]:
+                break
+        self._wait_for_acknowledgements()
+        logger.info(f"played {played} messages in {time.monotonic() - started:.2f} s")
+        return 0
+
+    def _wait_for_subscribers(self, stop: threading.Event) -> bool:
+        """Honour delay_s and wait_for_subscribers; False if stopped meanwhile."""
+        needed = self.config["wait_for_subscribers"]
+        if needed:
+            self.get_logger().info(f"waiting for {needed} subscriber(s) on each topic")
+        while needed and not stop.is_set():
+            if all(p.get_subscription_count() >= needed for p in self._players.values()):
+                break
+            stop.wait(0.01)
+        return not stop.wait(self.config["delay_s"])
+
+    def _play_once(self, stop: threading.Event) -> int:
+        rate = self.config["rate"]
+        period = 1.0 / self.config["clock_frequency_hz"]
+        messages = self.reader.messages(topics=self._players)
+        played = 0
+        bag_start = wall_start = next_tick = None
+        for message in messages:
+            if bag_start is None:
+                bag_start = message.log_time_ns + round(self.config["start_offset_s"] * 1e9)
+                wall_start = next_tick = time.monotonic()
+            if message.log_time_ns < bag_start:
+                continue
+            due = wall_start + (message.log_time_ns - bag_start) / 1e9 / rate
+            while True:  # until due, publishing /clock on its ticks
+                now = time.monotonic()
+                if self._clock_publisher is not None and next_tick <= min(now, due):
+                    bag_time = bag_start + round((next_tick - wall_start) * rate * 1e9)
+                    self._publish_clock(bag_time)
+                    next_tick = max(next_tick + period, now)  # no burst after a stall
+                    continue
+                if now >= due:
+                    break
+                wake = due if self._clock_publisher is None else min(due, next_tick)
+                if stop.wait(wake - now):
+                    return played
+            self._players[message.topic].publish(message.data)
+            played += 1
+        return played
+
+    def _publish_clock(self, time_ns: int) -> None:
+        message = Clock()
+        message.clock.sec, message.clock.nanosec = divmod(time_ns, 1_000_000_000)
+        self._clock_publisher.publish(message)
+
+    def _wait_for_acknowledgements(self) -> None:
+        deadline = time.monotonic() + self.config["wait_for_all_acked_s"]
+        for topic, publisher in self._players.items():
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return
+            if not publisher.wait_for_all_acked(Duration(nanoseconds=round(left * 1e9))):
+                self.get_logger().warning(f"{topic}: not every message was acknowledged")
+
+
+def main(argv=None) -> int:
+    """`sail-ros replay FILE [options] [--ros-args ...]`; returns the exit code."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS)
+    parser.add_argument("bag_path", nargs="?", metavar="FILE",
+                        help="MCAP file or bag folder (same as --bag)")
+    try:
+        namespace, ros_argv = parse_command_line(parser, NODE_NAME, argv)
+    except SystemExit as exit_:
+        return exit_.code if isinstance(exit_.code, int) else 2
+    if namespace.bag_path is not None:
+        namespace.bag = namespace.bag_path
+    rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
+    logger = get_logger(NODE_NAME)
+    try:
+        with StopSignals() as stop:
+            try:
+                replay = Replay(overrides(namespace, SPECS))
+            except ConfigError as error:
+                logger.error(str(error))
+                return 2
+            # parameter services keep answering while the main thread plays
+            executor = SingleThreadedExecutor(context=replay.context)
+            executor.add_node(replay)
+            done = threading.Event()
+            spinner = threading.Thread(target=_spin, args=(executor, done))
+            spinner.start()
+            try:
+                return replay.play(stop.event)
+            finally:
+                done.set()
+                spinner.join()  # before anything it waits on is destroyed
+                executor.shutdown()
+                replay.destroy_node()
+    finally:
+        rclpy.try_shutdown()
+
+
+def _spin(executor, done: threading.Event) -> None:
+    with contextlib.suppress(ExternalShutdownException):  # the replay is ending anyway
+        while not done.is_set():
+            executor.spin_once(timeout_sec=0.1)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

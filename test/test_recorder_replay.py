@@ -1,0 +1,364 @@
+"""`sail_recorder` and `sail_replay` as separate processes over real DDS.
+
+A publisher process stands in for the simulator (node `sail_sim`, with
+parameters); this test process holds a live subscriber that counts what was
+published. Run as a script, this file is that publisher:
+
+    python test/test_recorder_replay.py publish --count 100 --rate 100 --subscribers 2
+"""
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import rclpy
+import yaml
+from geometry_msgs.msg import Point
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.serialization import deserialize_message
+from rosbags.highlevel import AnyReader
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from visualization_msgs.msg import Marker, MarkerArray
+
+from sail_ros.bag import BagReader
+
+pytestmark = pytest.mark.slow
+
+DOMAIN_ID = 1 + os.getpid() % 100
+STREAMS = {"/sail/boom_state": JointState, "/sail/shape": MarkerArray}
+LATCHED_TOPIC = "/sail/deploy_cmd"  # published once, transient local
+LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+SIM_PARAMETERS = {"sail_side": 100.0, "n_boom_modes": 4, "frames": ["a", "b"]}
+
+
+# -- the publisher process -----------------------------------------------------------------
+
+def stream_message(topic: str, i: int):
+    """Message i of a stream: JointState of four booms, or a membrane MarkerArray."""
+    if topic == "/sail/boom_state":
+        message = JointState(name=[f"boom_{k}" for k in range(4)],
+                             position=[0.01 * i + k for k in range(4)], velocity=[-1.0 * i] * 4)
+    else:
+        marker = Marker(ns="membrane", id=i, type=Marker.TRIANGLE_LIST)
+        marker.points = [Point(x=float(k), y=0.5 * i, z=1e-4 * k * i) for k in range(60)]
+        message = MarkerArray(markers=[marker])
+        marker.header.stamp.sec = i
+    if topic == "/sail/boom_state":
+        message.header.stamp.sec = i
+    return message
+
+
+def publish_main(argv) -> int:
+    """Publish --count messages per stream at --rate [Hz] once every stream has
+    --subscribers subscribers and a line arrived on stdin; then idle until stdin closes."""
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--count", type=int, required=True)
+    parser.add_argument("--rate", type=float, required=True)
+    parser.add_argument("--subscribers", type=int, required=True)
+    args = parser.parse_args(argv)
+    rclpy.init()
+    node = Node("sail_sim")
+    for name, value in SIM_PARAMETERS.items():
+        node.declare_parameter(name, value)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    latched = node.create_publisher(Float64, LATCHED_TOPIC, LATCHED_QOS)
+    latched.publish(Float64(data=0.25))  # before anyone listens: only durability delivers it
+    publishers = {topic: node.create_publisher(cls, topic, 10) for topic, cls in STREAMS.items()}
+    while min(p.get_subscription_count() for p in publishers.values()) < args.subscribers:
+        executor.spin_once(timeout_sec=0.01)
+    sys.stdin.readline()
+    period, due = 1.0 / args.rate, time.monotonic()
+    for i in range(args.count):
+        for topic, publisher in publishers.items():
+            publisher.publish(stream_message(topic, i))
+        due += period
+        executor.spin_once(timeout_sec=max(0.0, due - time.monotonic()))
+    print("published", flush=True)
+    sys.stdin.readline()  # EOF when the test is done: parameters stay served until then
+    rclpy.shutdown()
+    return 0
+
+
+# -- fixtures ------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def ros_env(tmp_path_factory):
+    """Environment for the processes and the in-test node: private domain, localhost."""
+    home = tmp_path_factory.mktemp("home")
+    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN_ID), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               HOME=str(home), ROS_LOG_DIR=str(home / "log"), PYTHONUNBUFFERED="1")
+    return env
+
+
+@pytest.fixture(scope="module")
+def listener(ros_env):
+    """A live subscriber in this process (its own context) on the test's domain."""
+    previous = os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE")
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=DOMAIN_ID)
+    node = Listener(context)
+    yield node
+    node.spinner.shutdown()
+    node.destroy_node()
+    rclpy.shutdown(context=context)
+    if previous is None:
+        del os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"]
+
+
+class Listener(Node):
+    """Collects (receive time [s], CDR bytes) per topic."""
+
+    def __init__(self, context):
+        super().__init__("test_listener", context=context)
+        self.spinner = SingleThreadedExecutor(context=context)
+        self.spinner.add_node(self)
+        self.received: dict[str, list] = {}
+        for topic, cls in STREAMS.items():
+            self.listen(topic, cls, QoSProfile(depth=1000))
+        self.listen(LATCHED_TOPIC, Float64, LATCHED_QOS)
+        self.listen("/clock", Clock, QoSProfile(depth=1000))
+
+    def listen(self, topic, cls, qos):
+        self.received[topic] = []
+        self.create_subscription(
+            cls, topic, lambda data, t=topic: self.received[t].append((time.monotonic(), data)),
+            qos, raw=True)
+
+    def clear(self):
+        for messages in self.received.values():
+            messages.clear()
+
+    def spin_until(self, condition, timeout: float, what: str):
+        deadline = time.monotonic() + timeout
+        while not condition():
+            assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
+            self.spinner.spin_once(timeout_sec=0.02)
+
+    def publisher_counts(self) -> dict[str, int]:
+        return {t: len(self.get_publishers_info_by_topic(t)) for t in STREAMS}
+
+
+def start(args, env, **kwargs) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, *args], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kwargs)
+
+
+def start_tool(tool, args, env) -> subprocess.Popen:
+    return start(["-m", "sail_ros.cli", tool, *args], env)
+
+
+def start_publisher(env, count, rate, subscribers) -> subprocess.Popen:
+    return start([__file__, "publish", "--count", str(count), "--rate", str(rate),
+                  "--subscribers", str(subscribers)], env, stdin=subprocess.PIPE)
+
+
+def finish(process: subprocess.Popen, timeout: float = 20.0) -> tuple[int, str, str]:
+    try:
+        out, err = process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        out, err = process.communicate()
+        pytest.fail(f"process did not exit within {timeout} s:\n{err}")
+    return process.returncode, out, err
+
+
+def go(listener: Listener, publisher: subprocess.Popen) -> None:
+    """Let the publisher start once this process sees it (both ends matched)."""
+    listener.spin_until(lambda: min(listener.publisher_counts().values()) >= 1, 20.0,
+                        "the publisher")
+    publisher.stdin.write("go\n")
+    publisher.stdin.flush()
+
+
+def decoded(topic: str, data: bytes):
+    return deserialize_message(data, STREAMS.get(topic, Float64))
+
+
+RECORDER_TOPICS = ["--topics", *STREAMS, LATCHED_TOPIC]
+
+
+@pytest.fixture(scope="module")
+def recording(ros_env, listener, tmp_path_factory):
+    """Recorder started before the topics exist, splitting files every 0.5 s of log
+    time; 120 messages per stream over 1.2 s; SIGINT."""
+    folder = tmp_path_factory.mktemp("rec") / "run"
+    recorder = start_tool("recorder", ["-o", str(folder), *RECORDER_TOPICS,
+                                       "--max-chunk-duration-s", "0.2",
+                                       "--max-file-duration-s", "0.5"], ros_env)
+    publisher = start_publisher(ros_env, count=120, rate=100.0, subscribers=2)
+    try:
+        go(listener, publisher)
+        listener.spin_until(lambda: all(len(listener.received[t]) == 120 for t in STREAMS)
+                            and listener.received[LATCHED_TOPIC], 30.0, "120 messages")
+        received = {t: [data for _, data in m] for t, m in listener.received.items()}
+        recorder.send_signal(signal.SIGINT)
+        code, _, err = finish(recorder)
+    finally:
+        recorder.kill()
+        finish(publisher)
+    listener.clear()
+    return folder, received, code, err
+
+
+# -- tests ---------------------------------------------------------------------------------
+
+def test_sigint_finishes_the_bag_with_every_received_message(recording):
+    folder, received, code, err = recording
+    assert code == 0, err
+    assert "SIGINT: finishing the recording" in err
+    for topic in STREAMS:
+        assert f"{topic}: 120 messages" in err
+    assert (folder / "metadata.yaml").exists()
+
+    reader = BagReader(folder)
+    assert reader.incomplete_files == []
+    messages = list(reader.messages())
+    for topic in STREAMS:
+        recorded = [m for m in messages if m.topic == topic]
+        assert [decoded(topic, m.data) for m in recorded] == [
+            decoded(topic, data) for data in received[topic]]
+        assert all(0 <= m.log_time_ns - m.publish_time_ns < 1e9 for m in recorded)
+    latched = [m for m in messages if m.topic == LATCHED_TOPIC]
+    assert [decoded(LATCHED_TOPIC, m.data).data for m in latched] == [0.25]
+
+    topics = reader.topics()
+    assert {t: i.type_name for t, i in topics.items()} == {
+        "/sail/boom_state": "sensor_msgs/msg/JointState",
+        "/sail/shape": "visualization_msgs/msg/MarkerArray",
+        LATCHED_TOPIC: "std_msgs/msg/Float64"}
+    assert topics[LATCHED_TOPIC].offered_qos_profiles[0]["durability"] == "transient_local"
+    assert topics["/sail/boom_state"].offered_qos_profiles[0]["reliability"] == "reliable"
+    assert topics["/sail/boom_state"].type_hash.startswith("RIHS01_")
+
+    assert len(reader.files) >= 3  # 1.2 s of streams (after the latched message)
+    for file in reader.files:  # fetched again for every file
+        (parameters,) = [data for name, data in BagReader(file).metadata()
+                         if name == "sail_sim_parameters"]
+        assert {name: yaml.safe_load(parameters[name]) for name in SIM_PARAMETERS} == \
+            SIM_PARAMETERS
+
+    with AnyReader([folder]) as rosbags_reader:  # an independent reader agrees
+        rows = [(c.topic, rosbags_reader.deserialize(raw, c.msgtype))
+                for c, _, raw in rosbags_reader.messages() if c.topic == "/sail/shape"]
+    assert [m.markers[0].points[59].z for _, m in rows] == pytest.approx(
+        [decoded("/sail/shape", d).markers[0].points[59].z for d in received["/sail/shape"]])
+
+
+def test_replay_republishes_with_recorded_values_and_timing(recording, ros_env, listener):
+    folder, _, _, _ = recording
+    recorded = [m for m in BagReader(folder).messages() if m.topic in STREAMS]
+    offset_s, rate = 0.3, 2.0
+    first_log = min(m.log_time_ns for m in recorded)
+    expected = [m for m in recorded if m.log_time_ns >= first_log + offset_s * 1e9]
+    replay = start_tool("replay", [str(folder), "--rate", str(rate), "--start-offset-s",
+                                   str(offset_s), "--topics", *STREAMS,
+                                   "--wait-for-subscribers", "1"], ros_env)
+    listener.spin_until(lambda: sum(len(listener.received[t]) for t in STREAMS) == len(expected)
+                        or replay.poll() is not None, 30.0, "the replayed messages")
+    listener.spin_until(lambda: sum(len(listener.received[t]) for t in STREAMS) == len(expected),
+                        2.0, "the last replayed messages")
+    code, _, err = finish(replay)
+    assert code == 0, err
+    for topic in STREAMS:
+        got = listener.received[topic]
+        want = [m for m in expected if m.topic == topic]
+        assert [decoded(topic, data) for _, data in got] == [
+            decoded(topic, m.data) for m in want]
+        # the recorded spacing, `rate` times faster
+        recorded_span = (want[-1].log_time_ns - want[0].log_time_ns) / 1e9
+        replayed_span = got[-1][0] - got[0][0]
+        assert replayed_span == pytest.approx(recorded_span / rate, rel=0.15, abs=0.03)
+    assert listener.received[LATCHED_TOPIC] == []  # not asked for
+    clock = [deserialize_message(data, Clock).clock for _, data in listener.received["/clock"]]
+    clock_ns = [c.sec * 1_000_000_000 + c.nanosec for c in clock]
+    assert len(clock_ns) > 10 and clock_ns == sorted(clock_ns)
+    assert clock_ns[0] >= expected[0].log_time_ns - 20_000_000
+    assert clock_ns[-1] <= expected[-1].log_time_ns + 20_000_000
+    listener.clear()
+
+
+def test_sigkill_leaves_the_bag_readable_up_to_its_last_chunk(ros_env, listener, tmp_path):
+    folder = tmp_path / "killed"
+    recorder = start_tool("recorder", ["-o", str(folder), *RECORDER_TOPICS,
+                                       "--max-chunk-duration-s", "0.2"], ros_env)
+    publisher = start_publisher(ros_env, count=400, rate=100.0, subscribers=2)
+    try:
+        go(listener, publisher)
+        listener.spin_until(lambda: len(listener.received["/sail/boom_state"]) >= 150, 30.0,
+                            "150 messages")
+        at_kill = len(listener.received["/sail/boom_state"])
+        recorder.send_signal(signal.SIGKILL)
+        recorder.wait(10.0)
+    finally:
+        recorder.kill()
+        publisher.kill()
+        finish(publisher)
+    received = [data for _, data in listener.received["/sail/boom_state"]]
+    listener.clear()
+
+    reader = BagReader(folder)
+    assert reader.incomplete_files == reader.files
+    assert not (folder / "metadata.yaml").exists()
+    kept = [m.data for m in reader.messages(topics=["/sail/boom_state"])]
+    # chunks close every 0.2 s: at 100 Hz a kill loses a few tens of messages, not more
+    assert at_kill - 60 <= len(kept) <= len(received)
+    assert [decoded("/sail/boom_state", d) for d in kept] == [
+        decoded("/sail/boom_state", d) for d in received[:len(kept)]]
+
+
+def test_full_disk_is_a_clear_error_and_keeps_what_was_written(ros_env, listener, tmp_path):
+    folder = tmp_path / "full"
+    limit = 64 * 1024  # bytes: RLIMIT_FSIZE makes writes past it fail as on a full disk
+    launcher = ("import os, resource, signal, sys; signal.signal(signal.SIGXFSZ, signal.SIG_IGN); "
+                f"resource.setrlimit(resource.RLIMIT_FSIZE, ({limit}, {limit})); "
+                "os.execv(sys.executable, [sys.executable, '-m', 'sail_ros.cli', *sys.argv[1:]])")
+    recorder = start(["-c", launcher, "recorder", "-o", str(folder), "--topics", *STREAMS,
+                      "--compression", "none", "--max-chunk-duration-s", "0.1",
+                      "--parameter-node", ""], ros_env)
+    publisher = start_publisher(ros_env, count=2000, rate=200.0, subscribers=2)
+    try:
+        go(listener, publisher)
+        code, _, err = finish(recorder, timeout=30.0)
+    finally:
+        recorder.kill()
+        publisher.kill()
+        finish(publisher)
+    listener.clear()
+    assert code == 1, err
+    assert f"cannot write '{folder / 'full_0.mcap'}': File too large" in err
+    kept = list(BagReader(folder).messages(topics=["/sail/boom_state"]))
+    assert len(kept) > 10
+    assert [decoded("/sail/boom_state", m.data).header.stamp.sec for m in kept] == list(
+        range(len(kept)))
+
+
+def test_unwritable_output_and_bad_parameters_exit_with_a_clear_error(ros_env, tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    unwritable = start_tool("recorder", ["-o", str(blocker / "bag")], ros_env)
+    gzip = start_tool("recorder", ["-o", str(tmp_path / "x"), "--ros-args", "-p",
+                                   "compression:=gzip"], ros_env)
+    missing = start_tool("replay", [str(tmp_path / "no_such_bag")], ros_env)
+    code, _, err = finish(unwritable)
+    assert code == 1 and f"cannot write '{blocker / 'bag'}': Not a directory" in err, err
+    code, _, err = finish(gzip)
+    assert code == 2 and "compression must be one of zstd, lz4, none, got 'gzip'" in err, err
+    code, _, err = finish(missing)
+    assert code == 2 and f"bag: '{tmp_path / 'no_such_bag'}' does not exist" in err, err
+
+
+if __name__ == "__main__":
+    if sys.argv[1:2] != ["publish"]:
+        sys.exit(f"usage: {Path(__file__).name} publish --count N --rate HZ --subscribers K")
+    sys.exit(publish_main(sys.argv[2:]))
