@@ -6,10 +6,12 @@
 - `BagReader`: messages back as (topic, type_name, data, log_time_ns,
   publish_time_ns), also from files cut short by a crash.
 - `definitions`: message definition text and type hashes of installed types.
+- `trim_cdr`: exact CDR bytes of a locally serialised message.
 
 Nothing in this package needs rclpy.
 """
 
+from sail_ros.bag.cdr import trim_cdr
 from sail_ros.bag.definitions import (
     DefinitionNotFoundError,
     MessageDefinition,
@@ -41,5 +43,6 @@ __all__ = [
     "message_definition",
     "parse_qos_profiles",
     "qos_profiles_yaml",
+    "trim_cdr",
     "type_hash",
 ]
