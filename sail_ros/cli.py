@@ -12,8 +12,12 @@ import sys
 TOOLS = {
     "modes": "sail_ros.tools.modes:main",
     "deploy": "sail_ros.tools.deploy:main",
+    "stability": "sail_ros.tools.stability:main",
+    "report": "sail_ros.tools.report:main",
     "recorder": "sail_ros.nodes.recorder:main",
     "replay": "sail_ros.nodes.replay:main",
+    "sim": "sail_ros.nodes.sim:main",
+    "demo": "sail_ros.tools.main_job:main",
 }
 
 

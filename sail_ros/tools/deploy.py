@@ -1,76 +1,217 @@
 """`sail-ros deploy`: an offline deployment run (model.md §9 reference by default).
 
-All booms extend along the cycloidal profile from `--from` to `--to` metres in
-`--duration` seconds; boom `--boom` starts bent in its first mode with tip
-deflection `--tip`. Prints the boom-tip deflections against time.
+By default all booms extend along the cycloidal profile from `--from` to
+`--to` metres in `--duration` seconds and boom `--boom` starts bent in its
+first mode with tip deflection `--tip`; `--scenario FILE` runs any scenario
+instead (per-boom cycloidal or waypoint profiles, any initial state; see
+config/scenario_reference.yaml). Prints the boom-tip deflections against
+time; writes an MCAP log with the live simulator's topics (`--mcap`) and
+figures (`--figures`).
+
+    sail-ros deploy --summary
+    sail-ros deploy --scenario config/scenario_staggered.yaml --mcap run.mcap --figures out/
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import sys
-import time
+from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from sail_ros.model import CycloidalProfile, SailModel
+from sail_ros.analysis.deployment import output_times, run_deployment
+from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
+from sail_ros.model import SailModel, SailParameters
 from sail_ros.tools.common import add_sail_options, describe_parameters, run, sail_parameters
+
+LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sail-ros deploy", description=__doc__.splitlines()[0])
     add_sail_options(parser)
-    scenario = parser.add_argument_group("scenario (defaults: model.md §9)")
-    scenario.add_argument("--from", dest="start", type=float, default=10.0,
+    parser.add_argument("--scenario", type=Path, metavar="YAML",
+                        help="scenario file (profiles per boom, initial state, snapshot times; "
+                        "see config/scenario_reference.yaml); its `sail:` section overrides "
+                        "--config, --set overrides both")
+    scenario = parser.add_argument_group("reference scenario (model.md §9), without --scenario")
+    scenario.add_argument("--from", dest="start", type=float,
                           help="initial boom length L0 [m] (10)")
-    scenario.add_argument("--to", dest="end", type=float, default=15.0,
-                          help="final boom length Lf [m] (15)")
-    scenario.add_argument("--duration", type=float, default=15.0, help="deployment time T [s] (15)")
+    scenario.add_argument("--to", dest="end", type=float, help="final boom length Lf [m] (15)")
+    scenario.add_argument("--duration", type=float, help="deployment time T [s] (15)")
     scenario.add_argument("--t-end", type=float, help="simulated time [s] (default: T)")
-    scenario.add_argument("--boom", default="a", choices="abcd", help="boom bent at t = 0 (a)")
-    scenario.add_argument("--tip", type=float, default=0.1, help="its tip deflection [m] (0.1)")
+    scenario.add_argument("--boom", choices="abcd", help="boom bent at t = 0 (a)")
+    scenario.add_argument("--tip", type=float, help="its tip deflection [m] (0.1)")
     parser.add_argument("--every", type=float, default=1.0,
                         help="output interval for the table [s] (1)")
     parser.add_argument("--max-step", type=float, default=0.2, help="largest integration step [s]")
     parser.add_argument("--summary", action="store_true",
-                        help="print the table and run figures (the default output today)")
+                        help="print the table even when writing --mcap or --figures "
+                        "(it is printed anyway without them)")
+    output = parser.add_argument_group("output")
+    output.add_argument("--rate", type=float, default=50.0,
+                        help="state samples per simulated second in the log and the time "
+                        "histories [Hz] (50, as the simulator's state_rate_hz); the "
+                        "integration steps to each sample")
+    output.add_argument("--mcap", type=Path, metavar="FILE",
+                        help="write the run as a ROS 2 MCAP log with the simulator's topics "
+                        "(a .mcap file, replaced if present, or a new bag folder)")
+    output.add_argument("--shape-rate", type=float, default=5.0,
+                        help="/sail/shape messages per simulated second in the log [Hz] "
+                        "(5; 0: none)")
+    output.add_argument("--shape-divisions", type=int, default=10,
+                        help="mesh subdivisions of each quadrant edge in /sail/shape (10)")
+    output.add_argument("--figures", type=Path, metavar="DIR",
+                        help="write DIR/deployment_snapshots.png, DIR/tip_deflections.png and "
+                        "DIR/boom_lengths.png")
+    output.add_argument("--snapshots", type=float, nargs="+", metavar="T",
+                        help="snapshot times [s] (default: the scenario's)")
     return parser
 
 
-def _deploy(args) -> int:
+def _scenario(args):
+    """The scenario to run and a one-line description of it."""
+    given = [name for name in LEGACY if getattr(args, name) is not None]
+    if args.scenario is not None:
+        if given:
+            options = ", ".join("--" + {"start": "from", "end": "to"}.get(n, n).replace("_", "-")
+                                for n in given)
+            raise ValueError(f"{options} describe the reference scenario; with --scenario "
+                             f"{args.scenario} put them in the file")
+        scenario = load_scenario(args.scenario)
+        return scenario, f"{scenario.description or 'scenario'} ({args.scenario})"
+    document = copy.deepcopy(REFERENCE)
+    body = document["scenario"]
+    reference = body["profile"]
+    start = reference["start"] if args.start is None else args.start
+    end = reference["end"] if args.end is None else args.end
+    duration = reference["duration"] if args.duration is None else args.duration
+    boom = args.boom or "a"
+    tip = body["initial"]["mode_state"]["a"] if args.tip is None else args.tip
+    body["profile"] = {"type": "cycloidal", "start": start, "end": end, "duration": duration}
+    body["duration"] = duration if args.t_end is None else args.t_end
+    body["initial"] = {"mode_state": {boom: tip}}
+    if args.t_end is not None or args.duration is not None:
+        body["snapshots"] = np.linspace(0.0, body["duration"], 6).round(6).tolist()
+    text = (f"booms {start:g} m -> {end:g} m in {duration:g} s (cycloidal), "
+            f"boom {boom} tip {tip:g} m at t = 0")
+    body["description"] = text
+    return scenario_from_dict(document), text
+
+
+def _parameters(args, scenario) -> SailParameters:
+    """--set > the scenario's `sail:` section > --config > defaults."""
     params = sail_parameters(args)
-    t_end = args.duration if args.t_end is None else args.t_end
+    if scenario.sail:
+        explicit = {item.partition("=")[0].strip() for item in args.set}
+        overrides = {k: v for k, v in scenario.sail.items() if k not in explicit}
+        try:
+            params = SailParameters.from_dict({**params.to_dict(), **overrides})
+        except ValueError as error:
+            raise ValueError(f"scenario sail section: {error}") from None
+    return params
+
+
+def _print_table(run_result, table_times, description, params, wall, duration) -> None:
+    rows = [run_result.index_of(t) for t in table_times]
+    lengths = run_result.lengths[rows]
+    equal = np.allclose(lengths, lengths[:, :1])
+    print(f"Deployment: {description}")
+    print(describe_parameters(params))
+    print()
+    label = "L [m]" if equal else "L_a [m]"
+    print(f"  {'t [s]':>7}{label:>9}   tip deflection [mm]: "
+          f"{'a':>9}{'b':>10}{'c':>10}{'d':>10}")
+    for i in rows:
+        tips = run_result.tips[i]
+        print(f"  {run_result.t[i]:7.2f}{run_result.lengths[i, 0]:9.3f}   {'':21}"
+              + "".join(f"{1e3 * v:10.3f}" for v in tips))
+    peak = np.abs(run_result.tips[rows]).max()
+    print()
+    print(f"  peak |tip| {1e3 * peak:.3f} mm over the printed times; "
+          f"{duration:g} s simulated in {wall:.3f} s wall ({duration / wall:.0f}x real time)")
+
+
+def _deploy(args) -> int:
+    scenario, description = _scenario(args)
+    params = _parameters(args, scenario)
     if not args.every > 0:
         raise ValueError(f"--every must be > 0, got {args.every}")
-    profile = CycloidalProfile(args.start, args.end, args.duration)
-    model = SailModel(params)
-    q0 = model.mode_state(args.boom, args.tip)
-    t_eval = np.unique(np.append(np.arange(0.0, t_end, args.every), t_end))
+    if not args.rate > 0:
+        raise ValueError(f"--rate must be > 0 Hz, got {args.rate}")
+    if args.shape_rate < 0 or args.shape_rate > args.rate:
+        raise ValueError(f"--shape-rate must be in [0, --rate = {args.rate:g}] Hz, "
+                         f"got {args.shape_rate}")
+    if args.shape_divisions < 1:
+        raise ValueError(f"--shape-divisions must be >= 1, got {args.shape_divisions}")
+    duration = scenario.duration
+    snapshots = args.snapshots or list(scenario.snapshots)
+    for t in snapshots:
+        if not 0.0 <= t <= duration:
+            raise ValueError(f"--snapshots: {t:g} s is outside [0, {duration:g}] s")
+    table_times = np.unique(np.append(np.arange(0.0, duration, args.every), duration))
+    grid = output_times(duration, args.rate)
+    if args.mcap or args.figures:
+        t_eval = output_times(duration, args.rate, extra=[*table_times, *snapshots])
+    else:  # the table alone: no fine grid, whose short steps would slow the run
+        t_eval = table_times
 
-    started = time.perf_counter()
-    with tqdm(total=t_end, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
+    model = SailModel(params)
+    with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
         def progress(t):
             bar.update(t - bar.n)
 
-        t, q, qd = model.simulate(profile, t_end, q0, t_eval=t_eval, progress=progress,
-                                  max_step=args.max_step)
-    wall = time.perf_counter() - started
+        result = run_deployment(model, scenario, t_eval, max_step=args.max_step,
+                                progress=progress)
 
-    tips = model.tip_deflections(q)
-    print(f"Deployment: booms {args.start:g} m -> {args.end:g} m in {args.duration:g} s "
-          f"(cycloidal), boom {args.boom} tip {args.tip:g} m at t = 0")
-    print(describe_parameters(params))
-    print()
-    print(f"  {'t [s]':>7}{'L [m]':>9}   tip deflection [mm]: "
-          f"{'a':>9}{'b':>10}{'c':>10}{'d':>10}")
-    for ti, tip in zip(t, tips, strict=True):
-        length = profile(ti)[0][0]
-        print(f"  {ti:7.2f}{length:9.3f}   {'':21}" + "".join(f"{1e3 * v:10.3f}" for v in tip))
-    peak = np.abs(tips).max()
-    print()
-    print(f"  peak |tip| {1e3 * peak:.3f} mm over the printed times; "
-          f"{t_end:g} s simulated in {wall:.3f} s wall ({t_end / wall:.0f}x real time)")
+    if args.summary or not (args.mcap or args.figures):
+        _print_table(result, table_times, description, params, result.wall_seconds, duration)
+
+    written = []
+    if args.mcap:
+        from sail_ros.analysis.log_export import simulator_parameters, write_deployment_log
+
+        on_grid = np.isin(result.t, grid)
+        logged = result.subset(on_grid)
+        shape_every = round(args.rate / args.shape_rate) if args.shape_rate > 0 else 0
+        parameters = simulator_parameters(
+            model, logged, state_rate_hz=args.rate,
+            shape_rate_hz=args.rate / shape_every if shape_every else 0.0,
+            max_step=args.max_step, shape_divisions=args.shape_divisions)
+        from sail_ros.bag import BagWriteError
+
+        if args.mcap.suffix == ".mcap":
+            args.mcap.parent.mkdir(parents=True, exist_ok=True)
+        with tqdm(total=duration, unit="s sim", desc="mcap", disable=None, leave=False,
+                  file=sys.stderr) as bar:
+            try:
+                write_deployment_log(args.mcap, model, logged, parameters=parameters,
+                                     scenario_document=scenario.document,
+                                     shape_every=shape_every,
+                                     shape_divisions=args.shape_divisions,
+                                     progress=lambda t: bar.update(t - bar.n))
+            except BagWriteError as error:
+                print(f"error: --mcap: {error}", file=sys.stderr)
+                return 1
+        written.append(args.mcap)
+    if args.figures:
+        from sail_ros.plots.deployment import snapshots_figure
+        from sail_ros.plots.histories import boom_lengths_figure, tip_deflections_figure
+
+        rows = [result.index_of(t) for t in snapshots]
+        written.append(snapshots_figure(model, result.t[rows], result.lengths[rows],
+                                        result.q[rows], args.figures / "deployment_snapshots.png",
+                                        title=f"Deployment snapshots: {description}"))
+        written.append(tip_deflections_figure(result.t, result.tips,
+                                              args.figures / "tip_deflections.png",
+                                              title=description))
+        written.append(boom_lengths_figure(result.t, result.lengths, result.rates,
+                                           args.figures / "boom_lengths.png", title=description))
+    for path in written:
+        print(f"wrote {path}")
     return 0
 
 

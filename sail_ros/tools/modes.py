@@ -1,29 +1,43 @@
-"""`sail-ros modes`: natural frequencies of the sail at fixed boom lengths.
+"""`sail-ros modes`: natural frequencies and mode shapes of the sail at fixed boom lengths.
 
 Prints the frequencies with their multiplicities (seed Tab. 2 layout) and the
-parameters used.
+parameters used; writes them as CSV/JSON, the first distinct mode shapes as
+a figure (seed Fig. 2), and with `--fem` compares the frequencies with the
+independent finite-element model (`sail_ros.fem`) on a sequence of meshes.
+
+    sail-ros modes
+    sail-ros modes --lengths 30 50 30 50 --figures out/ --json out/modes.json
+    sail-ros modes --fem
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
+import json
 import sys
+from pathlib import Path
 
 import numpy as np
 
+from sail_ros.analysis.modes import (
+    fem_cross_check,
+    group_multiplicities,
+    modal_analysis,
+    representative_shapes,
+)
 from sail_ros.model import SailModel
 from sail_ros.tools.common import add_sail_options, describe_parameters, run, sail_parameters
 
-
-def group_multiplicities(omega: np.ndarray, rtol: float = 1e-6) -> list[tuple[int, int]]:
-    """(first index, multiplicity) of each group of equal frequencies, ascending."""
-    groups = []
-    for i, value in enumerate(omega):
-        if groups and abs(value - omega[groups[-1][0]]) <= rtol * abs(value):
-            groups[-1][1] += 1
-        else:
-            groups.append([i, 1])
-    return [(first, count) for first, count in groups]
+# Meshes of the FE cross-check, coarse to fine: (boom elements, membrane
+# divisions per quadrant leg, Lagrange order). Halving the element size makes
+# the spaces nested, so FE frequencies decrease monotonically; the finest
+# (130 052 DOFs) solves in about 8 s on one core.
+FEM_LEVELS = ((4, 4, 2), (8, 8, 2), (16, 16, 2), (32, 32, 2), (32, 64, 2), (64, 128, 2))
+# Modal models of the cross-check, (n_B, n_M): the default and two refinements.
+MODAL_COUNTS = ((4, 6), (10, 10), (20, 20))
+FEM_COMPARED = 6  # frequencies compared, as in the seed's Tab. 2
+AGREEMENT_PERCENT = 1.0
 
 
 def frequency_table(omega: np.ndarray, count: int) -> str:
@@ -36,8 +50,95 @@ def frequency_table(omega: np.ndarray, count: int) -> str:
         label = f"{first + 1}" if multiplicity == 1 else f"{first + 1}-{first + multiplicity}"
         value = omega[first]
         period = f"{2 * np.pi / value:12.2f}" if value > 0 else f"{'divergent':>12}"
-        lines.append(f"  {label:<8}{value:15.5f}{value / (2 * np.pi):12.6f}{period}  {multiplicity}")
+        hertz = value / (2 * np.pi)
+        lines.append(f"  {label:<8}{value:15.5f}{hertz:12.6f}{period}  {multiplicity}")
     return "\n".join(lines)
+
+
+def frequency_rows(omega: np.ndarray, count: int) -> list[dict]:
+    """One record per frequency (the first `count`, whole groups): mode number,
+    omega [rad/s], f [Hz], period [s] (None if divergent), distinct-frequency
+    group and its multiplicity."""
+    rows = []
+    for group, (first, multiplicity) in enumerate(group_multiplicities(omega), start=1):
+        if first >= count:
+            break
+        for index in range(first, first + multiplicity):
+            value = float(omega[index])
+            rows.append({"mode": index + 1, "omega_rad_s": value,
+                         "frequency_hz": value / (2 * np.pi),
+                         "period_s": 2 * np.pi / value if value > 0 else None,
+                         "group": group, "multiplicity": multiplicity})
+    return rows
+
+
+def cross_check_table(check) -> str:
+    """The FE comparison in the seed's Tab. 2 layout, then both refinement tables."""
+    k = check.count
+    fem_settings = check.fem_levels[-1][0]
+    n_boom, n_membrane = check.modal_levels[-1][:2]
+    header = "  " + f"{'Modal frequency':<22}" + "".join(f"{f'w{i + 1}':>10}" for i in range(k))
+    lines = [
+        f"  FE:    {fem_settings['description']}",
+        f"  modal: n_B = {n_boom}, n_M = {n_membrane} "
+        f"({4 * n_boom + 4 * n_membrane} coordinates)",
+        "",
+        header,
+        "  " + f"{'FE (rad/s)':<22}" + "".join(f"{v:10.5f}" for v in check.fem),
+        "  " + f"{'Modal (rad/s)':<22}" + "".join(f"{v:10.5f}" for v in check.modal),
+        # + 0.0 turns a rounded -0.000 into +0.000
+        "  " + f"{'Difference (%)':<22}" + "".join(f"{round(v, 3) + 0.0:+10.3f}" for v in
+                                                 check.difference_percent),
+        "",
+        f"  FE mesh refinement: lowest {k} frequencies [rad/s]",
+        f"  {'NB':>4}{'ND':>5}{'order':>6}{'DOFs':>8}{'time [s]':>10}  "
+        + "".join(f"{f'w{i + 1}':>11}" for i in range(k)),
+    ]
+    for settings, omega in check.fem_levels:
+        lines.append(f"  {settings['boom_elements']:>4}{settings['membrane_divisions']:>5}"
+                     f"{settings['membrane_order']:>6}{settings['n_dofs']:>8}"
+                     f"{settings['seconds']:>10.2f}  " + "".join(f"{v:11.7f}" for v in omega))
+    lines += ["", f"  Modal refinement: lowest {k} frequencies [rad/s]",
+              f"  {'n_B':>4}{'n_M':>5}{'coords':>8}{'time [s]':>10}       "
+              + "".join(f"{f'w{i + 1}':>11}" for i in range(k))]
+    for n_boom, n_membrane, seconds, omega in check.modal_levels:
+        lines.append(f"  {n_boom:>4}{n_membrane:>5}{4 * n_boom + 4 * n_membrane:>8}"
+                     f"{seconds:>10.2f}       " + "".join(f"{v:11.7f}" for v in omega))
+    worst = float(np.max(np.abs(check.difference_percent)))
+    verdict = "agree" if worst <= AGREEMENT_PERCENT else "DISAGREE"
+    lines += ["", f"  largest |difference| over the first {k}: {worst:.3f} % "
+              f"({verdict} within {AGREEMENT_PERCENT:g} %)"]
+    return "\n".join(lines)
+
+
+def cross_check_record(check) -> dict:
+    """The FE comparison as plain data for JSON."""
+    return {
+        "compared": check.count,
+        "fem": [float(v) for v in check.fem],
+        "modal": [float(v) for v in check.modal],
+        "difference_percent": [float(v) for v in check.difference_percent],
+        "fem_levels": [{**settings, "omega_rad_s": [float(v) for v in omega]}
+                       for settings, omega in check.fem_levels],
+        "modal_levels": [{"n_boom_modes": nb, "n_membrane_modes": nm, "seconds": seconds,
+                          "omega_rad_s": [float(v) for v in omega]}
+                         for nb, nm, seconds, omega in check.modal_levels],
+    }
+
+
+def _write_csv(path: Path, rows: list[dict]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _fem_csv_rows(check) -> list[dict]:
+    return [{"mode": i + 1, "fem_rad_s": float(f), "modal_rad_s": float(m),
+             "difference_percent": float(d)}
+            for i, (f, m, d) in enumerate(zip(check.fem, check.modal, check.difference_percent,
+                                              strict=True))]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,6 +150,33 @@ def build_parser() -> argparse.ArgumentParser:
         "default: fully deployed, a/sqrt(2)",
     )
     parser.add_argument("--count", type=int, default=12, help="frequencies to list (default 12)")
+    output = parser.add_argument_group("output")
+    output.add_argument("--csv", type=Path, metavar="FILE",
+                        help="write the listed frequencies as CSV")
+    output.add_argument("--json", type=Path, metavar="FILE",
+                        help="write parameters, lengths, frequencies (and the FE comparison) "
+                        "as JSON")
+    output.add_argument("--figures", type=Path, metavar="DIR",
+                        help="write DIR/mode_shapes.png: the first distinct mode shapes")
+    output.add_argument("--shapes", type=int, default=6,
+                        help="distinct mode shapes in the figure (default 6)")
+    output.add_argument("--view", choices=("map", "3d"), default="map",
+                        help="mode shapes as filled contour maps seen from above (default) "
+                        "or 3-D surfaces")
+    fem = parser.add_argument_group("finite-element cross-check")
+    fem.add_argument("--fem", action="store_true",
+                     help="compare the lowest frequencies with the FE model at equal boom "
+                     "lengths, on a sequence of meshes")
+    fem.add_argument("--fem-csv", type=Path, metavar="FILE",
+                     help="write the FE comparison (FE, modal, difference per frequency) as CSV")
+    fem.add_argument("--fem-level", nargs=3, type=int, action="append",
+                     metavar=("NB", "ND", "ORDER"),
+                     help="an FE mesh: boom elements, membrane divisions per quadrant leg "
+                     "(a multiple of NB), order 1 or 2; repeat, coarse to fine "
+                     f"(default {' '.join(':'.join(map(str, lv)) for lv in FEM_LEVELS)})")
+    fem.add_argument("--fem-modes", nargs=2, type=int, action="append", metavar=("NB", "NM"),
+                     help="modal mode counts n_B n_M to compare; repeat, small to large "
+                     f"(default {' '.join(':'.join(map(str, c)) for c in MODAL_COUNTS)})")
     return parser
 
 
@@ -59,13 +187,55 @@ def _modes(args) -> int:
         raise ValueError(f"--lengths takes 1 or 4 values, got {len(lengths)}")
     if args.count < 1:
         raise ValueError(f"--count must be >= 1, got {args.count}")
+    if args.shapes < 1:
+        raise ValueError(f"--shapes must be >= 1, got {args.shapes}")
+    if args.fem_csv and not args.fem:
+        raise ValueError(f"--fem-csv {args.fem_csv} needs --fem")
+    if args.fem and len(set(lengths)) > 1:
+        raise ValueError(f"--fem needs one length for all booms, got --lengths {lengths}")
     model = SailModel(params)
-    omega = model.natural_frequencies(lengths[0] if len(lengths) == 1 else lengths)
+    modes = modal_analysis(model, lengths[0] if len(lengths) == 1 else lengths)
+    omega = modes.omega
     shown = ", ".join(f"{v:.4g}" for v in lengths)
     print(f"Natural frequencies of the sail, boom lengths {shown} m, at rest")
     print(describe_parameters(params))
     print()
     print(frequency_table(omega, args.count))
+
+    check = None
+    if args.fem:
+        fem_params = params.replace(sail_side=lengths[0] * np.sqrt(2.0))
+        check = fem_cross_check(fem_params, args.fem_level or FEM_LEVELS,
+                                args.fem_modes or MODAL_COUNTS, FEM_COMPARED)
+        print()
+        print(f"Independent finite-element cross-check (seed Tab. 2 layout), L = "
+              f"{lengths[0]:.4g} m, physical parameters above")
+        print(cross_check_table(check))
+
+    written = []
+    rows = frequency_rows(omega, args.count)
+    if args.csv:
+        _write_csv(args.csv, rows)
+        written.append(args.csv)
+    if args.fem_csv:
+        _write_csv(args.fem_csv, _fem_csv_rows(check))
+        written.append(args.fem_csv)
+    if args.json:
+        record = {"parameters": params.to_dict(), "lengths_m": list(modes.lengths),
+                  "frequencies": rows}
+        if check is not None:
+            record["fem_cross_check"] = cross_check_record(check)
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(record, indent=2) + "\n")
+        written.append(args.json)
+    if args.figures:
+        from sail_ros.plots.modes import mode_shapes_figure  # matplotlib only when drawing
+
+        shapes = representative_shapes(model, modes, args.shapes)
+        written.append(mode_shapes_figure(model, modes.lengths, shapes,
+                                          args.figures / "mode_shapes.png", view=args.view))
+    for path in written:
+        print(f"wrote {path}")
     return 0
 
 

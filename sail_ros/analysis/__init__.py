@@ -1,0 +1,16 @@
+"""Analyses built on the model: numpy/scipy, no plotting.
+
+Only the two log modules touch ROS (message classes and CDR serialisation);
+the others need nothing beyond the model.
+
+- `modes`: natural frequencies grouped by multiplicity, representative mode
+  shapes, the finite-element cross-check (seed Tab. 2, Fig. 2).
+- `stability`: the largest real part of the Eq. 3 eigenvalues against
+  membrane prestress and extension rate, critical prestress.
+- `scenario`: deployment scenarios (boom profiles, initial conditions) read
+  from YAML.
+- `deployment`: an offline deployment run and its time series (seed Fig. 3).
+- `energy`: mechanical energy per boom and per quadrant coordinate group.
+- `log_export`, `log_series`: deployment runs into MCAP logs with the live
+  simulator's topics, and logs back into time series.
+"""

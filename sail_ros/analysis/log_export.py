@@ -1,0 +1,151 @@
+"""A deployment run written as an MCAP log with the live simulator's topics.
+
+Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
+`ros2 bag`, Foxglove) reads these too:
+
+- topics, types, QoS (as the recorder stores the simulator's publishers')
+  and message contents from `sail_ros.topics`:
+  `/clock`, `/sail/boom_state`, `/sail/modal_state`, `/sail/tip_deflection`
+  at every output time, `/sail/shape` at the shape rate; no `/diagnostics`
+  (an offline run has no real-time pacing to report);
+- time: header stamps, log time and publish time are all simulation time in
+  ns since LOG_EPOCH_NS = 0, the Unix epoch, so t = 0 s is
+  1970-01-01T00:00:00Z and a stamp divided by 1e9 is the simulation time [s];
+- metadata `sail_sim_parameters`: the simulator's parameter names
+  (`sail.<field>`, `initial_lengths`, ...; `sail_ros.nodes.sim_params`) with
+  values as one-line YAML, as the recorder stores them;
+- metadata `sail_deploy_scenario`: the scenario as YAML and the epoch.
+
+The CDR bytes are trimmed to their last field (`sail_ros.bag.trim_cdr`),
+as a DDS reader would deliver them. A chunk is closed after every simulated
+second (CHUNK_SECONDS), as the recorder closes one per wall-clock second of a
+real-time run, so a file cut short keeps everything before its last chunk.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import yaml
+from rclpy.serialization import serialize_message
+
+from sail_ros import topics
+from sail_ros.analysis.deployment import DeploymentRun
+from sail_ros.bag import BagWriter, default_qos_profile, trim_cdr
+from sail_ros.model import SailModel
+from sail_ros.model.shape import SailSurface
+from sail_ros.nodes.recorder import PARAMETERS_METADATA, yaml_value
+from sail_ros.nodes.sim_params import SAIL_PREFIX
+
+LOG_EPOCH_NS = 0
+CHUNK_SECONDS = 1.0  # simulated time per MCAP chunk [s]
+SCENARIO_METADATA = "sail_deploy_scenario"
+
+TYPES = {
+    topics.CLOCK: "rosgraph_msgs/msg/Clock",
+    topics.BOOM_STATE: "sensor_msgs/msg/JointState",
+    topics.MODAL_STATE: "sensor_msgs/msg/JointState",
+    topics.TIP_DEFLECTION: "sensor_msgs/msg/JointState",
+    topics.SHAPE: "visualization_msgs/msg/MarkerArray",
+}
+
+
+def simulator_parameters(model: SailModel, run: DeploymentRun, *, state_rate_hz: float,
+                         shape_rate_hz: float, max_step: float, shape_divisions: int,
+                         frame_id: str = topics.FRAME_ID) -> dict[str, str]:
+    """The run's settings under the simulator's parameter names, values as YAML text.
+
+    `initial_lengths` and `initial_tip_deflection` are the lengths [m] and
+    tip deflections [m] at t = 0. `integration_step` is the simulator's grid
+    step [s]: the state sample interval, at most `max_step` (the offline
+    integrator steps to every sample, as the simulator does to every grid
+    point). `time_scale` 0.0 means "as fast as possible", which an offline
+    run is.
+    """
+    values = {SAIL_PREFIX + name: value for name, value in model.params.to_dict().items()}
+    values.update({
+        "initial_lengths": [float(v) for v in run.lengths[0]],
+        "initial_tip_deflection": [float(v) for v in run.tips[0]],
+        "state_rate_hz": float(state_rate_hz),
+        "shape_rate_hz": float(shape_rate_hz),
+        "integration_step": min(float(max_step), 1.0 / state_rate_hz),
+        "time_scale": 0.0,
+        "frame_id": frame_id,
+        "shape_divisions": int(shape_divisions),
+    })
+    return {name: yaml_value(value) for name, value in values.items()}
+
+
+def offered_qos(topic: str) -> dict:
+    """The rosbag2 QoS entry the recorder stores for the simulator's publisher of
+    `topic`: its reliability and durability as the ROS graph reports them
+    (history "unknown", depth 0, infinite durations)."""
+    qos = topics.TOPIC_QOS[topic]
+    return default_qos_profile(reliability=qos.reliability.name.lower(),
+                               durability=qos.durability.name.lower())
+
+
+def _cdr(message, type_name: str) -> bytes:
+    return trim_cdr(serialize_message(message), type_name)
+
+
+def write_deployment_log(path, model: SailModel, run: DeploymentRun, *,
+                         parameters: dict[str, str], scenario_document: dict,
+                         shape_every: int, shape_divisions: int,
+                         frame_id: str = topics.FRAME_ID,
+                         progress: Callable[[float], None] | None = None) -> list:
+    """Write `run` to `path` (a `.mcap` file, replaced if present, or a bag folder).
+
+    Args:
+        path: output file or folder.
+        model: the model of the run (coordinate names, shape basis).
+        run: the states to write.
+        parameters: the `sail_sim_parameters` record (`simulator_parameters`).
+        scenario_document: the scenario as plain data.
+        shape_every: write `/sail/shape` at every `shape_every`-th output time
+            (0: never).
+        shape_divisions: mesh subdivisions of each quadrant edge in the shape.
+        frame_id: frame of every message.
+        progress: optional callable `progress(t)` after each output time.
+
+    Returns:
+        the `BagWriter` file summaries.
+    """
+    surface = SailSurface(model, shape_divisions) if shape_every else None
+    names = model.coordinate_names
+    with BagWriter(path, overwrite=True, fsync=False) as bag:  # regenerable: no fsync cost
+        bag.add_metadata(PARAMETERS_METADATA, parameters)
+        bag.add_metadata(SCENARIO_METADATA, {
+            "scenario": yaml.safe_dump(scenario_document, sort_keys=False),
+            "epoch_ns": str(LOG_EPOCH_NS),
+        })
+        for topic, type_name in TYPES.items():
+            if topic != topics.SHAPE or shape_every:
+                bag.add_topic(topic, type_name, [offered_qos(topic)])
+        chunk_end = CHUNK_SECONDS
+        for i, t in enumerate(run.t):
+            if t >= chunk_end:
+                bag.flush()
+                chunk_end = (t // CHUNK_SECONDS + 1) * CHUNK_SECONDS
+            stamp = topics.stamp_ns(LOG_EPOCH_NS, float(t))
+            messages = [
+                (topics.CLOCK, topics.clock(stamp)),
+                (topics.BOOM_STATE, topics.boom_state(stamp, run.lengths[i], run.rates[i],
+                                                      frame_id)),
+                (topics.MODAL_STATE, topics.modal_state(stamp, names, run.q[i], run.qd[i],
+                                                        frame_id)),
+                (topics.TIP_DEFLECTION, topics.tip_deflection(stamp, run.tips[i],
+                                                              run.tip_rates[i], frame_id)),
+            ]
+            if shape_every and i % shape_every == 0:
+                vertices = surface.vertices(run.q[i], run.lengths[i])
+                booms = surface.boom_lines(run.q[i], run.lengths[i])
+                messages.append((topics.SHAPE, topics.shape(stamp, vertices, surface.triangles,
+                                                            booms, frame_id)))
+            for topic, message in messages:
+                bag.write(topic, _cdr(message, TYPES[topic]), log_time_ns=stamp,
+                          publish_time_ns=stamp)
+            if progress is not None:
+                progress(float(t))
+    return bag.close()
+

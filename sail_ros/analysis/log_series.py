@@ -1,0 +1,176 @@
+"""Time series read back from a simulator log (recorder or `sail-ros deploy`).
+
+Reads the topics of `sail_ros.topics` from an MCAP file or bag folder with
+`sail_ros.bag.BagReader`, which also reads a file cut short (a killed
+recorder) up to its last complete record. Times are the messages' header
+stamps [ns]: simulation time since the run's epoch (`stamp_ns`).
+
+The time axis `t` [s] of every series is `(stamp - origin) / 1e9`. The
+origin is the run's epoch (the stamp of simulation time 0) when the log
+tells it, so that `t` is simulation time: a `sail-ros deploy` log states it
+in its `sail_deploy_scenario` metadata; in a recorder log each /diagnostics
+message pairs its stamp with `sim_time_s`. Otherwise (no /diagnostics) the
+origin is the first state message's stamp: time since the first sample.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import yaml
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+
+from sail_ros import topics
+from sail_ros.analysis.log_export import SCENARIO_METADATA
+from sail_ros.bag import BagReader
+from sail_ros.model import SailParameters
+from sail_ros.nodes.recorder import PARAMETERS_METADATA
+from sail_ros.nodes.sim_params import SAIL_PREFIX
+
+STATE_TOPICS = (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.MODAL_STATE)
+
+
+@dataclasses.dataclass(frozen=True)
+class JointSeries:
+    """One JointState topic: stamps [ns] (k,), joint names, position and velocity (k, j)."""
+
+    stamp_ns: np.ndarray
+    names: list[str]
+    position: np.ndarray
+    velocity: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class LogSeries:
+    """What a log holds, as arrays.
+
+    Attributes:
+        path: the file or folder read.
+        incomplete: files read only up to their last complete record.
+        topic_counts: messages per topic.
+        parameters: the `sail_sim_parameters` record (name -> YAML text), or None.
+        origin_ns: stamp [ns] of t = 0; `simulation_time` says whether that is
+            the run's epoch (t is simulation time) or the first sample.
+        boom, tips, modal: the state topics (None when absent).
+        diagnostics: stamps [ns] (k,) and the integrator status values per
+            key as text lists, or None when the log has no /diagnostics.
+    """
+
+    path: Path
+    incomplete: list[Path]
+    topic_counts: dict[str, int]
+    parameters: dict[str, str] | None
+    origin_ns: int
+    simulation_time: bool
+    boom: JointSeries | None
+    tips: JointSeries | None
+    modal: JointSeries | None
+    diagnostics: tuple[np.ndarray, dict[str, list[str]]] | None
+
+    def seconds(self, stamp_ns) -> np.ndarray:
+        """Stamps [ns] on the log's time axis [s]."""
+        return (np.asarray(stamp_ns, dtype=np.int64) - self.origin_ns) / 1e9
+
+    def sail_parameters(self) -> SailParameters | None:
+        """`SailParameters` from the recorded `sail.<field>` values (None if not recorded).
+
+        Raises ValueError naming the parameter when a recorded value is invalid.
+        """
+        if not self.parameters:
+            return None
+        values = {}
+        for name, text in self.parameters.items():
+            if name.startswith(SAIL_PREFIX):
+                try:
+                    values[name[len(SAIL_PREFIX):]] = yaml.safe_load(text)
+                except yaml.YAMLError:
+                    raise ValueError(f"recorded parameter {name} = {text!r} is not YAML") from None
+        if not values:
+            return None
+        try:
+            return SailParameters.from_dict(values)
+        except ValueError as error:
+            raise ValueError(f"recorded {PARAMETERS_METADATA}: {SAIL_PREFIX}{error}") from None
+
+
+def _stamp_ns(header) -> int:
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+def _joint_series(messages) -> JointSeries | None:
+    if not messages:
+        return None
+    names = list(messages[0].name)
+    kept = [m for m in messages if list(m.name) == names]  # a reset may not rename joints
+    return JointSeries(
+        np.array([_stamp_ns(m.header) for m in kept], dtype=np.int64), names,
+        np.array([m.position for m in kept], dtype=float).reshape(len(kept), len(names)),
+        np.array([m.velocity for m in kept], dtype=float).reshape(len(kept), len(names)))
+
+
+def read_log(path) -> LogSeries:
+    """Read the simulator topics and metadata of a log (ValueError if it is not one)."""
+    reader = BagReader(path)
+    parameters, epoch_ns = None, None
+    for name, record in reader.metadata():
+        if name == PARAMETERS_METADATA:
+            parameters = dict(record)  # the last record wins (a split re-stores it)
+        elif name == SCENARIO_METADATA and "epoch_ns" in record:
+            epoch_ns = int(record["epoch_ns"])
+    joints: dict[str, list] = {topic: [] for topic in STATE_TOPICS}
+    diagnostics: list[DiagnosticArray] = []
+    counts: dict[str, int] = {}
+    wanted = [*STATE_TOPICS, topics.DIAGNOSTICS]
+    for message in reader.messages(topics=wanted):
+        counts[message.topic] = counts.get(message.topic, 0) + 1
+        if message.topic == topics.DIAGNOSTICS:
+            diagnostics.append(deserialize_message(message.data, DiagnosticArray))
+        else:
+            joints[message.topic].append(deserialize_message(message.data, JointState))
+    for topic in STATE_TOPICS:  # an incomplete file is read in file order
+        joints[topic].sort(key=lambda m: _stamp_ns(m.header))
+    series = {topic: _joint_series(joints[topic]) for topic in STATE_TOPICS}
+    present = [s for s in series.values() if s is not None]
+    if not present:
+        raise ValueError(f"'{path}' holds none of {', '.join(STATE_TOPICS)}: not a sail "
+                         "simulator log, or cut before its first state message")
+    status = _diagnostics(diagnostics)
+    if epoch_ns is None and status is not None:
+        epoch_ns = _epoch_from_diagnostics(*status)
+    first = min(int(s.stamp_ns[0]) for s in present)
+    return LogSeries(
+        path=Path(path), incomplete=reader.incomplete_files, topic_counts=counts,
+        parameters=parameters, origin_ns=first if epoch_ns is None else epoch_ns,
+        simulation_time=epoch_ns is not None, boom=series[topics.BOOM_STATE],
+        tips=series[topics.TIP_DEFLECTION], modal=series[topics.MODAL_STATE],
+        diagnostics=status)
+
+
+def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) -> int | None:
+    """stamp - sim_time_s of the first /diagnostics message that has both (the
+    simulator stamps its status with the simulation time of the state)."""
+    for stamp, text in zip(stamps, values.get("sim_time_s", []), strict=False):
+        try:
+            return int(stamp) - round(float(text) * 1e9)
+        except ValueError:
+            continue
+    return None
+
+
+def _diagnostics(arrays: list[DiagnosticArray]):
+    stamps, values = [], []
+    for array in arrays:
+        pairs = topics.diagnostic_values(array)
+        if pairs:
+            stamps.append(_stamp_ns(array.header))
+            values.append(pairs)
+    if not values:
+        return None
+    order = np.argsort(stamps, kind="stable")
+    keys = sorted({key for pairs in values for key in pairs})
+    return (np.asarray(stamps, dtype=np.int64)[order],
+            {key: [values[i].get(key, "") for i in order] for key in keys})

@@ -1,0 +1,83 @@
+"""The deflected sail as a 3-D surface: membrane triangles coloured by deflection, booms as lines.
+
+Heights come from the model's own fields on a triangulation of each quadrant
+(`SailSurface`), not from interpolation. The vertical scale is set through
+the axes' box aspect, so tick labels keep true values while the shape is
+drawn a chosen number of times taller than it is (stated by the caller).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.colors import Normalize
+
+CMAP = "RdBu_r"  # diverging: up red, down blue, flat white
+
+
+def symmetric_norm(limit: float) -> Normalize:
+    """Colour scale `[-limit, limit]`, flat sail white; a zero limit gives [-1, 1]."""
+    limit = float(limit) if limit > 0 else 1.0
+    return Normalize(-limit, limit)
+
+
+def draw_sail(ax, vertices, triangles, boom_lines, *, z_factor: float, norm: Normalize,
+              extent: float, z_limit: float, box_height: float) -> None:
+    """Draw one sail state on a 3-D axes.
+
+    Args:
+        ax: a `projection="3d"` axes.
+        vertices: membrane mesh vertices (P, 3) [m] (`SailSurface.vertices`).
+        triangles: triangle indices (T, 3) (`SailSurface.triangles`).
+        boom_lines: (4, stations, 3) [m] (`SailSurface.boom_lines`).
+        z_factor: multiplies heights for the z axis (1e3 plots mm, or
+            1 / max|w| plots a normalised shape); x and y stay in m.
+        norm: colour scale for heights in z-axis units.
+        extent: half-width of the x and y axes [m] (same for all panels).
+        z_limit: half-height of the z axis, in z-axis units.
+        box_height: drawn height of the z range relative to the plane's width;
+            for true proportions times an exaggeration `e` that is
+            `e * (2 z_limit / z_factor) / (2 extent)` (`true_box_height`).
+    """
+    z = vertices[:, 2] * z_factor
+    ax.computed_zorder = False
+    ax.plot_trisurf(vertices[:, 0], vertices[:, 1], z, triangles=triangles, cmap=CMAP,
+                    norm=norm, linewidth=0.2, edgecolor=(0.4, 0.4, 0.4, 0.25), antialiased=True,
+                    shade=False)  # faint mesh edges show where a flat (white) membrane is
+    for line in boom_lines:  # drawn last and on top: mplot3d's depth sort would hide them
+        ax.plot(line[:, 0], line[:, 1], line[:, 2] * z_factor, color="k", lw=1.4, zorder=10)
+    ax.set_xlim(-extent, extent)
+    ax.set_ylim(-extent, extent)
+    ax.set_zlim(-z_limit, z_limit)
+    ax.set_box_aspect((1.0, 1.0, box_height), zoom=1.05)
+    ticks = _round_ticks(extent)
+    ax.set_xticks(ticks)
+    ax.set_yticks(ticks)
+    ax.tick_params(pad=-2)
+    ax.view_init(elev=28, azim=-55)
+
+
+def true_box_height(z_limit_m: float, extent: float, exaggeration: float) -> float:
+    """Box height (relative to the plane's width 2 `extent` [m]) that draws
+    heights up to `z_limit_m` [m] `exaggeration` times taller than true."""
+    return exaggeration * z_limit_m / extent
+
+
+def exaggeration_for(max_height_m: float, extent: float, fraction: float = 0.35) -> float:
+    """A round vertical exaggeration (1, 2, 5 x 10^k) that draws the largest
+    height [m] at about `fraction` of the plane's width 2 `extent` [m]."""
+    if not max_height_m > 0:
+        return 1.0
+    wanted = fraction * 2.0 * extent / (2.0 * max_height_m)
+    decade = 10.0 ** np.floor(np.log10(wanted))
+    for step in (5.0, 2.0, 1.0):
+        if step * decade <= wanted:
+            return float(step * decade)
+    return float(decade)
+
+
+def _round_ticks(extent: float) -> list[float]:
+    """-s, 0, s with s a round number just below `extent` [m]."""
+    decade = 10.0 ** np.floor(np.log10(extent))
+    step = max(v * decade for v in (1.0, 2.0, 5.0) if v * decade <= extent * 0.95)
+    step = float(np.floor(extent * 0.95 / step) * step)
+    return [-step, 0.0, step]

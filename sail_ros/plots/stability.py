@@ -1,0 +1,128 @@
+"""Stability figures: max Re(lambda) against prestress per rate, and eigenvalue loci."""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib
+import numpy as np
+from matplotlib import cm
+from matplotlib.colors import LogNorm
+from matplotlib.lines import Line2D
+
+from sail_ros.plots.common import figure, save, styled
+
+RATE_CMAP = "viridis"
+LOCI_CMAP = "plasma"
+
+
+def _linthresh(values) -> float:
+    """Linear range of a symlog axis: a decade below the smallest |value| that
+    is not round-off (> 1e-12)."""
+    values = np.abs(np.asarray(values, dtype=float))
+    values = values[values > 1e-12]
+    return 10.0 ** math.floor(math.log10(values.min())) if values.size else 1e-6
+
+
+def _rate_colours(rates) -> dict[float, tuple]:
+    """A colour per |rate| (log-spaced along the colour map), zero excluded."""
+    speeds = sorted({abs(r) for r in rates if r != 0})
+    cmap = matplotlib.colormaps[RATE_CMAP]
+    if len(speeds) == 1:
+        return {speeds[0]: cmap(0.4)}
+    norm = LogNorm(speeds[0], speeds[-1])
+    return {s: cmap(0.85 * float(norm(s))) for s in speeds}
+
+
+@styled
+def max_real_figure(sweeps, path, sail_prestress: float | None = None):
+    """max Re(lambda) [1/s] against membrane prestress [Pa], one panel per length.
+
+    Deployment (rate > 0) solid, retraction dashed, zero rate black dotted;
+    colour by |rate|; a dot marks each critical prestress; a grey line the
+    sail's own prestress.
+    """
+    lengths = sorted({s.length for s in sweeps})
+    columns = min(len(lengths), 3)
+    rows = math.ceil(len(lengths) / columns)
+    fig, axes = figure(3.6 * columns + 2.0, 3.4 * rows + 0.6, nrows=rows, ncols=columns,
+                       squeeze=False, sharey=True)
+    colours = _rate_colours([s.rate for s in sweeps])
+    threshold = _linthresh(np.concatenate([s.max_real for s in sweeps]))
+    for ax, length in zip(axes.flat, lengths, strict=False):
+        for sweep in (s for s in sweeps if s.length == length):
+            if sweep.rate == 0:
+                style = {"color": "k", "ls": ":"}
+            else:
+                style = {"color": colours[abs(sweep.rate)],
+                         "ls": "-" if sweep.rate > 0 else "--"}
+            ax.plot(sweep.prestress, sweep.max_real, lw=1.4, **style)
+            if sweep.critical_prestress is not None:
+                ax.plot([sweep.critical_prestress], [0.0], "o", ms=4.5, mfc=style["color"],
+                        mec="k", mew=0.6, zorder=5)
+        if sail_prestress is not None:
+            ax.axvline(sail_prestress, color="0.5", lw=1.0)
+            ax.annotate("sail", (sail_prestress, 1.0), xycoords=("data", "axes fraction"),
+                        xytext=(3, -10), textcoords="offset points", color="0.4", fontsize=8)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_xscale("log")
+        ax.set_yscale("symlog", linthresh=threshold, linscale=0.5)
+        ax.set_title(f"L = {length:.4g} m")
+        ax.set_xlabel("membrane prestress $\\sigma$ [Pa]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("max Re($\\lambda$) [1/s]  (symlog)")
+    for ax in axes.flat[len(lengths):]:
+        ax.set_visible(False)
+    handles = [Line2D([], [], color=colours[s], lw=1.4, label=f"|rate| {s:g} m/s")
+               for s in sorted(colours)]
+    handles += [Line2D([], [], color="0.3", ls="-", label="deployment"),
+                Line2D([], [], color="0.3", ls="--", label="retraction")]
+    if any(s.rate == 0 for s in sweeps):
+        handles.append(Line2D([], [], color="k", ls=":", label="rate 0"))
+    handles.append(Line2D([], [], ls="", marker="o", mfc="w", mec="k",
+                          label="critical prestress"))
+    fig.legend(handles=handles, loc="center right", frameon=False)
+    fig.suptitle("Frozen-length stability (seed Eq. 3)\nlargest real part of the eigenvalues; "
+                 "> 0 is unstable", fontsize=10)
+    right = 1.0 - 1.9 / fig.get_figwidth()  # room for the legend
+    fig.subplots_adjust(left=0.75 / fig.get_figwidth(), right=right, bottom=0.13, top=0.84,
+                        wspace=0.08, hspace=0.4)
+    return save(fig, path)
+
+
+@styled
+def loci_figure(prestresses, eigenvalues, length: float, rate: float, path,
+                critical: float | None = None):
+    """Eigenvalues in the complex plane (Im >= 0) as the prestress [Pa] varies.
+
+    Args:
+        prestresses: prestress per eigenvalue set [Pa].
+        eigenvalues: one array of eigenvalues [1/s] per prestress.
+        length: boom length [m]; rate: extension rate [m/s] (titles only).
+        path: output file.
+        critical: critical prestress [Pa] to state in the title, if any.
+    """
+    fig, ax = figure(6.2, 4.4)
+    norm = LogNorm(min(prestresses), max(prestresses))
+    cmap = LOCI_CMAP
+    real = np.concatenate([e.real for e in eigenvalues])
+    for s, values in zip(prestresses, eigenvalues, strict=True):
+        upper = values[values.imag >= 0]
+        ax.scatter(upper.real, upper.imag, s=5, c=np.full(upper.size, s), cmap=cmap,
+                   norm=norm, linewidths=0)
+    ax.axvline(0.0, color="k", lw=0.6)
+    ax.set_xscale("symlog", linthresh=_linthresh(real), linscale=0.5)
+    ax.set_yscale("symlog", linthresh=0.01, linscale=0.5)
+    top = max(float(np.max([e.imag.max() for e in eigenvalues])), 0.01)
+    ax.set_ylim(0.0, 1.5 * top)
+    ax.set_xlabel("Re($\\lambda$) [1/s]  (symlog; > 0 unstable)")
+    ax.set_ylabel("Im($\\lambda$) [rad/s]  (symlog)")
+    kind = "deployment" if rate > 0 else "retraction" if rate < 0 else "at rest"
+    title = f"Eigenvalue loci, L = {length:.4g} m, rate {rate:+g} m/s ({kind})"
+    if critical is not None:
+        title += f"\ncritical prestress {critical:.4g} Pa"
+    ax.set_title(title)
+    bar = fig.colorbar(cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, pad=0.02)
+    bar.set_label("membrane prestress $\\sigma$ [Pa]")
+    fig.tight_layout()
+    return save(fig, path)

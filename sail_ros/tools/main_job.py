@@ -1,0 +1,230 @@
+"""`sail-ros demo`: the reference deployment live, recorded, and read back.
+
+Starts the simulator (`sail-ros sim`) and the recorder (`sail-ros recorder`)
+as separate processes, runs the seed paper's deployment (model.md §9: all
+booms 10 m -> 15 m in 15 s along the cycloidal profile, boom a starting bent
+in its first mode with a 0.1 m tip deflection) through /sail/deploy_cmd,
+stops both with SIGINT once the booms have been at rest for a second, and
+summarises the MCAP log: messages per topic, duration, the tip deflections
+at 5, 10 and 15 s next to the same run computed offline, and the achieved
+real-time factor.
+
+To start the deployment exactly from the initial state, the simulator is
+paused, reset, given the command and resumed: t = 0 of the scenario is the
+simulation time of that reset.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import rclpy
+import yaml
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from std_srvs.srv import SetBool, Trigger
+
+from sail_ros import topics
+from sail_ros.bag import BagReader
+from sail_ros.model import CycloidalProfile, SailModel, SailParameters
+from sail_ros.nodes.simulation import initial_coordinates
+
+START, END, DURATION, TIP = 10.0, 15.0, 15.0, 0.1  # m, m, s, m (model.md §9)
+REPORT_TIMES = (5.0, 10.0, 15.0)  # s after the start of the deployment
+SETTLE_S = 1.0  # s of simulation after the booms stop
+START_TIMEOUT_S = 60.0  # wall time for the processes to come up
+
+
+class Operator(Node):
+    """Commands, services and diagnostics of the running simulator."""
+
+    def __init__(self, context):
+        super().__init__("sail_demo", context=context)
+        self.spinner = SingleThreadedExecutor(context=context)
+        self.spinner.add_node(self)
+        self.status: dict[str, str] = {}
+        self.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, self._on_status,
+                                 topics.DIAGNOSTICS_QOS)
+        self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
+        self.reset = self.create_client(Trigger, topics.RESET_SERVICE)
+        self.pause = self.create_client(SetBool, topics.PAUSE_SERVICE)
+
+    def _on_status(self, message: DiagnosticArray) -> None:
+        self.status = topics.diagnostic_values(message)
+
+    def spin_until(self, condition, timeout: float, what: str, processes=()) -> None:
+        deadline = time.monotonic() + timeout
+        while not condition():
+            for name, process in processes:
+                if process.poll() is not None:
+                    raise RuntimeError(f"the {name} exited with code {process.returncode}")
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"timed out after {timeout:g} s waiting for {what}")
+            self.spinner.spin_once(timeout_sec=0.02)
+
+    def call(self, client, request, timeout: float = 10.0):
+        self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
+        future = client.call_async(request)
+        self.spin_until(future.done, timeout, f"an answer from {client.srv_name}")
+        return future.result()
+
+    def sim_time(self) -> float:
+        return float(self.status.get("sim_time_s", "nan"))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="sail-ros demo", description=__doc__.split("\n\n")[0],
+        epilog="By default the simulation runs at 3x real time (about 6 s for the 16 s run) "
+               "and publishes /clock; --time-scale 1 runs it in real time. Discovery is "
+               "limited to this machine unless ROS_AUTOMATIC_DISCOVERY_RANGE is set.")
+    parser.add_argument("-o", "--output", type=Path,
+                        help="bag folder to create (default: out/demo_<UTC time>)")
+    parser.add_argument("--time-scale", type=float, default=3.0,
+                        help="simulation seconds per wall second (default 3.0)")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
+    if not args.time_scale > 0:
+        print("error: --time-scale must be > 0", file=sys.stderr)
+        return 2
+    output = args.output or Path("out") / ("demo_" + datetime.datetime.now(datetime.UTC)
+                                          .strftime("%Y_%m_%d-%H_%M_%S"))
+    if output.exists():
+        print(f"error: {output} exists; give a new --output", file=sys.stderr)
+        return 2
+    output.parent.mkdir(parents=True, exist_ok=True)
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    parameters = {"initial_lengths": f"[{START}]",
+                  "initial_tip_deflection": f"[{TIP},0.0,0.0,0.0]",
+                  "deploy_duration": str(DURATION), "time_scale": str(args.time_scale),
+                  "diagnostics_rate_hz": "10.0"}
+    sim_command = [sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args"] + \
+        [item for name, value in parameters.items() for item in ("-p", f"{name}:={value}")]
+    logs = output.parent / f"{output.name}.sim.log", output.parent / f"{output.name}.recorder.log"
+    print(f"starting the simulator and the recorder (logs: {logs[0]}, {logs[1]})", flush=True)
+    with open(logs[0], "w") as sim_log, open(logs[1], "w") as recorder_log:
+        sim = subprocess.Popen(sim_command, stdout=sim_log, stderr=subprocess.STDOUT)
+        recorder = subprocess.Popen([sys.executable, "-m", "sail_ros.cli", "recorder",
+                                     "-o", str(output)],
+                                    stdout=recorder_log, stderr=subprocess.STDOUT)
+    processes = [("simulator", sim), ("recorder", recorder)]
+    try:
+        t_start = _run(processes, args.time_scale)
+    except RuntimeError as error:
+        print(f"error: {error}; see {logs[0]} and {logs[1]}", file=sys.stderr)
+        return 1
+    finally:
+        codes = {}
+        for name, process in processes:  # the simulator first: the recorder takes its last
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+            try:
+                codes[name] = process.wait(30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                codes[name] = process.wait()
+    if any(codes.values()):
+        print(f"error: exit codes {codes}; see {logs[0]} and {logs[1]}", file=sys.stderr)
+        return 1
+    print("simulator and recorder stopped cleanly (exit code 0)\n")
+    summarise(output, t_start)
+    return 0
+
+
+def _run(processes, time_scale: float) -> float:
+    """Drive the deployment; returns its start (simulation time [s])."""
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    operator = Operator(context)
+    try:
+        operator.spin_until(lambda: operator.status and
+                            operator.count_subscribers(topics.BOOM_STATE) >= 1 and
+                            operator.deploy.get_subscription_count() >= 2,
+                            START_TIMEOUT_S, "the simulator and the recorder", processes)
+        operator.call(operator.pause, SetBool.Request(data=True))
+        operator.call(operator.reset, Trigger.Request())
+        operator.deploy.publish(Float64(data=END))
+        operator.spin_until(lambda: operator.status.get("accepted_commands") == "1", 10.0,
+                            "the deployment to be accepted", processes)
+        t_start = float(operator.status["last_command_start_s"])
+        operator.call(operator.pause, SetBool.Request(data=False))
+        print(f"deploying 10 m -> 15 m in 15 s from t = {t_start:.2f} s (simulation time), "
+              f"{time_scale:g}x real time", flush=True)
+        done = t_start + DURATION + SETTLE_S
+        operator.spin_until(lambda: operator.sim_time() >= done,
+                            (DURATION + SETTLE_S) / time_scale + 30.0, "the deployment",
+                            processes)
+        return t_start
+    finally:
+        operator.destroy_node()
+        rclpy.shutdown(context=context)
+
+
+def summarise(output: Path, t_start: float) -> None:
+    """Print what the bag holds and the tip deflections against the offline model."""
+    reader = BagReader(output)
+    counts = {name: info.message_count for name, info in sorted(reader.topics().items())}
+    log_times = [m.log_time_ns for m in reader.messages()]
+    print(f"MCAP log: {output.resolve()}")
+    for file in reader.files:
+        print(f"  {file.name}  {file.stat().st_size / 1024:.0f} KiB")
+    print(f"  {sum(counts.values())} messages over {(max(log_times) - min(log_times)) * 1e-9:.2f}"
+          " s of wall time")
+    for name, count in counts.items():
+        print(f"    {name:<24}{count:>7}")
+
+    statuses = [topics.diagnostic_values(deserialize_message(m.data, DiagnosticArray)) |
+                {"stamp_ns": _stamp_ns(deserialize_message(m.data, DiagnosticArray))}
+                for m in reader.messages([topics.DIAGNOSTICS])]
+    epoch = statuses[-1]["stamp_ns"] - round(float(statuses[-1]["sim_time_s"]) * 1e9)
+    parameters = dict(reader.metadata()).get("sail_sim_parameters", {})
+    sail = SailParameters.from_dict({name[5:]: yaml.safe_load(value)
+                                     for name, value in parameters.items()
+                                     if name.startswith("sail.")})
+    print(f"  simulator parameters stored: {len(parameters)} (n_B = {sail.n_boom_modes}, "
+          f"n_M = {sail.n_membrane_modes}, time_scale = {parameters.get('time_scale')})")
+
+    tips = [deserialize_message(m.data, JointState)
+            for m in reader.messages([topics.TIP_DEFLECTION])]
+    t = np.array([(_stamp_ns(m) - epoch) * 1e-9 - t_start for m in tips])
+    chosen = [int(np.argmin(np.abs(t - wanted))) for wanted in REPORT_TIMES]
+    model = SailModel(sail)
+    _, q, _ = model.simulate(CycloidalProfile(START, END, DURATION), DURATION + SETTLE_S,
+                             initial_coordinates(model, [TIP, 0.0, 0.0, 0.0]),
+                             t_eval=np.round(t[chosen], 9), max_step=0.01)
+    offline = model.tip_deflections(q)
+    print("\n  tip deflection [mm]      boom a     boom b     boom c     boom d   "
+          "(offline, same model: max |difference|)")
+    for index, reference in zip(chosen, offline, strict=True):
+        live = np.array(tips[index].position)
+        print(f"    t = {t[index]:5.2f} s   " + "".join(f"{1e3 * v:11.4f}" for v in live)
+              + f"   ({np.abs(live - reference).max():.1e} m)")
+    running = [float(s["real_time_factor"]) for s in statuses
+               if s["state"] == "running" and float(s["steps_in_window"]) > 0]
+    final = statuses[-1]
+    scale = float(parameters.get("time_scale", "1.0"))
+    step = float(parameters.get("integration_step", "0.01"))
+    print(f"\n  real-time factor: max {max(running):.3f}, median {np.median(running):.3f} "
+          f"(time scale {scale:g}); longest integration step "
+          f"{max(float(s['step_time_ms_max']) for s in statuses):.3f} ms")
+    print(f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
+          f"{final['overruns']}; rejected commands: {final['rejected_commands']}")
+
+
+def _stamp_ns(message) -> int:
+    return message.header.stamp.sec * 10**9 + message.header.stamp.nanosec

@@ -1,0 +1,131 @@
+"""`sail-ros deploy`: the summary table, scenarios, the MCAP log and the figures."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from rclpy.serialization import deserialize_message
+from rosbags.highlevel import AnyReader
+from sensor_msgs.msg import JointState
+from test_tool_figures import assert_png
+
+from sail_ros import topics
+from sail_ros.analysis.scenario import load_scenario, reference_scenario
+from sail_ros.bag import BagReader
+from sail_ros.model import SailModel
+from sail_ros.nodes.recorder import PARAMETERS_METADATA
+from sail_ros.nodes.sim_params import SPEC_BY_NAME, config_from_values
+from sail_ros.tools import deploy
+
+CONFIG = Path(__file__).resolve().parents[1] / "config"
+
+SHORT = """
+scenario:
+  description: short staggered test
+  duration: 2.0
+  profile:
+    a: {type: cycloidal, start: 10.0, end: 11.0, duration: 2.0}
+    b: {type: waypoints, times: [0.0, 1.0, 2.0], lengths: [10.0, 10.4, 11.0]}
+    c: {type: static, lengths: 10.0}
+    d: {type: cycloidal, start: 10.0, end: 11.0, duration: 1.0, t0: 1.0}
+  initial:
+    mode_state: {b: 0.05}
+    q0: {membrane_ab_mode_2_1: 0.01}
+  snapshots: [0.0, 1.0, 2.0]
+sail:
+  n_boom_modes: 3
+  n_membrane_modes: 3
+"""
+
+
+def test_summary_prints_the_reference_table(capsys):
+    assert deploy.main(["--summary"]) == 0
+    out = capsys.readouterr().out
+    assert "booms 10 m -> 15 m in 15 s (cycloidal), boom a tip 0.1 m at t = 0" in out
+    rows = [line.split() for line in out.splitlines() if line[:9].strip().replace(".", "")
+            .isdigit()]
+    assert [float(r[0]) for r in rows] == list(np.arange(16.0))
+    assert rows[0][1:] == ["10.000", "100.000", "0.000", "0.000", "0.000"]
+    assert rows[-1][1] == "15.000"
+    assert "x real time)" in out
+
+
+def test_reference_file_is_the_built_in_reference():
+    assert load_scenario(CONFIG / "scenario_reference.yaml").document == \
+        reference_scenario().document
+
+
+def test_every_shipped_scenario_loads():
+    for path in sorted(CONFIG.glob("scenario_*.yaml")):
+        scenario = load_scenario(path)
+        lengths, rates, _ = scenario.profile(0.5 * scenario.duration)
+        assert np.all(lengths > 0) and np.all(np.isfinite(rates)), path
+
+
+def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text(SHORT)
+    log = tmp_path / "logs" / "short.mcap"
+    assert deploy.main(["--scenario", str(scenario), "--rate", "10", "--shape-rate", "2",
+                        "--mcap", str(log), "--figures", str(tmp_path / "fig"),
+                        "--summary"]) == 0
+    out = capsys.readouterr().out
+    assert "short staggered test" in out and f"wrote {log}" in out
+
+    bag = BagReader(log)
+    counts = {name: info.message_count for name, info in bag.topics().items()}
+    assert counts == {topics.CLOCK: 21, topics.BOOM_STATE: 21, topics.MODAL_STATE: 21,
+                      topics.TIP_DEFLECTION: 21, topics.SHAPE: 5}
+    metadata = dict(bag.metadata())
+    parameters = metadata[PARAMETERS_METADATA]
+    # the simulator's own names and value syntax: its validator accepts them
+    assert set(parameters) <= set(SPEC_BY_NAME)
+    config = config_from_values({name: yaml.safe_load(text) for name, text in parameters.items()})
+    assert (config.integration_step, config.state_rate_hz, config.shape_rate_hz) == (0.1, 10, 2)
+    assert (config.sail.n_boom_modes, config.sail.n_membrane_modes) == (3, 3)
+    np.testing.assert_allclose(config.initial_lengths, [10.0] * 4)
+    np.testing.assert_allclose(config.initial_tip_deflection, [0.0, 0.05, 0.0, 0.0], atol=1e-12)
+
+    model = SailModel(config.sail)
+    modal = [m for m in bag.messages([topics.MODAL_STATE])]
+    # stamps, log times and publish times are simulation time since the Unix epoch
+    assert [m.log_time_ns for m in modal] == [round(t * 1e8) for t in range(21)]
+    last = deserialize_message(modal[-1].data, JointState)
+    assert list(last.name) == model.coordinate_names
+    assert last.header.stamp.sec == 2 and last.header.stamp.nanosec == 0
+    boom = deserialize_message(next(bag.messages([topics.BOOM_STATE])).data, JointState)
+    assert list(boom.name) == list(topics.BOOM_JOINTS)
+
+    with AnyReader([log]) as reader:  # a strict third-party reader takes every message
+        assert sum(1 for _ in reader.messages()) == 89
+
+    for name in ("deployment_snapshots", "tip_deflections", "boom_lengths"):
+        assert_png(tmp_path / "fig" / f"{name}.png")
+
+
+@pytest.mark.parametrize(("document", "message"), [
+    ("scenario: {duration: 1.0, profile: {type: spiral}}",
+     "scenario.profile.type must be one of cycloidal, waypoints, static, got 'spiral'"),
+    ("scenario: {duration: 1.0, profile: {type: cycloidal, start: 10, end: 11}}",
+     "scenario.profile (cycloidal) needs duration"),
+    ("scenario: {duration: 1.0, profile: {a: {type: static, lengths: 1.0}}}",
+     "one profile for each boom a, b, c, d"),
+    ("scenario: {duration: 1.0, profile: {type: static, lengths: 5.0}, "
+     "initial: {q0: {boom_e_mode_1: 1.0}}}", "unknown coordinate 'boom_e_mode_1'"),
+    ("scenario: {duration: 1.0, profile: {type: static, lengths: 5.0}, snapshots: [2.0]}",
+     "scenario.snapshots[0] = 2.0 s is outside [0, duration = 1 s]"),
+    ("scenario: {duration: -1.0, profile: {type: static, lengths: 5.0}}",
+     "scenario.duration must be > 0, got -1.0"),
+], ids=["type", "missing", "per-boom", "coordinate", "snapshot", "duration"])
+def test_scenario_errors_name_the_entry(tmp_path, capsys, document, message):
+    path = tmp_path / "bad.yaml"
+    path.write_text(document)
+    assert deploy.main(["--scenario", str(path)]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_reference_options_conflict_with_a_scenario(capsys):
+    path = CONFIG / "scenario_reference.yaml"
+    assert deploy.main(["--scenario", str(path), "--from", "5", "--tip", "0.2"]) == 2
+    assert "--from, --tip describe the reference scenario" in capsys.readouterr().err
