@@ -1,0 +1,241 @@
+"""Boom commands checked and turned into boom motion, without ROS.
+
+Two commands (msg_docs/boom_length_cmd.md, msg_docs/deploy_cmd.md):
+
+* a trajectory (`trajectory_msgs/JointTrajectory`-like: `joint_names`,
+  `points[i].positions`, `points[i].time_from_start`): the named booms
+  follow a cubic spline from their current length and rate through the
+  points, and stop at the last one (`WaypointProfile`); the other booms
+  carry on as before;
+* a deployment target (m) for all four booms: from rest the cycloidal
+  profile of model.md §9, the fastest within the rate and acceleration
+  limits (or of a fixed duration); while the booms move, a cubic from their
+  current length and rate to rest at the target, again the fastest within
+  the limits.
+
+A command is accepted whole or rejected whole: `CommandError` says why,
+and nothing of it is used.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from sail_ros.model import CycloidalProfile, WaypointProfile
+from sail_ros.topics import BOOM_JOINTS
+
+TOLERANCE = 1e-9  # relative slack on the limits, for round-off in the profiles
+# Candidate durations of a deployment that starts while the booms move:
+# T_rest * GROWTH**k, k = -DURATION_STEPS_DOWN .. DURATION_STEPS_UP.
+GROWTH = 1.1
+DURATION_STEPS_DOWN, DURATION_STEPS_UP = 20, 60
+
+
+class CommandError(ValueError):
+    """A command that cannot be followed; the message is the reason."""
+
+
+class BoomState(NamedTuple):
+    """Where the booms are at time `t` [s]: lengths [m], rates [m/s],
+    accelerations [m/s^2], 4 values each (booms a..d)."""
+
+    t: float
+    lengths: np.ndarray
+    rates: np.ndarray
+    accelerations: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class Limits:
+    """What any commanded motion must respect.
+
+    Attributes:
+        min_length, max_length: allowed boom lengths [m].
+        max_rate: largest |extension rate| [m/s].
+        max_acceleration: largest |extension acceleration| [m/s^2].
+    """
+
+    min_length: float
+    max_length: float
+    max_rate: float
+    max_acceleration: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """An accepted command.
+
+    Attributes:
+        profile: the motion of the booms in `booms` (a 4-boom profile).
+        booms: indices (0 = a) of the booms that follow `profile`.
+        t_start, t_end: when the motion starts and ends [s].
+        summary: one line for the log.
+    """
+
+    profile: object
+    booms: tuple[int, ...]
+    t_start: float
+    t_end: float
+    summary: str
+
+
+def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
+    """Check a JointTrajectory-like command and make its motion.
+
+    The trajectory starts at `now.t` whatever its header stamp; point times
+    are `time_from_start` after that.
+
+    Raises:
+        CommandError: unknown or repeated joint names, no points, a point
+            whose positions do not match the names, velocities/accelerations/
+            effort given (the spline sets them), times not > 0 and strictly
+            increasing, a non-finite length, a length outside the limits, or
+            a motion (spline overshoot included) beyond the limits.
+    """
+    names = list(trajectory.joint_names)
+    if not names:
+        raise CommandError("no joint_names: name at least one of " + ", ".join(BOOM_JOINTS))
+    unknown = [name for name in names if name not in BOOM_JOINTS]
+    if unknown:
+        raise CommandError(f"unknown joint name(s) {', '.join(map(repr, unknown))}; "
+                           f"known: {', '.join(BOOM_JOINTS)}")
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise CommandError(f"joint name(s) {', '.join(map(repr, repeated))} given more "
+                           "than once")
+    points = list(trajectory.points)
+    if not points:
+        raise CommandError("no points")
+    booms = tuple(BOOM_JOINTS.index(name) for name in names)
+    times, rows = [now.t], [np.array(now.lengths, dtype=float)]
+    previous = 0.0  # time_from_start of the point before [s]
+    for i, point in enumerate(points):
+        positions = list(point.positions)
+        if len(positions) != len(names):
+            raise CommandError(f"point {i} has {len(positions)} positions for "
+                               f"{len(names)} joint names")
+        for field in ("velocities", "accelerations", "effort"):
+            if len(getattr(point, field)):
+                raise CommandError(f"point {i}: {field} are not supported (leave them "
+                                   "empty; the booms follow a spline through the positions)")
+        offset = point.time_from_start.sec + point.time_from_start.nanosec * 1e-9
+        if offset <= previous:
+            raise CommandError(
+                f"point {i}: time_from_start {offset:g} s must be > "
+                + ("0" if i == 0 else f"that of point {i - 1} ({previous:g} s)"))
+        previous = offset
+        for name, value in zip(names, positions, strict=True):
+            _check_length(value, f"point {i}: {name}", limits)
+        row = rows[0].copy()
+        row[list(booms)] = positions
+        times.append(now.t + offset)
+        rows.append(row)
+    start_rates = np.zeros(4)
+    start_rates[list(booms)] = np.asarray(now.rates)[list(booms)]
+    profile = WaypointProfile(times, np.array(rows), start_rates=start_rates)
+    _check_motion(profile, booms, limits)
+    return Plan(profile, booms, now.t, times[-1],
+                f"trajectory for {', '.join(names)}: {len(points)} point(s) over "
+                f"{times[-1] - now.t:g} s")
+
+
+def plan_deploy(target: float, now: BoomState, limits: Limits, duration: float = 0.0) -> Plan:
+    """Check a deployment target [m] for all four booms and make its motion.
+
+    Args:
+        target: final length of every boom [m].
+        now: the booms' state when the command arrives.
+        limits: the limits the motion must respect.
+        duration: the deployment's duration [s]; 0 for the fastest within the limits.
+
+    Raises:
+        CommandError: `target` not finite or outside the limits, or no
+            motion of the given duration (or of any duration tried) within
+            the limits.
+    """
+    _check_length(target, "target", limits)
+    lengths = np.asarray(now.lengths, dtype=float)
+    at_rest = not (np.any(now.rates) or np.any(now.accelerations))
+    fixed = duration > 0.0
+    if at_rest:
+        if fixed:
+            profile = CycloidalProfile(lengths, target, duration, t0=now.t)
+            travel = float(np.max(np.abs(target - lengths)))
+            peak_rate, peak_acceleration = 2 * travel / duration, 2 * math.pi * travel / duration**2
+            if peak_rate > limits.max_rate * (1 + TOLERANCE) or \
+                    peak_acceleration > limits.max_acceleration * (1 + TOLERANCE):
+                raise CommandError(
+                    f"a {duration:g} s deployment to {target:g} m needs {peak_rate:.4g} m/s and "
+                    f"{peak_acceleration:.4g} m/s^2; limits {limits.max_rate:g} m/s, "
+                    f"{limits.max_acceleration:g} m/s^2 (raise deploy_duration, or set it "
+                    "to 0 for the fastest allowed)")
+        else:
+            profile = CycloidalProfile.within_limits(
+                lengths, target, limits.max_rate, limits.max_acceleration, t0=now.t)
+        kind = "cycloidal"
+    else:
+        profile = _moving_deploy(target, now, limits, duration if fixed else None)
+        kind = "cubic from the current rates"
+    return Plan(profile, (0, 1, 2, 3), now.t, profile.t_end,
+                f"deploy to {target:g} m: {kind} over {profile.t_end - now.t:.4g} s")
+
+
+def _moving_deploy(target: float, now: BoomState, limits: Limits, duration: float | None):
+    """The quickest cubic from the current lengths and rates to rest at `target`
+    that keeps within `limits` (or the one of the given `duration`)."""
+    if duration is not None:
+        candidates = [duration]
+    else:
+        # the time to go there from rest, or to stop the fastest boom, sets the scale
+        base = max(
+            CycloidalProfile.within_limits(now.lengths, target, limits.max_rate,
+                                           limits.max_acceleration).duration,
+            2.0 * float(np.max(np.abs(now.rates))) / limits.max_acceleration)
+        candidates = [base * GROWTH**k for k in range(-DURATION_STEPS_DOWN, DURATION_STEPS_UP)]
+    reason = ""
+    for length in candidates:
+        profile = WaypointProfile([now.t, now.t + length],
+                                  [np.asarray(now.lengths, dtype=float), np.full(4, target)],
+                                  start_rates=now.rates)
+        try:
+            _check_motion(profile, (0, 1, 2, 3), limits)
+        except CommandError as error:
+            reason = str(error)
+            continue
+        return profile
+    tried = (f"{duration:g} s" if duration is not None
+             else f"{candidates[0]:.3g} to {candidates[-1]:.3g} s")
+    raise CommandError(f"no deployment to {target:g} m from the current motion within the "
+                       f"limits (durations {tried}; e.g. {reason})")
+
+
+def _check_length(value, what: str, limits: Limits) -> None:
+    if not math.isfinite(value):
+        raise CommandError(f"{what} is {value!r}, not a finite length")
+    if not limits.min_length <= value <= limits.max_length:
+        raise CommandError(f"{what} = {value:g} m is outside [min_length, max_length] = "
+                           f"[{limits.min_length:g}, {limits.max_length:g}] m")
+
+
+def _check_motion(profile: WaypointProfile, booms, limits: Limits) -> None:
+    """Reject the motion if a boom in `booms` leaves the length range or exceeds
+    the rate or acceleration limit anywhere along `profile`."""
+    low, high, rate, acceleration = profile.extremes()
+    slack = 1.0 + TOLERANCE
+    for k in booms:
+        name = BOOM_JOINTS[k]
+        if low[k] < limits.min_length / slack or high[k] > limits.max_length * slack:
+            raise CommandError(
+                f"{name} would pass through {low[k] if low[k] < limits.min_length else high[k]:.4g}"
+                f" m on the way, outside [min_length, max_length] = "
+                f"[{limits.min_length:g}, {limits.max_length:g}] m")
+        if rate[k] > limits.max_rate * slack:
+            raise CommandError(f"{name} would move at {rate[k]:.4g} m/s, above max_rate "
+                               f"{limits.max_rate:g} m/s")
+        if acceleration[k] > limits.max_acceleration * slack:
+            raise CommandError(f"{name} would accelerate at {acceleration[k]:.4g} m/s^2, "
+                               f"above max_acceleration {limits.max_acceleration:g} m/s^2")

@@ -1,0 +1,377 @@
+# ruff: noqa: E402  (the BLAS thread count must be set before numpy is imported)
+"""Node `sail_sim`: the solar sail's deployment dynamics and vibration in real time.
+
+Integrates the sail model (`sail_ros.model`, model.md) on a fixed grid of
+`integration_step` seconds, paced by the steady clock (`time_scale`
+simulation seconds per wall second), and publishes the boom state, the
+modal state, the boom-tip deflections, the sail's shape and diagnostics
+(msg_docs/README.md). Booms move on `sail/boom_length_cmd` and
+`sail/deploy_cmd`; `sail/reset` and `sail/pause` control the run.
+
+Stamps are simulation time: the wall-clock (ROS system) time when the node
+started plus the simulation time, so with time_scale 1 they follow the
+ROS clock (trailing it by any time spent paused); with any other time
+scale /clock carries the same times for nodes with use_sim_time.
+
+SIGINT/SIGTERM: stop, let subscribers acknowledge what was published, exit 0.
+A bad parameter: exit 2.
+
+    sail-ros sim --ros-args --params-file config/sim.yaml
+    sail-ros sim --ros-args -p time_scale:=5.0 -p initial_tip_deflection:=[0.1,0.0,0.0,0.0]
+"""
+
+import os
+
+# The model's matrices are small: one BLAS thread is fastest, and OpenBLAS
+# reads this only when numpy loads it.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse
+import sys
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.logging import get_logger
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock as ClockMessage
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import MarkerArray
+
+from sail_ros import topics
+from sail_ros.model import SailModel
+from sail_ros.model.shape import SailSurface
+from sail_ros.nodes.commands import CommandError
+from sail_ros.nodes.pacing import Pacer
+from sail_ros.nodes.ros_args import StopSignals, parse_command_line
+from sail_ros.nodes.sim_params import SPECS, ConfigError, config_from_values
+from sail_ros.nodes.simulation import RUNNING, Simulation
+
+NODE_NAME = "sail_sim"
+ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
+RTF_WARN_FRACTION = 0.9  # WARN when a paced run achieves less than this of time_scale
+RTF_MIN_WINDOW_S = 0.5  # ... judged only over windows at least this long
+
+
+class SimNode(Node):
+    """The `sail_sim` node. All work happens in its callbacks (one executor thread).
+
+    Args:
+        parameter_overrides: initial parameter values (besides --ros-args).
+        context: the rclpy context (default: the global one).
+
+    Raises:
+        ConfigError: a parameter has a value the simulator cannot use.
+    """
+
+    def __init__(self, parameter_overrides=(), context=None):
+        super().__init__(NODE_NAME, context=context,
+                         parameter_overrides=list(parameter_overrides))
+        self._values = self._declare()
+        self.config = config = config_from_values(self._values)
+        model = SailModel(config.sail)
+        self.sim = Simulation(model, config)
+        self.surface = SailSurface(model, config.shape_divisions)
+        self.coordinate_names = model.coordinate_names
+        self.pacer = Pacer(config.time_scale, config.integration_step,
+                           config.steps_between(config.state_rate_hz))
+        self.overruns = 0
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+
+        self._outputs = {
+            name: self.create_publisher(kind, name, topics.TOPIC_QOS[name])
+            for name, kind in ((topics.BOOM_STATE, JointState), (topics.MODAL_STATE, JointState),
+                               (topics.TIP_DEFLECTION, JointState), (topics.SHAPE, MarkerArray),
+                               (topics.DIAGNOSTICS, DiagnosticArray))
+        }
+        if config.time_scale != 1.0:
+            self._outputs[topics.CLOCK] = self.create_publisher(
+                ClockMessage, topics.CLOCK, topics.CLOCK_QOS)
+        self.create_subscription(JointTrajectory, topics.BOOM_LENGTH_CMD,
+                                 self._on_trajectory, topics.COMMAND_QOS)
+        self.create_subscription(Float64, topics.DEPLOY_CMD, self._on_deploy, topics.COMMAND_QOS)
+        self.create_service(Trigger, topics.RESET_SERVICE, self._on_reset)
+        self.create_service(SetBool, topics.PAUSE_SERVICE, self._on_pause)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+
+        self._tick_timer = self.create_timer(self.pacer.tick_period, self._tick,
+                                             clock=self._steady)
+        self._diagnostics_timer = None
+        self._use_config()
+        self.epoch_ns = time.time_ns()  # the stamp of simulation time 0
+        self.pacer.run_from(0.0)
+        self._window = self._window_start()
+        self._start_sampling()
+        speed = ("as fast as possible" if config.as_fast_as_possible
+                 else f"time scale {config.time_scale:g}")
+        self.get_logger().info(
+            f"{model.n} coordinates (n_B = {model.n_boom_modes}, n_M = "
+            f"{model.n_membrane_modes}), step {config.integration_step:g} s, {speed}; "
+            f"booms at {config.initial_lengths.tolist()} m; stamps = {self.epoch_ns} ns + "
+            "simulation time")
+
+    # -- parameters -------------------------------------------------------------------------
+
+    def _declare(self) -> dict:
+        values = {}
+        for spec in SPECS:
+            try:
+                parameter = self.declare_parameter(spec.name, spec.default, spec.descriptor())
+            except ParameterException as error:
+                raise ConfigError(f"parameter {spec.name}: {error}") from None
+            values[spec.name] = parameter.value
+        return values
+
+    def _check_parameters(self, parameters) -> SetParametersResult:
+        """On-set: accept a change only if the whole configuration stays valid."""
+        try:
+            config_from_values({**self._values, **{p.name: p.value for p in parameters}})
+        except ConfigError as error:
+            return SetParametersResult(successful=False, reason=str(error))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters) -> None:
+        self._values.update({p.name: p.value for p in parameters})
+        self.config = config_from_values(self._values)
+        self._use_config()
+
+    def _use_config(self) -> None:
+        """Publication intervals, tick period and diagnostics timer from `self.config`."""
+        config = self.config
+        self._every_state = config.steps_between(config.state_rate_hz)
+        self._every_shape = config.steps_between(config.shape_rate_hz)
+        self.pacer.tick_steps = self._every_state
+        self._tick_timer.timer_period_ns = round(self.pacer.tick_period * 1e9)
+        period = 1.0 / config.diagnostics_rate_hz
+        if self._diagnostics_timer is None or \
+                self._diagnostics_timer.timer_period_ns != round(period * 1e9):
+            if self._diagnostics_timer is not None:
+                self.destroy_timer(self._diagnostics_timer)
+            self._diagnostics_timer = self.create_timer(period, self._publish_diagnostics,
+                                                        clock=self._steady)
+
+    # -- integration ------------------------------------------------------------------------
+
+    def _tick(self) -> None:
+        """Integrate whole grid steps up to the time due (never beyond), publishing
+        the samples that fall on them, within the tick's wall-time budget."""
+        sim = self.sim
+        due, deadline, overrun = self.pacer.tick(sim.t)
+        if overrun:
+            self.overruns += 1
+            self.get_logger().warning(
+                f"overrun at t = {sim.t:.3f} s: the model is {due - sim.t:.3g} s behind the "
+                "clock", throttle_duration_sec=5.0)
+        limit = due + 1e-9 * sim.step_size  # round-off must not cost a step
+        while sim.t + sim.step_size <= limit and time.monotonic() < deadline:
+            if not sim.step():
+                self._stop_on_error()
+                return
+            steps = sim.steps - self._sampled_from
+            if steps % self._every_state == 0:
+                self._publish_state()
+            if self._every_shape and steps % self._every_shape == 0:
+                self._publish_shape()
+
+    def _set_running(self) -> None:
+        """Tick while the simulation runs; hold the clock (and stop ticking) otherwise."""
+        if self.sim.state == RUNNING:
+            self.pacer.run_from(self.sim.t)
+            self._tick_timer.reset()
+        else:
+            self.pacer.hold(self.sim.t)
+            self._tick_timer.cancel()
+        self._window["interrupted"] = True
+
+    def _stop_on_error(self) -> None:
+        self._set_running()
+        self.get_logger().error(f"integration stopped: {self.sim.error}; call "
+                                f"{topics.RESET_SERVICE} to start again")
+        self._publish_diagnostics()
+
+    # -- commands and services ----------------------------------------------------------------
+
+    def _on_trajectory(self, message: JointTrajectory) -> None:
+        self._command(topics.BOOM_LENGTH_CMD, lambda: self.sim.follow(message, self.config.limits))
+
+    def _on_deploy(self, message: Float64) -> None:
+        self._command(topics.DEPLOY_CMD, lambda: self.sim.deploy(
+            message.data, self.config.limits, self.config.deploy_duration))
+
+    def _command(self, topic: str, run) -> None:
+        try:
+            plan = run()
+        except CommandError as error:
+            self.get_logger().warning(f"rejected {topic}: {error}")
+            return
+        self.get_logger().info(f"{topic} accepted at t = {plan.t_start:.6f} s: {plan.summary}")
+
+    def _on_reset(self, request, response):
+        self.sim.reset(self.config)
+        self._set_running()
+        self._start_sampling()
+        response.success = True
+        response.message = (f"reset to the initial state at t = {self.sim.t:.6f} s"
+                            + (" (paused)" if self.sim.paused else ""))
+        self.get_logger().info(response.message)
+        self._publish_diagnostics()
+        return response
+
+    def _on_pause(self, request, response):
+        sim = self.sim
+        if sim.paused == request.data:
+            response.message = "already " + ("paused" if sim.paused else "running")
+        else:
+            sim.paused = request.data
+            self._set_running()
+            response.message = f"{'paused' if sim.paused else 'resumed'} at t = {sim.t:.6f} s"
+            if sim.error:
+                response.message += "; the integration stays stopped until sail/reset"
+            self.get_logger().info(response.message)
+            self._publish_diagnostics()
+        response.success = True
+        return response
+
+    # -- publishing -----------------------------------------------------------------------------
+
+    def _start_sampling(self) -> None:
+        """Publish the state now; later samples follow every so many steps from here
+        (at start, and after a reset, which thereby starts a fresh series)."""
+        self._sampled_from = self.sim.steps
+        self._publish_state()
+        if self._every_shape:
+            self._publish_shape()
+
+    def _stamp(self) -> int:
+        return topics.stamp_ns(self.epoch_ns, self.sim.t)
+
+    def _publish_state(self) -> None:
+        sample, stamp, frame = self.sim.sample(), self._stamp(), self.config.frame_id
+        publish = self._outputs
+        publish[topics.BOOM_STATE].publish(
+            topics.boom_state(stamp, sample.lengths, sample.rates, frame))
+        publish[topics.MODAL_STATE].publish(
+            topics.modal_state(stamp, self.coordinate_names, sample.q, sample.qd, frame))
+        publish[topics.TIP_DEFLECTION].publish(
+            topics.tip_deflection(stamp, sample.tips, sample.tip_rates, frame))
+        if topics.CLOCK in publish:
+            publish[topics.CLOCK].publish(topics.clock(stamp))
+
+    def _publish_shape(self) -> None:
+        q, lengths = self.sim.stepper.q, self.sim.stepper.boom_motion()[0]
+        self._outputs[topics.SHAPE].publish(topics.shape(
+            self._stamp(), self.surface.vertices(q, lengths), self.surface.triangles,
+            self.surface.boom_lines(q, lengths), self.config.frame_id))
+
+    def _window_start(self) -> dict:
+        return {"wall": time.monotonic(), "t": self.sim.t, "overruns": self.overruns,
+                "rejected": self.sim.rejected, "interrupted": self.sim.state != RUNNING}
+
+    def _publish_diagnostics(self) -> None:
+        """The integrator's status over the window since the last one."""
+        sim, config, window = self.sim, self.config, self._window
+        span = time.monotonic() - window["wall"]
+        rtf = (sim.t - window["t"]) / span if span > 0 else 0.0
+        steps, mean, largest = sim.step_times.take()
+        overruns = self.overruns - window["overruns"]
+        rejected = sim.rejected - window["rejected"]
+        level, message = "OK", f"{sim.state} at {rtf:.3g}x real time"
+        if sim.error:
+            level, message = "ERROR", f"integration stopped: {sim.error}; call sail/reset"
+        elif overruns:
+            level, message = "WARN", (f"{overruns} overrun(s) in the last {span:.3g} s: the "
+                                      "integration is falling behind the clock")
+        elif (self.pacer.paced and not window["interrupted"] and span >= RTF_MIN_WINDOW_S
+              and rtf < RTF_WARN_FRACTION * config.time_scale):
+            level, message = "WARN", (f"real-time factor {rtf:.3g}, below time_scale "
+                                      f"{config.time_scale:g}")
+        elif rejected:
+            level, message = "WARN", f"rejected {rejected} command(s); last: {sim.last_rejection}"
+        values = {
+            "state": sim.state,
+            "sim_time_s": round(sim.t, 9),
+            "real_time_factor": round(rtf, 4),
+            "time_scale": config.time_scale,
+            "step_time_ms_mean": round(1e3 * mean, 4),
+            "step_time_ms_max": round(1e3 * largest, 4),
+            "steps_in_window": steps,
+            "overruns": self.overruns,
+            "accepted_commands": sim.accepted,
+            "rejected_commands": sim.rejected,
+            "last_command": sim.last_command,
+            "last_command_start_s": round(sim.last_command_start, 9),
+            "last_rejection": sim.last_rejection,
+            "motion_end_s": round(max(sim.motion.t_end, 0.0), 9),
+            "mechanical_energy_J": float(f"{sim.energy():.6g}"),
+        }
+        stamp = self._stamp()
+        self._outputs[topics.DIAGNOSTICS].publish(
+            topics.diagnostics(stamp, level, message, values))
+        if topics.CLOCK in self._outputs:  # fresh for late joiners, also while paused
+            self._outputs[topics.CLOCK].publish(topics.clock(stamp))
+        self._window = self._window_start()
+
+    def close(self) -> None:
+        """Stop integrating and give subscribers time to acknowledge what was published."""
+        self._tick_timer.cancel()
+        deadline = time.monotonic() + ACK_TIMEOUT_S
+        for publisher in self._outputs.values():
+            remaining = max(0.0, deadline - time.monotonic())
+            publisher.wait_for_all_acked(Duration(nanoseconds=int(remaining * 1e9)))
+
+
+def _parser() -> argparse.ArgumentParser:
+    lines = [f"  {spec.name} (default {spec.default!r}{', read-only' if spec.read_only else ''})"
+             f": {spec.description}" for spec in SPECS]
+    return argparse.ArgumentParser(
+        prog="sail-ros sim", description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="ROS parameters (--ros-args -p name:=value, or --params-file config/sim.yaml; "
+               "write doubles with a decimal point):\n" + "\n".join(lines))
+
+
+def main(argv=None) -> int:
+    """`sail-ros sim [--ros-args ...]`; returns the exit code."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        _, ros_argv = parse_command_line(_parser(), NODE_NAME, argv)
+    except SystemExit as exit_:
+        return exit_.code if isinstance(exit_.code, int) else 2
+    logger = get_logger(NODE_NAME)
+    with StopSignals() as stop:
+        rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            try:
+                node = SimNode()
+            except ConfigError as error:
+                logger.error(str(error))
+                return 2
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            try:
+                while not stop.event.is_set():
+                    executor.spin_once(timeout_sec=0.1)
+                node.get_logger().info(f"{stop.received}: stopping at t = {node.sim.t:.6f} s")
+            except ExternalShutdownException:
+                pass
+            finally:
+                node.close()
+                executor.remove_node(node)
+                node.destroy_node()
+            return 0
+        finally:
+            rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,226 @@
+"""The parameters of node `sail_sim`: one table, descriptors, and one validator.
+
+Each parameter is declared once from `SPECS` with a `ParameterDescriptor`
+(description with the unit, range, read-only where it fixes the model's
+structure or the time grid). `config_from_values` turns a full set of values
+into a `SimConfig`, or raises `ConfigError` naming the parameter; the node
+calls it at start-up and on every change of a writable parameter, so the
+two paths cannot disagree. config/sim.yaml lists the same defaults.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+
+from sail_ros.model import SailParameters
+from sail_ros.nodes.commands import Limits
+
+SAIL_PREFIX = "sail."
+
+
+class ConfigError(ValueError):
+    """A parameter value the simulator cannot use; the message names the parameter."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Spec:
+    """One parameter: `default` fixes its type (float, int, str, or list of float).
+
+    `minimum`/`maximum` bound the value (each element of a list); `sizes`
+    are the allowed list lengths.
+    """
+
+    name: str
+    default: object
+    description: str
+    read_only: bool
+    minimum: float | None = None
+    maximum: float | None = None
+    sizes: tuple[int, ...] = ()
+
+    def descriptor(self) -> ParameterDescriptor:
+        kind = {float: ParameterType.PARAMETER_DOUBLE, int: ParameterType.PARAMETER_INTEGER,
+                str: ParameterType.PARAMETER_STRING,
+                list: ParameterType.PARAMETER_DOUBLE_ARRAY}[type(self.default)]
+        descriptor = ParameterDescriptor(name=self.name, type=kind, description=self.description,
+                                         read_only=self.read_only)
+        if isinstance(self.default, int):
+            descriptor.integer_range = [IntegerRange(
+                from_value=int(self.minimum), to_value=int(self.maximum), step=0)]
+        elif self.minimum is not None:
+            descriptor.floating_point_range = [FloatingPointRange(
+                from_value=float(self.minimum), to_value=float(self.maximum), step=0.0)]
+        if self.sizes:
+            descriptor.additional_constraints = (
+                f"{' or '.join(map(str, self.sizes))} values (booms a, b, c, d), each in "
+                f"[{self.minimum:g}, {self.maximum:g}]")
+        return descriptor
+
+
+_DEFAULT_SAIL = SailParameters()
+_SAIL_SPECS = [
+    ("sail_side", "side a of the square sail [m]; the fully deployed boom length is a/sqrt(2)",
+     0.0, 1e4),
+    ("boom_bending_stiffness", "bending stiffness EI of each boom [N m^2]", 0.0, 1e12),
+    ("boom_linear_density", "mass per length rho_B of each boom [kg/m]", 0.0, 1e6),
+    ("membrane_thickness", "film thickness h [m]", 0.0, 1e-2),
+    ("membrane_density", "film density rho [kg/m^3]; areal density rho h", 0.0, 1e5),
+    ("membrane_prestress", "isotropic film prestress sigma [Pa]; tension N0 = sigma h",
+     0.0, 1e10),
+    ("boom_axial_load", "axial compression P the membrane puts on each boom [N]", 0.0, 1e12),
+    ("n_boom_modes", "cantilever modes per boom n_B [-]", 1, 30),
+    ("n_membrane_modes", "clamped-triangle modes per quadrant n_M [-]", 1, 100),
+]
+
+SPECS = [
+    Spec(SAIL_PREFIX + name, getattr(_DEFAULT_SAIL, name),
+         f"{text} (model.md §10; fixes the model)", True, low, high)
+    for name, text, low, high in _SAIL_SPECS
+] + [
+    Spec("initial_lengths", [10.0], "boom lengths at start and after sail/reset [m]: one value "
+         "for all booms or four (a, b, c, d), within [min_length, max_length]; a change "
+         "applies at the next reset", False, 1e-3, 1e4, sizes=(1, 4)),
+    Spec("initial_tip_deflection", [0.0, 0.0, 0.0, 0.0], "tip deflection of each boom at start "
+         "and after sail/reset [m], +z of the sail frame, as that boom's first cantilever "
+         "mode; one value or four (a, b, c, d); a change applies at the next reset",
+         False, -10.0, 10.0, sizes=(1, 4)),
+    Spec("min_length", 1.0, "shortest boom length a command may ask for or pass through [m]",
+         False, 1e-3, 1e4),
+    Spec("max_length", 70.71, "longest boom length a command may ask for or pass through [m] "
+         "(default: the 100 m sail fully deployed, a/sqrt(2) rounded down)", False, 1e-3, 1e4),
+    Spec("max_rate", 1.0, "largest |extension rate| of a commanded motion [m/s]",
+         False, 1e-6, 100.0),
+    Spec("max_acceleration", 0.5, "largest |extension acceleration| of a commanded motion "
+         "[m/s^2]", False, 1e-6, 100.0),
+    Spec("deploy_duration", 0.0, "duration of a sail/deploy_cmd motion [s]; 0: the fastest "
+         "within max_rate and max_acceleration", False, 0.0, 1e6),
+    Spec("state_rate_hz", 50.0, "boom_state, modal_state, tip_deflection (and /clock) per "
+         "second of simulation time [Hz], rounded to whole integration steps",
+         False, 0.01, 1000.0),
+    Spec("shape_rate_hz", 5.0, "sail/shape markers per second of simulation time [Hz], "
+         "rounded to whole integration steps; 0: none", False, 0.0, 1000.0),
+    Spec("diagnostics_rate_hz", 1.0, "/diagnostics per second of wall time [Hz]; also the "
+         "window of the statistics it reports", False, 0.01, 100.0),
+    Spec("integration_step", 0.01, "time step of the simulation grid [s]; each is split "
+         "further where the shortest boom's first bending mode needs it",
+         True, 1e-4, 0.2),
+    Spec("time_scale", 1.0, "simulation seconds per wall-clock second [-]: 1 follows the "
+         "wall clock; other values publish /clock; 0 or negative: as fast as possible",
+         True, -1.0, 1000.0),
+    Spec("frame_id", "sail", "frame of every published state and marker", True),
+    Spec("shape_divisions", 10, "mesh subdivisions of each quadrant edge in sail/shape [-]",
+         True, 1, 50),
+]
+SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
+DEFAULTS = {spec.name: spec.default for spec in SPECS}
+
+
+@dataclasses.dataclass(frozen=True)
+class SimConfig:
+    """Validated parameters of the simulator (SI units; see SPECS)."""
+
+    sail: SailParameters
+    initial_lengths: np.ndarray  # (4,) m
+    initial_tip_deflection: np.ndarray  # (4,) m
+    limits: Limits
+    deploy_duration: float
+    state_rate_hz: float
+    shape_rate_hz: float
+    diagnostics_rate_hz: float
+    integration_step: float
+    time_scale: float
+    frame_id: str
+    shape_divisions: int
+
+    @property
+    def as_fast_as_possible(self) -> bool:
+        return self.time_scale <= 0.0
+
+    def steps_between(self, rate_hz: float) -> int:
+        """Integration steps between two publications at `rate_hz` [Hz of sim time]
+        (0: never)."""
+        if rate_hz <= 0.0:
+            return 0
+        return max(1, round(1.0 / (rate_hz * self.integration_step)))
+
+
+def config_from_values(values: dict) -> SimConfig:
+    """A `SimConfig` from parameter name -> value (missing names take their default).
+
+    Raises:
+        ConfigError: a value of the wrong type, out of range, or inconsistent
+            with another (the message names the parameter and says why).
+    """
+    values = {**DEFAULTS, **values}
+    for name, value in values.items():
+        spec = SPEC_BY_NAME.get(name)
+        if spec is not None:
+            _check(spec, value)
+    try:
+        sail = SailParameters.from_dict({name[len(SAIL_PREFIX):]: values[name]
+                                         for name in values if name.startswith(SAIL_PREFIX)})
+    except ValueError as error:
+        raise ConfigError(f"{SAIL_PREFIX}{error}") from None
+    limits = Limits(float(values["min_length"]), float(values["max_length"]),
+                    float(values["max_rate"]), float(values["max_acceleration"]))
+    if not limits.min_length < limits.max_length:
+        raise ConfigError(f"min_length ({limits.min_length:g} m) must be below max_length "
+                          f"({limits.max_length:g} m)")
+    lengths = _per_boom(values["initial_lengths"])
+    if np.any(lengths < limits.min_length) or np.any(lengths > limits.max_length):
+        raise ConfigError(f"initial_lengths {lengths.tolist()} m must lie in [min_length, "
+                          f"max_length] = [{limits.min_length:g}, {limits.max_length:g}] m")
+    step = float(values["integration_step"])
+    for name in ("state_rate_hz", "shape_rate_hz"):
+        if values[name] * step > 1.0 + 1e-9:
+            raise ConfigError(f"{name} = {values[name]:g} Hz is faster than the integration "
+                              f"step allows (at most 1 / integration_step = {1 / step:g} Hz)")
+    return SimConfig(
+        sail=sail,
+        initial_lengths=lengths,
+        initial_tip_deflection=_per_boom(values["initial_tip_deflection"]),
+        limits=limits,
+        deploy_duration=float(values["deploy_duration"]),
+        state_rate_hz=float(values["state_rate_hz"]),
+        shape_rate_hz=float(values["shape_rate_hz"]),
+        diagnostics_rate_hz=float(values["diagnostics_rate_hz"]),
+        integration_step=step,
+        time_scale=float(values["time_scale"]),
+        frame_id=str(values["frame_id"]),
+        shape_divisions=int(values["shape_divisions"]),
+    )
+
+
+def _check(spec: Spec, value) -> None:
+    kind = type(spec.default)
+    if kind is list:
+        if isinstance(value, str | bytes) or not hasattr(value, "__len__"):
+            raise ConfigError(f"{spec.name} must be a list of numbers, like "
+                              f"{spec.default!r}; got {value!r}")
+        items = list(value)
+        if len(items) not in spec.sizes:
+            raise ConfigError(f"{spec.name} must hold {' or '.join(map(str, spec.sizes))} "
+                              f"values, got {len(items)}")
+    elif kind is float and isinstance(value, int) and not isinstance(value, bool):
+        raise ConfigError(f"{spec.name} must be a double: write {value}.0, not {value}")
+    elif not isinstance(value, kind) or isinstance(value, bool):
+        raise ConfigError(f"{spec.name} must be a {kind.__name__}, got {value!r}")
+    else:
+        items = [value]
+    if spec.minimum is None:
+        return
+    for item in items:
+        if isinstance(item, bool) or not isinstance(item, int | float):
+            raise ConfigError(f"{spec.name} must hold numbers, got {item!r}")
+        if not (math.isfinite(item) and spec.minimum <= item <= spec.maximum):
+            raise ConfigError(f"{spec.name} = {item!r} is outside [{spec.minimum:g}, "
+                              f"{spec.maximum:g}]")
+
+
+def _per_boom(values) -> np.ndarray:
+    array = np.asarray(list(values), dtype=float)
+    return np.repeat(array, 4) if array.size == 1 else array

@@ -1,0 +1,196 @@
+"""The simulator without ROS: the sail's state on a fixed time grid, commands, reset.
+
+`Simulation` owns a `SailStepper` and advances it one grid step
+(`integration_step`) at a time, so published samples fall on the grid
+whatever the wall clock does. A grid step is split into equal sub-steps
+where the shortest boom's first cantilever frequency `omega_1` needs it
+(`omega_1 h_sub <= PHASE_PER_STEP`, the stepper's own accuracy rule); the
+sub-step is the same from step to step, which lets the stepper reuse its
+exact propagator while the booms stand still.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+from sail_ros.model import IntegrationError, SailModel, StaticProfile
+from sail_ros.model.basis import cantilever_roots
+from sail_ros.model.stepper import PHASE_PER_STEP
+from sail_ros.nodes.boom_motion import BoomMotion
+from sail_ros.nodes.commands import (
+    BoomState,
+    CommandError,
+    Limits,
+    Plan,
+    plan_deploy,
+    plan_trajectory,
+)
+from sail_ros.nodes.sim_params import SimConfig
+
+RUNNING, PAUSED, ERROR = "running", "paused", "error"
+
+
+class Sample(NamedTuple):
+    """The state at time `t` [s]: boom lengths [m] and rates [m/s], coordinates q [m]
+    and velocities qd [m/s], tip deflections [m] and their rates [m/s]."""
+
+    t: float
+    lengths: np.ndarray
+    rates: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tips: np.ndarray
+    tip_rates: np.ndarray
+
+
+class StepStatistics:
+    """Wall time per grid step [s] over a window: count, mean, max."""
+
+    def __init__(self):
+        self.count, self.total, self.largest = 0, 0.0, 0.0
+
+    def add(self, seconds: float) -> None:
+        self.count += 1
+        self.total += seconds
+        self.largest = max(self.largest, seconds)
+
+    def take(self) -> tuple[int, float, float]:
+        """`(count, mean, max)` of the window so far; a new window starts."""
+        window = (self.count, self.total / self.count if self.count else 0.0, self.largest)
+        self.count, self.total, self.largest = 0, 0.0, 0.0
+        return window
+
+
+def initial_coordinates(model: SailModel, tip_deflections) -> np.ndarray:
+    """q with each boom bent in its first cantilever mode to the given tip
+    deflection [m] (booms a..d), membranes flat."""
+    return sum(model.mode_state(boom, float(tip))
+               for boom, tip in zip("abcd", tip_deflections, strict=True))
+
+
+class Simulation:
+    """The sail's state, stepped on a grid of `config.integration_step` [s] from t = 0.
+
+    Commands and reset act at the current grid time `t`. After an
+    `IntegrationError` the state stays at its last finite value and `step`
+    refuses to go on until `reset`.
+    """
+
+    def __init__(self, model: SailModel, config: SimConfig):
+        self.model = model
+        self.step_size = config.integration_step
+        params = model.params
+        # omega_1 L^2 of a bare cantilever: beta_1^2 sqrt(EI / rho_B)
+        self._cantilever = cantilever_roots(1)[0] ** 2 * math.sqrt(
+            params.boom_bending_stiffness / params.boom_linear_density)
+        self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
+        self.stepper = model.stepper(
+            self.motion, q0=initial_coordinates(model, config.initial_tip_deflection),
+            max_step=self.step_size)
+        self.steps = 0  # grid steps taken since start
+        self.paused = False
+        self.error: str | None = None
+        self.accepted = 0
+        self.rejected = 0
+        self.last_command = ""  # summary of the last accepted command
+        self.last_command_start = math.nan  # its start time [s]
+        self.last_rejection = ""
+        self.step_times = StepStatistics()
+
+    # -- state ------------------------------------------------------------------------------
+
+    @property
+    def t(self) -> float:
+        """Simulation time [s]."""
+        return self.stepper.t
+
+    @property
+    def state(self) -> str:
+        """"error", "paused" or "running"."""
+        return ERROR if self.error else PAUSED if self.paused else RUNNING
+
+    def boom_state(self) -> BoomState:
+        return BoomState(self.t, *self.stepper.boom_motion())
+
+    def sample(self) -> Sample:
+        lengths, rates, _ = self.stepper.boom_motion()
+        q, qd = self.stepper.q, self.stepper.qd
+        return Sample(self.t, lengths, rates, q, qd, self.model.tip_deflections(q),
+                      self.model.tip_deflections(qd))
+
+    def energy(self) -> float:
+        """Mechanical energy [J] (model.md §7); inf or nan once the state has blown up."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            return self.stepper.energy()
+
+    def substeps(self) -> int:
+        """Sub-steps the next grid step needs for the shortest boom's first mode."""
+        omega = self._cantilever / float(np.min(self.stepper.boom_motion()[0])) ** 2
+        return max(1, math.ceil(self.step_size * omega / PHASE_PER_STEP - 1e-9))
+
+    # -- stepping ---------------------------------------------------------------------------
+
+    def step(self) -> bool:
+        """Advance one grid step; False (and `error` set) if the state became non-finite."""
+        if self.error:
+            return False
+        count = self.substeps()
+        h = self.step_size / count
+        started = time.perf_counter()
+        try:
+            for _ in range(count):
+                self.stepper.step(h)
+        except IntegrationError as error:
+            self.error = str(error)
+            return False
+        self.step_times.add(time.perf_counter() - started)
+        self.steps += 1
+        return True
+
+    def reset(self, config: SimConfig) -> None:
+        """Back to the initial lengths (at rest) and tip deflections of `config`, at
+        the current time; clears an error. The pause state is kept."""
+        self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
+        self.stepper.profile = self.motion
+        self.stepper.reset(initial_coordinates(self.model, config.initial_tip_deflection),
+                           None, self.t)
+        self.error = None
+
+    # -- commands ---------------------------------------------------------------------------
+
+    def deploy(self, target: float, limits: Limits, duration: float = 0.0) -> Plan:
+        """All booms to `target` [m] (see `plan_deploy`), starting now.
+
+        Raises:
+            CommandError: why (counted in `rejected`); the motion is unchanged.
+        """
+        return self._command(lambda now: plan_deploy(target, now, limits, duration))
+
+    def follow(self, trajectory, limits: Limits) -> Plan:
+        """The named booms along a JointTrajectory-like command (see
+        `plan_trajectory`), starting now.
+
+        Raises:
+            CommandError: why (counted in `rejected`); the motion is unchanged.
+        """
+        return self._command(lambda now: plan_trajectory(trajectory, now, limits))
+
+    def _command(self, make_plan) -> Plan:
+        try:
+            if self.error:
+                raise CommandError("the integration stopped on a non-finite state; call "
+                                   "sail/reset first")
+            plan = make_plan(self.boom_state())
+        except CommandError as error:
+            self.rejected += 1
+            self.last_rejection = str(error)
+            raise
+        self.motion = self.motion.replaced(plan.profile, plan.booms)
+        self.stepper.profile = self.motion
+        self.accepted += 1
+        self.last_command, self.last_command_start = plan.summary, plan.t_start
+        return plan

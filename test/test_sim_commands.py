@@ -1,0 +1,382 @@
+"""The simulator's pure parts: command checks and planning, boom motion, the
+grid-stepping core, pacing, the parameter table and the message builders.
+No ROS runtime."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from builtin_interfaces.msg import Duration
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from visualization_msgs.msg import Marker
+
+from sail_ros import topics
+from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointProfile
+from sail_ros.model.shape import SailSurface
+from sail_ros.nodes.boom_motion import BoomMotion
+from sail_ros.nodes.commands import BoomState, CommandError, Limits, plan_deploy, plan_trajectory
+from sail_ros.nodes.pacing import Pacer
+from sail_ros.nodes.sim_params import DEFAULTS, SPECS, ConfigError, config_from_values
+from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation, initial_coordinates
+
+ROOT = Path(__file__).resolve().parents[1]
+LIMITS = Limits(min_length=1.0, max_length=70.0, max_rate=1.0, max_acceleration=0.5)
+REST = BoomState(2.0, np.full(4, 10.0), np.zeros(4), np.zeros(4))
+
+
+def trajectory(names, *points, **fields):
+    """A JointTrajectory; each point is (positions, time_from_start [s])."""
+    message = JointTrajectory(joint_names=list(names))
+    for positions, seconds in points:
+        sec = math.floor(seconds)
+        point = JointTrajectoryPoint(positions=list(positions),
+                                     time_from_start=Duration(sec=sec,
+                                                              nanosec=round((seconds - sec) * 1e9)))
+        for name, value in fields.items():
+            setattr(point, name, value)
+        message.points.append(point)
+    return message
+
+
+# -- trajectories -------------------------------------------------------------------------------
+
+def test_trajectory_passes_through_points_and_others_are_untouched():
+    plan = plan_trajectory(trajectory(["boom_c", "boom_a"], ([11.0, 11.5], 6.0),
+                                      ([12.0, 12.0], 12.0)), REST, LIMITS)
+    assert plan.booms == (2, 0)
+    assert (plan.t_start, plan.t_end) == (2.0, 14.0)
+    for t, (c, a) in [(2.0, (10.0, 10.0)), (8.0, (11.0, 11.5)), (14.0, (12.0, 12.0)),
+                      (30.0, (12.0, 12.0))]:
+        lengths, rates, _ = plan.profile(t)
+        assert (lengths[2], lengths[0]) == pytest.approx((c, a), abs=1e-12)
+    assert np.all(plan.profile(14.0)[1] == 0.0)  # at rest at the last point
+    assert "boom_c, boom_a: 2 point(s) over 12 s" in plan.summary
+
+
+def test_trajectory_starts_from_the_current_rates():
+    moving = BoomState(0.0, np.array([10.0, 11.0, 12.0, 13.0]), np.array([0.3, 0.0, -0.2, 0.0]),
+                       np.zeros(4))
+    plan = plan_trajectory(trajectory(["boom_a", "boom_c"], ([12.0, 12.0], 10.0)), moving, LIMITS)
+    lengths, rates, _ = plan.profile(0.0)
+    assert lengths[[0, 2]] == pytest.approx([10.0, 12.0])
+    assert rates[[0, 2]] == pytest.approx([0.3, -0.2])
+    # just after the start the rate has not jumped (continuous rate)
+    assert plan.profile(1e-6)[1][[0, 2]] == pytest.approx([0.3, -0.2], abs=1e-5)
+
+
+BAD_TRAJECTORIES = {
+    "no names": (trajectory([], ([], 1.0)), "no joint_names"),
+    "unknown name": (trajectory(["boom_a", "mast"], ([11.0, 11.0], 1.0)),
+                     "unknown joint name\\(s\\) 'mast'"),
+    "repeated name": (trajectory(["boom_b", "boom_b"], ([11.0, 11.0], 5.0)),
+                      "'boom_b' given more than once"),
+    "no points": (trajectory(["boom_a"]), "no points"),
+    "too few positions": (trajectory(["boom_a", "boom_b"], ([11.0], 5.0)),
+                          "point 0 has 1 positions for 2 joint names"),
+    "too many positions": (trajectory(["boom_a"], ([11.0], 5.0), ([11.0, 12.0], 9.0)),
+                           "point 1 has 2 positions for 1 joint names"),
+    "velocities": (trajectory(["boom_a"], ([11.0], 5.0), velocities=[0.0]),
+                   "point 0: velocities are not supported"),
+    "zero time": (trajectory(["boom_a"], ([11.0], 0.0)),
+                  "point 0: time_from_start 0 s must be > 0"),
+    "negative time": (trajectory(["boom_a"], ([11.0], -2.0)), "time_from_start -2 s must be > 0"),
+    "times not increasing": (trajectory(["boom_a"], ([11.0], 5.0), ([12.0], 5.0)),
+                             "point 1: time_from_start 5 s must be > that of point 0 \\(5 s\\)"),
+    "nan length": (trajectory(["boom_a"], ([math.nan], 5.0)), "point 0: boom_a is nan"),
+    "inf length": (trajectory(["boom_a"], ([math.inf], 5.0)), "point 0: boom_a is inf"),
+    "too short": (trajectory(["boom_d"], ([0.5], 50.0)),
+                  "boom_d = 0.5 m is outside \\[min_length, max_length\\] = \\[1, 70\\] m"),
+    "too long": (trajectory(["boom_d"], ([70.5], 500.0)), "boom_d = 70.5 m is outside"),
+    "too fast": (trajectory(["boom_a"], ([40.0], 30.0)),
+                 "boom_a would move at 1.5 m/s, above max_rate 1 m/s"),
+    "too abrupt": (trajectory(["boom_b"], ([10.4], 1.0)),
+                   "boom_b would accelerate at 2.4 m/s\\^2, above max_acceleration 0.5"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_TRAJECTORIES, ids=str)
+def test_bad_trajectory_is_rejected_with_its_reason(case):
+    message, reason = BAD_TRAJECTORIES[case]
+    with pytest.raises(CommandError, match=reason):
+        plan_trajectory(message, REST, LIMITS)
+
+
+def test_spline_overshoot_beyond_the_limits_is_rejected():
+    # moving out at 0.5 m/s, 0.4 m below max_length, asked to stop 0.3 m further in 8 s:
+    # the spline carries the boom to 70.12 m first
+    moving = BoomState(0.0, np.array([69.5, 10.0, 10.0, 10.0]), np.array([0.5, 0, 0, 0]),
+                       np.zeros(4))
+    with pytest.raises(CommandError, match="boom_a would pass through 70.12 m on the way"):
+        plan_trajectory(trajectory(["boom_a"], ([69.6], 8.0)), moving, LIMITS)
+    assert plan_trajectory(trajectory(["boom_a"], ([69.6], 4.0)), moving, LIMITS)
+
+
+# -- deployment ---------------------------------------------------------------------------------
+
+def test_deploy_from_rest_is_the_fastest_cycloidal_within_limits():
+    plan = plan_deploy(15.0, REST, LIMITS)
+    assert isinstance(plan.profile, CycloidalProfile)
+    # travel 5 m: rate-limited 2*5/1 = 10 s vs acceleration-limited sqrt(2 pi 5 / 0.5) = 7.9 s
+    assert plan.profile.duration == pytest.approx(10.0)
+    assert (plan.t_start, plan.t_end, plan.booms) == (2.0, 12.0, (0, 1, 2, 3))
+
+
+def test_deploy_duration_is_honoured_or_rejected():
+    plan = plan_deploy(15.0, REST, LIMITS, duration=15.0)  # model.md §9 reference
+    assert plan.profile.duration == 15.0
+    assert plan.profile(9.5)[1] == pytest.approx(np.full(4, 2 * 5 / 15))  # peak rate at T/2
+    with pytest.raises(CommandError, match="a 4 s deployment to 15 m needs 2.5 m/s and 1.963"):
+        plan_deploy(15.0, REST, LIMITS, duration=4.0)
+
+
+@pytest.mark.parametrize(("target", "reason"), [
+    (math.nan, "target is nan, not a finite length"),
+    (-math.inf, "target is -inf"),
+    (0.9, "target = 0.9 m is outside"),
+    (80.0, "target = 80 m is outside"),
+], ids=str)
+def test_bad_deploy_target_is_rejected(target, reason):
+    with pytest.raises(CommandError, match=reason):
+        plan_deploy(target, REST, LIMITS)
+
+
+def test_deploy_while_moving_continues_smoothly_within_limits():
+    now = BoomState(3.0, np.array([12.0, 12.0, 11.0, 11.0]), np.array([0.8, 0.8, -0.5, 0.0]),
+                    np.array([0.1, 0.1, 0.0, 0.0]))
+    plan = plan_deploy(11.5, now, LIMITS)
+    assert isinstance(plan.profile, WaypointProfile)
+    lengths, rates, _ = plan.profile(now.t)
+    assert lengths == pytest.approx(now.lengths) and rates == pytest.approx(now.rates)
+    lengths, rates, accelerations = plan.profile(plan.t_end)
+    assert lengths == pytest.approx(np.full(4, 11.5)) and not np.any(rates)
+    low, high, rate, acceleration = plan.profile.extremes()
+    assert np.all(rate <= LIMITS.max_rate) and np.all(acceleration <= LIMITS.max_acceleration)
+    # the quickest such move: 10 % shorter breaks a limit
+    shorter = WaypointProfile([now.t, now.t + (plan.t_end - now.t) / 1.1],
+                              [now.lengths, np.full(4, 11.5)], start_rates=now.rates)
+    _, _, rate, acceleration = shorter.extremes()
+    assert np.any(rate > LIMITS.max_rate) or np.any(acceleration > LIMITS.max_acceleration)
+
+
+# -- boom motion --------------------------------------------------------------------------------
+
+def test_boom_motion_takes_each_boom_from_its_own_profile():
+    hold = StaticProfile([10.0, 11.0, 12.0, 13.0])
+    deploy = CycloidalProfile(10.0, 20.0, 10.0, t0=1.0)
+    motion = BoomMotion([hold] * 4).replaced(deploy, (1, 3))
+    lengths, rates, _ = motion(6.0)
+    assert lengths == pytest.approx([10.0, 15.0, 12.0, 15.0])
+    assert rates == pytest.approx([0.0, 2.0, 0.0, 2.0])
+    assert motion.is_static(0.0, 0.5) and not motion.is_static(5.0, 6.0)
+    assert motion.t_end == 11.0 and BoomMotion([hold] * 4).t_end == -math.inf
+
+
+# -- the simulation core ------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def config():
+    return config_from_values({"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0],
+                               "max_rate": 1.0, "max_acceleration": 0.5})
+
+
+@pytest.fixture(scope="module")
+def model(config):
+    return SailModel(config.sail)
+
+
+def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
+    sim = Simulation(model, config)
+    for _ in range(100):
+        assert sim.step()
+    sim.deploy(12.0, config.limits)
+    while sim.steps < 600:
+        assert sim.step()
+    assert sim.t == pytest.approx(6.0, abs=1e-12)
+    assert sim.accepted == 1 and sim.last_command_start == pytest.approx(1.0)
+    # the same motion offline, on the same step: agreement to round-off
+    profile = CycloidalProfile.within_limits(10.0, 12.0, 1.0, 0.5, t0=sim.last_command_start)
+    _, q, _ = model.simulate(profile, 6.0, initial_coordinates(model, [0.1, 0, 0, 0]),
+                             t_eval=[6.0], max_step=0.01)
+    assert sim.stepper.q == pytest.approx(q[0], abs=1e-12)
+    assert sim.sample().lengths == pytest.approx(profile(6.0)[0])
+
+
+def test_short_booms_get_sub_steps(model, config):
+    short = config_from_values({**DEFAULTS, "initial_lengths": [1.5]})
+    sim = Simulation(model, short)
+    # omega_1 = 1.8751^2 sqrt(6000 / 0.1) / 1.5^2 = 383 rad/s: 0.01 s needs ceil(3.83 / 1.5) = 3
+    assert sim.substeps() == 3
+    assert Simulation(model, config).substeps() == 1
+    assert sim.step() and sim.stepper.steps_taken == 3 and sim.t == pytest.approx(0.01)
+
+
+def test_rejected_command_leaves_the_state_alone(model, config):
+    reference, sim = Simulation(model, config), Simulation(model, config)
+    for _ in range(50):
+        reference.step()
+        sim.step()
+    with pytest.raises(CommandError, match="above max_rate"):
+        sim.follow(trajectory(["boom_a"], ([20.0], 5.0)), config.limits)
+    assert (sim.rejected, sim.accepted) == (1, 0) and "above max_rate" in sim.last_rejection
+    for _ in range(50):
+        reference.step()
+        sim.step()
+    assert np.array_equal(sim.stepper.q, reference.stepper.q)
+
+
+def test_non_finite_state_stops_until_reset(config):
+    buckling = config_from_values({**DEFAULTS, "sail.boom_axial_load": 1e6,
+                                   "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
+    sim = Simulation(SailModel(buckling.sail), buckling)
+    while sim.step():
+        assert sim.steps < 1000, "the buckled booms should diverge within 10 s"
+    assert sim.state == ERROR and "non-finite" in sim.error
+    assert np.all(np.isfinite(sim.stepper.q))  # the last finite state is kept
+    t = sim.t
+    assert not sim.step() and sim.t == t
+    with pytest.raises(CommandError, match="call sail/reset first"):
+        sim.deploy(12.0, buckling.limits)
+    sim.paused = True
+    sim.reset(config_from_values({**DEFAULTS, "sail.boom_axial_load": 1e6}))  # no tip: stays 0
+    assert sim.state == PAUSED and sim.t == t and not np.any(sim.stepper.q)
+    sim.paused = False
+    assert sim.state == RUNNING and all(sim.step() for _ in range(100))
+
+
+# -- pacing -------------------------------------------------------------------------------------
+
+class FakeClock:
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+
+def test_pacer_follows_the_steady_clock_without_drift():
+    clock = FakeClock()
+    pacer = Pacer(2.0, 0.01, tick_steps=2, now=clock)
+    assert pacer.tick_period == pytest.approx(0.01)  # 2 steps of 0.01 s at 2x
+    pacer.tick_steps = 1
+    assert pacer.tick_period == 0.005  # the floor
+    pacer.run_from(0.0)
+    clock.now += 1.25
+    assert pacer.due() == pytest.approx(2.5)
+    pacer.hold(2.5)
+    clock.now += 10.0  # paused time does not count
+    assert pacer.due() == 2.5
+    pacer.run_from(2.5)
+    clock.now += 0.5
+    assert pacer.due() == pytest.approx(3.5)
+    unpaced = Pacer(0.0, 0.01, 2, now=clock)
+    unpaced.run_from(0.0)
+    assert unpaced.tick_period == 0.0 and unpaced.due() == math.inf
+
+
+def test_overrun_is_a_tick_more_than_one_step_late_or_left_behind():
+    clock = FakeClock()
+    pacer = Pacer(1.0, 0.01, now=clock)
+    pacer.run_from(0.0)
+    t, overruns = 0.0, []
+    for delay in [0.01, 0.0105, 0.0095, 0.0199, 0.0201, 0.01]:  # wall time between ticks
+        clock.now += delay
+        due, deadline, overrun = pacer.tick(t)
+        assert deadline == pytest.approx(clock.now + pacer.budget)
+        overruns.append(overrun)
+        t = math.floor(due / 0.01 + 1e-9) * 0.01  # the tick caught up
+    assert overruns == [False, False, False, False, True, False]
+    clock.now += 0.01
+    due, _, _ = pacer.tick(t)
+    clock.now += 0.01  # this tick could not catch up (out of budget)
+    assert pacer.tick(t)[2] is True
+
+
+# -- parameters ---------------------------------------------------------------------------------
+
+def test_config_file_holds_the_defaults():
+    document = yaml.safe_load((ROOT / "config/sim.yaml").read_text())
+    values = document["sail_sim"]["ros__parameters"]
+    flat = {f"sail.{key}": value for key, value in values.pop("sail").items()} | values
+    assert flat == DEFAULTS
+    sail = yaml.safe_load((ROOT / "config/sail.yaml").read_text())["sail"]
+    assert {f"sail.{key}": value for key, value in sail.items()} == \
+        {name: value for name, value in DEFAULTS.items() if name.startswith("sail.")}
+
+
+def test_every_parameter_is_described_with_unit_and_range():
+    for spec in SPECS:
+        descriptor = spec.descriptor()
+        assert descriptor.description and descriptor.name == spec.name
+        if spec.name != "frame_id":
+            assert "[" in spec.description, f"{spec.name}: no unit"
+            assert descriptor.floating_point_range or descriptor.integer_range
+        assert descriptor.read_only == (spec.name.startswith("sail.") or spec.name in
+                                        {"integration_step", "time_scale", "frame_id",
+                                         "shape_divisions"})
+
+
+@pytest.mark.parametrize(("change", "reason"), [
+    ({"min_length": 20.0, "max_length": 15.0}, "min_length \\(20 m\\) must be below max_length"),
+    ({"initial_lengths": [10.0, 10.0, 80.0, 10.0]}, "initial_lengths .* must lie in"),
+    ({"initial_lengths": [10.0, 10.0]}, "initial_lengths must hold 1 or 4 values, got 2"),
+    ({"max_rate": 2}, "max_rate must be a double: write 2.0, not 2"),
+    ({"max_rate": -1.0}, "max_rate = -1.0 is outside"),
+    ({"initial_tip_deflection": [math.nan]}, "initial_tip_deflection = nan is outside"),
+    ({"state_rate_hz": 200.0}, "state_rate_hz = 200 Hz is faster than the integration step"),
+    ({"sail.sail_side": 0.0}, "sail.sail_side must be > 0"),
+    ({"frame_id": 3}, "frame_id must be a str"),
+], ids=str)
+def test_bad_configuration_names_the_parameter(change, reason):
+    with pytest.raises(ConfigError, match=reason):
+        config_from_values(change)
+
+
+def test_publication_intervals_round_to_whole_steps():
+    config = config_from_values({"state_rate_hz": 30.0, "shape_rate_hz": 0.0})
+    assert config.steps_between(config.state_rate_hz) == 3  # 1 / (30 * 0.01) = 3.33
+    assert config.steps_between(config.shape_rate_hz) == 0  # off
+
+
+# -- message builders ---------------------------------------------------------------------------
+
+def test_state_messages_carry_stamp_frame_names_and_values():
+    stamp = topics.stamp_ns(1_700_000_000_123_000_000, 2.5)
+    message = topics.boom_state(stamp, [10.0, 11.0, 12.0, 13.0], [0.0, 0.1, 0.2, 0.3])
+    assert (message.header.stamp.sec, message.header.stamp.nanosec) == (1_700_000_002, 623_000_000)
+    assert message.header.frame_id == "sail" and message.name == list(topics.BOOM_JOINTS)
+    assert list(message.position) == [10.0, 11.0, 12.0, 13.0]
+    assert list(message.velocity) == [0.0, 0.1, 0.2, 0.3]
+    tips = topics.tip_deflection(stamp, [0.1, 0, 0, 0], [0, 0, 0, 0], frame_id="body")
+    assert tips.name == ["boom_a_tip", "boom_b_tip", "boom_c_tip", "boom_d_tip"]
+    assert tips.header.frame_id == "body"
+    status = topics.diagnostics(stamp, "WARN", "why", {"state": "running", "overruns": 3})
+    assert status.status[0].level == topics.LEVELS["WARN"]
+    assert topics.diagnostic_values(status) == {"state": "running", "overruns": "3"}
+
+
+def test_shape_markers_draw_the_deflected_membrane_and_the_booms(model):
+    surface = SailSurface(model, 4)
+    q = initial_coordinates(model, [0.1, 0.0, 0.0, -0.05])
+    lengths = [10.0, 11.0, 12.0, 13.0]
+    vertices = surface.vertices(q, lengths)
+    markers = topics.shape(5, vertices, surface.triangles, surface.boom_lines(q, lengths)).markers
+    membrane, booms = markers[0], markers[1:]
+    assert (membrane.ns, membrane.type, membrane.header.frame_id) == \
+        ("membrane", Marker.TRIANGLE_LIST, "sail")
+    assert len(membrane.points) == len(membrane.colors) == 3 * len(surface.triangles)
+    corner = surface.triangles[7, 1]
+    assert (membrane.points[7 * 3 + 1].x, membrane.points[7 * 3 + 1].z) == \
+        (vertices[corner, 0], vertices[corner, 2])
+    # colours scale with the largest |height| (0.1 m at tip a): red there, half blue at tip d
+    heights = [p.z for p in membrane.points]
+    top, bottom = membrane.colors[int(np.argmax(heights))], membrane.colors[int(np.argmin(heights))]
+    assert (top.r, top.g, top.b) == (1.0, 0.0, 0.0)
+    assert (bottom.r, bottom.g, bottom.b) == pytest.approx((0.5, 0.5, 1.0))
+    assert [(m.ns, m.id, m.type) for m in booms] == [("booms", k, Marker.LINE_STRIP)
+                                                     for k in range(4)]
+    tip_a = booms[0].points[-1]
+    assert (tip_a.x, tip_a.y, tip_a.z) == pytest.approx((10.0, 0.0, 0.1))
+    assert booms[3].points[-1].y == pytest.approx(-13.0)
+    assert all(m.pose.orientation.w == 1.0 for m in markers)

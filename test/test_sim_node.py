@@ -1,0 +1,183 @@
+"""Node `sail_sim` in this process: a private rclpy Context, its own executor,
+and a client node in the same context talking to it over (loopback) DDS."""
+
+import math
+import os
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import DescribeParameters, SetParameters
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool, Trigger
+
+from sail_ros import topics
+from sail_ros.nodes.sim import SimNode, main
+from sail_ros.nodes.sim_params import SPECS, ConfigError
+from sail_ros.nodes.simulation import initial_coordinates
+
+DOMAIN_ID = 101 + os.getpid() % 50
+
+
+@pytest.fixture
+def ros(monkeypatch, tmp_path):
+    """A private context on a test-private domain, localhost only; yields a factory
+    `start(**parameters) -> (sim node, client node, spin_until)`."""
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path))
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=DOMAIN_ID)
+    executor = SingleThreadedExecutor(context=context)
+    nodes = []
+
+    def spin_until(condition, timeout, what):
+        deadline = time.monotonic() + timeout
+        while not condition():
+            assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
+            executor.spin_once(timeout_sec=0.01)
+
+    def start(**parameters):
+        overrides = [Parameter(name, value=value) for name, value in parameters.items()]
+        sim = SimNode(overrides, context=context)
+        client = Client(context)
+        for node in (sim, client):
+            executor.add_node(node)
+            nodes.append(node)
+        spin_until(lambda: client.diagnostics, 5.0, "the first diagnostics")
+        return sim, client, spin_until
+
+    yield start
+    for node in nodes:
+        executor.remove_node(node)
+        node.destroy_node()
+    executor.shutdown()
+    rclpy.shutdown(context=context)
+
+
+class Client(Node):
+    """Subscribes to the simulator's outputs and holds clients of its services."""
+
+    def __init__(self, context):
+        super().__init__("sim_test_client", context=context)
+        self.boom_states, self.clocks, self.diagnostics = [], [], []
+        self.create_subscription(JointState, topics.BOOM_STATE, self.boom_states.append,
+                                 topics.STATE_QOS)
+        self.create_subscription(Clock, topics.CLOCK, self.clocks.append, topics.CLOCK_QOS)
+        self.create_subscription(DiagnosticArray, topics.DIAGNOSTICS,
+                                 lambda m: self.diagnostics.append(topics.diagnostic_values(m)),
+                                 topics.DIAGNOSTICS_QOS)
+        self.describe = self.create_client(DescribeParameters, "/sail_sim/describe_parameters")
+        self.set = self.create_client(SetParameters, "/sail_sim/set_parameters")
+        self.reset = self.create_client(Trigger, topics.RESET_SERVICE)
+        self.pause = self.create_client(SetBool, topics.PAUSE_SERVICE)
+
+
+def call(spin_until, client, request, timeout=5.0):
+    spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
+    future = client.call_async(request)
+    spin_until(future.done, timeout, f"an answer from {client.srv_name}")
+    return future.result()
+
+
+def seconds(message) -> float:
+    return message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
+
+
+def test_parameters_are_described_over_the_parameter_services(ros):
+    _, client, spin_until = ros()
+    names = [spec.name for spec in SPECS]
+    described = call(spin_until, client.describe, DescribeParameters.Request(names=names))
+    by_name = {d.name: d for d in described.descriptors}
+    assert set(by_name) == set(names)
+    for spec in SPECS:
+        descriptor = by_name[spec.name]
+        assert descriptor.description == spec.description
+        assert descriptor.read_only == spec.read_only
+    assert by_name["sail.boom_bending_stiffness"].read_only
+    assert by_name["max_rate"].floating_point_range[0].from_value == pytest.approx(1e-6)
+    assert by_name["sail.n_boom_modes"].integer_range[0].to_value == 30
+    assert by_name["initial_lengths"].type == ParameterType.PARAMETER_DOUBLE_ARRAY
+
+
+def test_writable_parameters_are_validated_then_applied(ros):
+    sim, client, spin_until = ros()
+
+    def set_parameter(name, value):
+        parameter = Parameter(name, value=value).to_parameter_msg()
+        request = SetParameters.Request(parameters=[parameter])
+        return call(spin_until, client.set, request).results[0]
+
+    result = set_parameter("min_length", 20.0)  # the initial lengths (10 m) would be too short
+    assert not result.successful and "initial_lengths [10.0, 10.0, 10.0, 10.0] m must lie" in \
+        result.reason
+    result = set_parameter("time_scale", 2.0)
+    assert not result.successful and "read-only" in result.reason
+    result = set_parameter("max_rate", float("nan"))
+    assert not result.successful
+    assert sim.config.limits.min_length == 1.0 and math.isfinite(sim.config.limits.max_rate)
+
+    assert set_parameter("state_rate_hz", 10.0).successful
+    count = len(client.boom_states)
+    spin_until(lambda: len(client.boom_states) >= count + 4, 5.0, "boom states at 10 Hz")
+    stamps = [seconds(m) for m in client.boom_states[-3:]]
+    assert np.diff(stamps) == pytest.approx([0.1, 0.1], abs=1e-6)
+
+
+def test_as_fast_as_possible_publishes_clock(ros):
+    sim, client, spin_until = ros(time_scale=0.0, shape_rate_hz=0.0)
+    started = time.monotonic()
+    spin_until(lambda: sim.sim.t > 20.0, 10.0, "20 s of simulation time")
+    assert sim.sim.t / (time.monotonic() - started) > 2.0  # well ahead of the wall clock
+    spin_until(lambda: len(client.clocks) > 100, 5.0, "/clock")
+    # simulation times on the integration grid (samples are dropped: the client is slower)
+    clock = np.array([c.clock.sec * 10**9 + c.clock.nanosec for c in client.clocks]) - sim.epoch_ns
+    assert np.all(np.diff(clock) >= 0)
+    assert clock / 1e7 == pytest.approx(np.round(clock / 1e7), abs=1e-6)
+
+
+def test_pause_resume_and_reset(ros):
+    sim, client, spin_until = ros(initial_tip_deflection=[0.0, 0.05, 0.0, 0.0],
+                                  diagnostics_rate_hz=20.0)
+    spin_until(lambda: sim.sim.t > 0.3, 5.0, "0.3 s of simulation")
+    answer = call(spin_until, client.pause, SetBool.Request(data=True))
+    assert answer.success and answer.message.startswith("paused at t = ")
+    spin_until(lambda: client.diagnostics[-1]["state"] == "paused", 2.0, "state paused")
+    held = sim.sim.t
+    count = len(client.boom_states)
+    deadline = time.monotonic() + 0.3
+    spin_until(lambda: time.monotonic() > deadline, 1.0, "0.3 s of pause")
+    assert sim.sim.t == held and len(client.boom_states) == count
+    assert call(spin_until, client.pause, SetBool.Request(data=True)).message == "already paused"
+    assert call(spin_until, client.pause, SetBool.Request(data=False)).success
+    spin_until(lambda: sim.sim.t > held + 0.2, 2.0, "the simulation to go on")
+    # paced again from where it stopped, not catching up the paused time
+    assert sim.sim.t < held + 1.0
+
+    assert not np.allclose(sim.sim.stepper.q, initial_coordinates(sim.sim.model, [0, 0.05, 0, 0]))
+    answer = call(spin_until, client.reset, Trigger.Request())
+    assert answer.success and "reset to the initial state" in answer.message
+    assert sim.sim.stepper.q == pytest.approx(
+        initial_coordinates(sim.sim.model, [0, 0.05, 0, 0]), abs=1e-15)
+    assert sim.sim.t >= held  # time goes on: stamps never go backwards
+
+
+def test_bad_parameter_values_stop_the_start(ros):
+    with pytest.raises(ConfigError, match="parameter max_rate: .*out of range"):
+        ros(max_rate=500.0)
+    with pytest.raises(ConfigError, match="parameter time_scale: .*INTEGER.*DOUBLE"):
+        ros(time_scale=2)
+    with pytest.raises(ConfigError, match="initial_lengths must hold 1 or 4 values"):
+        ros(initial_lengths=[10.0, 11.0])
+
+
+def test_main_exits_2_on_a_bad_parameter(monkeypatch, tmp_path):
+    monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path))
+    assert main(["--ros-args", "-p", "max_length:=0.5"]) == 2
+    assert main(["--definitely-not-an-option"]) == 2
