@@ -392,8 +392,8 @@ def test_non_finite_state_is_an_error_until_reset(processes, operator, tmp_path)
         "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0],
         "diagnostics_rate_hz": 20.0}}}))
     sim = processes("sim", "--ros-args", "--params-file", str(params))
-    operator.wait_for_simulator()
-    error = operator.wait_for_status(lambda s: s["level"] == DiagnosticStatus.ERROR, 20.0,
+    # diagnostics go on in the error state (the states stop), so this needs no head start
+    error = operator.wait_for_status(lambda s: s["level"] == DiagnosticStatus.ERROR, 30.0,
                                      "the ERROR diagnostic")
     assert error["state"] == "error" and "non-finite" in error["message"]
     operator.spin_for(0.3)

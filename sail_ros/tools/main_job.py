@@ -32,6 +32,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
@@ -87,13 +88,16 @@ class Operator(Node):
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="sail-ros demo", description=__doc__.split("\n\n")[0],
-        epilog="By default the simulation runs at 3x real time (about 6 s for the 16 s run) "
-               "and publishes /clock; --time-scale 1 runs it in real time. Discovery is "
-               "limited to this machine unless ROS_AUTOMATIC_DISCOVERY_RANGE is set.")
+        epilog="By default the simulation runs at 2x real time (about 8 s for the 16 s run), "
+               "publishing /clock; --time-scale 1 runs it in real time. Above about 2x one "
+               "integration step (0.01 s of simulation) is less wall time than a sail/shape "
+               "message takes to build (~5 ms on a small machine), so some ticks come late "
+               "and count as overruns. Discovery is limited to this machine unless "
+               "ROS_AUTOMATIC_DISCOVERY_RANGE is set.")
     parser.add_argument("-o", "--output", type=Path,
                         help="bag folder to create (default: out/demo_<UTC time>)")
-    parser.add_argument("--time-scale", type=float, default=3.0,
-                        help="simulation seconds per wall second (default 3.0)")
+    parser.add_argument("--time-scale", type=float, default=2.0,
+                        help="simulation seconds per wall second (default 2.0)")
     return parser
 
 
@@ -128,6 +132,9 @@ def main(argv=None) -> int:
     except RuntimeError as error:
         print(f"error: {error}; see {logs[0]} and {logs[1]}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # the children got the SIGINT too and finish their files
+        print(f"interrupted; the recording so far is in {output}", file=sys.stderr)
+        return 130
     finally:
         codes = {}
         for name, process in processes:  # the simulator first: the recorder takes its last
@@ -149,7 +156,8 @@ def main(argv=None) -> int:
 def _run(processes, time_scale: float) -> float:
     """Drive the deployment; returns its start (simulation time [s])."""
     context = rclpy.Context()
-    rclpy.init(context=context)
+    # Ctrl-C raises KeyboardInterrupt here instead of shutting the context down
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     operator = Operator(context)
     try:
         operator.spin_until(lambda: operator.status and
