@@ -112,12 +112,14 @@ class SailStepper:
         )
         self._static_cache: dict = {}
         self._profile = profile
+        self._motion_cache = (math.nan, None)  # (t, motion at t) of the current profile
         self.steps_taken = 0
         self.reset(q0, qd0, t0)
 
     # state ------------------------------------------------------------------
-    def reset(self, q0=None, qd0=None, t0: float = 0.0):
-        """Start again from `q0`, `qd0` (default rest) at time `t0` [s]."""
+    def reset(self, q0=None, qd0=None, t0: float = 0.0, profile=None):
+        """Start again from `q0`, `qd0` (default rest) at time `t0` [s], under
+        `profile` if given (else the current one)."""
         n = self.model.n
         q = np.zeros(n) if q0 is None else np.array(q0, dtype=float)
         qd = np.zeros(n) if qd0 is None else np.array(qd0, dtype=float)
@@ -128,6 +130,8 @@ class SailStepper:
                 raise ValueError(f"{name} must be finite, got {value.tolist()!r}")
         if not math.isfinite(t0):
             raise ValueError(f"t0 must be finite, got {t0!r}")
+        if profile is not None:
+            self._set_profile(profile)
         self._t = float(t0)
         self._q = q
         M, G = self._mass_gyro(self._t)
@@ -165,9 +169,13 @@ class SailStepper:
     def profile(self, profile):
         """Replace the boom motion from now on, keeping `q` and `qd` continuous."""
         qd = self.qd
-        self._profile = profile
+        self._set_profile(profile)
         M, G = self._mass_gyro(self._t)
         self._p = M @ qd + G @ self._q
+
+    def _set_profile(self, profile):
+        self._profile = profile
+        self._motion_cache = (math.nan, None)
 
     def energy(self) -> float:
         """Mechanical energy `1/2 qd^T M qd + 1/2 q^T K q` [J] now."""
@@ -183,7 +191,7 @@ class SailStepper:
         # an abrupt change of step size costs the midpoint rule accuracy.
         while t_end - self._t > 1e-12 * max(1.0, abs(t_end)):
             remaining = t_end - self._t
-            count = math.ceil(remaining / self._step_limit() - 1e-9)
+            count = max(1, math.ceil(remaining / self.step_limit() - 1e-9))
             self.step(remaining / count)
 
     def step(self, h: float) -> None:
@@ -202,7 +210,9 @@ class SailStepper:
         self._t += h
         self.steps_taken += 1
 
-    def _step_limit(self) -> float:
+    def step_limit(self) -> float:
+        """The longest step [s] allowed now: `max_step`, and 1.5 rad of `resolved_frequency`
+        (default: the first cantilever frequency of the shortest bare boom)."""
         omega = self.resolved_frequency
         if omega is None:
             lengths, _, _ = self._motion(self._t)
@@ -210,12 +220,27 @@ class SailStepper:
         return min(self.max_step, PHASE_PER_STEP / omega)
 
     def _motion(self, t):
-        lengths, rates, accelerations = self._profile(t)
-        return (
-            per_boom(lengths, f"lengths at t = {t:.6g} s", positive=True),
-            per_boom(rates, f"rates at t = {t:.6g} s"),
-            per_boom(accelerations, f"accelerations at t = {t:.6g} s"),
-        )
+        """The profile at `t`, checked; cached, since a step asks for the same time
+        several times (step size, matrices, velocities, publishing)."""
+        cached_t, motion = self._motion_cache
+        if cached_t == t:
+            return motion
+        values = self._profile(t)
+        motion = tuple(np.asarray(v, dtype=float) for v in values)
+        motion = tuple(np.full(4, v) if v.ndim == 0 else v for v in motion)
+        if not (
+            len(motion) == 3
+            and all(v.shape == (4,) and np.isfinite(v).all() for v in motion)
+            and motion[0].min() > 0
+        ):  # the messages name the field, the time and the value
+            lengths, rates, accelerations = values
+            motion = (
+                per_boom(lengths, f"lengths at t = {t:.6g} s", positive=True),
+                per_boom(rates, f"rates at t = {t:.6g} s"),
+                per_boom(accelerations, f"accelerations at t = {t:.6g} s"),
+            )
+        self._motion_cache = (t, motion)
+        return motion
 
     def _mass_gyro(self, t):
         lengths, rates, accelerations = self._motion(t)

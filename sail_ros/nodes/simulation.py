@@ -18,8 +18,6 @@ from typing import NamedTuple
 import numpy as np
 
 from sail_ros.model import IntegrationError, SailModel, StaticProfile
-from sail_ros.model.basis import cantilever_roots
-from sail_ros.model.stepper import PHASE_PER_STEP
 from sail_ros.nodes.boom_motion import BoomMotion
 from sail_ros.nodes.commands import (
     BoomState,
@@ -83,10 +81,6 @@ class Simulation:
     def __init__(self, model: SailModel, config: SimConfig):
         self.model = model
         self.step_size = config.integration_step
-        params = model.params
-        # omega_1 L^2 of a bare cantilever: beta_1^2 sqrt(EI / rho_B)
-        self._cantilever = cantilever_roots(1)[0] ** 2 * math.sqrt(
-            params.boom_bending_stiffness / params.boom_linear_density)
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
         self.stepper = model.stepper(
             self.motion, q0=initial_coordinates(model, config.initial_tip_deflection),
@@ -128,9 +122,8 @@ class Simulation:
             return self.stepper.energy()
 
     def substeps(self) -> int:
-        """Sub-steps the next grid step needs for the shortest boom's first mode."""
-        omega = self._cantilever / float(np.min(self.stepper.boom_motion()[0])) ** 2
-        return max(1, math.ceil(self.step_size * omega / PHASE_PER_STEP - 1e-9))
+        """Equal sub-steps the next grid step needs (`SailStepper.step_limit`)."""
+        return max(1, math.ceil(self.step_size / self.stepper.step_limit() - 1e-9))
 
     # -- stepping ---------------------------------------------------------------------------
 
@@ -155,9 +148,8 @@ class Simulation:
         """Back to the initial lengths (at rest) and tip deflections of `config`, at
         the current time; clears an error. The pause state is kept."""
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
-        self.stepper.profile = self.motion
         self.stepper.reset(initial_coordinates(self.model, config.initial_tip_deflection),
-                           None, self.t)
+                           None, self.t, profile=self.motion)
         self.error = None
 
     # -- commands ---------------------------------------------------------------------------
