@@ -12,6 +12,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -21,18 +22,22 @@ import yaml
 from geometry_msgs.msg import Point
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
-from rclpy.serialization import deserialize_message
+from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.highlevel import AnyReader
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from visualization_msgs.msg import Marker, MarkerArray
 
-from sail_ros.bag import BagReader
+from sail_ros.bag import BagReader, BagWriter
+from sail_ros.nodes import recorder as recorder_node
+from sail_ros.nodes import replay as replay_node
 
 pytestmark = pytest.mark.slow
 
+ROOT = Path(__file__).resolve().parents[1]
 DOMAIN_ID = 1 + os.getpid() % 100
 STREAMS = {"/sail/boom_state": JointState, "/sail/shape": MarkerArray}
 LATCHED_TOPIC = "/sail/deploy_cmd"  # published once, transient local
@@ -270,6 +275,7 @@ def test_replay_republishes_with_recorded_values_and_timing(recording, ros_env, 
                         2.0, "the last replayed messages")
     code, _, err = finish(replay)
     assert code == 0, err
+    assert f"playing {len(expected)} messages (from {offset_s:g} s on)" in err
     for topic in STREAMS:
         got = listener.received[topic]
         want = [m for m in expected if m.topic == topic]
@@ -357,6 +363,145 @@ def test_unwritable_output_and_bad_parameters_exit_with_a_clear_error(ros_env, t
     code, _, err = finish(missing)
     assert code == 2 and f"bag: '{tmp_path / 'no_such_bag'}' does not exist" in err, err
 
+
+
+def test_replay_offset_past_the_end_is_an_error_even_when_looping(recording, ros_env):
+    folder = recording[0]
+    times = [m.log_time_ns for m in BagReader(folder).messages()]
+    span = f"(span {(max(times) - times[0]) / 1e9:.2f} s)"
+    looping = start_tool("replay", [str(folder), "--start-offset-s", "100", "--loop"], ros_env)
+    once = start_tool("replay", [str(folder), "--start-offset-s", "100"], ros_env)
+    for process in (looping, once):  # the loop used to spin a core forever, doing nothing
+        code, _, err = finish(process)
+        assert code == 2, err
+        assert f"start_offset_s = 100 s is past the end of the bag {span}" in err, err
+
+
+def test_replay_stops_looping_when_a_pass_plays_nothing(recording, monkeypatch):
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setattr(replay_node.Replay, "_play_once", lambda self, stop: 0)
+    rclpy.init(domain_id=DOMAIN_ID)  # the global context, which the tools' nodes use
+    try:
+        replay = replay_node.Replay([Parameter("bag", value=str(recording[0])),
+                                     Parameter("loop", value=True),
+                                     Parameter("wait_for_all_acked_s", value=0.0)])
+        stop, result = threading.Event(), []
+        player = threading.Thread(target=lambda: result.append(replay.play(stop)))
+        player.start()
+        player.join(5.0)
+        stop.set()  # ends the loop, which would otherwise go on without end
+        player.join()
+        replay.destroy_node()
+        assert result == [1]
+    finally:
+        rclpy.shutdown()
+
+
+def test_replay_waits_until_its_last_messages_are_delivered(ros_env, listener, tmp_path):
+    """1.2 MB messages published within 20 ms: the process used to exit (destroying its
+    publishers) before most of them were delivered."""
+    bag, count = tmp_path / "large.mcap", 20
+    writer = BagWriter(bag)
+    writer.add_topic("/sail/shape", "visualization_msgs/msg/MarkerArray")
+    marker = Marker(ns="membrane", points=[Point(x=float(k)) for k in range(50_000)])
+    start_ns, written = time.time_ns(), []
+    for i in range(count):
+        marker.id = i
+        written.append(serialize_message(MarkerArray(markers=[marker])))
+        writer.write("/sail/shape", written[-1], start_ns + i * 1_000_000)
+    writer.close()
+    for _ in range(3):  # the default wait_for_all_acked_s (1 s) lets every one arrive
+        listener.clear()
+        replay = start_tool("replay", [str(bag), "--wait-for-subscribers", "1"], ros_env)
+        code, _, err = finish(replay)
+        assert code == 0, err
+        listener.spin_until(lambda: len(_large(listener)) == count, 5.0,
+                            f"all {count} messages")
+        assert _large(listener) == written  # in order, as recorded
+    listener.clear()
+
+
+def _large(listener: Listener) -> list[bytes]:
+    """The large /sail/shape messages received (the stream publisher of an earlier test
+    may have left small ones behind)."""
+    return [data for _, data in listener.received["/sail/shape"] if len(data) > 1_000_000]
+
+
+def test_config_files_hold_the_defaults():
+    for node in (recorder_node, replay_node):
+        document = yaml.safe_load((ROOT / f"config/{node.NODE_NAME.removeprefix('sail_')}.yaml")
+                                  .read_text())
+        values = document[node.NODE_NAME]["ros__parameters"]
+        defaults = {spec.name: spec.default for spec in node.SPECS}
+        assert values == {name: value for name, value in defaults.items() if name in values}
+        assert set(defaults) - set(values) <= {"output", "topics"}
+    assert replay_node.SPECS[-1].name == "wait_for_all_acked_s"
+    assert replay_node.SPECS[-1].default == 1.0  # like the simulator's ACK_TIMEOUT_S
+
+
+def test_recorder_checks_parameter_node_before_creating_the_bag(ros_env, tmp_path):
+    folder = tmp_path / "rec1"
+    process = start_tool("recorder", ["-o", str(folder), "--parameter-node", "bad name"],
+                         ros_env)
+    code, _, err = finish(process)
+    assert code == 2, err
+    assert "parameter_node: 'bad name' is not a valid node name (" in err, err
+    assert "Traceback" not in err
+    assert not folder.exists()  # it used to hold rec1_0.mcap without summary
+
+
+RECORDER_WITH = """
+import sys
+from sail_ros.nodes import recorder
+{patch}
+sys.exit(recorder.main(sys.argv[1:]))
+"""
+FAIL_ON_MESSAGE_51 = """
+original = recorder.Recorder._on_message
+def on_message(self, topic, data, info):
+    if self._received == 50:
+        raise RuntimeError("injected failure")
+    original(self, topic, data, info)
+recorder.Recorder._on_message = on_message
+"""
+FAIL_IN_INIT = """
+def create_timer(self, *args, **kwargs):
+    raise RuntimeError("injected failure")
+recorder.Recorder.create_timer = create_timer
+"""
+
+
+def test_error_in_a_callback_still_finishes_the_bag(ros_env, listener, tmp_path):
+    folder = tmp_path / "broken"
+    recorder = start(["-c", RECORDER_WITH.format(patch=FAIL_ON_MESSAGE_51), "-o", str(folder),
+                      "--topics", *STREAMS, "--parameter-node", ""], ros_env)
+    publisher = start_publisher(ros_env, count=300, rate=100.0, subscribers=2)
+    try:
+        go(listener, publisher)
+        code, _, err = finish(recorder, timeout=30.0)
+    finally:
+        recorder.kill()
+        publisher.kill()
+        finish(publisher)
+    listener.clear()
+    assert code == 1, err
+    assert "recording stopped by an unexpected error" in err
+    assert "RuntimeError: injected failure" in err
+    assert "recording failed: RuntimeError('injected failure'); 50 messages" in err
+    reader = BagReader(folder)  # finished: summary and metadata.yaml
+    assert reader.incomplete_files == [] and (folder / "metadata.yaml").exists()
+    assert sum(info.message_count for info in reader.topics().values()) == 50
+    assert len(list(reader.messages())) == 50
+
+
+def test_failed_start_after_the_bag_was_created_finishes_it(ros_env, tmp_path):
+    folder = tmp_path / "unstarted"
+    recorder = start(["-c", RECORDER_WITH.format(patch=FAIL_IN_INIT), "-o", str(folder),
+                      "--parameter-node", ""], ros_env)
+    code, _, err = finish(recorder)
+    assert code == 1 and "RuntimeError: injected failure" in err, err
+    reader = BagReader(folder)
+    assert reader.incomplete_files == [] and (folder / "metadata.yaml").exists()
 
 if __name__ == "__main__":
     if sys.argv[1:2] != ["publish"]:

@@ -17,7 +17,7 @@ from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointP
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.boom_motion import BoomMotion
 from sail_ros.nodes.commands import BoomState, CommandError, Limits, plan_deploy, plan_trajectory
-from sail_ros.nodes.pacing import Pacer
+from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.sim_params import DEFAULTS, SPECS, ConfigError, config_from_values
 from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation, initial_coordinates
 
@@ -293,6 +293,40 @@ def test_overrun_is_a_tick_more_than_one_step_late_or_left_behind():
     assert pacer.tick(t)[2] is True
 
 
+
+def test_real_time_factor_is_measured_over_long_uninterrupted_running_windows():
+    clock = FakeClock()
+    clock.now = 0.0
+    rtf = RealTimeFactor(0.5, now=clock)
+    rtf.restart(0.0, running=True)
+
+    def update(wall, t):
+        clock.now = wall
+        return rtf.update(t)
+
+    assert not update(0.3, 0.6)  # too short: nothing measured yet
+    assert (rtf.value, rtf.window, rtf.current) == (0.0, 0.0, False)
+    assert update(0.6, 1.2)
+    assert (rtf.value, rtf.window, rtf.current) == (pytest.approx(2.0), pytest.approx(0.6), True)
+    # diagnostics sent 5 ms later (a state change publishes at once) after a catch-up
+    # tick: the window goes on instead of giving (1.24 - 1.2) / 0.005 = 8x
+    assert not update(0.605, 1.24)
+    assert rtf.value == pytest.approx(2.0)
+    assert update(1.2, 2.3)
+    assert (rtf.value, rtf.window) == (pytest.approx(1.1 / 0.6), pytest.approx(0.6))
+    clock.now = 1.75  # a pause after 0.55 s of running: that window counts
+    rtf.restart(3.4, running=False)
+    assert (rtf.value, rtf.window, rtf.current) == (pytest.approx(2.0), pytest.approx(0.55),
+                                                    False)
+    assert not update(5.0, 3.4)  # paused: nothing measured, the last value stays
+    clock.now = 5.0
+    rtf.restart(3.4, running=True)  # resumed...
+    clock.now = 5.1
+    rtf.restart(3.6, running=True)  # ...and reset 0.1 s later: too short, dropped
+    assert rtf.value == pytest.approx(2.0) and not rtf.current
+    assert not update(5.5, 4.4)
+    assert update(5.7, 4.8) and rtf.value == pytest.approx(2.0) and rtf.current
+
 # -- parameters ---------------------------------------------------------------------------------
 
 def test_config_file_holds_the_defaults():
@@ -320,7 +354,8 @@ def test_every_parameter_is_described_with_unit_and_range():
 @pytest.mark.parametrize(("change", "reason"), [
     ({"min_length": 20.0, "max_length": 15.0}, "min_length \\(20 m\\) must be below max_length"),
     ({"initial_lengths": [10.0, 10.0, 80.0, 10.0]}, "initial_lengths .* must lie in"),
-    ({"initial_lengths": [10.0, 10.0]}, "initial_lengths must hold 1 or 4 values, got 2"),
+    ({"initial_lengths": [10.0, 10.0]},
+     "initial_lengths must hold 1 or 4 values, got 2: \\[10.0, 10.0\\]"),
     ({"max_rate": 2}, "max_rate must be a double: write 2.0, not 2"),
     ({"max_rate": -1.0}, "max_rate = -1.0 is outside"),
     ({"initial_tip_deflection": [math.nan]}, "initial_tip_deflection = nan is outside"),

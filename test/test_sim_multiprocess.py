@@ -428,3 +428,7 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     assert [row.split()[2] for row in rows] == ["5.00", "10.00", "15.00"]
     assert all(float(row.rsplit("(", 1)[1].split()[0]) < 1e-9 for row in rows), rows
     assert BagReader(output).topics()[topics.DEPLOY_CMD].message_count == 1
+    # measured over >= 0.5 s windows: near the time scale, never a short window's 10x+
+    (factor,) = [line for line in lines if "real-time factor: max" in line]
+    largest, median = (float(word.strip(",")) for word in factor.split()[3:6:2])
+    assert 0.5 * 5.0 < median <= largest < 1.2 * 5.0, factor

@@ -16,10 +16,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
-from sail_ros.nodes.sim import SimNode, main
+from sail_ros.nodes.sim import RTF_MIN_WINDOW_S, SimNode, main
 from sail_ros.nodes.sim_params import SPECS, ConfigError
 from sail_ros.nodes.simulation import initial_coordinates
 
@@ -167,6 +168,45 @@ def test_pause_resume_and_reset(ros):
         initial_coordinates(sim.sim.model, [0, 0.05, 0, 0]), abs=1e-15)
     assert sim.sim.t >= held  # time goes on: stamps never go backwards
 
+
+
+def test_real_time_factor_is_not_taken_over_short_windows(ros):
+    """Diagnostics published off the timer (a state change) used to restart the
+    measurement; after a stall, the catch-up tick then made the next window a few
+    milliseconds long and the factor tens of times time_scale."""
+    sim, client, spin_until = ros(time_scale=2.0, diagnostics_rate_hz=4.0, shape_rate_hz=0.0)
+    spin_until(lambda: float(client.diagnostics[-1]["real_time_factor_window_s"]) > 0, 5.0,
+               "the first measurement")  # which starts a new window
+    seen = len(client.diagnostics)
+    time.sleep(0.05)  # the executor stalls: the model falls 0.1 s behind
+    sim._publish_diagnostics()  # as on pause/resume/reset
+    behind = sim.sim.t
+    spin_until(lambda: sim.sim.t >= behind + 0.09, 2.0, "the model to catch up")
+    sim._publish_diagnostics()  # a few ms after the previous one
+    spin_until(lambda: float(client.diagnostics[-1]["sim_time_s"]) > behind + 1.2, 5.0,
+               "the next measurement")
+    statuses = client.diagnostics[seen - 1:]
+    assert len(statuses) >= 4
+    assert len({status["real_time_factor_window_s"] for status in statuses}) >= 2
+    for status in statuses:
+        assert float(status["real_time_factor_window_s"]) >= RTF_MIN_WINDOW_S
+        assert float(status["real_time_factor"]) == pytest.approx(2.0, rel=0.1), status
+
+
+def test_command_times_read_minus_one_when_there_is_none(ros):
+    sim, client, spin_until = ros(diagnostics_rate_hz=20.0)
+    status = client.diagnostics[-1]
+    assert (status["last_command_start_s"], status["motion_end_s"]) == ("-1.0", "-1.0")
+    deploy = client.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
+    spin_until(lambda: deploy.get_subscription_count() >= 1, 5.0, "the deploy subscription")
+    deploy.publish(Float64(data=11.0))
+    spin_until(lambda: client.diagnostics[-1]["accepted_commands"] == "1", 5.0, "the command")
+    start = float(client.diagnostics[-1]["last_command_start_s"])
+    assert 0.0 <= start < float(client.diagnostics[-1]["motion_end_s"])
+    assert call(spin_until, client.reset, Trigger.Request()).success
+    spin_until(lambda: client.diagnostics[-1]["motion_end_s"] == "-1.0", 2.0,
+               "the status after the reset")  # the reset ended the motion...
+    assert float(client.diagnostics[-1]["last_command_start_s"]) == start  # ...not its record
 
 def test_bad_parameter_values_stop_the_start(ros):
     with pytest.raises(ConfigError, match="parameter max_rate: .*out of range"):

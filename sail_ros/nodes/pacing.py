@@ -13,6 +13,9 @@ due and only the per-tick work budget paces the simulation.
 An overrun is a tick that finds the model more than one integration step
 behind: the tick came more than a step late, or the tick before ran out of
 budget with steps still due.
+
+`RealTimeFactor` measures what the pacing achieves: simulation time advanced
+per wall second over uninterrupted running windows of a minimum length.
 """
 
 from __future__ import annotations
@@ -97,3 +100,51 @@ class Pacer:
                 left_behind >= self.step * (1.0 - 1e-9)
         self._last_tick, self._last_due = wall, due
         return due, wall + self.budget, overrun
+
+
+class RealTimeFactor:
+    """Simulation seconds advanced per wall second, measured over uninterrupted
+    running windows of at least `min_window` [s of wall time].
+
+    A window starts when the simulation starts running (start, resume, reset)
+    and is closed by `update` (each diagnostics message) once it is long
+    enough; a shorter window goes on, so the measurement is never taken over
+    a few milliseconds. A state change (`restart`) closes the window if it is
+    long enough and starts a new one only if the simulation runs.
+
+    Attributes:
+        value: the last complete measurement; 0.0 before the first.
+        window: the wall time it spans [s]; 0.0 before the first.
+        current: whether `value` was measured since the last state change.
+    """
+
+    def __init__(self, min_window: float, now=time.monotonic):
+        self.min_window = float(min_window)
+        self.now = now
+        self.value = 0.0
+        self.window = 0.0
+        self.current = False
+        self._start: tuple[float, float] | None = None  # (wall, t) of the open window
+
+    def restart(self, t: float, running: bool) -> None:
+        """A state change at simulation time `t` [s]: `running` is the new state."""
+        wall = self.now()
+        self._close(t, wall)
+        self.current = False
+        self._start = (wall, float(t)) if running else None
+
+    def update(self, t: float) -> bool:
+        """Close the open window at simulation time `t` [s] if it is long enough (and
+        open the next); True if that gave a new measurement."""
+        wall = self.now()
+        if not self._close(t, wall):
+            return False
+        self._start = (wall, float(t))
+        return True
+
+    def _close(self, t: float, wall: float) -> bool:
+        if self._start is None or wall - self._start[0] < self.min_window:
+            return False
+        span = wall - self._start[0]
+        self.value, self.window, self.current = (t - self._start[1]) / span, span, True
+        return True

@@ -10,7 +10,9 @@ stored in every file as the MCAP metadata record `sail_sim_parameters`.
 SIGINT/SIGTERM: take what DDS has already received, finish the file(s)
 (summary, metadata.yaml) and exit 0. A write error (disk full, no
 permission): log the path and the OS error, exit 1; what was written stays
-readable up to its last complete chunk. A bad parameter: exit 2.
+readable up to its last complete chunk. Any other error while recording: log
+it, finish the file(s), exit 1. A bad parameter: exit 2, before any file is
+created.
 
     sail-ros recorder -o run1
     sail-ros recorder --all-topics --max-file-duration-s 600
@@ -25,10 +27,12 @@ import queue
 import sys
 import threading
 import time
+import traceback
 
 import rclpy
 import yaml
 from rcl_interfaces.srv import GetParameters, ListParameters
+from rclpy.exceptions import NameValidationException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.logging import get_logger
 from rclpy.node import Node
@@ -197,6 +201,21 @@ class Recorder(Node):
         super().__init__(NODE_NAME, parameter_overrides=list(parameter_overrides))
         self.config = declare(self, SPECS)
         self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
+        self._recording: dict[str, object] = {}
+        self._ignored: set[str] = set()
+        self._received = 0  # messages taken from DDS, for draining at shutdown
+        self._started = time.monotonic()
+
+        # every check that can fail comes before the bag is created
+        parameter_node = self.config["parameter_node"].rstrip("/")
+        self._parameter_node = parameter_node
+        self._sim_parameters: dict[str, str] | None = None  # last fetched
+        self._refetch = threading.Event()  # set by a split, from the writer thread
+        self._request_started: float | None = None
+        self._warned_absent = False
+        if parameter_node:
+            self._create_parameter_clients(parameter_node)
+
         output = self.config["output"] or default_output()
         try:
             writer = BagWriter(
@@ -211,46 +230,53 @@ class Recorder(Node):
         except ValueError as error:
             raise ConfigError(str(error)) from None
         self.bag = _BagThread(writer)
-        self._recording: dict[str, object] = {}
-        self._ignored: set[str] = set()
-        self._received = 0  # messages taken from DDS, for draining at shutdown
-        self._started = time.monotonic()
+        try:
+            self._poll_timer = self.create_timer(GRAPH_PERIOD_S, self._poll)
+            self.get_logger().info(f"recording into '{writer.path}'")
+        except BaseException:
+            self.bag.close()  # a complete (empty) bag rather than a file without summary
+            raise
 
-        parameter_node = self.config["parameter_node"].rstrip("/")
-        self._parameter_node = parameter_node
-        self._sim_parameters: dict[str, str] | None = None  # last fetched
-        self._refetch = threading.Event()  # set by a split, from the writer thread
-        self._request_started: float | None = None
-        self._warned_absent = False
-        if parameter_node:
+    def _create_parameter_clients(self, parameter_node: str) -> None:
+        try:
             self._list_client = self.create_client(ListParameters,
                                                    f"{parameter_node}/list_parameters")
             self._get_client = self.create_client(GetParameters,
                                                   f"{parameter_node}/get_parameters")
-            # wakes the executor from the writer thread when a split needs the parameters
-            self._refetch_guard = self.create_guard_condition(self._poll_parameters)
-        self._poll_timer = self.create_timer(GRAPH_PERIOD_S, self._poll)
-        self.get_logger().info(f"recording into '{writer.path}'")
+        except NameValidationException as error:
+            reason = str(error).splitlines()[0].split(": ", 1)[-1].rstrip(":")
+            raise ConfigError(f"parameter_node: {self.config['parameter_node']!r} is not a "
+                              f"valid node name ({reason})") from None
+        # wakes the executor from the writer thread when a split needs the parameters
+        self._refetch_guard = self.create_guard_condition(self._poll_parameters)
 
     # -- running ----------------------------------------------------------------------------
 
     def run(self, stop: StopSignals) -> int:
-        """Record until a stop signal or a write error; returns the exit code."""
+        """Record until a stop signal, a write error or an error in a callback; returns
+        the exit code. The bag is finished (summary, metadata.yaml) whatever happens."""
         executor = SingleThreadedExecutor(context=self.context)
         executor.add_node(self)
-        self._poll()
-        while not stop.event.is_set() and not self.bag.failed.is_set():
-            executor.spin_once(timeout_sec=0.1)
-        self._poll_timer.cancel()
-        if stop.received:
-            self.get_logger().info(f"{stop.received}: finishing the recording")
-        if not self.bag.failed.is_set():
-            self._drain(executor)
-        for subscription in self._recording.values():
-            self.destroy_subscription(subscription)
-        self.bag.close()
-        executor.remove_node(self)
-        return self._report()
+        error = None
+        try:
+            self._poll()
+            while not stop.event.is_set() and not self.bag.failed.is_set():
+                executor.spin_once(timeout_sec=0.1)
+            self._poll_timer.cancel()
+            if stop.received:
+                self.get_logger().info(f"{stop.received}: finishing the recording")
+            if not self.bag.failed.is_set():
+                self._drain(executor)
+        except Exception as exception:  # a bug, not a condition the recorder knows
+            error = exception
+            self.get_logger().error("recording stopped by an unexpected error:\n"
+                                    + traceback.format_exc().rstrip())
+        finally:
+            for subscription in self._recording.values():
+                self.destroy_subscription(subscription)
+            self.bag.close()
+            executor.remove_node(self)
+        return self._report(error)
 
     def _drain(self, executor) -> None:
         """Take what DDS already holds, until nothing arrives for DRAIN_QUIET_S (and
@@ -264,7 +290,8 @@ class Recorder(Node):
             if self._received != last_count:
                 last_count, last_change = self._received, time.monotonic()
 
-    def _report(self) -> int:
+    def _report(self, error: Exception | None = None) -> int:
+        """Log what was recorded; 1 if the recording failed (`error` or a write error)."""
         logger = self.get_logger()
         if self._parameter_node and self._sim_parameters is None:
             logger.warning(f"parameter node '{self._parameter_node}' never answered: no "
@@ -272,18 +299,19 @@ class Recorder(Node):
         writer = self.bag.writer
         counts = writer.topic_counts
         files = ", ".join(path.name for path in writer.files)
-        failed = self.bag.error is not None
-        if failed:
-            logger.error(f"recording failed: {self.bag.error}")
         where = f"{len(writer.files)} file(s) in '{writer.path.resolve()}': {files}"
-        if failed:
+        if self.bag.error is not None:
+            logger.error(f"recording failed: {self.bag.error}")
             logger.error(f"{sum(counts.values())} messages were written to {where}; those in "
                          "chunks completed before the failure are readable")
+        elif error is not None:
+            logger.error(f"recording failed: {error!r}; {sum(counts.values())} messages "
+                         f"received before it are in {where}")
         else:
             logger.info(f"{sum(counts.values())} messages in {where}")
         for topic, count in sorted(counts.items()):
             logger.info(f"  {topic}: {count} messages")
-        return 1 if failed else 0
+        return 1 if self.bag.error is not None or error is not None else 0
 
     # -- topics -----------------------------------------------------------------------------
 

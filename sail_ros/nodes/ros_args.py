@@ -31,7 +31,7 @@ _TYPES = {
 
 
 class ConfigError(ValueError):
-    """A parameter has a value the tool cannot use; the message names it."""
+    """A parameter has a value a node cannot use; the message names it."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,25 +58,30 @@ class ParamSpec:
         return [self.short, long] if self.short else [long]
 
     def descriptor(self) -> ParameterDescriptor:
-        descriptor = ParameterDescriptor(
-            name=self.name,
-            type=_TYPES[type(self.default)].value,
-            description=self.description,
-            read_only=self.read_only,
-        )
-        if self.choices:
-            descriptor.additional_constraints = "one of: " + ", ".join(self.choices)
-        if self.minimum is not None or self.maximum is not None:
-            low, high = self.minimum, self.maximum
-            if isinstance(self.default, int) and not isinstance(self.default, bool):
-                descriptor.integer_range = [IntegerRange(
-                    from_value=int(low if low is not None else -(2**63)),
-                    to_value=int(high if high is not None else 2**63 - 1), step=0)]
-            else:
-                descriptor.floating_point_range = [FloatingPointRange(
-                    from_value=float(low if low is not None else -1e308),
-                    to_value=float(high if high is not None else 1e308), step=0.0)]
-        return descriptor
+        return parameter_descriptor(
+            self.name, _TYPES[type(self.default)], self.description, self.read_only,
+            self.minimum, self.maximum,
+            integer=isinstance(self.default, int) and not isinstance(self.default, bool),
+            constraints="one of: " + ", ".join(self.choices) if self.choices else "")
+
+
+def parameter_descriptor(name: str, kind: Parameter.Type, description: str, read_only: bool,
+                         minimum: float | None = None, maximum: float | None = None,
+                         integer: bool = False, constraints: str = "") -> ParameterDescriptor:
+    """A ParameterDescriptor; a bound given (`minimum`, `maximum`) becomes an integer
+    range if `integer`, else a floating-point range (a missing bound: the widest)."""
+    descriptor = ParameterDescriptor(name=name, type=kind.value, description=description,
+                                     read_only=read_only, additional_constraints=constraints)
+    if minimum is not None or maximum is not None:
+        if integer:
+            descriptor.integer_range = [IntegerRange(
+                from_value=int(minimum if minimum is not None else -(2**63)),
+                to_value=int(maximum if maximum is not None else 2**63 - 1), step=0)]
+        else:
+            descriptor.floating_point_range = [FloatingPointRange(
+                from_value=float(minimum if minimum is not None else -1e308),
+                to_value=float(maximum if maximum is not None else 1e308), step=0.0)]
+    return descriptor
 
 
 def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse.ArgumentParser:

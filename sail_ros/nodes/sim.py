@@ -27,6 +27,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
+import math
 import sys
 import time
 
@@ -51,15 +52,15 @@ from sail_ros import topics
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import CommandError
-from sail_ros.nodes.pacing import Pacer
-from sail_ros.nodes.ros_args import StopSignals, parse_command_line
-from sail_ros.nodes.sim_params import SPECS, ConfigError, config_from_values
+from sail_ros.nodes.pacing import Pacer, RealTimeFactor
+from sail_ros.nodes.ros_args import ConfigError, StopSignals, parse_command_line
+from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
 RTF_WARN_FRACTION = 0.9  # WARN when a paced run achieves less than this of time_scale
-RTF_MIN_WINDOW_S = 0.5  # ... judged only over windows at least this long
+RTF_MIN_WINDOW_S = 0.5  # the real-time factor is measured over running windows this long
 
 
 class SimNode(Node):
@@ -110,6 +111,8 @@ class SimNode(Node):
         self._use_config()
         self.epoch_ns = time.time_ns()  # the stamp of simulation time 0
         self.pacer.run_from(0.0)
+        self.real_time_factor = RealTimeFactor(RTF_MIN_WINDOW_S)
+        self.real_time_factor.restart(self.sim.t, self.sim.state == RUNNING)
         self._window = self._window_start()
         self._start_sampling()
         speed = ("as fast as possible" if config.as_fast_as_possible
@@ -191,7 +194,7 @@ class SimNode(Node):
         else:
             self.pacer.hold(self.sim.t)
             self._tick_timer.cancel()
-        self._window["interrupted"] = True
+        self.real_time_factor.restart(self.sim.t, self.sim.state == RUNNING)
 
     def _stop_on_error(self) -> None:
         self._set_running()
@@ -274,33 +277,41 @@ class SimNode(Node):
             self.surface.boom_lines(q, lengths), self.config.frame_id))
 
     def _window_start(self) -> dict:
-        return {"wall": time.monotonic(), "t": self.sim.t, "overruns": self.overruns,
-                "rejected": self.sim.rejected, "interrupted": self.sim.state != RUNNING}
+        return {"wall": time.monotonic(), "overruns": self.overruns,
+                "rejected": self.sim.rejected}
 
     def _publish_diagnostics(self) -> None:
-        """The integrator's status over the window since the last one."""
+        """The integrator's status: counts over the window since the last message, and
+        the last complete real-time factor measurement (`RealTimeFactor`)."""
         sim, config, window = self.sim, self.config, self._window
         span = time.monotonic() - window["wall"]
-        rtf = (sim.t - window["t"]) / span if span > 0 else 0.0
+        rtf = self.real_time_factor
+        rtf.update(sim.t)
         steps, mean, largest = sim.step_times.take()
         overruns = self.overruns - window["overruns"]
         rejected = sim.rejected - window["rejected"]
-        level, message = "OK", f"{sim.state} at {rtf:.3g}x real time"
+        if sim.state != RUNNING:
+            level, message = "OK", sim.state
+        elif rtf.current:
+            level, message = "OK", f"running at {rtf.value:.3g}x real time"
+        else:
+            level, message = "OK", "running (measuring the real-time factor)"
         if sim.error:
             level, message = "ERROR", f"integration stopped: {sim.error}; call sail/reset"
         elif overruns:
             level, message = "WARN", (f"{overruns} overrun(s) in the last {span:.3g} s: the "
                                       "integration is falling behind the clock")
-        elif (self.pacer.paced and not window["interrupted"] and span >= RTF_MIN_WINDOW_S
-              and rtf < RTF_WARN_FRACTION * config.time_scale):
-            level, message = "WARN", (f"real-time factor {rtf:.3g}, below time_scale "
+        elif (self.pacer.paced and sim.state == RUNNING and rtf.current
+              and rtf.value < RTF_WARN_FRACTION * config.time_scale):
+            level, message = "WARN", (f"real-time factor {rtf.value:.3g}, below time_scale "
                                       f"{config.time_scale:g}")
         elif rejected:
             level, message = "WARN", f"rejected {rejected} command(s); last: {sim.last_rejection}"
         values = {
             "state": sim.state,
             "sim_time_s": round(sim.t, 9),
-            "real_time_factor": round(rtf, 4),
+            "real_time_factor": round(rtf.value, 4),
+            "real_time_factor_window_s": round(rtf.window, 4),
             "time_scale": config.time_scale,
             "step_time_ms_mean": round(1e3 * mean, 4),
             "step_time_ms_max": round(1e3 * largest, 4),
@@ -309,9 +320,9 @@ class SimNode(Node):
             "accepted_commands": sim.accepted,
             "rejected_commands": sim.rejected,
             "last_command": sim.last_command,
-            "last_command_start_s": round(sim.last_command_start, 9),
+            "last_command_start_s": _time_or_none(sim.last_command_start),
             "last_rejection": sim.last_rejection,
-            "motion_end_s": round(max(sim.motion.t_end, 0.0), 9),
+            "motion_end_s": _time_or_none(sim.motion.t_end),
             "mechanical_energy_J": float(f"{sim.energy():.6g}"),
         }
         stamp = self._stamp()
@@ -328,6 +339,11 @@ class SimNode(Node):
         for publisher in self._outputs.values():
             remaining = max(0.0, deadline - time.monotonic())
             publisher.wait_for_all_acked(Duration(nanoseconds=int(remaining * 1e9)))
+
+
+def _time_or_none(t: float) -> float:
+    """A simulation time [s] for /diagnostics: -1.0 for none (nan, -inf)."""
+    return round(t, 9) if math.isfinite(t) else -1.0
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -14,16 +14,15 @@ import dataclasses
 import math
 
 import numpy as np
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.parameter import Parameter
 
 from sail_ros.model import SailParameters
+from sail_ros.model.sail_model import per_boom
 from sail_ros.nodes.commands import Limits
+from sail_ros.nodes.ros_args import ConfigError, parameter_descriptor
 
 SAIL_PREFIX = "sail."
-
-
-class ConfigError(ValueError):
-    """A parameter value the simulator cannot use; the message names the parameter."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,22 +42,16 @@ class Spec:
     sizes: tuple[int, ...] = ()
 
     def descriptor(self) -> ParameterDescriptor:
-        kind = {float: ParameterType.PARAMETER_DOUBLE, int: ParameterType.PARAMETER_INTEGER,
-                str: ParameterType.PARAMETER_STRING,
-                list: ParameterType.PARAMETER_DOUBLE_ARRAY}[type(self.default)]
-        descriptor = ParameterDescriptor(name=self.name, type=kind, description=self.description,
-                                         read_only=self.read_only)
-        if isinstance(self.default, int):
-            descriptor.integer_range = [IntegerRange(
-                from_value=int(self.minimum), to_value=int(self.maximum), step=0)]
-        elif self.minimum is not None:
-            descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(self.minimum), to_value=float(self.maximum), step=0.0)]
+        kind = {float: Parameter.Type.DOUBLE, int: Parameter.Type.INTEGER,
+                str: Parameter.Type.STRING, list: Parameter.Type.DOUBLE_ARRAY}[type(self.default)]
+        constraints = ""
         if self.sizes:
-            descriptor.additional_constraints = (
-                f"{' or '.join(map(str, self.sizes))} values (booms a, b, c, d), each in "
-                f"[{self.minimum:g}, {self.maximum:g}]")
-        return descriptor
+            constraints = (f"{' or '.join(map(str, self.sizes))} values (booms a, b, c, d), "
+                           f"each in [{self.minimum:g}, {self.maximum:g}]")
+        return parameter_descriptor(self.name, kind, self.description, self.read_only,
+                                    self.minimum, self.maximum,
+                                    integer=isinstance(self.default, int),
+                                    constraints=constraints)
 
 
 _DEFAULT_SAIL = SailParameters()
@@ -104,7 +97,8 @@ SPECS = [
     Spec("shape_rate_hz", 5.0, "sail/shape markers per second of simulation time [Hz], "
          "rounded to whole integration steps; 0: none", False, 0.0, 1000.0),
     Spec("diagnostics_rate_hz", 1.0, "/diagnostics per second of wall time [Hz]; also the "
-         "window of the statistics it reports", False, 0.01, 100.0),
+         "window of the step statistics it reports (the real-time factor is measured over "
+         "at least 0.5 s)", False, 0.01, 100.0),
     Spec("integration_step", 0.01, "time step of the simulation grid [s]; each is split "
          "further where the shortest boom's first bending mode needs it",
          True, 1e-4, 0.2),
@@ -170,7 +164,7 @@ def config_from_values(values: dict) -> SimConfig:
     if not limits.min_length < limits.max_length:
         raise ConfigError(f"min_length ({limits.min_length:g} m) must be below max_length "
                           f"({limits.max_length:g} m)")
-    lengths = _per_boom(values["initial_lengths"])
+    lengths = _per_boom(values["initial_lengths"], "initial_lengths")
     if np.any(lengths < limits.min_length) or np.any(lengths > limits.max_length):
         raise ConfigError(f"initial_lengths {lengths.tolist()} m must lie in [min_length, "
                           f"max_length] = [{limits.min_length:g}, {limits.max_length:g}] m")
@@ -182,7 +176,8 @@ def config_from_values(values: dict) -> SimConfig:
     return SimConfig(
         sail=sail,
         initial_lengths=lengths,
-        initial_tip_deflection=_per_boom(values["initial_tip_deflection"]),
+        initial_tip_deflection=_per_boom(values["initial_tip_deflection"],
+                                         "initial_tip_deflection"),
         limits=limits,
         deploy_duration=float(values["deploy_duration"]),
         state_rate_hz=float(values["state_rate_hz"]),
@@ -204,7 +199,7 @@ def _check(spec: Spec, value) -> None:
         items = list(value)
         if len(items) not in spec.sizes:
             raise ConfigError(f"{spec.name} must hold {' or '.join(map(str, spec.sizes))} "
-                              f"values, got {len(items)}")
+                              f"values, got {len(items)}: {items!r}")
     elif kind is float and isinstance(value, int) and not isinstance(value, bool):
         raise ConfigError(f"{spec.name} must be a double: write {value}.0, not {value}")
     elif not isinstance(value, kind) or isinstance(value, bool):
@@ -221,6 +216,10 @@ def _check(spec: Spec, value) -> None:
                               f"{spec.maximum:g}]")
 
 
-def _per_boom(values) -> np.ndarray:
-    array = np.asarray(list(values), dtype=float)
-    return np.repeat(array, 4) if array.size == 1 else array
+def _per_boom(values, name: str) -> np.ndarray:
+    """A list of 1 or 4 values (checked by `_check`) as the model's 4 per-boom values."""
+    items = list(values)
+    try:
+        return per_boom(items[0] if len(items) == 1 else items, name)
+    except ValueError as error:
+        raise ConfigError(str(error)) from None

@@ -222,13 +222,16 @@ def summarise(output: Path, t_start: float) -> None:
         live = np.array(tips[index].position)
         print(f"    t = {t[index]:5.2f} s   " + "".join(f"{1e3 * v:11.4f}" for v in live)
               + f"   ({np.abs(live - reference).max():.1e} m)")
+    # while running; each status carries the last measurement over >= 0.5 s of running
+    # (window 0 before the first)
     running = [float(s["real_time_factor"]) for s in statuses
-               if s["state"] == "running" and float(s["steps_in_window"]) > 0]
+               if s["state"] == "running" and float(s["real_time_factor_window_s"]) > 0]
     final = statuses[-1]
     scale = float(parameters.get("time_scale", "1.0"))
     step = float(parameters.get("integration_step", "0.01"))
-    print(f"\n  real-time factor: max {max(running):.3f}, median {np.median(running):.3f} "
-          f"(time scale {scale:g}); longest integration step "
+    factor = (f"max {max(running):.3f}, median {np.median(running):.3f}" if running
+              else "not measured")
+    print(f"\n  real-time factor: {factor} (time scale {scale:g}); longest integration step "
           f"{max(float(s['step_time_ms_max']) for s in statuses):.3f} ms")
     print(f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
           f"{final['overruns']}; rejected commands: {final['rejected_commands']}")
