@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import csv
 import sys
+from pathlib import Path
 
 import yaml
 
@@ -61,3 +63,18 @@ def run(main_body, args) -> int:
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+
+
+def write_csv_rows(path: Path, rows: list[dict]) -> None:
+    """One CSV row per dict (the first dict's keys are the header); makes the folder."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def print_written(paths) -> None:
+    """Tell the user which files a tool wrote."""
+    for path in paths:
+        print(f"wrote {path}")

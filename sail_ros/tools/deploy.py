@@ -25,7 +25,13 @@ from tqdm import tqdm
 from sail_ros.analysis.deployment import output_times, run_deployment
 from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
 from sail_ros.model import SailModel, SailParameters
-from sail_ros.tools.common import add_sail_options, describe_parameters, run, sail_parameters
+from sail_ros.tools.common import (
+    add_sail_options,
+    describe_parameters,
+    print_written,
+    run,
+    sail_parameters,
+)
 
 LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
 
@@ -210,8 +216,7 @@ def _deploy(args) -> int:
                                               title=description))
         written.append(boom_lengths_figure(result.t, result.lengths, result.rates,
                                            args.figures / "boom_lengths.png", title=description))
-    for path in written:
-        print(f"wrote {path}")
+    print_written(written)
     return 0
 
 

@@ -13,7 +13,6 @@ independent finite-element model (`sail_ros.fem`) on a sequence of meshes.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import sys
 from pathlib import Path
@@ -27,7 +26,14 @@ from sail_ros.analysis.modes import (
     representative_shapes,
 )
 from sail_ros.model import SailModel
-from sail_ros.tools.common import add_sail_options, describe_parameters, run, sail_parameters
+from sail_ros.tools.common import (
+    add_sail_options,
+    describe_parameters,
+    print_written,
+    run,
+    sail_parameters,
+    write_csv_rows,
+)
 
 # Meshes of the FE cross-check, coarse to fine: (boom elements, membrane
 # divisions per quadrant leg, Lagrange order). Halving the element size makes
@@ -126,14 +132,6 @@ def cross_check_record(check) -> dict:
     }
 
 
-def _write_csv(path: Path, rows: list[dict]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as stream:
-        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-
-
 def _fem_csv_rows(check) -> list[dict]:
     return [{"mode": i + 1, "fem_rad_s": float(f), "modal_rad_s": float(m),
              "difference_percent": float(d)}
@@ -215,10 +213,10 @@ def _modes(args) -> int:
     written = []
     rows = frequency_rows(omega, args.count)
     if args.csv:
-        _write_csv(args.csv, rows)
+        write_csv_rows(args.csv, rows)
         written.append(args.csv)
     if args.fem_csv:
-        _write_csv(args.fem_csv, _fem_csv_rows(check))
+        write_csv_rows(args.fem_csv, _fem_csv_rows(check))
         written.append(args.fem_csv)
     if args.json:
         record = {"parameters": params.to_dict(), "lengths_m": list(modes.lengths),
@@ -234,8 +232,7 @@ def _modes(args) -> int:
         shapes = representative_shapes(model, modes, args.shapes)
         written.append(mode_shapes_figure(model, modes.lengths, shapes,
                                           args.figures / "mode_shapes.png", view=args.view))
-    for path in written:
-        print(f"wrote {path}")
+    print_written(written)
     return 0
 
 

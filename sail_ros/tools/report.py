@@ -36,7 +36,13 @@ from sail_ros.plots.histories import (
     real_time_factor_figure,
     tip_deflections_figure,
 )
-from sail_ros.tools.common import add_sail_options, describe_parameters, run, sail_parameters
+from sail_ros.tools.common import (
+    add_sail_options,
+    describe_parameters,
+    print_written,
+    run,
+    sail_parameters,
+)
 
 # first columns of real_time_factor.csv; any other status values follow by name
 DIAGNOSTIC_COLUMNS = ("sim_time_s", "real_time_factor", "state", "step_time_ms_mean",
@@ -106,8 +112,7 @@ def _report(args) -> int:
     written.append(_write_states(log, out / "states.csv"))
     written += _energies(args, log, out, time_label)
     written += _real_time_factor(log, out, time_label, args.log.name)
-    for path in written:
-        print(f"wrote {path}")
+    print_written(written)
     return 0
 
 

@@ -14,7 +14,6 @@ numerical instability threshold.
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 from pathlib import Path
 
@@ -30,7 +29,14 @@ from sail_ros.analysis.stability import (
     growth,
     stability_sweep,
 )
-from sail_ros.tools.common import add_sail_options, describe_parameters, run, sail_parameters
+from sail_ros.tools.common import (
+    add_sail_options,
+    describe_parameters,
+    print_written,
+    run,
+    sail_parameters,
+    write_csv_rows,
+)
 
 DEFAULT_RATES = (-1.0, -0.3, -0.1, -0.03, -0.01, 0.0, 0.01, 0.03, 0.1, 0.3, 1.0)
 DEFAULT_PRESTRESS = (1e-2, 1e5)  # Pa
@@ -95,14 +101,6 @@ def _critical_rows(sweeps, params) -> list[dict]:
     return rows
 
 
-def _write_csv(path: Path, rows: list[dict]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as stream:
-        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-
-
 def _stability(args) -> int:
     params = sail_parameters(args)
     lengths = args.lengths or [params.full_boom_length]
@@ -141,10 +139,10 @@ def _stability(args) -> int:
 
     written = []
     if args.csv:
-        _write_csv(args.csv, rows)
+        write_csv_rows(args.csv, rows)
         written.append(args.csv)
     if args.grid_csv:
-        _write_csv(args.grid_csv, [
+        write_csv_rows(args.grid_csv, [
             {"length_m": s.length, "rate_m_s": s.rate, "prestress_pa": float(p),
              "max_real_1_s": float(r), "max_abs_1_s": float(a), "unstable": bool(u)}
             for s in sweeps
@@ -165,8 +163,7 @@ def _stability(args) -> int:
         loci = eigenvalue_loci(params, length, rate, prestresses)
         written.append(loci_figure(prestresses, loci, length, rate,
                                    args.figures / "eigenvalue_loci.png", critical))
-    for path in written:
-        print(f"wrote {path}")
+    print_written(written)
     return 0
 
 
