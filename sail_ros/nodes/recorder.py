@@ -29,7 +29,6 @@ import threading
 import time
 import traceback
 
-import rclpy
 import yaml
 from rcl_interfaces.srv import GetParameters, ListParameters
 from rclpy.exceptions import NameValidationException
@@ -38,7 +37,6 @@ from rclpy.logging import get_logger
 from rclpy.node import Node
 from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 
 from sail_ros.bag import COMPRESSIONS, BagWriteError, BagWriter
 from sail_ros.nodes.ros_args import (
@@ -49,7 +47,7 @@ from sail_ros.nodes.ros_args import (
     make_parser,
     message_class,
     overrides,
-    parse_command_line,
+    run_node,
 )
 
 NODE_NAME = "sail_recorder"
@@ -433,28 +431,19 @@ def main(argv=None) -> int:
     """`sail-ros recorder [options] [--ros-args ...]`; returns the exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS)
+    return run_node(NODE_NAME, parser, argv, _record)
+
+
+def _record(namespace, stop) -> int:
     try:
-        namespace, ros_argv = parse_command_line(parser, NODE_NAME, argv)
-    except SystemExit as exit_:
-        return exit_.code if isinstance(exit_.code, int) else 2
-    rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
-    logger = get_logger(NODE_NAME)
+        recorder = Recorder(overrides(namespace, SPECS))
+    except BagWriteError as error:
+        get_logger(NODE_NAME).error(f"cannot start recording: {error}")
+        return 1
     try:
-        with StopSignals() as stop:
-            try:
-                recorder = Recorder(overrides(namespace, SPECS))
-            except ConfigError as error:
-                logger.error(str(error))
-                return 2
-            except BagWriteError as error:
-                logger.error(f"cannot start recording: {error}")
-                return 1
-            try:
-                return recorder.run(stop)
-            finally:
-                recorder.destroy_node()
+        return recorder.run(stop)
     finally:
-        rclpy.try_shutdown()
+        recorder.destroy_node()
 
 
 if __name__ == "__main__":

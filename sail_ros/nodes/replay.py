@@ -21,25 +21,21 @@ import sys
 import threading
 import time
 
-import rclpy
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.logging import get_logger
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
 from sail_ros.bag import BagReader
 from sail_ros.nodes.ros_args import (
     ConfigError,
     ParamSpec,
-    StopSignals,
     declare,
     make_parser,
     message_class,
     overrides,
-    parse_command_line,
+    run_node,
 )
 
 NODE_NAME = "sail_replay"
@@ -247,36 +243,26 @@ def main(argv=None) -> int:
     parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS)
     parser.add_argument("bag_path", nargs="?", metavar="FILE",
                         help="MCAP file or bag folder (same as --bag)")
-    try:
-        namespace, ros_argv = parse_command_line(parser, NODE_NAME, argv)
-    except SystemExit as exit_:
-        return exit_.code if isinstance(exit_.code, int) else 2
+    return run_node(NODE_NAME, parser, argv, _replay)
+
+
+def _replay(namespace, stop) -> int:
     if namespace.bag_path is not None:
         namespace.bag = namespace.bag_path
-    rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
-    logger = get_logger(NODE_NAME)
+    replay = Replay(overrides(namespace, SPECS))
+    # parameter services keep answering while the main thread plays
+    executor = SingleThreadedExecutor(context=replay.context)
+    executor.add_node(replay)
+    done = threading.Event()
+    spinner = threading.Thread(target=_spin, args=(executor, done))
+    spinner.start()
     try:
-        with StopSignals() as stop:
-            try:
-                replay = Replay(overrides(namespace, SPECS))
-            except ConfigError as error:
-                logger.error(str(error))
-                return 2
-            # parameter services keep answering while the main thread plays
-            executor = SingleThreadedExecutor(context=replay.context)
-            executor.add_node(replay)
-            done = threading.Event()
-            spinner = threading.Thread(target=_spin, args=(executor, done))
-            spinner.start()
-            try:
-                return replay.play(stop.event)
-            finally:
-                done.set()
-                spinner.join()  # before anything it waits on is destroyed
-                executor.shutdown()
-                replay.destroy_node()
+        return replay.play(stop.event)
     finally:
-        rclpy.try_shutdown()
+        done.set()
+        spinner.join()  # before anything it waits on is destroyed
+        executor.shutdown()
+        replay.destroy_node()
 
 
 def _spin(executor, done: threading.Event) -> None:

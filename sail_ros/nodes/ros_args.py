@@ -15,10 +15,13 @@ import importlib
 import signal
 import threading
 
+import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import ParameterException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+from rclpy.logging import get_logger
 from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
 _TYPES = {
@@ -176,6 +179,29 @@ class StopSignals:
     def _handle(self, signum, frame) -> None:
         self.received = signal.Signals(signum).name
         self.event.set()
+
+
+def run_node(name: str, parser: argparse.ArgumentParser, argv: list[str], body) -> int:
+    """A node tool's `main`: the exit code of `body(namespace, stop)`.
+
+    Parses `argv` (tool options, then `--ros-args ...`; `--help` or a bad option
+    ends here), holds SIGINT/SIGTERM in `stop` (a `StopSignals`), starts rclpy
+    without its own signal handlers and shuts it down at the end. A
+    `ConfigError` (a parameter the node cannot use) is logged and gives exit 2.
+    """
+    try:
+        namespace, ros_argv = parse_command_line(parser, name, argv)
+    except SystemExit as exit_:
+        return exit_.code if isinstance(exit_.code, int) else 2
+    with StopSignals() as stop:
+        rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            return body(namespace, stop)
+        except ConfigError as error:
+            get_logger(name).error(str(error))
+            return 2
+        finally:
+            rclpy.try_shutdown()
 
 
 def message_class(type_name: str):

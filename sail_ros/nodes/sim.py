@@ -31,16 +31,13 @@ import math
 import sys
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.logging import get_logger
 from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock as ClockMessage
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
@@ -53,7 +50,7 @@ from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import CommandError
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
-from sail_ros.nodes.ros_args import ConfigError, StopSignals, parse_command_line
+from sail_ros.nodes.ros_args import ConfigError, run_node
 from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
 
@@ -359,34 +356,24 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """`sail-ros sim [--ros-args ...]`; returns the exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    return run_node(NODE_NAME, _parser(), argv, _simulate)
+
+
+def _simulate(_namespace, stop) -> int:
+    node = SimNode()
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
     try:
-        _, ros_argv = parse_command_line(_parser(), NODE_NAME, argv)
-    except SystemExit as exit_:
-        return exit_.code if isinstance(exit_.code, int) else 2
-    logger = get_logger(NODE_NAME)
-    with StopSignals() as stop:
-        rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
-        try:
-            try:
-                node = SimNode()
-            except ConfigError as error:
-                logger.error(str(error))
-                return 2
-            executor = SingleThreadedExecutor()
-            executor.add_node(node)
-            try:
-                while not stop.event.is_set():
-                    executor.spin_once(timeout_sec=0.1)
-                node.get_logger().info(f"{stop.received}: stopping at t = {node.sim.t:.6f} s")
-            except ExternalShutdownException:
-                pass
-            finally:
-                node.close()
-                executor.remove_node(node)
-                node.destroy_node()
-            return 0
-        finally:
-            rclpy.try_shutdown()
+        while not stop.event.is_set():
+            executor.spin_once(timeout_sec=0.1)
+        node.get_logger().info(f"{stop.received}: stopping at t = {node.sim.t:.6f} s")
+    except ExternalShutdownException:
+        pass
+    finally:
+        node.close()
+        executor.remove_node(node)
+        node.destroy_node()
+    return 0
 
 
 if __name__ == "__main__":
