@@ -294,6 +294,21 @@ def test_replay_republishes_with_recorded_values_and_timing(recording, ros_env, 
     listener.clear()
 
 
+def run_until_recorder_exits(recorder, ros_env, listener, count, rate):
+    """Publish `count` messages per stream at `rate` [Hz] until the recorder exits on
+    its own; its exit code and standard error."""
+    publisher = start_publisher(ros_env, count=count, rate=rate, subscribers=2)
+    try:
+        go(listener, publisher)
+        code, _, err = finish(recorder, timeout=30.0)
+    finally:
+        recorder.kill()
+        publisher.kill()
+        finish(publisher)
+    listener.clear()
+    return code, err
+
+
 def test_sigkill_leaves_the_bag_readable_up_to_its_last_chunk(ros_env, listener, tmp_path):
     folder = tmp_path / "killed"
     recorder = start_tool("recorder", ["-o", str(folder), *RECORDER_TOPICS,
@@ -332,15 +347,7 @@ def test_full_disk_is_a_clear_error_and_keeps_what_was_written(ros_env, listener
     recorder = start(["-c", launcher, "recorder", "-o", str(folder), "--topics", *STREAMS,
                       "--compression", "none", "--max-chunk-duration-s", "0.1",
                       "--parameter-node", ""], ros_env)
-    publisher = start_publisher(ros_env, count=2000, rate=200.0, subscribers=2)
-    try:
-        go(listener, publisher)
-        code, _, err = finish(recorder, timeout=30.0)
-    finally:
-        recorder.kill()
-        publisher.kill()
-        finish(publisher)
-    listener.clear()
+    code, err = run_until_recorder_exits(recorder, ros_env, listener, count=2000, rate=200.0)
     assert code == 1, err
     assert f"cannot write '{folder / 'full_0.mcap'}': File too large" in err
     kept = list(BagReader(folder).messages(topics=["/sail/boom_state"]))
@@ -475,15 +482,7 @@ def test_error_in_a_callback_still_finishes_the_bag(ros_env, listener, tmp_path)
     folder = tmp_path / "broken"
     recorder = start(["-c", RECORDER_WITH.format(patch=FAIL_ON_MESSAGE_51), "-o", str(folder),
                       "--topics", *STREAMS, "--parameter-node", ""], ros_env)
-    publisher = start_publisher(ros_env, count=300, rate=100.0, subscribers=2)
-    try:
-        go(listener, publisher)
-        code, _, err = finish(recorder, timeout=30.0)
-    finally:
-        recorder.kill()
-        publisher.kill()
-        finish(publisher)
-    listener.clear()
+    code, err = run_until_recorder_exits(recorder, ros_env, listener, count=300, rate=100.0)
     assert code == 1, err
     assert "recording stopped by an unexpected error" in err
     assert "RuntimeError: injected failure" in err
