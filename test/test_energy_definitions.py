@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from sail_ros.model import SailModel, SailParameters
-from sail_ros.model.assembly import BOOMS, GYROSCOPIC, QUADRANTS, STIFFNESS_CANONICAL
+from sail_ros.model.assembly import GYROSCOPIC, MASS, STIFFNESS_CANONICAL
 from sail_ros.model.basis import cantilever_modes, triangle_modes
 from sail_ros.model.integrals import collapsed_gauss_triangle, gauss_unit_interval
+from sail_ros.model.layout import BOOMS, QUADRANTS
 
 LENGTHS = np.array([31.0, 44.0, 37.5, 52.0])
 RATES = np.array([0.7, -0.4, 0.15, 0.9])
@@ -92,7 +93,7 @@ def energies_from_definitions(model, q, qd):
 def test_kinetic_and_potential_energy_match_matrices(setup):
     model, q, qd = setup
     kinetic, potential = energies_from_definitions(model, q, qd)
-    M, G, K_minus_N = model.evaluate((0, GYROSCOPIC, STIFFNESS_CANONICAL), LENGTHS, RATES, 0.0)
+    M, G, K_minus_N = model.evaluate((MASS, GYROSCOPIC, STIFFNESS_CANONICAL), LENGTHS, RATES, 0.0)
     _, K = model.mass_and_stiffness(LENGTHS)
     N = K - K_minus_N
     quadratic_kinetic = 0.5 * qd @ M @ qd + qd @ G @ q + 0.5 * q @ N @ q

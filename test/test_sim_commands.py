@@ -14,12 +14,12 @@ from visualization_msgs.msg import Marker
 
 from sail_ros import topics
 from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointProfile
+from sail_ros.model.profiles import BoomMotion
 from sail_ros.model.shape import SailSurface
-from sail_ros.nodes.boom_motion import BoomMotion
 from sail_ros.nodes.commands import BoomState, CommandError, Limits, plan_deploy, plan_trajectory
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.sim_params import DEFAULTS, SPECS, ConfigError, config_from_values
-from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation, initial_coordinates
+from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 LIMITS = Limits(min_length=1.0, max_length=70.0, max_rate=1.0, max_acceleration=0.5)
@@ -197,7 +197,7 @@ def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
     assert sim.accepted == 1 and sim.last_command_start == pytest.approx(1.0)
     # the same motion offline, on the same step: agreement to round-off
     profile = CycloidalProfile.within_limits(10.0, 12.0, 1.0, 0.5, t0=sim.last_command_start)
-    _, q, _ = model.simulate(profile, 6.0, initial_coordinates(model, [0.1, 0, 0, 0]),
+    _, q, _ = model.simulate(profile, 6.0, model.initial_coordinates([0.1, 0, 0, 0]),
                              t_eval=[6.0], max_step=0.01)
     assert sim.stepper.q == pytest.approx(q[0], abs=1e-12)
     assert sim.sample().lengths == pytest.approx(profile(6.0)[0])
@@ -393,7 +393,7 @@ def test_state_messages_carry_stamp_frame_names_and_values():
 
 def test_shape_markers_draw_the_deflected_membrane_and_the_booms(model):
     surface = SailSurface(model, 4)
-    q = initial_coordinates(model, [0.1, 0.0, 0.0, -0.05])
+    q = model.initial_coordinates([0.1, 0.0, 0.0, -0.05])
     lengths = [10.0, 11.0, 12.0, 13.0]
     vertices = surface.vertices(q, lengths)
     markers = topics.shape(5, vertices, surface.triangles, surface.boom_lines(q, lengths)).markers

@@ -31,9 +31,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.model import SailModel, SailParameters, StaticProfile
-from sail_ros.nodes.boom_motion import BoomMotion
+from sail_ros.model.profiles import BoomMotion
 from sail_ros.nodes.commands import BoomState, Limits, plan_deploy, plan_trajectory
-from sail_ros.nodes.simulation import initial_coordinates
 
 pytestmark = pytest.mark.slow
 
@@ -287,7 +286,7 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
 
     model = SailModel(SailParameters())
     t_tip, tips, tip_rates = series(operator.states[topics.TIP_DEFLECTION], epoch)
-    _, q, qd = model.simulate(motion, t_tip[-1], initial_coordinates(model, tip0),
+    _, q, qd = model.simulate(motion, t_tip[-1], model.initial_coordinates(tip0),
                               t_eval=t_tip, max_step=STEP)
     assert np.abs(tips).max() > 0.05  # the boom still rings: a real comparison
     assert tips == pytest.approx(model.tip_deflections(q), abs=TIP_TOLERANCE)
@@ -350,7 +349,7 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     assert np.all(lengths == 10.0) and np.all(rates == 0.0)
     t, q, _ = series(operator.states[topics.MODAL_STATE], epoch)
     model = SailModel(SailParameters())
-    _, q_alone, _ = model.simulate(StaticProfile(10.0), t[-1], initial_coordinates(model, tip0),
+    _, q_alone, _ = model.simulate(StaticProfile(10.0), t[-1], model.initial_coordinates(tip0),
                                    t_eval=t, max_step=STEP)
     assert np.abs(q).max() > 0.005
     assert q == pytest.approx(q_alone, abs=1e-9)
@@ -372,7 +371,7 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     operator.spin_until(lambda: len(operator.states[topics.MODAL_STATE]) > count, 5.0,
                         "the state after the reset")
     after = operator.states[topics.MODAL_STATE][count]
-    assert np.array(after.position) == pytest.approx(initial_coordinates(model, tip0), abs=1e-15)
+    assert np.array(after.position) == pytest.approx(model.initial_coordinates(tip0), abs=1e-15)
     assert operator.call(operator.pause, SetBool.Request(data=False)).success
     running = operator.wait_for_status(
         lambda s: s["state"] == "running" and float(s["sim_time_s"]) >

@@ -22,7 +22,6 @@ from std_srvs.srv import SetBool, Trigger
 from sail_ros import topics
 from sail_ros.nodes.sim import RTF_MIN_WINDOW_S, SimNode, main
 from sail_ros.nodes.sim_params import SPECS, ConfigError
-from sail_ros.nodes.simulation import initial_coordinates
 
 DOMAIN_ID = 101 + os.getpid() % 50
 
@@ -161,11 +160,11 @@ def test_pause_resume_and_reset(ros):
     # paced again from where it stopped, not catching up the paused time
     assert sim.sim.t < held + 1.0
 
-    assert not np.allclose(sim.sim.stepper.q, initial_coordinates(sim.sim.model, [0, 0.05, 0, 0]))
+    assert not np.allclose(sim.sim.stepper.q, sim.sim.model.initial_coordinates([0, 0.05, 0, 0]))
     answer = call(spin_until, client.reset, Trigger.Request())
     assert answer.success and "reset to the initial state" in answer.message
     assert sim.sim.stepper.q == pytest.approx(
-        initial_coordinates(sim.sim.model, [0, 0.05, 0, 0]), abs=1e-15)
+        sim.sim.model.initial_coordinates([0, 0.05, 0, 0]), abs=1e-15)
     assert sim.sim.t >= held  # time goes on: stamps never go backwards
 
 

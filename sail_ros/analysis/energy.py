@@ -19,7 +19,7 @@ import dataclasses
 import numpy as np
 
 from sail_ros.model import SailModel
-from sail_ros.model.assembly import BOOMS, QUADRANTS
+from sail_ros.model.layout import BOOMS, QUADRANTS
 
 
 @dataclasses.dataclass(frozen=True)

@@ -41,7 +41,7 @@ import numpy as np
 import yaml
 
 from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointProfile
-from sail_ros.nodes.boom_motion import BoomMotion
+from sail_ros.model.profiles import BoomMotion
 
 BOOMS = ("a", "b", "c", "d")
 PROFILE_KEYS = {

@@ -1,14 +1,26 @@
 """The sail's structural model: numpy/scipy only, no ROS.
 
-from sail_ros.model import SailParameters, SailModel
+    from sail_ros.model import SailParameters, SailModel
+
+A one-way chain, each module importing only those above it:
+
+- `layout`: booms, quadrants, coordinate slices and names, `per_boom`;
+- `basis`, `integrals`: basis functions and the reference integrals (§2, §5);
+- `assembly`: the matrices of Eq. 2 as a table of named terms, lifted (§5, §6);
+- `parameters`, `sail_model`: `SailParameters` and `SailModel`;
+- `stepper`, `integrate`: time integration against a narrow `LinearSystem`
+  (the matrices at a boom motion), which `SailModel` is;
+- `profiles`: boom motion (`Profile`, the profiles, `BoomMotion`);
+- `shape`: the deflected sail sampled on a mesh.
 """
 
 from sail_ros.model.parameters import SailParameters
-from sail_ros.model.profiles import CycloidalProfile, StaticProfile, WaypointProfile
+from sail_ros.model.profiles import BoomMotion, CycloidalProfile, StaticProfile, WaypointProfile
 from sail_ros.model.sail_model import SailModel
 from sail_ros.model.stepper import IntegrationError, SailStepper
 
 __all__ = [
+    "BoomMotion",
     "CycloidalProfile",
     "IntegrationError",
     "SailModel",

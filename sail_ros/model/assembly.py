@@ -1,16 +1,9 @@
-"""System matrices of Eq. 2 by lifting quadrant and boom matrices (model.md §5-§6).
+"""The matrices of Eq. 2 as named terms, lifted to the whole sail (model.md §5-§6).
 
-The system coordinates are ordered
-
-    q = [p_a, p_b, p_c, p_d, q_ab, q_bc, q_cd, q_da]
-
-(`n_B` per boom, `n_M` per quadrant). Each matrix of Eq. 2 is a sum over
-booms and quadrants of a scalar coefficient times a constant reference
-integral (`integrals.py`). The assembler precomputes, for every one of those
-constant integrals, where its entries land in the system matrices (Tab. 1),
-so one evaluation is: coefficients (a few dozen scalars), one small matrix
-product per component, and one scatter-add (`numpy.bincount`) that builds
-all requested matrices together:
+Every matrix of the model is a sum of terms, each a scalar coefficient (of
+the boom lengths L, rates Ld and accelerations Ldd, and the physical
+constants) times one constant reference integral (`integrals.py`), added
+into one or more of the system matrices:
 
     MASS                 M
     DAMPING              C = Md + G - G^T          (Eq. 2)
@@ -19,179 +12,325 @@ all requested matrices together:
     GYROSCOPIC           G                         (canonical form)
     GYROSCOPIC_SKEW      G - G^T                   (canonical form)
     STIFFNESS_CANONICAL  K - N                     (canonical form)
+
+`BOOM_TERMS` and `QUADRANT_TERMS` below are the whole physics of the
+assembly, one entry per term of model.md §5; adding a term is adding an
+entry. A boom term lands on that boom's diagonal block, a quadrant term on
+the rows and columns of `[p_first, p_second, q_quadrant]` (Tab. 1).
+
+The `SystemAssembler` precomputes where every entry of every integral lands,
+so one evaluation is: the term coefficients (a few dozen scalars), one small
+matrix product per component, and one scatter-add (`numpy.bincount`) that
+builds all requested matrices together.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
+from typing import NamedTuple
+
 import numpy as np
 
 from sail_ros.model.integrals import BoomIntegrals, QuadrantIntegrals
+from sail_ros.model.layout import QUADRANTS, Layout
 
-BOOMS = ("a", "b", "c", "d")
-# quadrant name, first boom, second boom (model.md §1 and Tab. 1)
-QUADRANTS = (("ab", 0, 1), ("bc", 1, 2), ("cd", 2, 3), ("da", 3, 0))
-# Outputs of one evaluation, in this order.
-MASS, DAMPING, STIFFNESS_EQ, STIFFNESS, GYROSCOPIC, GYROSCOPIC_SKEW, STIFFNESS_CANONICAL = range(7)
-N_OUTPUTS = 7
-ALL_OUTPUTS = tuple(range(N_OUTPUTS))
+MASS = "M"
+DAMPING = "C"
+STIFFNESS_EQ = "K_eq"
+STIFFNESS = "K"
+GYROSCOPIC = "G"
+GYROSCOPIC_SKEW = "G - G^T"
+STIFFNESS_CANONICAL = "K - N"
+ALL_OUTPUTS = (
+    MASS,
+    DAMPING,
+    STIFFNESS_EQ,
+    STIFFNESS,
+    GYROSCOPIC,
+    GYROSCOPIC_SKEW,
+    STIFFNESS_CANONICAL,
+)
+
+
+class Constants(NamedTuple):
+    """The physical constants the coefficients use (SI)."""
+
+    boom_linear_density: float  # rho_B [kg/m]
+    boom_bending_stiffness: float  # EI [N m^2]
+    boom_axial_load: float  # P [N]
+    membrane_areal_density: float  # rho_M [kg/m^2]
+    membrane_tension: float  # N0 [N/m]
+
+
+class BoomKinematics(NamedTuple):
+    """One value per boom (4,): length L [m], rate Ld [m/s], acceleration Ldd [m/s^2]."""
+
+    L: np.ndarray
+    Ld: np.ndarray
+    Ldd: np.ndarray
+
+
+class QuadrantKinematics(NamedTuple):
+    """One value per quadrant (4,): the motion of its first (a) and second (b) boom."""
+
+    La: np.ndarray
+    Lda: np.ndarray
+    Ldda: np.ndarray
+    Lb: np.ndarray
+    Ldb: np.ndarray
+    Lddb: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class Term:
+    """`coefficient x integral`, added into each matrix of `matrices`.
+
+    Attributes:
+        name: what the term is, in model.md's words.
+        integral: the field of `BoomIntegrals` / `QuadrantIntegrals`.
+        coefficient: `(motion, constants) -> 4 values` (one per boom or quadrant).
+        matrices: the outputs the term belongs to.
+        skew: use `integral - integral^T` (the gyroscopic `G - G^T`).
+    """
+
+    name: str
+    integral: str
+    coefficient: Callable[[NamedTuple, Constants], np.ndarray]
+    matrices: tuple[str, ...]
+    skew: bool = False
+
+    @property
+    def integral_key(self) -> tuple[str, bool]:
+        return self.integral, self.skew
+
+
+# Boom k (n_B x n_B), model.md §5: M_B, Md_B, G_B, Gd_B, N_B, K_B.
+BOOM_TERMS = (
+    Term("mass M_B", "psi_psi", lambda b, c: c.boom_linear_density * b.L, (MASS,)),
+    Term("mass rate Md_B", "psi_psi", lambda b, c: c.boom_linear_density * b.Ld, (DAMPING,)),
+    Term(
+        "transport G_B - G_B^T",
+        "psi_r",
+        lambda b, c: c.boom_linear_density * b.Ld,
+        (DAMPING, GYROSCOPIC_SKEW),
+        skew=True,
+    ),
+    Term("transport G_B", "psi_r", lambda b, c: c.boom_linear_density * b.Ld, (GYROSCOPIC,)),
+    Term(
+        "transport rate Gd_B", "psi_r", lambda b, c: c.boom_linear_density * b.Ldd, (STIFFNESS_EQ,)
+    ),
+    Term(
+        "transport stiffness -N_B",
+        "r_r",
+        lambda b, c: -c.boom_linear_density * b.Ld**2 / b.L,
+        (STIFFNESS_EQ, STIFFNESS_CANONICAL),
+    ),
+    Term(
+        "bending K_B",
+        "d2_d2",
+        lambda b, c: c.boom_bending_stiffness / b.L**3,
+        (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
+    ),
+    Term(
+        "axial load K_B",
+        "d1_d1",
+        lambda b, c: -c.boom_axial_load / b.L,
+        (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
+    ),
+)
+
+# Quadrant Q_ab (n~ x n~), model.md §5: M_M, Md_M, G_M, Gd_M, N_M, K_M.
+QUADRANT_TERMS = (
+    Term("mass M_M", "s_s", lambda q, c: c.membrane_areal_density * q.La * q.Lb, (MASS,)),
+    Term(
+        "mass rate Md_M",
+        "s_s",
+        lambda q, c: c.membrane_areal_density * (q.Lda * q.Lb + q.La * q.Ldb),
+        (DAMPING,),
+    ),
+    Term(
+        "transport G_M - G_M^T (first boom)",
+        "s_ra",
+        lambda q, c: c.membrane_areal_density * q.Lb * q.Lda,
+        (DAMPING, GYROSCOPIC_SKEW),
+        skew=True,
+    ),
+    Term(
+        "transport G_M - G_M^T (second boom)",
+        "s_rb",
+        lambda q, c: c.membrane_areal_density * q.La * q.Ldb,
+        (DAMPING, GYROSCOPIC_SKEW),
+        skew=True,
+    ),
+    Term(
+        "transport G_M (first boom)",
+        "s_ra",
+        lambda q, c: c.membrane_areal_density * q.Lb * q.Lda,
+        (GYROSCOPIC,),
+    ),
+    Term(
+        "transport G_M (second boom)",
+        "s_rb",
+        lambda q, c: c.membrane_areal_density * q.La * q.Ldb,
+        (GYROSCOPIC,),
+    ),
+    Term(
+        "transport rate Gd_M (first boom)",
+        "s_ra",
+        lambda q, c: c.membrane_areal_density * (q.Lda * q.Ldb + q.Lb * q.Ldda),
+        (STIFFNESS_EQ,),
+    ),
+    Term(
+        "transport rate Gd_M (second boom)",
+        "s_rb",
+        lambda q, c: c.membrane_areal_density * (q.Lda * q.Ldb + q.La * q.Lddb),
+        (STIFFNESS_EQ,),
+    ),
+    Term(
+        "transport stiffness -N_M (first boom)",
+        "ra_ra",
+        lambda q, c: -c.membrane_areal_density * q.Lb * q.Lda**2 / q.La,
+        (STIFFNESS_EQ, STIFFNESS_CANONICAL),
+    ),
+    Term(
+        "transport stiffness -N_M (both booms)",
+        "ra_rb",
+        lambda q, c: -c.membrane_areal_density * q.Lda * q.Ldb,
+        (STIFFNESS_EQ, STIFFNESS_CANONICAL),
+    ),
+    Term(
+        "transport stiffness -N_M (second boom)",
+        "rb_rb",
+        lambda q, c: -c.membrane_areal_density * q.La * q.Ldb**2 / q.Lb,
+        (STIFFNESS_EQ, STIFFNESS_CANONICAL),
+    ),
+    Term(
+        "tension K_M (along the first boom)",
+        "sxi_sxi",
+        lambda q, c: c.membrane_tension * q.Lb / q.La,
+        (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
+    ),
+    Term(
+        "tension K_M (along the second boom)",
+        "seta_seta",
+        lambda q, c: c.membrane_tension * q.La / q.Lb,
+        (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
+    ),
+)
+
+
+class _Component:
+    """The terms of one kind of component (the 4 booms or the 4 quadrants).
+
+    The distinct integrals are stacked once; a plan maps the term coefficients
+    of the requested outputs onto them (a 0/1 matrix: each (integral, output)
+    pair has at most one term, so the mapping adds nothing but zeros).
+    """
+
+    def __init__(self, terms, integrals, targets: np.ndarray):
+        self.terms = terms
+        keys = list(dict.fromkeys(term.integral_key for term in terms))
+        self._column = {key: i for i, key in enumerate(keys)}
+        stacked = []
+        for name, skew in keys:
+            matrix = getattr(integrals, name)
+            stacked.append(matrix - matrix.T if skew else matrix)
+        self.integrals = np.stack(stacked).reshape(len(keys), -1)
+        self.targets = targets  # (4, size^2): flat system index of every block entry
+
+    def selection(self, outputs: tuple[str, ...]) -> np.ndarray:
+        """(terms, outputs x integrals): 1 where a term feeds an integral of an output."""
+        select = np.zeros((len(self.terms), len(outputs), len(self._column)))
+        for t, term in enumerate(self.terms):
+            for o, output in enumerate(outputs):
+                if output in term.matrices:
+                    select[t, o, self._column[term.integral_key]] = 1.0
+        return select.reshape(len(self.terms), -1)
+
+    def values(self, motion, constants: Constants, selection: np.ndarray, k: int) -> np.ndarray:
+        """Entries of every block of every requested output, flat."""
+        coefficients = np.array([term.coefficient(motion, constants) for term in self.terms]).T
+        weights = (coefficients @ selection).reshape(4 * k, -1)
+        return (weights @ self.integrals).ravel()
 
 
 class SystemAssembler:
-    """Builds `M`, `C = Md + G - G^T`, `K_eq = Gd + K - N` and `K` from boom motion.
+    """Builds the matrices of Eq. 2 from the boom motion.
 
-    Physical constants enter once here; `evaluate` takes only the boom lengths,
-    rates and accelerations (4 values each, order a, b, c, d).
+    Physical constants enter once here; `evaluate` takes only the outputs
+    wanted and the boom lengths, rates and accelerations (4 values each,
+    order a, b, c, d).
     """
 
     def __init__(
         self,
         boom: BoomIntegrals,
         quadrant: QuadrantIntegrals,
-        n_boom_modes: int,
-        n_membrane_modes: int,
-        boom_linear_density: float,
-        boom_bending_stiffness: float,
-        boom_axial_load: float,
-        membrane_areal_density: float,
-        membrane_tension: float,
+        layout: Layout,
+        constants: Constants,
     ):
-        nb, nm = n_boom_modes, n_membrane_modes
-        self.n = 4 * nb + 4 * nm
-        self._rho_b = boom_linear_density
-        self._ei = boom_bending_stiffness
-        self._p = boom_axial_load
-        self._rho_m = membrane_areal_density
-        self._n0 = membrane_tension
+        self.layout = layout
+        self.n = n = layout.n
+        self.constants = constants
 
-        # Constant term matrices, in the column order of the tables at the end of this module.
-        boom_terms = np.stack(
-            [
-                boom.psi_psi,  # 0: M, Md
-                boom.psi_r - boom.psi_r.T,  # 1: G - G^T
-                boom.psi_r,  # 2: Gd
-                boom.r_r,  # 3: N
-                boom.d2_d2,  # 4: bending K
-                boom.d1_d1,  # 5: axial-load K
-            ]
-        )
-        quad_terms = np.stack(
-            [
-                quadrant.s_s,  # 0: M, Md
-                quadrant.s_ra - quadrant.s_ra.T,  # 1: G - G^T (boom 1 rate)
-                quadrant.s_rb - quadrant.s_rb.T,  # 2: G - G^T (boom 2 rate)
-                quadrant.s_ra,  # 3: Gd
-                quadrant.s_rb,  # 4: Gd
-                quadrant.ra_ra,  # 5: N
-                quadrant.ra_rb,  # 6: N
-                quadrant.rb_rb,  # 7: N
-                quadrant.sxi_sxi,  # 8: K (tension)
-                quadrant.seta_seta,  # 9: K (tension)
-            ]
-        )
-        self._boom_terms = boom_terms.reshape(len(boom_terms), -1)
-        self._quad_terms = quad_terms.reshape(len(quad_terms), -1)
+        def flat(slots):
+            return (slots[:, None] * n + slots[None, :]).ravel()
 
-        # Flat system index of every entry of every boom and quadrant block.
-        boom_slots = [np.arange(k * nb, (k + 1) * nb) for k in range(4)]
-        membrane_slots = [np.arange(4 * nb + q * nm, 4 * nb + (q + 1) * nm) for q in range(4)]
-        self._boom_targets = np.stack(
-            [(slots[:, None] * self.n + slots[None, :]).ravel() for slots in boom_slots]
+        self._booms = _Component(
+            BOOM_TERMS, boom, np.stack([flat(layout.boom_slots(k)) for k in range(4)])
         )
-        quad_targets = []
-        for q, (_, first, second) in enumerate(QUADRANTS):
-            slots = np.concatenate([boom_slots[first], boom_slots[second], membrane_slots[q]])
-            quad_targets.append((slots[:, None] * self.n + slots[None, :]).ravel())
-        self._quad_targets = np.stack(quad_targets)
-        self._plans = {}
-        self._first = np.array([f for _, f, _ in QUADRANTS])
-        self._second = np.array([s for _, _, s in QUADRANTS])
+        self._quadrants = _Component(
+            QUADRANT_TERMS, quadrant, np.stack([flat(layout.quadrant_slots(q)) for q in QUADRANTS])
+        )
+        self._first = np.array([q.first for q in QUADRANTS])
+        self._second = np.array([q.second for q in QUADRANTS])
+        self._plans: dict[tuple[str, ...], tuple] = {}
 
-    def _plan(self, outputs: tuple[int, ...]):
-        """Feature columns per (output, term) and scatter indices for `outputs`."""
-        if outputs not in self._plans:
-            k = len(outputs)
-            offsets = (self.n * self.n * np.arange(k))[None, :, None]
+    def _plan(self, outputs: tuple[str, ...]):
+        """Term-to-integral selections and scatter indices for `outputs`."""
+        plan = self._plans.get(outputs)
+        if plan is None:
+            unknown = [name for name in outputs if name not in ALL_OUTPUTS]
+            if unknown:
+                raise ValueError(f"unknown output(s) {unknown!r}; known: {', '.join(ALL_OUTPUTS)}")
+            offsets = (self.n * self.n * np.arange(len(outputs)))[None, :, None]
             scatter = np.concatenate(
                 [
-                    (self._boom_targets[:, None, :] + offsets).ravel(),
-                    (self._quad_targets[:, None, :] + offsets).ravel(),
+                    (component.targets[:, None, :] + offsets).ravel()
+                    for component in (self._booms, self._quadrants)
                 ]
             )
-            self._plans[outputs] = (
-                _BOOM_FEATURE_OF_TERM[list(outputs)],
-                _QUAD_FEATURE_OF_TERM[list(outputs)],
-                scatter,
-            )
-        return self._plans[outputs]
+            plan = (self._booms.selection(outputs), self._quadrants.selection(outputs), scatter)
+            self._plans[outputs] = plan
+        return plan
 
-    def evaluate(self, lengths, rates, accelerations, outputs=ALL_OUTPUTS) -> np.ndarray:
+    def evaluate(self, outputs, lengths, rates, accelerations) -> np.ndarray:
         """The requested matrices stacked, shape (len(outputs), n, n).
 
-        Arguments are arrays of 4 values (m, m/s, m/s^2), already validated;
-        `outputs` a tuple of the output constants above, in any order.
+        Args:
+            outputs: a tuple of the output names above, in any order.
+            lengths, rates, accelerations: arrays of 4 values (m, m/s, m/s^2),
+                already validated.
         """
-        L, Ld, Ldd = lengths, rates, accelerations
-        rho_b, rho_m = self._rho_b, self._rho_m
-        boom_features = np.stack(
-            [
-                np.zeros(4),
-                rho_b * L,
-                rho_b * Ld,
-                rho_b * Ldd,
-                -rho_b * Ld**2 / L,
-                self._ei / L**3,
-                -self._p / L,
-            ],
-            axis=1,
-        )
-        La, Lda, Ldda = L[self._first], Ld[self._first], Ldd[self._first]
-        Lb, Ldb, Lddb = L[self._second], Ld[self._second], Ldd[self._second]
-        quad_features = np.stack(
-            [
-                np.zeros(4),
-                rho_m * La * Lb,
-                rho_m * (Lda * Lb + La * Ldb),
-                rho_m * Lb * Lda,
-                rho_m * La * Ldb,
-                rho_m * (Lda * Ldb + Lb * Ldda),
-                rho_m * (Lda * Ldb + La * Lddb),
-                -rho_m * Lb * Lda**2 / La,
-                -rho_m * Lda * Ldb,
-                -rho_m * La * Ldb**2 / Lb,
-                self._n0 * Lb / La,
-                self._n0 * La / Lb,
-            ],
-            axis=1,
-        )
-        boom_columns, quad_columns, scatter = self._plan(outputs)
+        outputs = tuple(outputs)
         k = len(outputs)
-        # coefficient of every (boom or quadrant, output, term), times the term matrices
-        boom_values = boom_features[:, boom_columns].reshape(4 * k, -1) @ self._boom_terms
-        quad_values = quad_features[:, quad_columns].reshape(4 * k, -1) @ self._quad_terms
-        values = np.concatenate([boom_values.ravel(), quad_values.ravel()])
+        boom_selection, quadrant_selection, scatter = self._plan(outputs)
+        booms = BoomKinematics(lengths, rates, accelerations)
+        first, second = self._first, self._second
+        quadrants = QuadrantKinematics(
+            lengths[first],
+            rates[first],
+            accelerations[first],
+            lengths[second],
+            rates[second],
+            accelerations[second],
+        )
+        values = np.concatenate(
+            [
+                self._booms.values(booms, self.constants, boom_selection, k),
+                self._quadrants.values(quadrants, self.constants, quadrant_selection, k),
+            ]
+        )
         out = np.bincount(scatter, weights=values, minlength=k * self.n * self.n)
         return out.reshape(k, self.n, self.n)
-
-
-# Which feature (column of the feature arrays in `evaluate`) scales each term
-# matrix in each output; column 0 is zero. Rows: outputs; columns: terms.
-# Boom features: 0, rho L, rho Ld, rho Ldd, -rho Ld^2/L, EI/L^3, -P/L.
-_BOOM_FEATURE_OF_TERM = np.zeros((N_OUTPUTS, 6), dtype=np.intp)
-_BOOM_FEATURE_OF_TERM[MASS, 0] = 1
-_BOOM_FEATURE_OF_TERM[DAMPING, [0, 1]] = 2  # Md and G - G^T
-_BOOM_FEATURE_OF_TERM[STIFFNESS_EQ, 2:6] = [3, 4, 5, 6]  # Gd, -N, bending, axial load
-_BOOM_FEATURE_OF_TERM[STIFFNESS, 4:6] = [5, 6]
-_BOOM_FEATURE_OF_TERM[GYROSCOPIC, 2] = 2
-_BOOM_FEATURE_OF_TERM[GYROSCOPIC_SKEW, 1] = 2
-_BOOM_FEATURE_OF_TERM[STIFFNESS_CANONICAL, 3:6] = [4, 5, 6]
-# Quadrant features: 0, rho La Lb, rho (Lda Lb + La Ldb), rho Lb Lda, rho La Ldb,
-# rho (Lda Ldb + Lb Ldda), rho (Lda Ldb + La Lddb), -rho Lb Lda^2/La, -rho Lda Ldb,
-# -rho La Ldb^2/Lb, N0 Lb/La, N0 La/Lb.
-_QUAD_FEATURE_OF_TERM = np.zeros((N_OUTPUTS, 10), dtype=np.intp)
-_QUAD_FEATURE_OF_TERM[MASS, 0] = 1
-_QUAD_FEATURE_OF_TERM[DAMPING, 0:3] = [2, 3, 4]
-_QUAD_FEATURE_OF_TERM[STIFFNESS_EQ, 3:10] = [5, 6, 7, 8, 9, 10, 11]
-_QUAD_FEATURE_OF_TERM[STIFFNESS, 8:10] = [10, 11]
-_QUAD_FEATURE_OF_TERM[GYROSCOPIC, 3:5] = [3, 4]
-_QUAD_FEATURE_OF_TERM[GYROSCOPIC_SKEW, 1:3] = [3, 4]
-_QUAD_FEATURE_OF_TERM[STIFFNESS_CANONICAL, 5:10] = [7, 8, 9, 10, 11]

@@ -13,6 +13,8 @@ import functools
 import numpy as np
 from scipy.optimize import brentq
 
+from sail_ros.model.layout import triangle_mode_indices
+
 
 @functools.cache
 def cantilever_roots(n: int) -> np.ndarray:
@@ -77,25 +79,6 @@ def cantilever_modes(n: int, xi, derivative: int = 0) -> np.ndarray:
     }[k]
     hyper = grow - decay if derivative % 2 == 0 else grow + decay
     return b**derivative * (sign_e * e_bx + trig + c * hyper)
-
-
-@functools.cache
-def triangle_mode_indices(n: int) -> tuple[tuple[int, int], ...]:
-    """Index pairs `(m, n)`, `m > n >= 1`, of the first `n` triangle modes.
-
-    Ordered by `(m^2 + n^2, m)` ascending: (2,1), (3,1), (3,2), (4,1), ...
-    """
-    pairs = []
-    m_max = 2
-    while True:
-        pairs = sorted(
-            ((m, k) for m in range(2, m_max + 1) for k in range(1, m)),
-            key=lambda mk: (mk[0] ** 2 + mk[1] ** 2, mk[0]),
-        )
-        # every pair with m > m_max has m^2 + n^2 > m_max^2: the first n are final
-        if len(pairs) >= n and pairs[n - 1][0] ** 2 + pairs[n - 1][1] ** 2 <= m_max**2:
-            return tuple(pairs[:n])
-        m_max += 1
 
 
 def triangle_modes(n: int, xi, eta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,19 +1,32 @@
 """Boom motion: lengths, rates and accelerations of the four booms against time.
 
-A profile is any callable `t -> (lengths, rates, accelerations)` returning
-three arrays of 4 values (order a, b, c, d; m, m/s, m/s^2). Profiles here
-also answer `is_static(t0, t1)`, which lets the stepper reuse an exact
-propagator while the booms stand still.
+A profile (`Profile`) is any callable `t -> (lengths, rates, accelerations)`
+returning three arrays of 4 values (order a, b, c, d; m, m/s, m/s^2). The
+profiles here also answer `is_static(t0, t1)`, which lets the stepper reuse
+an exact propagator while the booms stand still, and `t_end`, when they stop.
+`BoomMotion` combines them: each boom follows its own profile.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from sail_ros.model.sail_model import per_boom
+from sail_ros.model.layout import per_boom
+
+
+class Profile(Protocol):
+    """The motion of the four booms against time."""
+
+    def __call__(self, t: float) -> tuple:
+        """`(lengths [m], rates [m/s], accelerations [m/s^2])` at `t` [s], 4 values each
+        (a scalar stands for all four)."""
+
+    def is_static(self, t0: float, t1: float) -> bool:
+        """True if no boom moves between `t0` and `t1` [s] (optional for a profile)."""
 
 
 class StaticProfile:
@@ -166,3 +179,42 @@ class WaypointProfile:
             np.abs(self._rate(t)).max(axis=0),
             np.abs(self._acceleration(t)).max(axis=0),
         )
+
+
+class BoomMotion:
+    """Booms a..d, each following its own 4-boom profile (only its column is used).
+
+    A boom-length command may name only some booms; the others keep doing
+    what they were doing (holding, or finishing an earlier command):
+    `replaced` gives the motion with a new profile for some booms.
+
+    Args:
+        profiles: 4 profiles, one per boom (the same object may serve several).
+    """
+
+    def __init__(self, profiles):
+        self.profiles = tuple(profiles)
+        if len(self.profiles) != 4:
+            raise ValueError(f"need one profile per boom (4), got {len(self.profiles)}")
+        self._distinct = list({id(p): p for p in self.profiles}.values())
+
+    def replaced(self, profile, booms) -> BoomMotion:
+        """This motion with `profile` for the booms at indices `booms` (0 = a)."""
+        return BoomMotion(profile if k in booms else p for k, p in enumerate(self.profiles))
+
+    def __call__(self, t):
+        if len(self._distinct) == 1:
+            return self._distinct[0](t)
+        values = {id(p): p(t) for p in self._distinct}
+        return tuple(
+            np.array([values[id(p)][part][k] for k, p in enumerate(self.profiles)])
+            for part in range(3)
+        )
+
+    def is_static(self, t0, t1) -> bool:
+        return all(p.is_static(t0, t1) for p in self._distinct)
+
+    @property
+    def t_end(self) -> float:
+        """When the last boom stops [s] (-inf if none was ever commanded)."""
+        return max(getattr(p, "t_end", -np.inf) for p in self._distinct)

@@ -11,39 +11,23 @@ import numpy as np
 import scipy.linalg
 
 from sail_ros.model.assembly import (
-    BOOMS,
     DAMPING,
     MASS,
-    QUADRANTS,
     STIFFNESS,
     STIFFNESS_EQ,
+    Constants,
     SystemAssembler,
 )
-from sail_ros.model.basis import triangle_mode_indices
+from sail_ros.model.basis import cantilever_roots
 from sail_ros.model.integrals import (
     boom_integrals,
     default_quadrature_order,
     quadrant_integrals,
 )
+from sail_ros.model.integrate import simulate
+from sail_ros.model.layout import BOOMS, Layout, per_boom
 from sail_ros.model.parameters import SailParameters
-
-
-def per_boom(value, name: str, positive: bool = False) -> np.ndarray:
-    """A scalar (all booms) or 4 values (order a, b, c, d) as a float array of 4.
-
-    Raises ValueError naming `name` and the value when the shape is wrong, a
-    value is not finite, or (with `positive`) a value is <= 0.
-    """
-    array = np.asarray(value, dtype=float)
-    if array.ndim == 0:
-        array = np.full(4, float(array))
-    elif array.shape != (4,):
-        raise ValueError(f"{name} must be a scalar or 4 values (booms a, b, c, d), got {value!r}")
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    if positive and np.any(array <= 0.0):
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    return array
+from sail_ros.model.stepper import SailStepper
 
 
 class SailModel:
@@ -62,58 +46,51 @@ class SailModel:
         self.params = params if params is not None else SailParameters()
         nb, nm = self.params.n_boom_modes, self.params.n_membrane_modes
         self.n_boom_modes, self.n_membrane_modes = nb, nm
+        self.layout = Layout(nb, nm)
+        self.n = self.layout.n
         order = quadrature_order or default_quadrature_order(nb, nm)
         self.boom_integrals = boom_integrals(nb, order)
         self.quadrant_integrals = quadrant_integrals(nb, nm, order)
         self.assembler = SystemAssembler(
             self.boom_integrals,
             self.quadrant_integrals,
-            nb,
-            nm,
-            boom_linear_density=self.params.boom_linear_density,
-            boom_bending_stiffness=self.params.boom_bending_stiffness,
-            boom_axial_load=self.params.boom_axial_load,
-            membrane_areal_density=self.params.membrane_areal_density,
-            membrane_tension=self.params.membrane_tension,
+            self.layout,
+            Constants(
+                boom_linear_density=self.params.boom_linear_density,
+                boom_bending_stiffness=self.params.boom_bending_stiffness,
+                boom_axial_load=self.params.boom_axial_load,
+                membrane_areal_density=self.params.membrane_areal_density,
+                membrane_tension=self.params.membrane_tension,
+            ),
         )
-        self.n = self.assembler.n
+        # omega_1 L^2 = beta_1^2 sqrt(EI / rho_B) of a bare cantilever [m^2/s]
+        self._cantilever_constant = float(cantilever_roots(1)[0] ** 2) * np.sqrt(
+            self.params.boom_bending_stiffness / self.params.boom_linear_density
+        )
         self._tip_rows = self._tip_matrix()
 
     # layout ------------------------------------------------------------------
     def boom_slice(self, boom: str) -> slice:
         """Coordinates `p_k` of boom `k` in the system vector."""
-        k = _boom_index(boom)
-        return slice(k * self.n_boom_modes, (k + 1) * self.n_boom_modes)
+        return self.layout.boom_slice(boom)
 
     def membrane_slice(self, quadrant: str) -> slice:
         """Coordinates `q_xy` of quadrant `xy` in the system vector."""
-        names = [name for name, _, _ in QUADRANTS]
-        if quadrant not in names:
-            raise ValueError(f"quadrant must be one of {', '.join(names)}, got {quadrant!r}")
-        q = names.index(quadrant)
-        start = 4 * self.n_boom_modes + q * self.n_membrane_modes
-        return slice(start, start + self.n_membrane_modes)
+        return self.layout.membrane_slice(quadrant)
 
     @property
     def coordinate_names(self) -> list[str]:
-        """One self-describing name per generalised coordinate, in system order.
-
-        `boom_a_mode_1` ... (cantilever mode i of boom a), then
-        `membrane_ab_mode_2_1` ... (triangle mode (m, n) of quadrant ab).
-        """
-        names = [f"boom_{b}_mode_{i + 1}" for b in BOOMS for i in range(self.n_boom_modes)]
-        pairs = triangle_mode_indices(self.n_membrane_modes)
-        names += [f"membrane_{q}_mode_{m}_{k}" for q, _, _ in QUADRANTS for m, k in pairs]
-        return names
+        """One self-describing name per generalised coordinate (`Layout.coordinate_names`)."""
+        return self.layout.coordinate_names
 
     # matrices ----------------------------------------------------------------
     def evaluate(self, outputs, lengths, rates=0.0, accelerations=0.0) -> np.ndarray:
         """Matrices named by `outputs` (see `assembly`), stacked (len(outputs), n, n)."""
         return self.assembler.evaluate(
+            outputs,
             per_boom(lengths, "lengths", positive=True),
             per_boom(rates, "rates"),
             per_boom(accelerations, "accelerations"),
-            outputs,
         )
 
     def matrices(self, lengths, rates=0.0, accelerations=0.0):
@@ -169,20 +146,27 @@ class SailModel:
         eig = np.linalg.eigvals(self.state_matrix(lengths, rates, 0.0))
         return eig[np.lexsort((eig.real, eig.imag))]
 
+    def resolved_frequency(self, lengths) -> float:
+        """The highest angular frequency [rad/s] a time step must resolve at these
+        lengths: the first cantilever frequency of the shortest bare boom,
+        `beta_1^2 sqrt(EI / rho_B) / L_min^2`, an upper bound of the dominant
+        boom-bending frequency (the membrane only adds mass to a boom)."""
+        return self._cantilever_constant / float(np.min(lengths)) ** 2
+
     # time integration ----------------------------------------------------------
-    def stepper(self, profile, q0=None, qd0=None, t0: float = 0.0, **options):
+    def stepper(self, profile, q0=None, qd0=None, t0: float = 0.0, **options) -> SailStepper:
         """A `SailStepper` holding this model's state (see `stepper.py`).
 
         `options`: `max_step` [s], `resolved_frequency` [rad/s].
         """
-        from sail_ros.model.stepper import SailStepper
-
         return SailStepper(self, profile, q0=q0, qd0=qd0, t0=t0, **options)
 
     def simulate(
         self, profile, t_end: float, q0=None, qd0=None, t_eval=None, progress=None, **options
     ):
-        """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`.
+        """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`
+        (`integrate.simulate`); returns `(t, q, qd)`: times (k,), coordinates
+        (k, n), velocities (k, n).
 
         Args:
             profile: callable `t -> (lengths, rates, accelerations)` (see `profiles`).
@@ -192,37 +176,16 @@ class SailModel:
                 grid with the stepper's `max_step` spacing (0.2 s).
             progress: optional callable `progress(t)` after each output time.
             options: `max_step` [s], `resolved_frequency` [rad/s].
-
-        Returns:
-            `(t, q, qd)`: times (k,), coordinates (k, n), velocities (k, n).
         """
-        if not (np.isfinite(t_end) and t_end > 0):
-            raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
-        stepper = self.stepper(profile, q0=q0, qd0=qd0, **options)
-        if t_eval is None:
-            count = int(np.ceil(t_end / stepper.max_step - 1e-9))
-            t_eval = np.linspace(0.0, t_end, count + 1)
-        t_eval = np.asarray(t_eval, dtype=float)
-        if t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)):
-            raise ValueError(
-                f"t_eval must be a non-empty 1-D array of finite times, got {t_eval!r}"
-            )
-        if np.any(np.diff(t_eval) < 0) or t_eval[0] < 0 or t_eval[-1] > t_end:
-            raise ValueError(f"t_eval must increase within [0, t_end = {t_end}], got {t_eval!r}")
-        q = np.empty((t_eval.size, self.n))
-        qd = np.empty((t_eval.size, self.n))
-        for i, t in enumerate(t_eval):
-            stepper.advance(t)
-            q[i], qd[i] = stepper.q, stepper.qd
-            if progress is not None:
-                progress(t)
-        return t_eval.copy(), q, qd
+        return simulate(
+            self, profile, t_end, q0=q0, qd0=qd0, t_eval=t_eval, progress=progress, **options
+        )
 
     # derived quantities --------------------------------------------------------
     def _tip_matrix(self) -> np.ndarray:
         rows = np.zeros((4, self.n))
-        for k, boom in enumerate(BOOMS):
-            rows[k, self.boom_slice(boom)] = self.boom_integrals.tip
+        for k in range(4):
+            rows[k, self.layout.boom_slots(k)] = self.boom_integrals.tip
         return rows
 
     def tip_deflections(self, q) -> np.ndarray:
@@ -245,14 +208,14 @@ class SailModel:
         q[self.boom_slice(boom).start] = tip_deflection / self.boom_integrals.tip[0]
         return q
 
+    def initial_coordinates(self, tip_deflections) -> np.ndarray:
+        """Coordinates with each boom bent in its first cantilever mode to the given
+        tip deflection [m] (a scalar or 4 values, booms a..d), membranes flat."""
+        tips = per_boom(tip_deflections, "tip_deflections")
+        return sum(self.mode_state(boom, float(tip)) for boom, tip in zip(BOOMS, tips, strict=True))
+
     def energy(self, q, qd, lengths) -> float:
         """Mechanical energy `1/2 qd^T M qd + 1/2 q^T K q` [J] at the given lengths."""
         M, K = self.mass_and_stiffness(lengths)
         q, qd = np.asarray(q), np.asarray(qd)
         return 0.5 * float(qd @ M @ qd) + 0.5 * float(q @ K @ q)
-
-
-def _boom_index(boom: str) -> int:
-    if boom not in BOOMS:
-        raise ValueError(f"boom must be one of a, b, c, d, got {boom!r}")
-    return BOOMS.index(boom)

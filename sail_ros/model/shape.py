@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from sail_ros.model.assembly import BOOMS, QUADRANTS
 from sail_ros.model.basis import cantilever_modes, triangle_modes
-from sail_ros.model.sail_model import SailModel, per_boom
+from sail_ros.model.layout import BOOMS, QUADRANTS, per_boom
+from sail_ros.model.sail_model import SailModel
 
 # unit vectors of booms a, b, c, d in the sail plane (x along a, y along b)
 BOOM_DIRECTIONS = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
@@ -61,15 +61,7 @@ class SailSurface:
         self.triangles = np.concatenate([triangles + k * points for k in range(4)])
         self.boom_stations = np.linspace(0.0, 1.0, 2 * int(divisions) + 1)
         self._boom_basis = cantilever_modes(nb, self.boom_stations)
-        self._slots = []
-        for name, first, second in QUADRANTS:
-            self._slots.append(
-                np.r_[
-                    model.boom_slice(BOOMS[first]),
-                    model.boom_slice(BOOMS[second]),
-                    model.membrane_slice(name),
-                ]
-            )
+        self._slots = [model.layout.quadrant_slots(quadrant) for quadrant in QUADRANTS]
 
     def vertices(self, q, lengths) -> np.ndarray:
         """Mesh vertices (4 P, 3) [m] of the deflected membrane, quadrant by

@@ -20,23 +20,45 @@ midpoint rule `x1 = exp(h B(t + h/2)) x0` (second-order Magnus):
   round-off and a step is one matrix-vector product.
 
 Accuracy is set by the step: `h <= max_step` and `h * omega_r <= 1.5` where
-`omega_r` (`resolved_frequency`) is by default the first cantilever frequency
-of the shortest bare boom, an upper bound of the dominant boom-bending
-frequency; modes up to `omega_r` are integrated with a relative phase error
-below ~1e-6 per step.
+`omega_r` (`resolved_frequency`) is by default the system's own bound at the
+current lengths (for the sail: the first cantilever frequency of the shortest
+bare boom, an upper bound of the dominant boom-bending frequency); modes up
+to `omega_r` are integrated with a relative phase error below ~1e-6 per step.
+
+The stepper sees the structure only through `LinearSystem`: the matrices at
+a boom motion and that frequency bound.
 """
 
 from __future__ import annotations
 
 import math
 from math import factorial
+from typing import Protocol
 
 import numpy as np
 import scipy.linalg
 
-from sail_ros.model.assembly import GYROSCOPIC, GYROSCOPIC_SKEW, MASS, STIFFNESS_CANONICAL
-from sail_ros.model.basis import cantilever_roots
-from sail_ros.model.sail_model import SailModel, per_boom
+from sail_ros.model.assembly import (
+    GYROSCOPIC,
+    GYROSCOPIC_SKEW,
+    MASS,
+    STIFFNESS,
+    STIFFNESS_CANONICAL,
+)
+from sail_ros.model.layout import per_boom
+
+
+class LinearSystem(Protocol):
+    """What the stepper needs of a structure (`SailModel` is one)."""
+
+    n: int  # generalised coordinates
+
+    def evaluate(self, outputs, lengths, rates, accelerations) -> np.ndarray:
+        """The matrices named by `outputs` (`assembly` names), stacked (k, n, n), at
+        boom lengths [m], rates [m/s] and accelerations [m/s^2] (4 values each)."""
+
+    def resolved_frequency(self, lengths) -> float:
+        """The highest angular frequency [rad/s] a step must resolve at `lengths`."""
 
 
 class IntegrationError(RuntimeError):
@@ -72,7 +94,7 @@ class SailStepper:
     """Holds the sail's state and advances it under a boom-motion profile.
 
     Args:
-        model: the sail model.
+        system: the structure (`LinearSystem`, e.g. a `SailModel`).
         profile: callable `t -> (lengths, rates, accelerations)` (4 values
             each, SI); see `profiles`. May be replaced between steps.
         q0: initial coordinates (default 0).
@@ -80,13 +102,13 @@ class SailStepper:
         t0: initial time [s].
         max_step: largest internal step [s].
         resolved_frequency: highest angular frequency [rad/s] to integrate
-            accurately; None follows the shortest boom's first cantilever
-            frequency.
+            accurately; None follows `system.resolved_frequency` at the
+            current lengths.
     """
 
     def __init__(
         self,
-        model: SailModel,
+        system: LinearSystem,
         profile,
         q0=None,
         qd0=None,
@@ -102,14 +124,9 @@ class SailStepper:
             raise ValueError(
                 f"resolved_frequency must be finite and > 0, got {resolved_frequency!r}"
             )
-        self.model = model
+        self.system = system
         self.max_step = float(max_step)
         self.resolved_frequency = resolved_frequency
-        params = model.params
-        # omega_1 = beta_1^2 sqrt(EI / (rho_B L^4)) of a bare cantilever
-        self._cantilever_constant = cantilever_roots(1)[0] ** 2 * math.sqrt(
-            params.boom_bending_stiffness / params.boom_linear_density
-        )
         self._static_cache: dict = {}
         self._profile = profile
         self._motion_cache = (math.nan, None)  # (t, motion at t) of the current profile
@@ -120,7 +137,7 @@ class SailStepper:
     def reset(self, q0=None, qd0=None, t0: float = 0.0, profile=None):
         """Start again from `q0`, `qd0` (default rest) at time `t0` [s], under
         `profile` if given (else the current one)."""
-        n = self.model.n
+        n = self.system.n
         q = np.zeros(n) if q0 is None else np.array(q0, dtype=float)
         qd = np.zeros(n) if qd0 is None else np.array(qd0, dtype=float)
         for name, value in (("q0", q), ("qd0", qd)):
@@ -180,7 +197,10 @@ class SailStepper:
     def energy(self) -> float:
         """Mechanical energy `1/2 qd^T M qd + 1/2 q^T K q` [J] now."""
         lengths, _, _ = self._motion(self._t)
-        return self.model.energy(self._q, self.qd, lengths)
+        zero = np.zeros(4)
+        M, K = self.system.evaluate((MASS, STIFFNESS), lengths, zero, zero)
+        qd = self.qd
+        return 0.5 * float(qd @ M @ qd) + 0.5 * float(self._q @ K @ self._q)
 
     # integration --------------------------------------------------------------
     def advance(self, t_end: float) -> None:
@@ -212,11 +232,11 @@ class SailStepper:
 
     def step_limit(self) -> float:
         """The longest step [s] allowed now: `max_step`, and 1.5 rad of `resolved_frequency`
-        (default: the first cantilever frequency of the shortest bare boom)."""
+        (default: `system.resolved_frequency` at the current lengths)."""
         omega = self.resolved_frequency
         if omega is None:
             lengths, _, _ = self._motion(self._t)
-            omega = self._cantilever_constant / float(np.min(lengths)) ** 2
+            omega = self.system.resolved_frequency(lengths)
         return min(self.max_step, PHASE_PER_STEP / omega)
 
     def _motion(self, t):
@@ -244,14 +264,14 @@ class SailStepper:
 
     def _mass_gyro(self, t):
         lengths, rates, accelerations = self._motion(t)
-        M, G = self.model.assembler.evaluate(lengths, rates, accelerations, (MASS, GYROSCOPIC))
+        M, G = self.system.evaluate((MASS, GYROSCOPIC), lengths, rates, accelerations)
         return M, G
 
     def _moving_step(self, lengths, rates, accelerations, h):
         """x1 = R(h B) x0 with R the (4,4) Padé approximant of exp, by partial fractions:
         R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x], and
         (hB - z)^-1 x = -(1/z) (I - tau B)^-1 x with tau = h / z."""
-        mats = self.model.assembler.evaluate(lengths, rates, accelerations, _STEP_MATRICES)
+        mats = self.system.evaluate(_STEP_MATRICES, lengths, rates, accelerations)
         M, skew, K, G = mats
         q0, p0 = self._q, self._p
         taus = h / _PADE_POLES
@@ -278,7 +298,7 @@ class SailStepper:
             propagator = self._exact_propagator(lengths, h)
             self._static_cache[key] = propagator
         x = propagator @ np.concatenate([self._q, self._p])
-        n = self.model.n
+        n = self.system.n
         return x[:n], x[n:]
 
     def _exact_propagator(self, lengths, h) -> np.ndarray:
@@ -289,7 +309,8 @@ class SailStepper:
         c = cos(sqrt(lam) h), s = sin(sqrt(lam) h) / sqrt(lam) (cosh/sinh for
         lam < 0, a buckled mode).
         """
-        M, K = self.model.mass_and_stiffness(lengths)
+        zero = np.zeros(4)
+        M, K = self.system.evaluate((MASS, STIFFNESS), lengths, zero, zero)
         lam, V = scipy.linalg.eigh(K, M)
         root = np.sqrt(np.abs(lam))
         c = np.where(lam >= 0, np.cos(root * h), np.cosh(root * h))
@@ -299,7 +320,7 @@ class SailStepper:
             np.sinh(root * h) / np.where(root > 0, root, 1.0),
         )
         VtM = V.T @ M  # eta = VtM q; q = V eta; p = VtM^T etad
-        n = self.model.n
+        n = self.system.n
         P = np.empty((2 * n, 2 * n))
         P[:n, :n] = (V * c) @ VtM
         P[:n, n:] = (V * s) @ V.T

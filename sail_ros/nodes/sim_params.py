@@ -18,7 +18,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.parameter import Parameter
 
 from sail_ros.model import SailParameters
-from sail_ros.model.sail_model import per_boom
+from sail_ros.model.layout import per_boom
 from sail_ros.nodes.commands import Limits
 from sail_ros.nodes.ros_args import ConfigError, parameter_descriptor
 

@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from sail_ros.model import IntegrationError, SailModel, StaticProfile
-from sail_ros.nodes.boom_motion import BoomMotion
+from sail_ros.model.profiles import BoomMotion
 from sail_ros.nodes.commands import (
     BoomState,
     CommandError,
@@ -63,13 +63,6 @@ class StepStatistics:
         return window
 
 
-def initial_coordinates(model: SailModel, tip_deflections) -> np.ndarray:
-    """q with each boom bent in its first cantilever mode to the given tip
-    deflection [m] (booms a..d), membranes flat."""
-    return sum(model.mode_state(boom, float(tip))
-               for boom, tip in zip("abcd", tip_deflections, strict=True))
-
-
 class Simulation:
     """The sail's state, stepped on a grid of `config.integration_step` [s] from t = 0.
 
@@ -83,7 +76,7 @@ class Simulation:
         self.step_size = config.integration_step
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
         self.stepper = model.stepper(
-            self.motion, q0=initial_coordinates(model, config.initial_tip_deflection),
+            self.motion, q0=model.initial_coordinates(config.initial_tip_deflection),
             max_step=self.step_size)
         self.steps = 0  # grid steps taken since start
         self.paused = False
@@ -148,7 +141,7 @@ class Simulation:
         """Back to the initial lengths (at rest) and tip deflections of `config`, at
         the current time; clears an error. The pause state is kept."""
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
-        self.stepper.reset(initial_coordinates(self.model, config.initial_tip_deflection),
+        self.stepper.reset(self.model.initial_coordinates(config.initial_tip_deflection),
                            None, self.t, profile=self.motion)
         self.error = None
 

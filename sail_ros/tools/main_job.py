@@ -40,7 +40,6 @@ from std_srvs.srv import SetBool, Trigger
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
-from sail_ros.nodes.simulation import initial_coordinates
 
 START, END, DURATION, TIP = 10.0, 15.0, 15.0, 0.1  # m, m, s, m (model.md §9)
 REPORT_TIMES = (5.0, 10.0, 15.0)  # s after the start of the deployment
@@ -213,7 +212,7 @@ def summarise(output: Path, t_start: float) -> None:
     chosen = [int(np.argmin(np.abs(t - wanted))) for wanted in REPORT_TIMES]
     model = SailModel(sail)
     _, q, _ = model.simulate(CycloidalProfile(START, END, DURATION), DURATION + SETTLE_S,
-                             initial_coordinates(model, [TIP, 0.0, 0.0, 0.0]),
+                             model.initial_coordinates([TIP, 0.0, 0.0, 0.0]),
                              t_eval=np.round(t[chosen], 9), max_step=0.01)
     offline = model.tip_deflections(q)
     print("\n  tip deflection [mm]      boom a     boom b     boom c     boom d   "

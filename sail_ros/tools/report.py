@@ -29,7 +29,7 @@ import numpy as np
 from sail_ros.analysis.energy import group_energies
 from sail_ros.analysis.log_series import read_log
 from sail_ros.model import SailModel
-from sail_ros.model.assembly import BOOMS, QUADRANTS
+from sail_ros.model.layout import BOOMS, QUADRANTS
 from sail_ros.plots.histories import (
     boom_lengths_figure,
     energies_figure,

@@ -1,0 +1,53 @@
+"""Batch integration: a whole run sampled at output times, on top of the stepper."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sail_ros.model.stepper import LinearSystem, SailStepper
+
+
+def simulate(
+    system: LinearSystem,
+    profile,
+    t_end: float,
+    q0=None,
+    qd0=None,
+    t_eval=None,
+    progress=None,
+    **options,
+):
+    """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`.
+
+    Args:
+        system: the structure (`stepper.LinearSystem`, e.g. a `SailModel`).
+        profile: callable `t -> (lengths, rates, accelerations)` (see `profiles`).
+        t_end: final time [s], > 0.
+        q0, qd0: initial coordinates and velocities (default rest).
+        t_eval: increasing output times in [0, t_end]; default a uniform
+            grid with the stepper's `max_step` spacing (0.2 s).
+        progress: optional callable `progress(t)` after each output time.
+        options: `SailStepper` options, `max_step` [s], `resolved_frequency` [rad/s].
+
+    Returns:
+        `(t, q, qd)`: times (k,), coordinates (k, n), velocities (k, n).
+    """
+    if not (np.isfinite(t_end) and t_end > 0):
+        raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
+    stepper = SailStepper(system, profile, q0=q0, qd0=qd0, **options)
+    if t_eval is None:
+        count = int(np.ceil(t_end / stepper.max_step - 1e-9))
+        t_eval = np.linspace(0.0, t_end, count + 1)
+    t_eval = np.asarray(t_eval, dtype=float)
+    if t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)):
+        raise ValueError(f"t_eval must be a non-empty 1-D array of finite times, got {t_eval!r}")
+    if np.any(np.diff(t_eval) < 0) or t_eval[0] < 0 or t_eval[-1] > t_end:
+        raise ValueError(f"t_eval must increase within [0, t_end = {t_end}], got {t_eval!r}")
+    q = np.empty((t_eval.size, system.n))
+    qd = np.empty((t_eval.size, system.n))
+    for i, t in enumerate(t_eval):
+        stepper.advance(t)
+        q[i], qd[i] = stepper.q, stepper.qd
+        if progress is not None:
+            progress(t)
+    return t_eval.copy(), q, qd
