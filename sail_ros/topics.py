@@ -1,23 +1,40 @@
-"""The simulator's topic contract: names, QoS profiles and message builders.
+"""The simulator's log contract: what live and offline logs hold, in one place.
 
-Shared by the live simulator (`sail_ros.nodes.sim`) and the offline tools
-that write the same messages into MCAP logs, so the builders are pure
-functions of numbers: no node, no clock. Every stamp is simulation time as
-nanoseconds since the Unix epoch (`stamp_ns`); every quantity is SI. The
-pages under `msg_docs/` describe each topic field by field.
+Shared by the live simulator (`sail_ros.nodes.sim`), the recorder, and the
+offline tools that write and read the same messages in MCAP logs
+(`sail_ros.analysis.log_export`, `log_series`), so "offline logs look like
+live logs" holds by construction:
+
+- the topic table `TOPICS` (name, message class, type name, QoS);
+- the builders of every state message, pure functions of numbers (no node,
+  no clock), and `state_messages`, the set published at every state sample;
+- the stamps: simulation time as nanoseconds since the Unix epoch (`stamp_ns`);
+- the metadata record names (`PARAMETERS_METADATA`, `SCENARIO_METADATA`);
+- the flat parameter names `sail.<field>` <-> `SailParameters`.
+
+Every quantity is SI. The pages under `msg_docs/` describe each topic field
+by field. Nothing here imports rclpy's `Node`.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
+
 import numpy as np
+import yaml
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import ColorRGBA
+from std_msgs.msg import ColorRGBA, Float64
+from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
+
+from sail_ros.model import SailParameters
+from sail_ros.model.sail_model import StateSample
 
 # -- names ------------------------------------------------------------------------------------
 
@@ -61,16 +78,94 @@ COMMAND_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=10,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
-TOPIC_QOS = {
-    BOOM_STATE: STATE_QOS,
-    MODAL_STATE: STATE_QOS,
-    TIP_DEFLECTION: STATE_QOS,
-    SHAPE: SHAPE_QOS,
-    DIAGNOSTICS: DIAGNOSTICS_QOS,
-    CLOCK: CLOCK_QOS,
-    BOOM_LENGTH_CMD: COMMAND_QOS,
-    DEPLOY_CMD: COMMAND_QOS,
+
+
+@dataclasses.dataclass(frozen=True)
+class Topic:
+    """One topic of the simulator: name, message class, `pkg/msg/Type`, QoS."""
+
+    name: str
+    message_type: type
+    type_name: str
+    qos: QoSProfile
+
+
+TOPICS = {
+    topic.name: topic
+    for topic in (
+        Topic(BOOM_STATE, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
+        Topic(MODAL_STATE, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
+        Topic(TIP_DEFLECTION, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
+        Topic(SHAPE, MarkerArray, "visualization_msgs/msg/MarkerArray", SHAPE_QOS),
+        Topic(BOOM_LENGTH_CMD, JointTrajectory, "trajectory_msgs/msg/JointTrajectory", COMMAND_QOS),
+        Topic(DEPLOY_CMD, Float64, "std_msgs/msg/Float64", COMMAND_QOS),
+        Topic(CLOCK, Clock, "rosgraph_msgs/msg/Clock", CLOCK_QOS),
+        Topic(DIAGNOSTICS, DiagnosticArray, "diagnostic_msgs/msg/DiagnosticArray", DIAGNOSTICS_QOS),
+    )
 }
+TOPIC_QOS = {name: topic.qos for name, topic in TOPICS.items()}
+# what the simulator publishes at every state sample (and /clock with them when it runs one)
+STATE_TOPICS = (BOOM_STATE, MODAL_STATE, TIP_DEFLECTION)
+# what a recorder of the simulator takes by default: everything in the table
+RECORDED_TOPICS = tuple(TOPICS)
+
+# -- metadata records ---------------------------------------------------------------------------
+
+PARAMETERS_METADATA = "sail_sim_parameters"  # the simulator's parameters, name -> YAML text
+SCENARIO_METADATA = "sail_deploy_scenario"  # an offline run: its scenario (YAML) and epoch_ns
+SAIL_PREFIX = "sail."  # the simulator's parameter `sail.<field>` is SailParameters.<field>
+
+
+def yaml_value(value) -> str:
+    """A parameter value as one line of YAML: 100.0, true, [1, 2], abc."""
+    if not isinstance(value, bool | int | float | str):  # an array; a byte array holds bytes
+        value = [item[0] if isinstance(item, bytes) else item for item in value]
+    text = yaml.safe_dump(value, default_flow_style=True, width=1 << 30)
+    return text.removesuffix("\n...\n").strip()
+
+
+def flat_sail_parameters(params: SailParameters) -> dict[str, object]:
+    """`sail.<field>` -> value: the sail as the simulator's parameters."""
+    return {SAIL_PREFIX + name: value for name, value in params.to_dict().items()}
+
+
+def sail_parameters_from_flat(values: Mapping[str, object]) -> SailParameters:
+    """`SailParameters` from the `sail.<field>` entries of `values` (others ignored).
+
+    Raises:
+        ValueError: a field is unknown or its value invalid, named `sail.<field>`.
+    """
+    fields = {
+        name[len(SAIL_PREFIX) :]: value
+        for name, value in values.items()
+        if name.startswith(SAIL_PREFIX)
+    }
+    try:
+        return SailParameters.from_dict(fields)
+    except ValueError as error:
+        raise ValueError(f"{SAIL_PREFIX}{error}") from None
+
+
+def sail_parameters_from_record(record: Mapping[str, str]) -> SailParameters | None:
+    """`SailParameters` from a recorded `PARAMETERS_METADATA` record (values as YAML
+    text); None if the record has no `sail.` entry.
+
+    Raises:
+        ValueError: a recorded value is not YAML or not valid, naming it.
+    """
+    values = {}
+    for name, text in record.items():
+        if name.startswith(SAIL_PREFIX):
+            try:
+                values[name] = yaml.safe_load(text)
+            except yaml.YAMLError:
+                raise ValueError(f"recorded parameter {name} = {text!r} is not YAML") from None
+    if not values:
+        return None
+    try:
+        return sail_parameters_from_flat(values)
+    except ValueError as error:
+        raise ValueError(f"recorded {PARAMETERS_METADATA}: {error}") from None
 
 # -- builders ---------------------------------------------------------------------------------
 
@@ -115,6 +210,24 @@ def tip_deflection(stamp_ns_: int, tips, tip_rates, frame_id: str = FRAME_ID) ->
 def clock(stamp_ns_: int) -> Clock:
     """`/clock`: the simulation time, for nodes with use_sim_time."""
     return Clock(clock=stamp(stamp_ns_))
+
+
+def state_messages(
+    stamp_ns_: int,
+    sample: StateSample,
+    coordinate_names,
+    frame_id: str = FRAME_ID,
+    with_clock: bool = False,
+) -> list[tuple[str, object]]:
+    """`(topic, message)` of every state topic at one sample, in publishing order:
+    /clock first (if `with_clock`), then boom state, modal state, tip deflections."""
+    messages = [(CLOCK, clock(stamp_ns_))] if with_clock else []
+    messages += [
+        (BOOM_STATE, boom_state(stamp_ns_, sample.lengths, sample.rates, frame_id)),
+        (MODAL_STATE, modal_state(stamp_ns_, coordinate_names, sample.q, sample.qd, frame_id)),
+        (TIP_DEFLECTION, tip_deflection(stamp_ns_, sample.tips, sample.tip_rates, frame_id)),
+    ]
+    return messages
 
 
 BOOM_LINE_WIDTH = 0.2  # m, drawn width of a boom in RViz

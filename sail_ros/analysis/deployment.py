@@ -14,6 +14,7 @@ import numpy as np
 
 from sail_ros.analysis.scenario import Scenario
 from sail_ros.model import SailModel
+from sail_ros.model.sail_model import StateSample
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,6 +49,11 @@ class DeploymentRun:
             self, t=self.t[mask], lengths=self.lengths[mask], rates=self.rates[mask],
             q=self.q[mask], qd=self.qd[mask], tips=self.tips[mask],
             tip_rates=self.tip_rates[mask])
+
+    def sample(self, i: int) -> StateSample:
+        """The state at output time `i`."""
+        return StateSample(float(self.t[i]), self.lengths[i], self.rates[i], self.q[i], self.qd[i],
+                           self.tips[i], self.tip_rates[i])
 
     def index_of(self, t: float) -> int:
         """Index of the output time nearest to `t` [s]."""

@@ -12,8 +12,8 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
   ns since LOG_EPOCH_NS = 0, the Unix epoch, so t = 0 s is
   1970-01-01T00:00:00Z and a stamp divided by 1e9 is the simulation time [s];
 - metadata `sail_sim_parameters`: the simulator's parameter names
-  (`sail.<field>`, `initial_lengths`, ...; `sail_ros.nodes.sim_params`) with
-  values as one-line YAML, as the recorder stores them;
+  (`sail.<field>`, `initial_lengths`, ...) with values as one-line YAML, as
+  the recorder stores them;
 - metadata `sail_deploy_scenario`: the scenario as YAML and the epoch.
 
 The CDR bytes are trimmed to their last field (`sail_ros.bag.trim_cdr`),
@@ -31,23 +31,15 @@ from rclpy.serialization import serialize_message
 
 from sail_ros import topics
 from sail_ros.analysis.deployment import DeploymentRun
-from sail_ros.bag import BagWriter, default_qos_profile, trim_cdr
+from sail_ros.bag import BagWriter, trim_cdr
+from sail_ros.bag.qos import recorded_entry
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
-from sail_ros.nodes.recorder import PARAMETERS_METADATA, yaml_value
-from sail_ros.nodes.sim_params import SAIL_PREFIX
 
 LOG_EPOCH_NS = 0
 CHUNK_SECONDS = 1.0  # simulated time per MCAP chunk [s]
-SCENARIO_METADATA = "sail_deploy_scenario"
-
-TYPES = {
-    topics.CLOCK: "rosgraph_msgs/msg/Clock",
-    topics.BOOM_STATE: "sensor_msgs/msg/JointState",
-    topics.MODAL_STATE: "sensor_msgs/msg/JointState",
-    topics.TIP_DEFLECTION: "sensor_msgs/msg/JointState",
-    topics.SHAPE: "visualization_msgs/msg/MarkerArray",
-}
+# the topics of an offline run: every state sample with its /clock, and the shape
+LOGGED_TOPICS = (topics.CLOCK, *topics.STATE_TOPICS, topics.SHAPE)
 
 
 def simulator_parameters(model: SailModel, run: DeploymentRun, *, state_rate_hz: float,
@@ -62,7 +54,7 @@ def simulator_parameters(model: SailModel, run: DeploymentRun, *, state_rate_hz:
     point). `time_scale` 0.0 means "as fast as possible", which an offline
     run is.
     """
-    values = {SAIL_PREFIX + name: value for name, value in model.params.to_dict().items()}
+    values = topics.flat_sail_parameters(model.params)
     values.update({
         "initial_lengths": [float(v) for v in run.lengths[0]],
         "initial_tip_deflection": [float(v) for v in run.tips[0]],
@@ -73,16 +65,7 @@ def simulator_parameters(model: SailModel, run: DeploymentRun, *, state_rate_hz:
         "frame_id": frame_id,
         "shape_divisions": int(shape_divisions),
     })
-    return {name: yaml_value(value) for name, value in values.items()}
-
-
-def offered_qos(topic: str) -> dict:
-    """The rosbag2 QoS entry the recorder stores for the simulator's publisher of
-    `topic`: its reliability and durability as the ROS graph reports them
-    (history "unknown", depth 0, infinite durations)."""
-    qos = topics.TOPIC_QOS[topic]
-    return default_qos_profile(reliability=qos.reliability.name.lower(),
-                               durability=qos.durability.name.lower())
+    return {name: topics.yaml_value(value) for name, value in values.items()}
 
 
 def _cdr(message, type_name: str) -> bytes:
@@ -114,36 +97,30 @@ def write_deployment_log(path, model: SailModel, run: DeploymentRun, *,
     surface = SailSurface(model, shape_divisions) if shape_every else None
     names = model.coordinate_names
     with BagWriter(path, overwrite=True, fsync=False) as bag:  # regenerable: no fsync cost
-        bag.add_metadata(PARAMETERS_METADATA, parameters)
-        bag.add_metadata(SCENARIO_METADATA, {
+        bag.add_metadata(topics.PARAMETERS_METADATA, parameters)
+        bag.add_metadata(topics.SCENARIO_METADATA, {
             "scenario": yaml.safe_dump(scenario_document, sort_keys=False),
             "epoch_ns": str(LOG_EPOCH_NS),
         })
-        for topic, type_name in TYPES.items():
-            if topic != topics.SHAPE or shape_every:
-                bag.add_topic(topic, type_name, [offered_qos(topic)])
+        for name in LOGGED_TOPICS:
+            if name != topics.SHAPE or shape_every:
+                topic = topics.TOPICS[name]
+                bag.add_topic(name, topic.type_name, [recorded_entry(topic.qos)])
         chunk_end = CHUNK_SECONDS
         for i, t in enumerate(run.t):
             if t >= chunk_end:
                 bag.flush()
                 chunk_end = (t // CHUNK_SECONDS + 1) * CHUNK_SECONDS
             stamp = topics.stamp_ns(LOG_EPOCH_NS, float(t))
-            messages = [
-                (topics.CLOCK, topics.clock(stamp)),
-                (topics.BOOM_STATE, topics.boom_state(stamp, run.lengths[i], run.rates[i],
-                                                      frame_id)),
-                (topics.MODAL_STATE, topics.modal_state(stamp, names, run.q[i], run.qd[i],
-                                                        frame_id)),
-                (topics.TIP_DEFLECTION, topics.tip_deflection(stamp, run.tips[i],
-                                                              run.tip_rates[i], frame_id)),
-            ]
+            messages = topics.state_messages(stamp, run.sample(i), names, frame_id,
+                                             with_clock=True)
             if shape_every and i % shape_every == 0:
                 vertices = surface.vertices(run.q[i], run.lengths[i])
                 booms = surface.boom_lines(run.q[i], run.lengths[i])
                 messages.append((topics.SHAPE, topics.shape(stamp, vertices, surface.triangles,
                                                             booms, frame_id)))
             for topic, message in messages:
-                bag.write(topic, _cdr(message, TYPES[topic]), log_time_ns=stamp,
+                bag.write(topic, _cdr(message, topics.TOPICS[topic].type_name), log_time_ns=stamp,
                           publish_time_ns=stamp)
             if progress is not None:
                 progress(float(t))

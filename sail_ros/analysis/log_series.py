@@ -19,17 +19,13 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from sail_ros import topics
-from sail_ros.analysis.log_export import SCENARIO_METADATA
 from sail_ros.bag import BagReader
 from sail_ros.model import SailParameters
-from sail_ros.nodes.recorder import PARAMETERS_METADATA
-from sail_ros.nodes.sim_params import SAIL_PREFIX
 
 STATE_TOPICS = (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.MODAL_STATE)
 
@@ -82,19 +78,7 @@ class LogSeries:
         """
         if not self.parameters:
             return None
-        values = {}
-        for name, text in self.parameters.items():
-            if name.startswith(SAIL_PREFIX):
-                try:
-                    values[name[len(SAIL_PREFIX):]] = yaml.safe_load(text)
-                except yaml.YAMLError:
-                    raise ValueError(f"recorded parameter {name} = {text!r} is not YAML") from None
-        if not values:
-            return None
-        try:
-            return SailParameters.from_dict(values)
-        except ValueError as error:
-            raise ValueError(f"recorded {PARAMETERS_METADATA}: {SAIL_PREFIX}{error}") from None
+        return topics.sail_parameters_from_record(self.parameters)
 
 
 def _stamp_ns(header) -> int:
@@ -117,9 +101,9 @@ def read_log(path) -> LogSeries:
     reader = BagReader(path)
     parameters, epoch_ns = None, None
     for name, record in reader.metadata():
-        if name == PARAMETERS_METADATA:
+        if name == topics.PARAMETERS_METADATA:
             parameters = dict(record)  # the last record wins (a split re-stores it)
-        elif name == SCENARIO_METADATA and "epoch_ns" in record:
+        elif name == topics.SCENARIO_METADATA and "epoch_ns" in record:
             epoch_ns = int(record["epoch_ns"])
     joints: dict[str, list] = {topic: [] for topic in STATE_TOPICS}
     diagnostics: list[DiagnosticArray] = []

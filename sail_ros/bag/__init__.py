@@ -1,14 +1,18 @@
 """ROS 2 bags in MCAP, written and read the way rosbag2's MCAP storage does.
 
-- `BagWriter`: CDR messages into an MCAP file or a rosbag2 folder of them
-  (schemas from the installed .msg files, channel QoS metadata, chunking,
-  compression, splitting, metadata.yaml).
-- `BagReader`: messages back as (topic, type_name, data, log_time_ns,
-  publish_time_ns), also from files cut short by a crash.
-- `definitions`: message definition text and type hashes of installed types.
-- `trim_cdr`: exact CDR bytes of a locally serialised message.
+Split as rosbag2 splits it:
 
-Nothing in this package needs rclpy.
+- `writer`: `BagWriter`, the sequential writer: a file or a rosbag2 folder
+  of files, splitting by size or duration, metadata.yaml;
+- `mcap_storage`: `McapFile`, one MCAP file (schemas, channels with QoS
+  metadata, chunking, compression, fsync, the `rosbag2` record);
+- `metadata`: rosbag2's BagMetadata and the QoS entries as YAML text;
+- `qos`: the translation between QoS entries and rclpy's `QoSProfile` (the
+  only module here that needs rclpy; import it explicitly);
+- `reader`: `BagReader`, messages back as (topic, type_name, data,
+  log_time_ns, publish_time_ns), also from files cut short by a crash;
+- `definitions`: message definition text and type hashes of installed types;
+- `cdr`: `trim_cdr`, exact CDR bytes of a locally serialised message.
 """
 
 from sail_ros.bag.cdr import trim_cdr
@@ -18,15 +22,15 @@ from sail_ros.bag.definitions import (
     message_definition,
     type_hash,
 )
-from sail_ros.bag.reader import BagMessage, BagReader, TopicInfo, bag_files, parse_qos_profiles
-from sail_ros.bag.writer import (
-    COMPRESSIONS,
-    BagWriteError,
-    BagWriter,
+from sail_ros.bag.mcap_storage import COMPRESSIONS, BagWriteError
+from sail_ros.bag.metadata import (
     FileSummary,
     default_qos_profile,
+    parse_qos_profiles,
     qos_profiles_yaml,
 )
+from sail_ros.bag.reader import BagMessage, BagReader, TopicInfo, bag_files
+from sail_ros.bag.writer import BagWriter
 
 __all__ = [
     "COMPRESSIONS",

@@ -25,24 +25,16 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import NamedTuple
 
-import yaml
 from mcap.exceptions import EndOfFile, McapError
 from mcap.opcode import Opcode
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 
+from sail_ros.bag.metadata import parse_qos_profiles
+
 MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, length
-
-# rosbag2 metadata version <= 8 wrote the QoS policies as rmw enum values
-_QOS_ENUMS = {
-    "history": ["system_default", "keep_last", "keep_all", "unknown"],
-    "reliability": ["system_default", "reliable", "best_effort", "unknown", "best_available"],
-    "durability": ["system_default", "transient_local", "volatile", "unknown", "best_available"],
-    "liveliness": ["system_default", "automatic", "manual_by_node", "manual_by_topic", "unknown",
-                   "best_available"],
-}
 
 _log = logging.getLogger(__name__)
 
@@ -67,28 +59,6 @@ class TopicInfo(NamedTuple):
     offered_qos_profiles: list[dict]
     type_hash: str
     message_count: int
-
-
-def parse_qos_profiles(text: str) -> list[dict]:
-    """Parse an `offered_qos_profiles` text (metadata version 8 or 9) into entries
-    whose policies are rosbag2 v9 names ("reliable", "transient_local", ...)."""
-    if not text or not text.strip():
-        return []
-    try:
-        profiles = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        raise ValueError(f"offered_qos_profiles is not YAML: {error}") from None
-    if not isinstance(profiles, list):
-        raise ValueError(f"offered_qos_profiles must be a YAML list, got {text!r}")
-    normalised = []
-    for profile in profiles:
-        profile = dict(profile)
-        for policy, names in _QOS_ENUMS.items():
-            value = profile.get(policy)
-            if isinstance(value, int) and not isinstance(value, bool):
-                profile[policy] = names[value] if 0 <= value < len(names) else "unknown"
-        normalised.append(profile)
-    return normalised
 
 
 def bag_files(path: str | Path) -> list[Path]:

@@ -1,24 +1,11 @@
-"""`BagWriter`: CDR messages into MCAP files laid out as rosbag2's MCAP storage writes them.
-
-What a file holds, so that `ros2 bag info/play`, Foxglove and rosbags read it:
-
-- profile `ros2`; one schema per type, encoding `ros2msg` with the full
-  definition text of the installed `.msg` files (see `definitions`);
-- one channel per topic, message encoding `cdr`, channel metadata
-  `offered_qos_profiles` (the publishers' QoS as a rosbag2 YAML list) and
-  `topic_type_hash` (RIHS01_...);
-- messages as the CDR bytes given, log time and publish time in ns;
-- zstd/lz4/uncompressed chunks, closed when they reach `chunk_size` bytes or
-  are `max_chunk_duration_s` old, then flushed (and fsync'ed) so that a killed
-  process or a power cut loses at most the chunk in progress;
-- at close, a `rosbag2` metadata record (`serialized_metadata`,
-  `ROS_DISTRO`) and the summary section.
+"""`BagWriter`: the sequential writer of a recording, as rosbag2's SequentialWriter.
 
 Given a folder, the writer behaves like `ros2 bag record`: files
 `<folder>/<folder name>_<index>.mcap`, a new one when the current one reaches
 `max_file_size_bytes` or spans `max_file_duration_s` of log time, and a
-rosbag2 `metadata.yaml` (version 9) once closed. Given a path ending in
-`.mcap`, it writes that one file.
+rosbag2 `metadata.yaml` (version 9, `metadata`) once closed. Given a path
+ending in `.mcap`, it writes that one file. Each file is an `McapFile`
+(`mcap_storage`: schemas, channels, chunks, fsync, the rosbag2 record).
 
 Example (`cdr` from `rclpy.serialization.serialize_message`)::
 
@@ -33,105 +20,21 @@ A `BagWriter` is not thread-safe: use it from one thread.
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import os
-import time
 from collections.abc import Callable, Mapping, Sequence
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-import yaml
-from mcap.writer import CompressionType, Writer
-
 from sail_ros.bag.definitions import DefinitionNotFoundError, message_definition, type_hash
+from sail_ros.bag.mcap_storage import COMPRESSIONS, BagWriteError, McapFile, guarded
+from sail_ros.bag.metadata import (
+    FileSummary,
+    TopicMetadata,
+    bag_metadata,
+    qos_list,
+    write_metadata_yaml,
+)
 
-COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
-                "none": CompressionType.NONE}
-METADATA_VERSION = 9  # rosbag2 metadata.yaml version written by Jazzy
 MIN_FILE_SIZE_BYTES = 1024  # rosbag2's MCAP storage refuses smaller splits
-_MESSAGE_RECORD_OVERHEAD = 31  # bytes: opcode, length, channel, sequence, two times
-_INFINITE = {"sec": 9223372036, "nsec": 854775807}  # RMW_DURATION_INFINITE
-
-
-class BagWriteError(RuntimeError):
-    """Writing a bag file failed; `path` is the file, `error` the OSError."""
-
-    def __init__(self, path: Path, error: OSError):
-        super().__init__(f"cannot write '{path}': {error.strerror or error}"
-                         + (f" [errno {error.errno}]" if error.errno else ""))
-        self.path = path
-        self.error = error
-
-
-@dataclasses.dataclass(frozen=True)
-class FileSummary:
-    """One written MCAP file: message count and log-time span [ns]."""
-
-    path: Path
-    message_count: int
-    start_time_ns: int
-    end_time_ns: int
-    topic_counts: dict[str, int]
-
-
-@dataclasses.dataclass
-class _Topic:
-    name: str
-    type_name: str
-    qos_profiles: list[dict]
-    type_hash: str
-    schema_encoding: str
-    schema_text: str
-
-
-@dataclasses.dataclass
-class _OpenFile:
-    path: Path
-    stream: object
-    mcap: Writer
-    channel_ids: dict[str, int]
-    schema_ids: dict[str, int]
-    topic_counts: dict[str, int]
-    message_count: int = 0
-    start_time_ns: int = 0
-    end_time_ns: int = 0
-
-
-def default_qos_profile(**changes) -> dict:
-    """A rosbag2 QoS entry; the defaults are what the ROS graph reports for a
-    reliable volatile publisher (history unknown, depth 0, infinite durations)."""
-    profile = {
-        "history": "unknown",
-        "depth": 0,
-        "reliability": "reliable",
-        "durability": "volatile",
-        "deadline": dict(_INFINITE),
-        "lifespan": dict(_INFINITE),
-        "liveliness": "automatic",
-        "liveliness_lease_duration": dict(_INFINITE),
-        "avoid_ros_namespace_conventions": False,
-    }
-    profile.update(changes)
-    return profile
-
-
-class _Dumper(yaml.SafeDumper):
-    """Safe YAML without anchors: rosbag2's yaml-cpp output never has any."""
-
-    def ignore_aliases(self, data) -> bool:
-        return True
-
-
-def dump_yaml(data) -> str:
-    """Block-style YAML, keys in insertion order, as rosbag2 writes its metadata."""
-    return yaml.dump(data, Dumper=_Dumper, sort_keys=False, default_flow_style=False)
-
-
-def qos_profiles_yaml(profiles: Sequence[Mapping]) -> str:
-    """The `offered_qos_profiles` text rosbag2 stores: a YAML block list."""
-    if not profiles:
-        return "[]"
-    return dump_yaml([dict(p) for p in profiles]).rstrip("\n")
 
 
 class BagWriter:
@@ -195,18 +98,16 @@ class BagWriter:
         self._on_new_file = on_new_file
         self._ros_distro = ros_distro
         self._overwrite = overwrite
-        self._library = _library_name()
 
-        self._topics: dict[str, _Topic] = {}
+        self._topics: dict[str, TopicMetadata] = {}
+        self._schemas: dict[str, tuple[str, str]] = {}  # type name -> (encoding, text)
         self._files: list[FileSummary] = []
-        self._file: _OpenFile | None = None
-        self._chunk_bytes = 0
-        self._chunk_opened_at: float | None = None  # time.monotonic() of its first message
+        self._file: McapFile | None = None
         self._error: BagWriteError | None = None
         self._closed = False
 
         if not self._single_file:
-            self._guarded(self._path, self._make_folder)
+            self._attempt(guarded, self._path, self._make_folder)
         self._open_file()
 
     # -- public API -------------------------------------------------------------------------
@@ -245,8 +146,8 @@ class BagWriter:
             type_name: "pkg/msg/Type"; its definition is read from the installed
                 .msg files (a type without any gets an empty schema).
             offered_qos_profiles: the publishers' QoS, as rosbag2 QoS entries
-                (dicts, see `default_qos_profile`) or their YAML text; None means
-                one reliable volatile profile.
+                (dicts, see `metadata.default_qos_profile`) or their YAML text;
+                None means one reliable volatile profile.
             topic_type_hash: "RIHS01_..."; None reads it from the installed .json.
         """
         self._check_usable()
@@ -254,20 +155,19 @@ class BagWriter:
             return
         if not topic.startswith("/"):
             raise ValueError(f"topic must be an absolute name starting with '/', got {topic!r}")
-        try:
-            definition = message_definition(type_name)
-            encoding, text = definition.encoding, definition.text
-        except DefinitionNotFoundError:
-            encoding, text = "", ""  # MCAP's "no schema available"
-        self._topics[topic] = _Topic(
+        if type_name not in self._schemas:
+            try:
+                definition = message_definition(type_name)
+                self._schemas[type_name] = (definition.encoding, definition.text)
+            except DefinitionNotFoundError:
+                self._schemas[type_name] = ("", "")  # MCAP's "no schema available"
+        self._topics[topic] = TopicMetadata(
             name=topic,
             type_name=type_name,
-            qos_profiles=_qos_list(topic, offered_qos_profiles),
+            qos_profiles=qos_list(topic, offered_qos_profiles),
             type_hash=type_hash(type_name) if topic_type_hash is None else topic_type_hash,
-            schema_encoding=encoding,
-            schema_text=text,
         )
-        self._guarded(self._file.path, self._register, self._file, self._topics[topic])
+        self._attempt(self._file.register, self._topics[topic], *self._schemas[type_name])
 
     def write(
         self,
@@ -295,23 +195,8 @@ class BagWriter:
         if topic not in self._topics:
             raise ValueError(f"topic {topic!r} was not declared; call add_topic first")
         self._maybe_split(log_time_ns)
-        file = self._file
         publish_time_ns = log_time_ns if publish_time_ns is None else publish_time_ns
-        self._guarded(file.path, file.mcap.add_message, file.channel_ids[topic], log_time_ns,
-                      data, publish_time_ns, sequence)
-        if file.message_count == 0:
-            file.start_time_ns = file.end_time_ns = log_time_ns
-        file.start_time_ns = min(file.start_time_ns, log_time_ns)
-        file.end_time_ns = max(file.end_time_ns, log_time_ns)
-        file.message_count += 1
-        file.topic_counts[topic] += 1
-        self._chunk_bytes += len(data) + _MESSAGE_RECORD_OVERHEAD
-        if self._chunk_opened_at is None:
-            self._chunk_opened_at = time.monotonic()
-        if self._chunk_bytes >= self._chunk_size:
-            self.flush()
-        else:
-            self.tick()
+        self._attempt(self._file.write, topic, data, log_time_ns, publish_time_ns, sequence)
 
     def tick(self) -> None:
         """Close the chunk in progress if it is `max_chunk_duration_s` old.
@@ -319,35 +204,35 @@ class BagWriter:
         `write` does this itself; call `tick` periodically when messages may
         stop arriving, so the last ones still reach the disk in time.
         """
-        opened = self._chunk_opened_at
-        if opened is not None and time.monotonic() - opened >= self._max_chunk_duration_s:
-            self.flush()
+        if self._file is None:
+            return
+        self._check_usable()
+        self._attempt(self._file.tick)
 
     def seconds_to_next_tick(self) -> float:
         """Time until the chunk in progress is due [s]; `max_chunk_duration_s` if none is."""
-        if self._chunk_opened_at is None:
+        if self._file is None:
             return self._max_chunk_duration_s
-        due = self._chunk_opened_at + self._max_chunk_duration_s
-        return max(0.0, due - time.monotonic())
+        return self._file.seconds_to_next_tick()
 
     def flush(self) -> None:
         """Close the chunk in progress now and push it to the disk."""
         self._check_usable()
-        self._guarded(self._file.path, self._flush_file, self._file)
+        self._attempt(self._file.flush)
 
     def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
         """Write an MCAP metadata record (a string -> string map) into the current file."""
         self._check_usable()
-        bad = [key for key, value in data.items()
-               if not isinstance(key, str) or not isinstance(value, str)]
+        bad = [
+            key
+            for key, value in data.items()
+            if not isinstance(key, str) or not isinstance(value, str)
+        ]
         if bad:
-            raise TypeError(f"metadata {name!r} must map strings to strings; "
-                            f"entry {bad[0]!r} does not")
-        file = self._file
-        # the chunk in progress goes first, so the file stays in receive order
-        self._guarded(file.path, self._flush_file, file)
-        self._guarded(file.path, file.mcap.add_metadata, name, dict(data))
-        self._guarded(file.path, self._flush_file, file)
+            raise TypeError(
+                f"metadata {name!r} must map strings to strings; entry {bad[0]!r} does not"
+            )
+        self._attempt(self._file.add_metadata, name, data)
 
     def close(self) -> list[FileSummary]:
         """Finish the current file (summary, rosbag2 metadata) and, for a folder,
@@ -364,11 +249,15 @@ class BagWriter:
             return list(self._files)
         self._closed = True
         if self._error is not None:
-            self._abandon()
+            if self._file is not None:
+                self._files.append(self._file.abandon())
+                self._file = None
             raise self._error
         self._finish_file()
         if not self._single_file:
-            self._guarded(self._path / "metadata.yaml", self._write_metadata_yaml)
+            metadata = bag_metadata(list(self._topics.values()), self._files, self._ros_distro)
+            self._attempt(guarded, self._path / "metadata.yaml", write_metadata_yaml,
+                          self._path, metadata)
         return list(self._files)
 
     def __enter__(self) -> BagWriter:
@@ -394,51 +283,28 @@ class BagWriter:
         return self._path / f"{self._path.name}_{len(self._files)}.mcap"
 
     def _open_file(self) -> None:
-        path = self._next_path()
-        stream = self._guarded(path, open, path, "wb" if self._overwrite else "xb")
-        mcap = Writer(
-            stream,
-            chunk_size=1 << 62,  # chunks are closed here, by size and by age
-            compression=COMPRESSIONS[self._compression],
+        self._file = self._attempt(
+            McapFile,
+            self._next_path(),
+            compression=self._compression,
+            chunk_size=self._chunk_size,
+            max_chunk_duration_s=self._max_chunk_duration_s,
+            fsync=self._fsync,
+            overwrite=self._overwrite,
         )
-        file = _OpenFile(path=path, stream=stream, mcap=mcap, channel_ids={}, schema_ids={},
-                         topic_counts=dict.fromkeys(self._topics, 0))
-        self._file = file
-        self._guarded(path, mcap.start, "ros2", self._library)
         for topic in self._topics.values():
-            self._guarded(path, self._register, file, topic)
-        self._guarded(path, self._flush_file, file)
-
-    def _register(self, file: _OpenFile, topic: _Topic) -> None:
-        schema_id = file.schema_ids.get(topic.type_name)
-        if schema_id is None:
-            schema_id = file.mcap.register_schema(topic.type_name, topic.schema_encoding,
-                                                  topic.schema_text.encode())
-            file.schema_ids[topic.type_name] = schema_id
-        file.channel_ids[topic.name] = file.mcap.register_channel(
-            topic.name,
-            "cdr",
-            schema_id,
-            {"offered_qos_profiles": qos_profiles_yaml(topic.qos_profiles),
-             "topic_type_hash": topic.type_hash},
-        )
-        file.topic_counts.setdefault(topic.name, 0)
-
-    def _flush_file(self, file: _OpenFile) -> None:
-        file.mcap.flush()
-        if self._fsync:
-            os.fsync(file.stream.fileno())
-        self._chunk_bytes = 0
-        self._chunk_opened_at = None
+            self._attempt(self._file.register, topic, *self._schemas[topic.type_name])
+        self._attempt(self._file.flush)
 
     def _maybe_split(self, log_time_ns: int) -> None:
         file = self._file
         if file.message_count == 0:
             return
-        too_long = (self._max_file_duration_ns
-                    and log_time_ns - file.start_time_ns >= self._max_file_duration_ns)
-        too_big = (self._max_file_size
-                   and self._guarded(file.path, file.stream.tell) >= self._max_file_size)
+        too_long = (
+            self._max_file_duration_ns
+            and log_time_ns - file.start_time_ns >= self._max_file_duration_ns
+        )
+        too_big = self._max_file_size and self._attempt(file.size) >= self._max_file_size
         if too_long or too_big:
             self._finish_file()
             self._open_file()
@@ -447,93 +313,13 @@ class BagWriter:
 
     def _finish_file(self) -> None:
         file = self._file
-        summary = self._summary_of(file)
-        self._guarded(file.path, self._flush_file, file)
-        self._guarded(file.path, file.mcap.add_metadata, "rosbag2", {
-            "serialized_metadata": dump_yaml(self._bag_metadata([summary])),
-            "ROS_DISTRO": self._ros_distro,
-        })
-        self._guarded(file.path, file.mcap.finish)
-        self._guarded(file.path, self._flush_and_close, file)
-        self._files.append(summary)
+        metadata = bag_metadata(list(self._topics.values()), [file.summary()], self._ros_distro)
+        self._files.append(self._attempt(file.finish, metadata, self._ros_distro))
         self._file = None
-
-    def _flush_and_close(self, file: _OpenFile) -> None:
-        file.stream.flush()
-        if self._fsync:
-            os.fsync(file.stream.fileno())
-        file.stream.close()
-
-    def _abandon(self) -> None:
-        if self._file is None:
-            return
-        # the buffered tail cannot be written either; the error is already reported
-        with contextlib.suppress(OSError):
-            self._file.stream.close()
-        self._files.append(self._summary_of(self._file))
-        self._file = None
-
-    def _write_metadata_yaml(self) -> None:
-        text = dump_yaml({"rosbag2_bagfile_information": self._bag_metadata(self._files)})
-        temporary = self._path / "metadata.yaml.tmp"
-        temporary.write_text(text)
-        temporary.replace(self._path / "metadata.yaml")
-
-    # -- metadata ---------------------------------------------------------------------------
-
-    def _summary_of(self, file: _OpenFile) -> FileSummary:
-        return FileSummary(path=file.path, message_count=file.message_count,
-                           start_time_ns=file.start_time_ns, end_time_ns=file.end_time_ns,
-                           topic_counts=dict(file.topic_counts))
 
     def _all_file_summaries(self) -> list[FileSummary]:
-        current = [self._summary_of(self._file)] if self._file else []
+        current = [self._file.summary()] if self._file else []
         return self._files + current
-
-    def _bag_metadata(self, files: list[FileSummary]) -> dict:
-        """rosbag2's BagMetadata (version 9) for `files`."""
-        with_messages = [f for f in files if f.message_count]
-        start = min((f.start_time_ns for f in with_messages), default=0)
-        end = max((f.end_time_ns for f in with_messages), default=0)
-        counts = dict.fromkeys(self._topics, 0)
-        for f in files:
-            for topic, count in f.topic_counts.items():
-                counts[topic] += count
-        return {
-            "version": METADATA_VERSION,
-            "storage_identifier": "mcap",
-            "duration": {"nanoseconds": end - start},
-            "starting_time": {"nanoseconds_since_epoch": start},
-            "message_count": sum(counts.values()),
-            "topics_with_message_count": [
-                {
-                    "topic_metadata": {
-                        "name": topic.name,
-                        "type": topic.type_name,
-                        "serialization_format": "cdr",
-                        "offered_qos_profiles": topic.qos_profiles,
-                        "type_description_hash": topic.type_hash,
-                    },
-                    "message_count": counts[topic.name],
-                }
-                for topic in self._topics.values()
-            ],
-            # chunk compression belongs to the storage; rosbag2 leaves these empty for it
-            "compression_format": "",
-            "compression_mode": "",
-            "relative_file_paths": [f.path.name for f in files],
-            "files": [
-                {
-                    "path": f.path.name,
-                    "starting_time": {"nanoseconds_since_epoch": f.start_time_ns},
-                    "duration": {"nanoseconds": f.end_time_ns - f.start_time_ns},
-                    "message_count": f.message_count,
-                }
-                for f in files
-            ],
-            "custom_data": None,
-            "ros_distro": self._ros_distro,
-        }
 
     # -- errors -----------------------------------------------------------------------------
 
@@ -543,27 +329,13 @@ class BagWriter:
         if self._closed:
             raise ValueError(f"bag '{self._path}' is closed")
 
-    def _guarded(self, path: Path, function, *args):
-        """Call `function`; an OSError marks the writer failed and becomes a BagWriteError."""
+    def _attempt(self, function, *args, **kwargs):
+        """Call `function`; a BagWriteError marks the writer failed for good."""
         try:
-            return function(*args)
-        except OSError as error:
-            self._error = BagWriteError(path, error)
-            raise self._error from error
-
-
-def _qos_list(topic: str, profiles: str | Sequence[Mapping] | None) -> list[dict]:
-    if profiles is None:
-        return [default_qos_profile()]
-    if isinstance(profiles, str):
-        try:
-            profiles = yaml.safe_load(profiles) or []
-        except yaml.YAMLError as error:
-            raise ValueError(f"offered_qos_profiles of {topic} is not YAML: {error}") from None
-    if not isinstance(profiles, Sequence) or not all(isinstance(p, Mapping) for p in profiles):
-        raise ValueError(f"offered_qos_profiles of {topic} must be a list of QoS mappings, "
-                         f"got {profiles!r}")
-    return [dict(p) for p in profiles]
+            return function(*args, **kwargs)
+        except BagWriteError as error:
+            self._error = error
+            raise
 
 
 def _check_choice(name: str, value, choices) -> None:
@@ -579,11 +351,3 @@ def _check_number(name: str, value, *, minimum, integer=False, exclusive=False) 
     if value < minimum or (exclusive and value == minimum):
         relation = ">" if exclusive else ">="
         raise ValueError(f"{name} must be {relation} {minimum}, got {value!r}")
-
-
-def _library_name() -> str:
-    try:
-        own = version("sail_ros")
-    except PackageNotFoundError:
-        own = "source"
-    return f"sail_ros {own}; mcap-python {version('mcap')}"

@@ -7,6 +7,8 @@ with `q = [p_a, p_b, p_c, p_d, q_ab, q_bc, q_cd, q_da]` (model.md §6).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.linalg
 
@@ -28,6 +30,19 @@ from sail_ros.model.integrate import simulate
 from sail_ros.model.layout import BOOMS, Layout, per_boom
 from sail_ros.model.parameters import SailParameters
 from sail_ros.model.stepper import SailStepper
+
+
+class StateSample(NamedTuple):
+    """The state at time `t` [s]: boom lengths [m] and rates [m/s], coordinates q [m]
+    and velocities qd [m/s], tip deflections [m] and their rates [m/s]."""
+
+    t: float
+    lengths: np.ndarray
+    rates: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tips: np.ndarray
+    tip_rates: np.ndarray
 
 
 class SailModel:
@@ -194,6 +209,11 @@ class SailModel:
         `q` may be one state (n,) or a series (..., n); works for velocities too.
         """
         return np.asarray(q) @ self._tip_rows.T
+
+    def sample(self, t: float, lengths, rates, q, qd) -> StateSample:
+        """The state at `t` [s] with its tip deflections and their rates."""
+        tips, tip_rates = self.tip_deflections(q), self.tip_deflections(qd)
+        return StateSample(t, lengths, rates, q, qd, tips, tip_rates)
 
     def mode_state(self, boom: str = "a", tip_deflection: float = 0.1) -> np.ndarray:
         """Coordinates with boom `boom` bent in its first cantilever mode, all else 0.

@@ -29,39 +29,19 @@ import threading
 import time
 import traceback
 
-import yaml
 from rcl_interfaces.srv import GetParameters, ListParameters
 from rclpy.exceptions import NameValidationException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.logging import get_logger
 from rclpy.node import Node
 from rclpy.parameter import parameter_value_to_python
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from sail_ros.bag import COMPRESSIONS, BagWriteError, BagWriter
-from sail_ros.nodes.ros_args import (
-    ConfigError,
-    ParamSpec,
-    StopSignals,
-    declare,
-    make_parser,
-    message_class,
-    overrides,
-    run_node,
-)
+from sail_ros.bag import COMPRESSIONS, BagWriteError, BagWriter, qos
+from sail_ros.nodes.parameters import ConfigError, ParamSpec, declare, make_parser, overrides
+from sail_ros.nodes.ros_args import StopSignals, message_class, run_node
+from sail_ros.topics import PARAMETERS_METADATA, RECORDED_TOPICS, yaml_value
 
 NODE_NAME = "sail_recorder"
-PARAMETERS_METADATA = "sail_sim_parameters"
-DEFAULT_TOPICS = [
-    "/sail/boom_state",
-    "/sail/modal_state",
-    "/sail/tip_deflection",
-    "/sail/shape",
-    "/sail/boom_length_cmd",
-    "/sail/deploy_cmd",
-    "/clock",
-    "/diagnostics",
-]
 GRAPH_PERIOD_S = 0.5  # how often new topics and the parameter node are looked for
 PARAMETER_WAIT_WARNING_S = 5.0  # warn once if the parameter node is still absent
 SERVICE_TIMEOUT_S = 5.0  # a parameter request without answer is retried after this
@@ -72,7 +52,7 @@ SPECS = [
     ParamSpec("output", "", "bag folder to create (must be absent or empty); holds "
               "<name>_<index>.mcap and metadata.yaml; empty: sail_<UTC time> in the "
               "working directory", short="-o"),
-    ParamSpec("topics", list(DEFAULT_TOPICS), "topics to record; each is subscribed once a "
+    ParamSpec("topics", list(RECORDED_TOPICS), "topics to record; each is subscribed once a "
               "publisher of it appears (ignored when all_topics is true)"),
     ParamSpec("all_topics", False, "record every topic with a publisher, except hidden ones "
               "(a name part starting with '_'), including topics that appear later"),
@@ -95,47 +75,6 @@ SPECS = [
 def default_output() -> str:
     """`sail_<UTC date-time>`, like rosbag2's `rosbag2_<date-time>`."""
     return "sail_" + datetime.datetime.now(datetime.UTC).strftime("%Y_%m_%d-%H_%M_%S")
-
-
-def qos_entry(profile: QoSProfile) -> dict:
-    """The rosbag2 (metadata version 9) entry of an offered QoS profile."""
-    return {
-        "history": profile.history.name.lower(),
-        "depth": profile.depth,
-        "reliability": profile.reliability.name.lower(),
-        "durability": profile.durability.name.lower(),
-        "deadline": _rmw_time(profile.deadline),
-        "lifespan": _rmw_time(profile.lifespan),
-        "liveliness": profile.liveliness.name.lower(),
-        "liveliness_lease_duration": _rmw_time(profile.liveliness_lease_duration),
-        "avoid_ros_namespace_conventions": bool(profile.avoid_ros_namespace_conventions),
-    }
-
-
-def _rmw_time(duration) -> dict:
-    sec, nsec = divmod(duration.nanoseconds, 1_000_000_000)
-    return {"sec": sec, "nsec": nsec}
-
-
-def subscription_qos(offered: list[QoSProfile], depth: int) -> QoSProfile:
-    """A request every publisher can serve, as rosbag2 makes it: reliable only if
-    all offer reliable, transient local only if all offer it."""
-    reliable = all(p.reliability == ReliabilityPolicy.RELIABLE for p in offered)
-    latched = all(p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in offered)
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=depth,
-        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
-    )
-
-
-def yaml_value(value) -> str:
-    """A parameter value as one line of YAML: 100.0, true, [1, 2], abc."""
-    if not isinstance(value, bool | int | float | str):  # an array; a byte array holds bytes
-        value = [item[0] if isinstance(item, bytes) else item for item in value]
-    text = yaml.safe_dump(value, default_flow_style=True, width=1 << 30)
-    return text.removesuffix("\n...\n").strip()
 
 
 def is_hidden(topic: str) -> bool:
@@ -193,10 +132,20 @@ class _BagThread:
 
 
 class Recorder(Node):
-    """The `sail_recorder` node; `run` records until stopped."""
+    """The `sail_recorder` node; `run` records until stopped.
 
-    def __init__(self, parameter_overrides=()):
-        super().__init__(NODE_NAME, parameter_overrides=list(parameter_overrides))
+    Args:
+        parameter_overrides: initial parameter values (besides --ros-args).
+        context: the rclpy context (default: the global one).
+
+    Raises:
+        ConfigError: a parameter has a value the recorder cannot use.
+        BagWriteError: the bag cannot be created.
+    """
+
+    def __init__(self, parameter_overrides=(), context=None):
+        super().__init__(NODE_NAME, context=context,
+                         parameter_overrides=list(parameter_overrides))
         self.config = declare(self, SPECS)
         self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
         self._recording: dict[str, object] = {}
@@ -355,13 +304,13 @@ class Recorder(Node):
                            "subscribing with what all of them serve")
         type_hash = str(publishers[0].topic_type_hash)
         self.bag.submit(self.bag.writer.add_topic, topic, type_name,
-                        [qos_entry(p) for p in offered],
+                        [qos.entry_of(p) for p in offered],
                         type_hash if type_hash.startswith("RIHS01_") else None)
-        qos = subscription_qos(offered, self.config["qos_depth"])
+        request = qos.subscription_for(offered, self.config["qos_depth"])
         self._recording[topic] = self.create_subscription(
-            msg_class, topic, functools.partial(self._on_message, topic), qos, raw=True)
-        logger.info(f"recording {topic} ({type_name}, {qos.reliability.name.lower()}, "
-                    f"{qos.durability.name.lower()})")
+            msg_class, topic, functools.partial(self._on_message, topic), request, raw=True)
+        logger.info(f"recording {topic} ({type_name}, {request.reliability.name.lower()}, "
+                    f"{request.durability.name.lower()})")
 
     def _on_message(self, topic: str, data: bytes, info: dict) -> None:
         log_time = info.get("received_timestamp") or time.time_ns()

@@ -24,19 +24,12 @@ import time
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
-from sail_ros.bag import BagReader
-from sail_ros.nodes.ros_args import (
-    ConfigError,
-    ParamSpec,
-    declare,
-    make_parser,
-    message_class,
-    overrides,
-    run_node,
-)
+from sail_ros.bag import BagReader, qos
+from sail_ros.nodes.parameters import ConfigError, ParamSpec, declare, make_parser, overrides
+from sail_ros.nodes.ros_args import message_class, run_node
 
 NODE_NAME = "sail_replay"
 CLOCK_TOPIC = "/clock"
@@ -64,33 +57,21 @@ SPECS = [
 ]
 
 
-def publisher_qos(profiles: list[dict], default_depth: int) -> QoSProfile:
-    """A publisher QoS from the recorded offers (rosbag2 entries): their reliability
-    and durability, their depth if they kept a fixed one, else `default_depth`."""
-    first = profiles[0] if profiles else {}
-    same = all((p.get("reliability"), p.get("durability"))
-               == (first.get("reliability"), first.get("durability")) for p in profiles)
-    if not same:
-        first = {}  # mixed offers: the ROS default, which every subscriber can match
-    depth = first.get("depth") or 0
-    if first.get("history") != "keep_last" or depth <= 0:
-        depth = default_depth
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=depth,
-        reliability=(ReliabilityPolicy.BEST_EFFORT if first.get("reliability") == "best_effort"
-                     else ReliabilityPolicy.RELIABLE),
-        durability=(DurabilityPolicy.TRANSIENT_LOCAL
-                    if first.get("durability") == "transient_local"
-                    else DurabilityPolicy.VOLATILE),
-    )
-
-
 class Replay(Node):
-    """The `sail_replay` node; `play` publishes the bag."""
+    """The `sail_replay` node; `play` publishes the bag.
 
-    def __init__(self, parameter_overrides=()):
-        super().__init__(NODE_NAME, parameter_overrides=list(parameter_overrides))
+    Args:
+        parameter_overrides: initial parameter values (besides --ros-args).
+        context: the rclpy context (default: the global one).
+
+    Raises:
+        ConfigError: a parameter has a value the replay cannot use (no bag,
+            nothing to play, an offset past the end).
+    """
+
+    def __init__(self, parameter_overrides=(), context=None):
+        super().__init__(NODE_NAME, context=context,
+                         parameter_overrides=list(parameter_overrides))
         self.config = declare(self, SPECS)
         if not self.config["bag"]:
             raise ConfigError("bag: no bag given (a file or folder, e.g. `sail-ros replay run1`)")
@@ -117,8 +98,8 @@ class Replay(Node):
                 self.get_logger().warning(f"not playing {topic}: type {info.type_name!r} is "
                                           f"not installed ({error})")
                 continue
-            qos = publisher_qos(info.offered_qos_profiles, self.config["qos_depth"])
-            self._players[topic] = self.create_publisher(msg_class, topic, qos)
+            profile = qos.publisher_for(info.offered_qos_profiles, self.config["qos_depth"])
+            self._players[topic] = self.create_publisher(msg_class, topic, profile)
         if not self._players:
             raise ConfigError(f"topics: nothing to play from '{self.config['bag']}' (it has: "
                               f"{', '.join(sorted(recorded)) or 'no topics'})")

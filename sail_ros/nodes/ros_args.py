@@ -1,112 +1,23 @@
-"""Running a node from a tool `main`: command line, parameters, stop signals, types.
+"""Running a node from a tool `main`: command line, stop signals, rclpy's lifetime, types.
 
-A tool declares its ROS parameters once, as `ParamSpec`s; from them come the
-declared parameters (with descriptions, ranges, read-only flags) and
-command-line options `--<name-with-dashes>` that override them. ROS
-arguments (`--ros-args -p name:=value --params-file f.yaml ...`) work as
-usual; an option given on the command line wins over them.
+ROS arguments (`--ros-args -p name:=value --params-file f.yaml ...`) work as
+usual; a tool's own options (`parameters.make_parser`) win over them.
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import importlib
 import signal
 import threading
 
 import rclpy
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.exceptions import ParameterException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.logging import get_logger
-from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
-_TYPES = {
-    bool: Parameter.Type.BOOL,
-    int: Parameter.Type.INTEGER,
-    float: Parameter.Type.DOUBLE,
-    str: Parameter.Type.STRING,
-    list: Parameter.Type.STRING_ARRAY,  # the only array kind the tools use
-}
-
-
-class ConfigError(ValueError):
-    """A parameter has a value a node cannot use; the message names it."""
-
-
-@dataclasses.dataclass(frozen=True)
-class ParamSpec:
-    """One ROS parameter of a tool.
-
-    `default` fixes the type (bool, int, float, str, or list of str);
-    `minimum`/`maximum` become the descriptor's range; `choices` are checked
-    by `declare`. Units belong in `description`.
-    """
-
-    name: str
-    default: object
-    description: str
-    read_only: bool = True
-    minimum: float | None = None
-    maximum: float | None = None
-    choices: tuple[str, ...] = ()
-    short: str | None = None  # e.g. "-o", an extra command-line spelling
-
-    @property
-    def options(self) -> list[str]:
-        long = "--" + self.name.replace("_", "-")
-        return [self.short, long] if self.short else [long]
-
-    def descriptor(self) -> ParameterDescriptor:
-        return parameter_descriptor(
-            self.name, _TYPES[type(self.default)], self.description, self.read_only,
-            self.minimum, self.maximum,
-            integer=isinstance(self.default, int) and not isinstance(self.default, bool),
-            constraints="one of: " + ", ".join(self.choices) if self.choices else "")
-
-
-def parameter_descriptor(name: str, kind: Parameter.Type, description: str, read_only: bool,
-                         minimum: float | None = None, maximum: float | None = None,
-                         integer: bool = False, constraints: str = "") -> ParameterDescriptor:
-    """A ParameterDescriptor; a bound given (`minimum`, `maximum`) becomes an integer
-    range if `integer`, else a floating-point range (a missing bound: the widest)."""
-    descriptor = ParameterDescriptor(name=name, type=kind.value, description=description,
-                                     read_only=read_only, additional_constraints=constraints)
-    if minimum is not None or maximum is not None:
-        if integer:
-            descriptor.integer_range = [IntegerRange(
-                from_value=int(minimum if minimum is not None else -(2**63)),
-                to_value=int(maximum if maximum is not None else 2**63 - 1), step=0)]
-        else:
-            descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(minimum if minimum is not None else -1e308),
-                to_value=float(maximum if maximum is not None else 1e308), step=0.0)]
-    return descriptor
-
-
-def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse.ArgumentParser:
-    """An argparse parser with one option per parameter (defaults None: unset)."""
-    parser = argparse.ArgumentParser(
-        prog=prog, description=description,
-        epilog="Every option is also the ROS parameter of the same name with '_' for '-' "
-               "(--ros-args -p name:=value, or --ros-args --params-file file.yaml); "
-               "an option given here wins.")
-    for spec in specs:
-        kind = type(spec.default)
-        help_text = f"{spec.description} (default: {spec.default!r})"
-        if kind is bool:
-            parser.add_argument(*spec.options, dest=spec.name, default=None,
-                                action=argparse.BooleanOptionalAction, help=help_text)
-        elif kind is list:
-            parser.add_argument(*spec.options, dest=spec.name, default=None, nargs="+",
-                                metavar="NAME", help=help_text)
-        else:
-            parser.add_argument(*spec.options, dest=spec.name, default=None, type=kind,
-                                choices=spec.choices or None, help=help_text)
-    return parser
+from sail_ros.nodes.parameters import ConfigError
 
 
 def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[str]):
@@ -121,39 +32,6 @@ def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[st
     except _rclpy.RCLInvalidROSArgsError as error:
         parser.error(f"invalid ROS arguments: {error}")
     return parser.parse_args(own_args), ros_argv
-
-
-def overrides(namespace: argparse.Namespace, specs: list[ParamSpec]) -> list[Parameter]:
-    """The parameters set on the command line, as node parameter overrides."""
-    chosen = []
-    for spec in specs:
-        value = getattr(namespace, spec.name, None)
-        if value is not None:
-            chosen.append(Parameter(spec.name, _TYPES[type(spec.default)], value))
-    return chosen
-
-
-def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
-    """Declare `specs` on `node` and return their values.
-
-    Raises:
-        ConfigError: a value has the wrong type, is out of range or not a choice.
-    """
-    values = {}
-    for spec in specs:
-        # an empty list would be declared as a byte array: declare the type instead
-        initial = spec.default if spec.default != [] else Parameter.Type.STRING_ARRAY
-        try:
-            parameter = node.declare_parameter(spec.name, initial, spec.descriptor())
-        except ParameterException as error:
-            raise ConfigError(f"parameter {spec.name}: {error}") from None
-        value = parameter.value if parameter.type_ != Parameter.Type.NOT_SET else spec.default
-        if spec.choices and value not in spec.choices:
-            raise ConfigError(f"{spec.name} must be one of {', '.join(spec.choices)}, "
-                              f"got {value!r}")
-        values[spec.name] = list(value) if isinstance(spec.default, list) else value
-    return values
-
 
 class StopSignals:
     """While active, SIGINT and SIGTERM set `event` instead of raising.

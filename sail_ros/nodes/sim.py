@@ -31,32 +31,28 @@ import math
 import sys
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
-from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rosgraph_msgs.msg import Clock as ClockMessage
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import MarkerArray
 
 from sail_ros import topics
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import CommandError
+from sail_ros.nodes.diagnosis import Observations, diagnose
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
-from sail_ros.nodes.ros_args import ConfigError, run_node
+from sail_ros.nodes.parameters import ConfigError, declare
+from sail_ros.nodes.ros_args import run_node
 from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
-RTF_WARN_FRACTION = 0.9  # WARN when a paced run achieves less than this of time_scale
 RTF_MIN_WINDOW_S = 0.5  # the real-time factor is measured over running windows this long
 
 
@@ -74,7 +70,7 @@ class SimNode(Node):
     def __init__(self, parameter_overrides=(), context=None):
         super().__init__(NODE_NAME, context=context,
                          parameter_overrides=list(parameter_overrides))
-        self._values = self._declare()
+        self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
         model = SailModel(config.sail)
         self.sim = Simulation(model, config)
@@ -85,18 +81,18 @@ class SimNode(Node):
         self.overruns = 0
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
 
-        self._outputs = {
-            name: self.create_publisher(kind, name, topics.TOPIC_QOS[name])
-            for name, kind in ((topics.BOOM_STATE, JointState), (topics.MODAL_STATE, JointState),
-                               (topics.TIP_DEFLECTION, JointState), (topics.SHAPE, MarkerArray),
-                               (topics.DIAGNOSTICS, DiagnosticArray))
-        }
+        published = [*topics.STATE_TOPICS, topics.SHAPE, topics.DIAGNOSTICS]
         if config.time_scale != 1.0:
-            self._outputs[topics.CLOCK] = self.create_publisher(
-                ClockMessage, topics.CLOCK, topics.CLOCK_QOS)
-        self.create_subscription(JointTrajectory, topics.BOOM_LENGTH_CMD,
-                                 self._on_trajectory, topics.COMMAND_QOS)
-        self.create_subscription(Float64, topics.DEPLOY_CMD, self._on_deploy, topics.COMMAND_QOS)
+            published.append(topics.CLOCK)
+        self._outputs = {
+            name: self.create_publisher(topics.TOPICS[name].message_type, name,
+                                        topics.TOPICS[name].qos)
+            for name in published
+        }
+        for name, callback in ((topics.BOOM_LENGTH_CMD, self._on_trajectory),
+                               (topics.DEPLOY_CMD, self._on_deploy)):
+            topic = topics.TOPICS[name]
+            self.create_subscription(topic.message_type, name, callback, topic.qos)
         self.create_service(Trigger, topics.RESET_SERVICE, self._on_reset)
         self.create_service(SetBool, topics.PAUSE_SERVICE, self._on_pause)
         self.add_on_set_parameters_callback(self._check_parameters)
@@ -121,16 +117,6 @@ class SimNode(Node):
             "simulation time")
 
     # -- parameters -------------------------------------------------------------------------
-
-    def _declare(self) -> dict:
-        values = {}
-        for spec in SPECS:
-            try:
-                parameter = self.declare_parameter(spec.name, spec.default, spec.descriptor())
-            except ParameterException as error:
-                raise ConfigError(f"parameter {spec.name}: {error}") from None
-            values[spec.name] = parameter.value
-        return values
 
     def _check_parameters(self, parameters) -> SetParametersResult:
         """On-set: accept a change only if the whole configuration stays valid."""
@@ -256,16 +242,11 @@ class SimNode(Node):
         return topics.stamp_ns(self.epoch_ns, self.sim.t)
 
     def _publish_state(self) -> None:
-        sample, stamp, frame = self.sim.sample(), self._stamp(), self.config.frame_id
-        publish = self._outputs
-        publish[topics.BOOM_STATE].publish(
-            topics.boom_state(stamp, sample.lengths, sample.rates, frame))
-        publish[topics.MODAL_STATE].publish(
-            topics.modal_state(stamp, self.coordinate_names, sample.q, sample.qd, frame))
-        publish[topics.TIP_DEFLECTION].publish(
-            topics.tip_deflection(stamp, sample.tips, sample.tip_rates, frame))
-        if topics.CLOCK in publish:
-            publish[topics.CLOCK].publish(topics.clock(stamp))
+        messages = topics.state_messages(self._stamp(), self.sim.sample(), self.coordinate_names,
+                                         self.config.frame_id,
+                                         with_clock=topics.CLOCK in self._outputs)
+        for name, message in messages:
+            self._outputs[name].publish(message)
 
     def _publish_shape(self) -> None:
         q, lengths = self.sim.stepper.q, self.sim.stepper.boom_motion()[0]
@@ -287,23 +268,11 @@ class SimNode(Node):
         steps, mean, largest = sim.step_times.take()
         overruns = self.overruns - window["overruns"]
         rejected = sim.rejected - window["rejected"]
-        if sim.state != RUNNING:
-            level, message = "OK", sim.state
-        elif rtf.current:
-            level, message = "OK", f"running at {rtf.value:.3g}x real time"
-        else:
-            level, message = "OK", "running (measuring the real-time factor)"
-        if sim.error:
-            level, message = "ERROR", f"integration stopped: {sim.error}; call sail/reset"
-        elif overruns:
-            level, message = "WARN", (f"{overruns} overrun(s) in the last {span:.3g} s: the "
-                                      "integration is falling behind the clock")
-        elif (self.pacer.paced and sim.state == RUNNING and rtf.current
-              and rtf.value < RTF_WARN_FRACTION * config.time_scale):
-            level, message = "WARN", (f"real-time factor {rtf.value:.3g}, below time_scale "
-                                      f"{config.time_scale:g}")
-        elif rejected:
-            level, message = "WARN", f"rejected {rejected} command(s); last: {sim.last_rejection}"
+        level, message = diagnose(Observations(
+            state=sim.state, error=sim.error or "", window_s=span, overruns=overruns,
+            rejected=rejected, last_rejection=sim.last_rejection, paced=self.pacer.paced,
+            rtf_measured=bool(rtf.current), real_time_factor=rtf.value,
+            time_scale=config.time_scale))
         values = {
             "state": sim.state,
             "sim_time_s": round(sim.t, 9),
@@ -344,8 +313,7 @@ def _time_or_none(t: float) -> float:
 
 
 def _parser() -> argparse.ArgumentParser:
-    lines = [f"  {spec.name} (default {spec.default!r}{', read-only' if spec.read_only else ''})"
-             f": {spec.description}" for spec in SPECS]
+    lines = [spec.help_line() for spec in SPECS]
     return argparse.ArgumentParser(
         prog="sail-ros sim", description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,

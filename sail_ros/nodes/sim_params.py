@@ -1,58 +1,25 @@
-"""The parameters of node `sail_sim`: one table, descriptors, and one validator.
+"""The parameters of node `sail_sim`: the table, and the one validator of a whole set.
 
-Each parameter is declared once from `SPECS` with a `ParameterDescriptor`
-(description with the unit, range, read-only where it fixes the model's
-structure or the time grid). `config_from_values` turns a full set of values
-into a `SimConfig`, or raises `ConfigError` naming the parameter; the node
-calls it at start-up and on every change of a writable parameter, so the
-two paths cannot disagree. config/sim.yaml lists the same defaults.
+Each parameter is declared once from `SPECS` (`parameters.ParamSpec`: the
+descriptor text with the unit, range, array sizes, read-only where it fixes
+the model's structure or the time grid). `config_from_values` turns a full
+set of values into a `SimConfig`, or raises `ConfigError` naming the
+parameter; the node calls it at start-up and on every change of a writable
+parameter, so the two paths cannot disagree. config/sim.yaml lists the same
+defaults.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.parameter import Parameter
 
 from sail_ros.model import SailParameters
 from sail_ros.model.layout import per_boom
 from sail_ros.nodes.commands import Limits
-from sail_ros.nodes.ros_args import ConfigError, parameter_descriptor
-
-SAIL_PREFIX = "sail."
-
-
-@dataclasses.dataclass(frozen=True)
-class Spec:
-    """One parameter: `default` fixes its type (float, int, str, or list of float).
-
-    `minimum`/`maximum` bound the value (each element of a list); `sizes`
-    are the allowed list lengths.
-    """
-
-    name: str
-    default: object
-    description: str
-    read_only: bool
-    minimum: float | None = None
-    maximum: float | None = None
-    sizes: tuple[int, ...] = ()
-
-    def descriptor(self) -> ParameterDescriptor:
-        kind = {float: Parameter.Type.DOUBLE, int: Parameter.Type.INTEGER,
-                str: Parameter.Type.STRING, list: Parameter.Type.DOUBLE_ARRAY}[type(self.default)]
-        constraints = ""
-        if self.sizes:
-            constraints = (f"{' or '.join(map(str, self.sizes))} values (booms a, b, c, d), "
-                           f"each in [{self.minimum:g}, {self.maximum:g}]")
-        return parameter_descriptor(self.name, kind, self.description, self.read_only,
-                                    self.minimum, self.maximum,
-                                    integer=isinstance(self.default, int),
-                                    constraints=constraints)
-
+from sail_ros.nodes.parameters import ConfigError, ParamSpec
+from sail_ros.topics import SAIL_PREFIX, sail_parameters_from_flat
 
 _DEFAULT_SAIL = SailParameters()
 _SAIL_SPECS = [
@@ -70,43 +37,43 @@ _SAIL_SPECS = [
 ]
 
 SPECS = [
-    Spec(SAIL_PREFIX + name, getattr(_DEFAULT_SAIL, name),
+    ParamSpec(SAIL_PREFIX + name, getattr(_DEFAULT_SAIL, name),
          f"{text} (model.md §10; fixes the model)", True, low, high)
     for name, text, low, high in _SAIL_SPECS
 ] + [
-    Spec("initial_lengths", [10.0], "boom lengths at start and after sail/reset [m]: one value "
-         "for all booms or four (a, b, c, d), within [min_length, max_length]; a change "
+    ParamSpec("initial_lengths", [10.0], "boom lengths at start and after sail/reset [m]: one "
+         "value for all booms or four (a, b, c, d), within [min_length, max_length]; a change "
          "applies at the next reset", False, 1e-3, 1e4, sizes=(1, 4)),
-    Spec("initial_tip_deflection", [0.0, 0.0, 0.0, 0.0], "tip deflection of each boom at start "
-         "and after sail/reset [m], +z of the sail frame, as that boom's first cantilever "
+    ParamSpec("initial_tip_deflection", [0.0, 0.0, 0.0, 0.0], "tip deflection of each boom at "
+         "start and after sail/reset [m], +z of the sail frame, as that boom's first cantilever "
          "mode; one value or four (a, b, c, d); a change applies at the next reset",
          False, -10.0, 10.0, sizes=(1, 4)),
-    Spec("min_length", 1.0, "shortest boom length a command may ask for or pass through [m]",
+    ParamSpec("min_length", 1.0, "shortest boom length a command may ask for or pass through [m]",
          False, 1e-3, 1e4),
-    Spec("max_length", 70.71, "longest boom length a command may ask for or pass through [m] "
+    ParamSpec("max_length", 70.71, "longest boom length a command may ask for or pass through [m] "
          "(default: the 100 m sail fully deployed, a/sqrt(2) rounded down)", False, 1e-3, 1e4),
-    Spec("max_rate", 1.0, "largest |extension rate| of a commanded motion [m/s]",
+    ParamSpec("max_rate", 1.0, "largest |extension rate| of a commanded motion [m/s]",
          False, 1e-6, 100.0),
-    Spec("max_acceleration", 0.5, "largest |extension acceleration| of a commanded motion "
+    ParamSpec("max_acceleration", 0.5, "largest |extension acceleration| of a commanded motion "
          "[m/s^2]", False, 1e-6, 100.0),
-    Spec("deploy_duration", 0.0, "duration of a sail/deploy_cmd motion [s]; 0: the fastest "
+    ParamSpec("deploy_duration", 0.0, "duration of a sail/deploy_cmd motion [s]; 0: the fastest "
          "within max_rate and max_acceleration", False, 0.0, 1e6),
-    Spec("state_rate_hz", 50.0, "boom_state, modal_state, tip_deflection (and /clock) per "
+    ParamSpec("state_rate_hz", 50.0, "boom_state, modal_state, tip_deflection (and /clock) per "
          "second of simulation time [Hz], rounded to whole integration steps",
          False, 0.01, 1000.0),
-    Spec("shape_rate_hz", 5.0, "sail/shape markers per second of simulation time [Hz], "
+    ParamSpec("shape_rate_hz", 5.0, "sail/shape markers per second of simulation time [Hz], "
          "rounded to whole integration steps; 0: none", False, 0.0, 1000.0),
-    Spec("diagnostics_rate_hz", 1.0, "/diagnostics per second of wall time [Hz]; also the "
+    ParamSpec("diagnostics_rate_hz", 1.0, "/diagnostics per second of wall time [Hz]; also the "
          "window of the step statistics it reports (the real-time factor is measured over "
          "at least 0.5 s)", False, 0.01, 100.0),
-    Spec("integration_step", 0.01, "time step of the simulation grid [s]; each is split "
+    ParamSpec("integration_step", 0.01, "time step of the simulation grid [s]; each is split "
          "further where the shortest boom's first bending mode needs it",
          True, 1e-4, 0.2),
-    Spec("time_scale", 1.0, "simulation seconds per wall-clock second [-]: 1 follows the "
+    ParamSpec("time_scale", 1.0, "simulation seconds per wall-clock second [-]: 1 follows the "
          "wall clock; other values publish /clock; 0 or negative: as fast as possible",
          True, -1.0, 1000.0),
-    Spec("frame_id", "sail", "frame of every published state and marker", True),
-    Spec("shape_divisions", 10, "mesh subdivisions of each quadrant edge in sail/shape [-]",
+    ParamSpec("frame_id", "sail", "frame of every published state and marker", True),
+    ParamSpec("shape_divisions", 10, "mesh subdivisions of each quadrant edge in sail/shape [-]",
          True, 1, 50),
 ]
 SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
@@ -153,12 +120,11 @@ def config_from_values(values: dict) -> SimConfig:
     for name, value in values.items():
         spec = SPEC_BY_NAME.get(name)
         if spec is not None:
-            _check(spec, value)
+            spec.check(value)
     try:
-        sail = SailParameters.from_dict({name[len(SAIL_PREFIX):]: values[name]
-                                         for name in values if name.startswith(SAIL_PREFIX)})
+        sail = sail_parameters_from_flat(values)
     except ValueError as error:
-        raise ConfigError(f"{SAIL_PREFIX}{error}") from None
+        raise ConfigError(str(error)) from None
     limits = Limits(float(values["min_length"]), float(values["max_length"]),
                     float(values["max_rate"]), float(values["max_acceleration"]))
     if not limits.min_length < limits.max_length:
@@ -188,32 +154,6 @@ def config_from_values(values: dict) -> SimConfig:
         frame_id=str(values["frame_id"]),
         shape_divisions=int(values["shape_divisions"]),
     )
-
-
-def _check(spec: Spec, value) -> None:
-    kind = type(spec.default)
-    if kind is list:
-        if isinstance(value, str | bytes) or not hasattr(value, "__len__"):
-            raise ConfigError(f"{spec.name} must be a list of numbers, like "
-                              f"{spec.default!r}; got {value!r}")
-        items = list(value)
-        if len(items) not in spec.sizes:
-            raise ConfigError(f"{spec.name} must hold {' or '.join(map(str, spec.sizes))} "
-                              f"values, got {len(items)}: {items!r}")
-    elif kind is float and isinstance(value, int) and not isinstance(value, bool):
-        raise ConfigError(f"{spec.name} must be a double: write {value}.0, not {value}")
-    elif not isinstance(value, kind) or isinstance(value, bool):
-        raise ConfigError(f"{spec.name} must be a {kind.__name__}, got {value!r}")
-    else:
-        items = [value]
-    if spec.minimum is None:
-        return
-    for item in items:
-        if isinstance(item, bool) or not isinstance(item, int | float):
-            raise ConfigError(f"{spec.name} must hold numbers, got {item!r}")
-        if not (math.isfinite(item) and spec.minimum <= item <= spec.maximum):
-            raise ConfigError(f"{spec.name} = {item!r} is outside [{spec.minimum:g}, "
-                              f"{spec.maximum:g}]")
 
 
 def _per_boom(values, name: str) -> np.ndarray:

@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import math
 import time
-from typing import NamedTuple
 
 import numpy as np
 
-from sail_ros.model import IntegrationError, SailModel, StaticProfile
-from sail_ros.model.profiles import BoomMotion
+from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
+from sail_ros.model.sail_model import StateSample
 from sail_ros.nodes.commands import (
     BoomState,
     CommandError,
@@ -30,19 +29,6 @@ from sail_ros.nodes.commands import (
 from sail_ros.nodes.sim_params import SimConfig
 
 RUNNING, PAUSED, ERROR = "running", "paused", "error"
-
-
-class Sample(NamedTuple):
-    """The state at time `t` [s]: boom lengths [m] and rates [m/s], coordinates q [m]
-    and velocities qd [m/s], tip deflections [m] and their rates [m/s]."""
-
-    t: float
-    lengths: np.ndarray
-    rates: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    tips: np.ndarray
-    tip_rates: np.ndarray
 
 
 class StepStatistics:
@@ -103,11 +89,9 @@ class Simulation:
     def boom_state(self) -> BoomState:
         return BoomState(self.t, *self.stepper.boom_motion())
 
-    def sample(self) -> Sample:
+    def sample(self) -> StateSample:
         lengths, rates, _ = self.stepper.boom_motion()
-        q, qd = self.stepper.q, self.stepper.qd
-        return Sample(self.t, lengths, rates, q, qd, self.model.tip_deflections(q),
-                      self.model.tip_deflections(qd))
+        return self.model.sample(self.t, lengths, rates, self.stepper.q, self.stepper.qd)
 
     def energy(self) -> float:
         """Mechanical energy [J] (model.md §7); inf or nan once the state has blown up."""

@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 import rclpy
-import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -199,10 +198,8 @@ def summarise(output: Path, t_start: float) -> None:
                 {"stamp_ns": _stamp_ns(deserialize_message(m.data, DiagnosticArray))}
                 for m in reader.messages([topics.DIAGNOSTICS])]
     epoch = statuses[-1]["stamp_ns"] - round(float(statuses[-1]["sim_time_s"]) * 1e9)
-    parameters = dict(reader.metadata()).get("sail_sim_parameters", {})
-    sail = SailParameters.from_dict({name[5:]: yaml.safe_load(value)
-                                     for name, value in parameters.items()
-                                     if name.startswith("sail.")})
+    parameters = dict(reader.metadata()).get(topics.PARAMETERS_METADATA, {})
+    sail = topics.sail_parameters_from_record(parameters) or SailParameters()
     print(f"  simulator parameters stored: {len(parameters)} (n_B = {sail.n_boom_modes}, "
           f"n_M = {sail.n_membrane_modes}, time_scale = {parameters.get('time_scale')})")
 

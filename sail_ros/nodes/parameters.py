@@ -1,0 +1,221 @@
+"""The ROS parameters of every node: one table entry each, one descriptor, one check.
+
+A node lists its parameters as `ParamSpec`s. From a spec come the declared
+parameter (a `ParameterDescriptor` whose text carries the unit, the range,
+the array sizes or choices, and `read_only` where the value fixes the model
+or the time grid), the check of a value (`ParamSpec.check`, the same at
+start-up and on every change at run time), and for the tools the
+command-line option `--<name-with-dashes>` that overrides it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterException
+from rclpy.parameter import Parameter
+
+
+class ConfigError(ValueError):
+    """A parameter has a value a node cannot use; the message names it."""
+
+
+_SCALAR_TYPES = {
+    bool: Parameter.Type.BOOL,
+    int: Parameter.Type.INTEGER,
+    float: Parameter.Type.DOUBLE,
+    str: Parameter.Type.STRING,
+}
+_ARRAY_TYPES = {float: Parameter.Type.DOUBLE_ARRAY, str: Parameter.Type.STRING_ARRAY}
+
+
+@dataclasses.dataclass(frozen=True)
+class ParamSpec:
+    """One ROS parameter.
+
+    `default` fixes the type: bool, int, float, str, or a list of float or str
+    (`item_type` says which for an empty default). `minimum`/`maximum` bound
+    the value (each element of a list of numbers); `sizes` are the allowed
+    list lengths; `choices` the allowed strings. Units belong in `description`.
+    """
+
+    name: str
+    default: object
+    description: str
+    read_only: bool = True
+    minimum: float | None = None
+    maximum: float | None = None
+    sizes: tuple[int, ...] = ()
+    choices: tuple[str, ...] = ()
+    short: str | None = None  # e.g. "-o", an extra command-line spelling
+    item_type: type = str  # of a list whose default is empty
+
+    @property
+    def is_list(self) -> bool:
+        return isinstance(self.default, list)
+
+    @property
+    def element_type(self) -> type:
+        """The type of the value, or of each element of a list."""
+        if self.is_list:
+            return type(self.default[0]) if self.default else self.item_type
+        return type(self.default)
+
+    @property
+    def kind(self) -> Parameter.Type:
+        if self.is_list:
+            return _ARRAY_TYPES[self.element_type]
+        return _SCALAR_TYPES[type(self.default)]
+
+    @property
+    def options(self) -> list[str]:
+        long = "--" + self.name.replace("_", "-")
+        return [self.short, long] if self.short else [long]
+
+    def constraints(self) -> str:
+        """The constraints a range cannot say, as text."""
+        if self.sizes:
+            within = (
+                f", each in [{self.minimum:g}, {self.maximum:g}]"
+                if self.minimum is not None
+                else ""
+            )
+            return f"{' or '.join(map(str, self.sizes))} values (booms a, b, c, d){within}"
+        if self.choices:
+            return "one of: " + ", ".join(self.choices)
+        return ""
+
+    def descriptor(self) -> ParameterDescriptor:
+        descriptor = ParameterDescriptor(
+            name=self.name,
+            type=self.kind.value,
+            description=self.description,
+            read_only=self.read_only,
+            additional_constraints=self.constraints(),
+        )
+        if self.minimum is not None or self.maximum is not None:  # of each element of a list
+            if self.element_type is int:
+                low = int(self.minimum if self.minimum is not None else -(2**63))
+                high = int(self.maximum if self.maximum is not None else 2**63 - 1)
+                descriptor.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
+            else:
+                low = float(self.minimum if self.minimum is not None else -1e308)
+                high = float(self.maximum if self.maximum is not None else 1e308)
+                descriptor.floating_point_range = [
+                    FloatingPointRange(from_value=low, to_value=high, step=0.0)
+                ]
+        return descriptor
+
+    def help_line(self) -> str:
+        """One line for `--help`: name, default, read-only, description."""
+        flags = ", read-only" if self.read_only else ""
+        return f"  {self.name} (default {self.default!r}{flags}): {self.description}"
+
+    def check(self, value) -> None:
+        """Raise ConfigError (naming the parameter and the value) unless `value` fits."""
+        kind = self.element_type
+        if self.is_list:
+            if isinstance(value, str | bytes) or not hasattr(value, "__len__"):
+                raise ConfigError(
+                    f"{self.name} must be a list, like {self.default!r}; got {value!r}"
+                )
+            items = list(value)
+            if self.sizes and len(items) not in self.sizes:
+                raise ConfigError(
+                    f"{self.name} must hold {' or '.join(map(str, self.sizes))} values, "
+                    f"got {len(items)}: {items!r}"
+                )
+        elif kind is float and isinstance(value, int) and not isinstance(value, bool):
+            raise ConfigError(f"{self.name} must be a double: write {value}.0, not {value}")
+        elif not isinstance(value, kind) or (isinstance(value, bool) and kind is not bool):
+            raise ConfigError(f"{self.name} must be a {kind.__name__}, got {value!r}")
+        else:
+            items = [value]
+        if self.choices and value not in self.choices:
+            raise ConfigError(
+                f"{self.name} must be one of {', '.join(self.choices)}, got {value!r}"
+            )
+        if self.minimum is None and self.maximum is None:
+            return
+        low = -math.inf if self.minimum is None else self.minimum
+        high = math.inf if self.maximum is None else self.maximum
+        for item in items:
+            if isinstance(item, bool) or not isinstance(item, int | float):
+                raise ConfigError(f"{self.name} must hold numbers, got {item!r}")
+            if not (math.isfinite(item) and low <= item <= high):
+                raise ConfigError(f"{self.name} = {item!r} is outside [{low:g}, {high:g}]")
+
+
+def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
+    """Declare `specs` on `node`, check their values and return them (lists as lists).
+
+    Raises:
+        ConfigError: a value has the wrong type, is out of range or not a choice.
+    """
+    values = {}
+    for spec in specs:
+        # an empty list would be declared as a byte array: declare the type instead
+        initial = spec.default if spec.default != [] else spec.kind
+        try:
+            parameter = node.declare_parameter(spec.name, initial, spec.descriptor())
+        except ParameterException as error:
+            raise ConfigError(f"parameter {spec.name}: {error}") from None
+        value = parameter.value if parameter.type_ != Parameter.Type.NOT_SET else spec.default
+        value = list(value) if spec.is_list else value
+        spec.check(value)
+        values[spec.name] = value
+    return values
+
+
+def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse.ArgumentParser:
+    """An argparse parser with one option per parameter (defaults None: unset)."""
+    parser = argparse.ArgumentParser(
+        prog=prog,
+        description=description,
+        epilog="Every option is also the ROS parameter of the same name with '_' for '-' "
+        "(--ros-args -p name:=value, or --ros-args --params-file file.yaml); "
+        "an option given here wins.",
+    )
+    for spec in specs:
+        help_text = f"{spec.description} (default: {spec.default!r})"
+        if spec.element_type is bool:
+            parser.add_argument(
+                *spec.options,
+                dest=spec.name,
+                default=None,
+                action=argparse.BooleanOptionalAction,
+                help=help_text,
+            )
+        elif spec.is_list:
+            parser.add_argument(
+                *spec.options,
+                dest=spec.name,
+                default=None,
+                nargs="+",
+                type=spec.element_type,
+                metavar="VALUE" if spec.element_type is float else "NAME",
+                help=help_text,
+            )
+        else:
+            parser.add_argument(
+                *spec.options,
+                dest=spec.name,
+                default=None,
+                type=spec.element_type,
+                choices=spec.choices or None,
+                help=help_text,
+            )
+    return parser
+
+
+def overrides(namespace: argparse.Namespace, specs: list[ParamSpec]) -> list[Parameter]:
+    """The parameters set on the command line, as node parameter overrides."""
+    chosen = []
+    for spec in specs:
+        value = getattr(namespace, spec.name, None)
+        if value is not None:
+            chosen.append(Parameter(spec.name, spec.kind, value))
+    return chosen
