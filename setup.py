@@ -17,6 +17,7 @@ setup(
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", glob("config/*.yaml")),
         ("share/" + package_name + "/msg_docs", glob("msg_docs/*.md")),
+        ("share/" + package_name + "/docs", ["docs/model.md"]),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

@@ -29,12 +29,18 @@ def sail_step(i: int, points: int):
     from sensor_msgs.msg import JointState
     from visualization_msgs.msg import Marker, MarkerArray
 
-    booms = JointState(name=[f"boom_{k}" for k in range(4)], position=[0.1 * i] * 4,
-                       velocity=[0.01] * 4)
-    modes = JointState(name=[f"mode_{k}" for k in range(40)], position=[1e-3 * i] * 40,
-                       velocity=[1e-4] * 40)
-    membrane = Marker(ns="membrane", id=0, type=Marker.TRIANGLE_LIST,
-                      points=[Point(x=float(k), y=0.5 * k, z=1e-3 * i) for k in range(points)])
+    booms = JointState(
+        name=[f"boom_{k}" for k in range(4)], position=[0.1 * i] * 4, velocity=[0.01] * 4
+    )
+    modes = JointState(
+        name=[f"mode_{k}" for k in range(40)], position=[1e-3 * i] * 40, velocity=[1e-4] * 40
+    )
+    membrane = Marker(
+        ns="membrane",
+        id=0,
+        type=Marker.TRIANGLE_LIST,
+        points=[Point(x=float(k), y=0.5 * k, z=1e-3 * i) for k in range(points)],
+    )
     for message in (booms, modes, membrane):
         message.header.stamp.sec = i
     return dict(zip(TOPICS, (booms, modes, MarkerArray(markers=[membrane])), strict=True))
@@ -69,11 +75,30 @@ def measure(rate: float, seconds: float, points: int, env: dict, folder: Path) -
     """(achieved publish rate [Hz], messages published, messages in the bag)."""
     steps = max(50, round(rate * seconds))
     recorder = subprocess.Popen(
-        [sys.executable, "-m", "sail_ros.cli", "recorder", "-o", str(folder), "--topics",
-         *TOPICS, "--parameter-node", ""], env=env, stderr=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            "-m",
+            "sail_ros.cli",
+            "recorder",
+            "-o",
+            str(folder),
+            "--topics",
+            *TOPICS,
+            "--parameter-node",
+            "",
+        ],
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     publisher = subprocess.run(
         [sys.executable, __file__, "--publish", str(rate), str(steps), str(points)],
-        env=env, capture_output=True, text=True, timeout=seconds * 20 + 60, check=True)
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=seconds * 20 + 60,
+        check=True,
+    )
     recorder.send_signal(signal.SIGINT)
     _, err = recorder.communicate(timeout=60)
     if recorder.returncode != 0:
@@ -86,8 +111,13 @@ def measure(rate: float, seconds: float, points: int, env: dict, folder: Path) -
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rates", type=float, nargs="+",
-                        default=[100, 200, 500, 1000, 2000, 4000], help="steps/s to try")
+    parser.add_argument(
+        "--rates",
+        type=float,
+        nargs="+",
+        default=[100, 200, 500, 1000, 2000, 4000],
+        help="steps/s to try",
+    )
     parser.add_argument("--seconds", type=float, default=2.0, help="publishing time per rate [s]")
     parser.add_argument("--points", type=int, default=400, help="membrane points per shape")
     parser.add_argument("--publish", nargs=3, help=argparse.SUPPRESS)
@@ -96,13 +126,20 @@ def main() -> int:
         publish(float(args.publish[0]), int(args.publish[1]), int(args.publish[2]))
         return 0
 
-    env = dict(os.environ, ROS_DOMAIN_ID=str(101 + os.getpid() % 100),
-               ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    env = dict(
+        os.environ,
+        ROS_DOMAIN_ID=str(101 + os.getpid() % 100),
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+    )
     shape_bytes = len(sail_step(0, args.points)["/sail/shape"].markers[0].points) * 24
-    print(f"per step: {len(TOPICS)} messages, shape ~{shape_bytes / 1024:.1f} KiB; "
-          f"{args.seconds} s per rate")
-    print(f"{'target Hz':>10} {'achieved Hz':>12} {'published':>10} {'recorded':>9} "
-          f"{'lost':>6} {'MiB/s':>7}")
+    print(
+        f"per step: {len(TOPICS)} messages, shape ~{shape_bytes / 1024:.1f} KiB; "
+        f"{args.seconds} s per rate"
+    )
+    print(
+        f"{'target Hz':>10} {'achieved Hz':>12} {'published':>10} {'recorded':>9} "
+        f"{'lost':>6} {'MiB/s':>7}"
+    )
     best = None
     with tempfile.TemporaryDirectory() as tmp:
         for index, rate in enumerate(args.rates):
@@ -110,8 +147,10 @@ def main() -> int:
             achieved, published, recorded = measure(rate, args.seconds, args.points, env, folder)
             size = sum(f.stat().st_size for f in folder.glob("*.mcap"))
             raw_rate = achieved * (shape_bytes + 800) / 2**20  # uncompressed, roughly
-            print(f"{rate:>10.0f} {achieved:>12.1f} {published:>10} {recorded:>9} "
-                  f"{published - recorded:>6} {raw_rate:>7.2f}   (bag {size / 2**20:.2f} MiB)")
+            print(
+                f"{rate:>10.0f} {achieved:>12.1f} {published:>10} {recorded:>9} "
+                f"{published - recorded:>6} {raw_rate:>7.2f}   (bag {size / 2**20:.2f} MiB)"
+            )
             if recorded == published:
                 best = achieved
             else:

@@ -35,13 +35,26 @@ from sail_ros.topics import TOPIC_QOS
 
 SETTINGS = [
     ("default (n_B 4, n_M 6, 50 Hz state, 5 Hz shape), real time", {}),
-    ("n_B = n_M = 10, 100 Hz state, 10 Hz shape, real time",
-     {"sail.n_boom_modes": 10, "sail.n_membrane_modes": 10, "state_rate_hz": 100.0,
-      "shape_rate_hz": 10.0}),
+    (
+        "n_B = n_M = 10, 100 Hz state, 10 Hz shape, real time",
+        {
+            "sail.n_boom_modes": 10,
+            "sail.n_membrane_modes": 10,
+            "state_rate_hz": 100.0,
+            "shape_rate_hz": 10.0,
+        },
+    ),
     ("default, as fast as possible", {"time_scale": 0.0}),
-    ("n_B = n_M = 10, 100 Hz state, 10 Hz shape, as fast as possible",
-     {"sail.n_boom_modes": 10, "sail.n_membrane_modes": 10, "state_rate_hz": 100.0,
-      "shape_rate_hz": 10.0, "time_scale": 0.0}),
+    (
+        "n_B = n_M = 10, 100 Hz state, 10 Hz shape, as fast as possible",
+        {
+            "sail.n_boom_modes": 10,
+            "sail.n_membrane_modes": 10,
+            "state_rate_hz": 100.0,
+            "shape_rate_hz": 10.0,
+            "time_scale": 0.0,
+        },
+    ),
 ]
 OUTPUTS = {
     topics.BOOM_STATE: "sensor_msgs/msg/JointState",
@@ -72,10 +85,12 @@ class Observer(Node):
         for name, type_name in OUTPUTS.items():
             package, _, kind = type_name.split("/")
             module = __import__(f"{package}.msg", fromlist=[kind])
-            self.create_subscription(getattr(module, kind), name, self._count, TOPIC_QOS[name],
-                                     raw=True)
-        self.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, self._on_status,
-                                 topics.DIAGNOSTICS_QOS)
+            self.create_subscription(
+                getattr(module, kind), name, self._count, TOPIC_QOS[name], raw=True
+            )
+        self.create_subscription(
+            DiagnosticArray, topics.DIAGNOSTICS, self._on_status, topics.DIAGNOSTICS_QOS
+        )
         self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
 
     def _count(self, _data) -> None:
@@ -83,8 +98,9 @@ class Observer(Node):
 
     def _on_status(self, message: DiagnosticArray) -> None:
         values = topics.diagnostic_values(message)
-        self.status.append((time.monotonic(), float(values["sim_time_s"]),
-                            float(values["step_time_ms_mean"])))
+        self.status.append(
+            (time.monotonic(), float(values["sim_time_s"]), float(values["step_time_ms_mean"]))
+        )
 
     def spin_for(self, seconds: float) -> None:
         deadline = time.monotonic() + seconds
@@ -105,11 +121,17 @@ def measure(observer: Observer, pid: int, seconds: float) -> tuple[float, float,
 
 
 def run(parameters: dict, rest_s: float, moving_s: float, env: dict, domain: int):
-    ros_args = [item for name, value in {"diagnostics_rate_hz": 10.0, "max_rate": 0.1,
-                                         **parameters}.items()
-                for item in ("-p", f"{name}:={value}")]
-    sim = subprocess.Popen([sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args", *ros_args],
-                           env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    ros_args = [
+        item
+        for name, value in {"diagnostics_rate_hz": 10.0, "max_rate": 0.1, **parameters}.items()
+        for item in ("-p", f"{name}:={value}")
+    ]
+    sim = subprocess.Popen(
+        [sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args", *ros_args],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain)
     observer = Observer(context)
@@ -141,18 +163,24 @@ def main(argv=None) -> int:
     phase = 3.0 if args.quick else 8.0
     domain = 230 - os.getpid() % 10
     with tempfile.TemporaryDirectory() as home:
-        env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-                   HOME=home, ROS_LOG_DIR=os.path.join(home, "log"))
+        env = dict(
+            os.environ,
+            ROS_DOMAIN_ID=str(domain),
+            ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+            HOME=home,
+            ROS_LOG_DIR=os.path.join(home, "log"),
+        )
         os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-        print(f"sail_sim CPU use and real-time factor ({os.cpu_count()} cores; CPU 100 % = "
-              f"one core; {phase:g} s per phase)\n")
+        print(
+            f"sail_sim CPU use and real-time factor ({os.cpu_count()} cores; CPU 100 % = "
+            f"one core; {phase:g} s per phase)\n"
+        )
         print(f"  {'setting':<66}{'phase':>9}{'CPU':>8}{'RTF':>9}{'step':>10}")
         for name, parameters in SETTINGS:
-            for label, (cpu, rtf, step) in zip(("at rest", "moving"),
-                                               run(parameters, phase, phase, env, domain),
-                                               strict=True):
-                print(f"  {name:<66}{label:>9}{100 * cpu:7.1f}%{rtf:9.2f}{step:8.3f}ms",
-                      flush=True)
+            for label, (cpu, rtf, step) in zip(
+                ("at rest", "moving"), run(parameters, phase, phase, env, domain), strict=True
+            ):
+                print(f"  {name:<66}{label:>9}{100 * cpu:7.1f}%{rtf:9.2f}{step:8.3f}ms", flush=True)
                 name = ""
     return 0
 

@@ -8,6 +8,11 @@ imports nothing heavy so that `setup.py` can read `TOOLS`.
 import importlib
 import sys
 
+PHYSICS_DOC = (
+    "The physics, its choices and checks: docs/model.md (installed as "
+    "share/sail_ros/docs/model.md)."
+)
+
 # tool name -> "module:function" (a console_scripts target)
 TOOLS = {
     "modes": "sail_ros.tools.modes:main",
@@ -27,7 +32,7 @@ def _usage():
     for name, target in TOOLS.items():
         lines.append(f"  {name:<{width}}  ({target.split(':')[0]})")
     lines.append("")
-    lines.append("`sail-ros <tool> --help` describes a tool.")
+    lines.append("`sail-ros <tool> --help` describes a tool. " + PHYSICS_DOC)
     return "\n".join(lines)
 
 

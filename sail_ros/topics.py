@@ -61,23 +61,37 @@ HARDWARE_ID = "sail_sim"
 # Reliable publishers also serve best-effort subscribers (RViz, /clock users).
 
 STATE_QOS = QoSProfile(  # boom_state, modal_state, tip_deflection
-    history=HistoryPolicy.KEEP_LAST, depth=50,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+    history=HistoryPolicy.KEEP_LAST,
+    depth=50,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
 SHAPE_QOS = QoSProfile(  # big messages, low rate: keep few
-    history=HistoryPolicy.KEEP_LAST, depth=5,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+    history=HistoryPolicy.KEEP_LAST,
+    depth=5,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
 DIAGNOSTICS_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=10,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
 CLOCK_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=10,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
 # Commands: volatile, so a command latched by its publisher is never re-run by
 # a simulator that starts later; reliable, so none is lost.
 COMMAND_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=10,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
-
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -167,6 +181,7 @@ def sail_parameters_from_record(record: Mapping[str, str]) -> SailParameters | N
     except ValueError as error:
         raise ValueError(f"recorded {PARAMETERS_METADATA}: {error}") from None
 
+
 # -- builders ---------------------------------------------------------------------------------
 
 
@@ -243,8 +258,7 @@ def _diverging(v: float) -> ColorRGBA:
 
 
 # shared, immutable-by-convention colour objects: building 1000s per message is slow
-_PALETTE = [_diverging(level / COLOUR_LEVELS)
-            for level in range(-COLOUR_LEVELS, COLOUR_LEVELS + 1)]
+_PALETTE = [_diverging(level / COLOUR_LEVELS) for level in range(-COLOUR_LEVELS, COLOUR_LEVELS + 1)]
 
 
 def height_colours(heights, scale: float) -> list[ColorRGBA]:
@@ -263,6 +277,7 @@ def shape(stamp_ns_: int, vertices, triangles, boom_lines, frame_id: str = FRAME
         vertices: membrane mesh points (P, 3) [m] in `frame_id` (`SailSurface.vertices`).
         triangles: vertex indices (T, 3) (`SailSurface.triangles`).
         boom_lines: points along each boom (4, S, 3) [m] (`SailSurface.boom_lines`).
+        frame_id: frame of the markers.
 
     Returns:
         Marker `membrane`/0: TRIANGLE_LIST, one colour per point from its height
@@ -296,20 +311,21 @@ def _marker(header_stamp: Time, frame_id: str, ns: str, marker_id: int, kind: in
     return marker
 
 
-LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN,
-          "ERROR": DiagnosticStatus.ERROR}
+LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": DiagnosticStatus.ERROR}
 
 
 def diagnostics(stamp_ns_: int, level: str, message: str, values: dict) -> DiagnosticArray:
     """`/diagnostics`: one status `sail_sim: integrator` (hardware_id `sail_sim`).
 
     Args:
+        stamp_ns_: stamp [ns].
         level: "OK", "WARN" or "ERROR".
         message: one line saying why the level is what it is.
         values: key -> value, written with `str` (round floats before).
     """
-    status = DiagnosticStatus(level=LEVELS[level], name=DIAGNOSTIC_NAME, message=message,
-                              hardware_id=HARDWARE_ID)
+    status = DiagnosticStatus(
+        level=LEVELS[level], name=DIAGNOSTIC_NAME, message=message, hardware_id=HARDWARE_ID
+    )
     status.values = [KeyValue(key=key, value=str(value)) for key, value in values.items()]
     array = DiagnosticArray(status=[status])
     array.header.stamp = stamp(stamp_ns_)

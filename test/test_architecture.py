@@ -88,3 +88,42 @@ def test_model_does_not_load_ros():
     code = "import sys, sail_ros.model; print(sorted(m for m in sys.modules if 'rclpy' in m))"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.stdout.strip() == "[]", result.stdout + result.stderr
+
+
+# import name -> its rosdep key in package.xml; imports without a key are listed in its
+# pip-only comment
+ROSDEP_KEYS = {
+    "numpy": "python3-numpy",
+    "scipy": "python3-scipy",
+    "yaml": "python3-yaml",
+    "matplotlib": "python3-matplotlib",
+    "tqdm": "python3-tqdm",
+    "rosbags": "python3-rosbags-pip",
+}
+PIP_ONLY = {"mcap": "mcap", "skfem": "scikit-fem"}
+
+
+def third_party_imports() -> set[str]:
+    found = set()
+    for path in PACKAGE.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                found.update(alias.name.split(".")[0] for alias in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                found.add(node.module.split(".")[0])
+    return {name for name in found if name not in sys.stdlib_module_names and name != "sail_ros"}
+
+
+def test_package_xml_declares_every_import():
+    import xml.etree.ElementTree as ElementTree
+
+    text = (PACKAGE.parent / "package.xml").read_text()
+    root = ElementTree.fromstring(text)
+    runtime = {element.text for element in root.iter("exec_depend")}
+    for name in sorted(third_party_imports()):
+        if name in PIP_ONLY:
+            assert PIP_ONLY[name] in text, f"{name}: not named as a pip-only dependency"
+        elif name in ROSDEP_KEYS:
+            assert ROSDEP_KEYS[name] in runtime, f"{name}: no <exec_depend>{ROSDEP_KEYS[name]}"
+        else:  # a ROS package: its own name is the key
+            assert name in runtime, f"{name}: no <exec_depend>{name}"

@@ -39,6 +39,8 @@ from sail_ros.bag import (
 )
 from sail_ros.bag.definitions import SEPARATOR, find_interface_file
 
+pytestmark = pytest.mark.model
+
 STORE = get_typestore(Stores.ROS2_JAZZY)
 T0 = 1_700_000_000_000_000_000  # ns
 TOPICS = {
@@ -64,8 +66,9 @@ def to_rosbags(msg):
         if hasattr(value, "get_fields_and_field_types"):
             value = to_rosbags(value)
         elif isinstance(value, list):
-            value = [to_rosbags(v) if hasattr(v, "get_fields_and_field_types") else v
-                     for v in value]
+            value = [
+                to_rosbags(v) if hasattr(v, "get_fields_and_field_types") else v for v in value
+            ]
         elif isinstance(value, array.array | np.ndarray):
             value = np.asarray(value)
         elif isinstance(value, bytes):  # rclpy's `byte`, an integer to rosbags
@@ -83,23 +86,37 @@ def sample(topic: str, i: int):
     """Message number i of a topic: distinct values in every field kind."""
     stamp = Time(sec=i, nanosec=7 * i)
     if topic == "/sail/boom_state":
-        message = JointState(name=[f"boom_{k}" for k in range(4)],
-                             position=[0.5 * i + k for k in range(4)],
-                             velocity=[-0.25 * i] * 4, effort=[])
+        message = JointState(
+            name=[f"boom_{k}" for k in range(4)],
+            position=[0.5 * i + k for k in range(4)],
+            velocity=[-0.25 * i] * 4,
+            effort=[],
+        )
         message.header.stamp, message.header.frame_id = stamp, "sail"
         return message
     if topic == "/sail/shape":
-        marker = Marker(ns="membrane", id=i, type=Marker.TRIANGLE_LIST,
-                        points=[Point(x=float(i), y=float(k), z=1e-3 * k) for k in range(30)])
+        marker = Marker(
+            ns="membrane",
+            id=i,
+            type=Marker.TRIANGLE_LIST,
+            points=[Point(x=float(i), y=float(k), z=1e-3 * k) for k in range(30)],
+        )
         marker.header.stamp = stamp
         return MarkerArray(markers=[marker, Marker(ns="booms", id=i, text=f"t{i}")])
     if topic == "/sail/deploy_cmd":
         return Float64(data=0.1 * i)
     if topic == "/clock":
         return Clock(clock=stamp)
-    return DiagnosticArray(status=[DiagnosticStatus(
-        level=DiagnosticStatus.OK, name="sail", message=f"step {i}",
-        values=[KeyValue(key="energy", value=str(1.5 * i))])])
+    return DiagnosticArray(
+        status=[
+            DiagnosticStatus(
+                level=DiagnosticStatus.OK,
+                name="sail",
+                message=f"step {i}",
+                values=[KeyValue(key="energy", value=str(1.5 * i))],
+            )
+        ]
+    )
 
 
 def write_samples(bag: BagWriter, count: int, step_ns: int = 10_000_000) -> list:
@@ -124,7 +141,9 @@ def test_schema_is_the_installed_msg_files_with_their_dependencies():
     assert definition.text.startswith(own)
     parts = definition.text.split(f"\n{SEPARATOR}\n")
     assert [p.splitlines()[0] for p in parts[1:]] == [
-        "MSG: std_msgs/Header", "MSG: builtin_interfaces/Time"]
+        "MSG: std_msgs/Header",
+        "MSG: builtin_interfaces/Time",
+    ]
     assert parts[1] == "MSG: std_msgs/Header\n" + header
     # each dependency once, even when several fields use it
     shape = message_definition("visualization_msgs/msg/MarkerArray").text
@@ -161,7 +180,8 @@ def test_single_file_is_read_by_mcap_rosbags_and_rclpy(tmp_path, compression):
         assert summary.statistics.message_count == len(written)
         assert len(summary.chunk_indexes) > 1
         assert {c.compression for c in summary.chunk_indexes} == {
-            "" if compression == "none" else compression}
+            "" if compression == "none" else compression
+        }
         for schema in summary.schemas.values():
             assert schema.encoding == "ros2msg"
             assert schema.data.decode() == message_definition(schema.name).text
@@ -181,7 +201,8 @@ def test_single_file_is_read_by_mcap_rosbags_and_rclpy(tmp_path, compression):
         decoded = list(reader.iter_decoded_messages())
     assert len(decoded) == len(written)
     for (_, channel, message, ros_msg), (topic, original, log, publish) in zip(
-            decoded, written, strict=True):
+        decoded, written, strict=True
+    ):
         assert (channel.topic, message.log_time, message.publish_time) == (topic, log, publish)
         if topic == "/sail/boom_state":
             assert list(ros_msg.position) == list(original.position)
@@ -194,13 +215,15 @@ def test_single_file_is_read_by_mcap_rosbags_and_rclpy(tmp_path, compression):
     with AnyReader([path]) as reader:
         connections = {c.topic: c for c in reader.connections}
         assert {t: c.msgtype for t, c in connections.items()} == {
-            t: type_name(cls) for t, cls in TOPICS.items()}
+            t: type_name(cls) for t, cls in TOPICS.items()
+        }
         latched = connections["/sail/deploy_cmd"].ext.offered_qos_profiles[0]
         assert latched.durability.name == "TRANSIENT_LOCAL" and latched.depth == 1
         rows = list(reader.messages())
         assert len(rows) == len(written)
         for (connection, log, raw), (topic, original, log_written, _) in zip(
-                rows, written, strict=True):
+            rows, written, strict=True
+        ):
             assert (connection.topic, log) == (topic, log_written)
             assert deserialize_message(raw, TOPICS[topic]) == original
             value = reader.deserialize(raw, connection.msgtype)
@@ -210,9 +233,12 @@ def test_single_file_is_read_by_mcap_rosbags_and_rclpy(tmp_path, compression):
     # and our reader
     bag_messages = list(BagReader(path).messages())
     assert [(m.topic, m.log_time_ns, m.publish_time_ns) for m in bag_messages] == [
-        (topic, log, publish) for topic, _, log, publish in written]
-    assert all(deserialize_message(m.data, TOPICS[m.topic]) == w[1]
-               for m, w in zip(bag_messages, written, strict=True))
+        (topic, log, publish) for topic, _, log, publish in written
+    ]
+    assert all(
+        deserialize_message(m.data, TOPICS[m.topic]) == w[1]
+        for m, w in zip(bag_messages, written, strict=True)
+    )
 
 
 def test_folder_splits_by_size_and_writes_rosbag2_metadata(tmp_path):
@@ -242,26 +268,31 @@ def test_folder_splits_by_size_and_writes_rosbag2_metadata(tmp_path):
     assert info["message_count"] == len(written) == sum(f["message_count"] for f in info["files"])
     assert info["starting_time"]["nanoseconds_since_epoch"] == written[0][2]
     assert info["duration"]["nanoseconds"] == written[-1][2] - written[0][2]
-    counts = {t["topic_metadata"]["name"]: t["message_count"]
-              for t in info["topics_with_message_count"]}
+    counts = {
+        t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]
+    }
     assert counts == {topic: 60 for topic in TOPICS}
     assert bag.topic_counts == counts
 
     reader = BagReader(folder)
     assert reader.files == files and not reader.incomplete_files
-    assert [int(data["index"]) for name, data in reader.metadata()
-            if name == "sail_sim_parameters"] == list(range(len(files)))
+    assert [
+        int(data["index"]) for name, data in reader.metadata() if name == "sail_sim_parameters"
+    ] == list(range(len(files)))
     assert {t: i.message_count for t, i in reader.topics().items()} == counts
-    assert [(m.topic, m.log_time_ns) for m in reader.messages()] == [
-        (w[0], w[2]) for w in written]
+    assert [(m.topic, m.log_time_ns) for m in reader.messages()] == [(w[0], w[2]) for w in written]
 
     # rosbags reads the folder through metadata.yaml (its QoS must equal the files')
     with AnyReader([folder]) as rosbags_reader:
         assert rosbags_reader.message_count == len(written)
         assert {c.topic: c.digest for c in rosbags_reader.connections} == {
-            t: type_hash(type_name(cls)) for t, cls in TOPICS.items()}
-        values = [rosbags_reader.deserialize(raw, c.msgtype) for c, _, raw in
-                  rosbags_reader.messages() if c.topic == "/sail/deploy_cmd"]
+            t: type_hash(type_name(cls)) for t, cls in TOPICS.items()
+        }
+        values = [
+            rosbags_reader.deserialize(raw, c.msgtype)
+            for c, _, raw in rosbags_reader.messages()
+            if c.topic == "/sail/deploy_cmd"
+        ]
     assert [v.data for v in values] == pytest.approx([0.1 * i for i in range(60)])
 
 
@@ -285,11 +316,11 @@ def test_file_cut_anywhere_reads_up_to_its_last_complete_chunk(tmp_path):
     for cut in range(0, len(data), len(data) // 50):
         cut_path = tmp_path / f"cut_{cut}.mcap"
         # a zero-filled tail, as a power cut may leave
-        cut_path.write_bytes(data[:max(cut, 40)] + bytes(50))
+        cut_path.write_bytes(data[: max(cut, 40)] + bytes(50))
         reader = BagReader(cut_path)
         assert reader.incomplete_files == [cut_path]
         got = [(m.topic, m.log_time_ns) for m in reader.messages()]
-        assert got == expected[:len(got)]  # a prefix, in order
+        assert got == expected[: len(got)]  # a prefix, in order
         assert len(got) >= previous  # the more of the file, the more messages
         assert sum(i.message_count for i in reader.topics().values()) == len(got)
         previous = len(got)
@@ -312,7 +343,8 @@ def test_killed_writer_leaves_its_closed_chunks_readable(tmp_path):
     shutil.copyfile(path, copy)  # the file as a kill would leave it
     recovered = list(BagReader(copy).messages())
     assert [(m.topic, m.log_time_ns, m.data) for m in recovered] == [
-        (topic, log, cdr(message)) for topic, message, log, _ in written]
+        (topic, log, cdr(message)) for topic, message, log, _ in written
+    ]
     bag.close()
 
 
@@ -320,8 +352,9 @@ def test_reads_a_bag_written_by_rosbags(tmp_path):
     """An independent rosbag2 writer (version 9, MCAP storage) as a stand-in for ros2 bag."""
     folder = tmp_path / "foreign"
     with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        connection = writer.add_connection("/sail/boom_state", type_name(JointState),
-                                           typestore=STORE)
+        connection = writer.add_connection(
+            "/sail/boom_state", type_name(JointState), typestore=STORE
+        )
         for i in range(10):
             writer.write(connection, T0 + i, cdr(sample("/sail/boom_state", i)))
     reader = BagReader(folder)
@@ -333,18 +366,27 @@ def test_reads_a_bag_written_by_rosbags(tmp_path):
 
 
 def test_qos_profiles_of_metadata_version_8_are_normalised():
-    text = ("- history: 1\n  depth: 5\n  reliability: 2\n  durability: 1\n"
-            "  deadline: {sec: 0, nsec: 0}\n  lifespan: {sec: 0, nsec: 0}\n  liveliness: 1\n"
-            "  liveliness_lease_duration: {sec: 0, nsec: 0}\n"
-            "  avoid_ros_namespace_conventions: false\n")
+    text = (
+        "- history: 1\n  depth: 5\n  reliability: 2\n  durability: 1\n"
+        "  deadline: {sec: 0, nsec: 0}\n  lifespan: {sec: 0, nsec: 0}\n  liveliness: 1\n"
+        "  liveliness_lease_duration: {sec: 0, nsec: 0}\n"
+        "  avoid_ros_namespace_conventions: false\n"
+    )
     (profile,) = parse_qos_profiles(text)
-    assert (profile["history"], profile["reliability"], profile["durability"],
-            profile["liveliness"]) == ("keep_last", "best_effort", "transient_local", "automatic")
+    assert (
+        profile["history"],
+        profile["reliability"],
+        profile["durability"],
+        profile["liveliness"],
+    ) == ("keep_last", "best_effort", "transient_local", "automatic")
 
 
 def test_bad_arguments_name_the_field_and_value(tmp_path):
-    with pytest.raises(ValueError, match=r"^compression must be one of zstd, lz4, none, "
-                                         r"got 'gzip'$"):
+    with pytest.raises(
+        ValueError,
+        match=r"^compression must be one of zstd, lz4, none, "
+        r"got 'gzip'$",
+    ):
         BagWriter(tmp_path / "a", compression="gzip")
     with pytest.raises(ValueError, match="chunk_size must be >= 1, got 0"):
         BagWriter(tmp_path / "a", chunk_size=0)

@@ -13,6 +13,8 @@ from sail_ros.model.basis import (
 )
 from sail_ros.model.integrals import collapsed_gauss_triangle, gauss_unit_interval
 
+pytestmark = pytest.mark.model
+
 N_MODES = 30
 
 
@@ -31,7 +33,7 @@ def test_cantilever_roots_solve_frequency_equation():
 
 
 def test_cantilever_modes_solve_beam_equation_to_30_modes():
-    """psi'''' = beta^4 psi, clamped at 0, free at 1: holds without cancellation."""
+    """Psi'''' = beta^4 psi, clamped at 0, free at 1: holds without cancellation."""
     beta = cantilever_roots(N_MODES)[:, None]
     x = np.linspace(0.0, 1.0, 101)
     psi = cantilever_modes(N_MODES, x)

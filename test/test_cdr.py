@@ -7,6 +7,8 @@ from sensor_msgs.msg import JointState
 
 from sail_ros.bag import trim_cdr
 
+pytestmark = pytest.mark.model
+
 
 def test_trimmed_joint_state_is_exact():
     message = JointState(name=["boom_a", "boom_b", "boom_c"], position=[1.0, 2.0, 3.0])

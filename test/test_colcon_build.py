@@ -18,7 +18,7 @@ from sensor_msgs.msg import JointState
 
 from sail_ros import topics
 
-pytestmark = pytest.mark.slow
+pytestmark = pytest.mark.multiprocess
 
 ROOT = Path(__file__).resolve().parents[1]
 PYTHON = f"python{sys.version_info.major}.{sys.version_info.minor}"
@@ -26,31 +26,54 @@ PYTHON = f"python{sys.version_info.major}.{sys.version_info.minor}"
 
 @pytest.fixture(scope="module")
 def install(tmp_path_factory):
-    """colcon build (not --symlink-install) into a private build, install and log base."""
+    """Colcon build (not --symlink-install) into a private build, install and log base."""
     colcon = shutil.which("colcon") or shutil.which("colcon", path=Path(sys.executable).parent)
     assert colcon, "colcon is not installed (scripts/setup_env.sh installs it)"
     base = tmp_path_factory.mktemp("colcon")
     result = subprocess.run(
-        [colcon, "--log-base", str(base / "log"), "build", "--base-paths", str(ROOT),
-         "--packages-select", "sail_ros", "--build-base", str(base / "build"),
-         "--install-base", str(base / "install"), "--event-handlers", "console_direct-"],
-        capture_output=True, text=True, timeout=300, cwd=base)
+        [
+            colcon,
+            "--log-base",
+            str(base / "log"),
+            "build",
+            "--base-paths",
+            str(ROOT),
+            "--packages-select",
+            "sail_ros",
+            "--build-base",
+            str(base / "build"),
+            "--install-base",
+            str(base / "install"),
+            "--event-handlers",
+            "console_direct-",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=base,
+    )
     assert result.returncode == 0, result.stdout + result.stderr
     return base / "install"
 
 
 def install_env(install: Path, home: Path) -> dict:
     """What sourcing install/setup.bash would add: the package's prefix for ament and
-    its site-packages for Python; plus a private, localhost-only ROS domain."""
+    its site-packages for Python; the test domain (conftest), a private home."""
     prefix = install / "sail_ros"
     return dict(
         os.environ,
-        AMENT_PREFIX_PATH=os.pathsep.join(filter(None, [str(prefix),
-                                                        os.environ.get("AMENT_PREFIX_PATH")])),
-        PYTHONPATH=os.pathsep.join(filter(None, [str(prefix / "lib" / PYTHON / "site-packages"),
-                                                 os.environ.get("PYTHONPATH")])),
-        ROS_DOMAIN_ID=str(211 + os.getpid() % 20), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-        HOME=str(home), ROS_LOG_DIR=str(home / "log"), PYTHONUNBUFFERED="1")
+        AMENT_PREFIX_PATH=os.pathsep.join(
+            filter(None, [str(prefix), os.environ.get("AMENT_PREFIX_PATH")])
+        ),
+        PYTHONPATH=os.pathsep.join(
+            filter(
+                None, [str(prefix / "lib" / PYTHON / "site-packages"), os.environ.get("PYTHONPATH")]
+            )
+        ),
+        HOME=str(home),
+        ROS_LOG_DIR=str(home / "log"),
+        PYTHONUNBUFFERED="1",
+    )
 
 
 def test_install_space_holds_the_executables_and_config(install):
@@ -59,6 +82,7 @@ def test_install_space_holds_the_executables_and_config(install):
         assert os.access(prefix / "lib" / "sail_ros" / tool, os.X_OK), tool
     assert (prefix / "share" / "sail_ros" / "config" / "sim.yaml").is_file()
     assert (prefix / "share" / "sail_ros" / "package.xml").is_file()
+    assert (prefix / "share" / "sail_ros" / "docs" / "model.md").is_file()
     assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "sail_ros").is_file()
 
 
@@ -66,12 +90,16 @@ def test_installed_sim_runs_and_publishes(install, tmp_path, monkeypatch):
     env = install_env(install, tmp_path)
     prefix = install / "sail_ros"
     # the installed copy is the one imported, not the source tree
-    where = subprocess.run([sys.executable, "-c", "import sail_ros.nodes.sim as m; "
-                            "print(m.__file__)"], env=env, capture_output=True, text=True,
-                           cwd=tmp_path, check=True).stdout.strip()
+    where = subprocess.run(
+        [sys.executable, "-c", "import sail_ros.nodes.sim as m; print(m.__file__)"],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        check=True,
+    ).stdout.strip()
     assert Path(where).is_relative_to(prefix), where
 
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))
     node = Node("colcon_test_listener", context=context)
@@ -83,10 +111,19 @@ def test_installed_sim_runs_and_publishes(install, tmp_path, monkeypatch):
     log = tmp_path / "sim.log"
     with open(log, "w") as output:
         sim = subprocess.Popen(
-            [str(prefix / "lib" / "sail_ros" / "sim"), "--ros-args", "--params-file",
-             str(prefix / "share" / "sail_ros" / "config" / "sim.yaml"),
-             "-p", "time_scale:=5.0"],
-            env=env, stdout=output, stderr=subprocess.STDOUT, cwd=tmp_path)
+            [
+                str(prefix / "lib" / "sail_ros" / "sim"),
+                "--ros-args",
+                "--params-file",
+                str(prefix / "share" / "sail_ros" / "config" / "sim.yaml"),
+                "-p",
+                "time_scale:=5.0",
+            ],
+            env=env,
+            stdout=output,
+            stderr=subprocess.STDOUT,
+            cwd=tmp_path,
+        )
     try:
         deadline = time.monotonic() + 30.0
         while len(states) < 20 or len(clocks) < 20:

@@ -18,6 +18,8 @@ from sail_ros.model.basis import cantilever_modes, triangle_modes
 from sail_ros.model.integrals import collapsed_gauss_triangle, gauss_unit_interval
 from sail_ros.model.layout import BOOMS, QUADRANTS
 
+pytestmark = pytest.mark.model
+
 LENGTHS = np.array([31.0, 44.0, 37.5, 52.0])
 RATES = np.array([0.7, -0.4, 0.15, 0.9])
 DT = 1e-4  # s, time step of the central differences

@@ -12,6 +12,8 @@ from sail_ros.fem.beam import HermiteBoom
 from sail_ros.fem.membrane import QuadrantFE
 from sail_ros.model.parameters import SailParameters
 
+pytestmark = pytest.mark.model
+
 DEFAULT = SailParameters()
 BOOMS_ONLY = DEFAULT.replace(membrane_density=0.0, membrane_prestress=0.0)
 
@@ -19,8 +21,9 @@ BOOMS_ONLY = DEFAULT.replace(membrane_density=0.0, membrane_prestress=0.0)
 def cantilever_betas(count):
     """Roots of cos b cosh b + 1 = 0, one near each (i + 1/2) pi."""
     f = lambda b: math.cos(b) * math.cosh(b) + 1  # noqa: E731
-    return np.array([brentq(f, (i + 0.5) * math.pi - 0.5, (i + 0.5) * math.pi + 0.5)
-                     for i in range(count)])
+    return np.array(
+        [brentq(f, (i + 0.5) * math.pi - 0.5, (i + 0.5) * math.pi + 0.5) for i in range(count)]
+    )
 
 
 def clamped_triangle_frequencies(params, pairs):
@@ -42,6 +45,7 @@ def relative_spread(values):
 
 # integrals the element matrices must reproduce exactly ---------------------
 
+
 def test_beam_matrices_integrate_cubics_exactly():
     boom = HermiteBoom(7.0, 5)
     p = hermite_dofs(boom, lambda s: s**3, lambda s: 3 * s**2)
@@ -53,7 +57,7 @@ def test_beam_matrices_integrate_cubics_exactly():
 
 
 def test_quadrant_couples_booms_and_membrane_exactly():
-    """int over the triangle of x^a y^b is a! b! L^(a+b+2) / (a+b+2)!."""
+    """Int over the triangle of x^a y^b is a! b! L^(a+b+2) / (a+b+2)!."""
     boom = HermiteBoom(3.0, 2)
     quadrant = QuadrantFE(boom, divisions=6, order=2)  # 3 triangle columns per element
     L, nb = boom.length, boom.n_dofs
@@ -82,10 +86,12 @@ def test_membrane_divisions_must_align_with_boom_elements():
 
 # 1. booms alone -------------------------------------------------------------
 
+
 def test_booms_alone_are_four_cantilevers():
     L = BOOMS_ONLY.full_boom_length
     exact = cantilever_betas(3) ** 2 * math.sqrt(
-        BOOMS_ONLY.boom_bending_stiffness / (BOOMS_ONLY.boom_linear_density * L**4))
+        BOOMS_ONLY.boom_bending_stiffness / (BOOMS_ONLY.boom_linear_density * L**4)
+    )
     errors = []
     for elements in (4, 8, 16):
         fem = SailFEM(BOOMS_ONLY, elements, elements, 1)
@@ -109,6 +115,7 @@ def test_boom_frequencies_scale_with_length():
 
 # 2. membranes on rigid booms --------------------------------------------------
 
+
 def test_membranes_on_rigid_booms_are_clamped_triangles():
     rigid = DEFAULT.replace(boom_bending_stiffness=1e12)
     exact = clamped_triangle_frequencies(rigid, [(2, 1), (3, 1), (3, 2), (4, 1)])
@@ -124,6 +131,7 @@ def test_membranes_on_rigid_booms_are_clamped_triangles():
 
 
 # 3. cantilever buckling -------------------------------------------------------
+
 
 def test_lowest_frequency_vanishes_at_the_euler_load():
     L = BOOMS_ONLY.full_boom_length
@@ -142,6 +150,7 @@ def test_lowest_frequency_vanishes_at_the_euler_load():
 
 
 # 4. the default sail --------------------------------------------------------
+
 
 def test_default_sail_has_the_four_fold_symmetry_pattern():
     """w1 single, w2 = w3, w4 single, w5 single, w6 = w7, w8 single.
@@ -186,6 +195,7 @@ def test_p1_converges_to_the_p2_frequencies():
 
 # solver and special membranes -------------------------------------------------
 
+
 def test_lanczos_matches_dense_solution():
     fem = SailFEM(DEFAULT, 4, 8, 2)
     M, K = fem.matrices()
@@ -199,8 +209,9 @@ def test_lanczos_matches_dense_solution():
 def test_massless_membrane_is_condensed_and_stiffens_the_booms():
     massless = SailFEM(DEFAULT.replace(membrane_density=0.0), 8, 8, 2).natural_frequencies(6)
     feather = DEFAULT.replace(membrane_density=1e-6)  # rho_M = 2.5e-12 kg/m^2
-    np.testing.assert_allclose(massless, SailFEM(feather, 8, 8, 2).natural_frequencies(6),
-                               rtol=1e-8)
+    np.testing.assert_allclose(
+        massless, SailFEM(feather, 8, 8, 2).natural_frequencies(6), rtol=1e-8
+    )
     bare = SailFEM(BOOMS_ONLY, 8, 8, 2).natural_frequencies(6)
     assert np.all(massless > bare)
 

@@ -13,6 +13,8 @@ from sail_ros.model import (
     WaypointProfile,
 )
 
+pytestmark = pytest.mark.model
+
 GAUSS = (0.5 - np.sqrt(3) / 6, 0.5 + np.sqrt(3) / 6)
 WEIGHTS = (0.25 + np.sqrt(3) / 6, 0.25 - np.sqrt(3) / 6)
 

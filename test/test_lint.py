@@ -1,15 +1,24 @@
-"""ruff over the whole package and its tests (settings in pyproject.toml)."""
+"""ruff over the whole tree: the lint rules and the one formatter (settings in pyproject.toml)."""
 
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.lint
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_ruff_check_passes():
+@pytest.mark.parametrize(
+    "command",
+    [["check", "--no-cache"], ["format", "--check", "--no-cache"]],
+    ids=["lint", "format"],
+)
+def test_ruff_passes(command):
     result = subprocess.run(
-        [sys.executable, "-m", "ruff", "check", "--no-cache", str(ROOT)],
+        [sys.executable, "-m", "ruff", *command, str(ROOT)],
         capture_output=True,
         text=True,
         cwd=ROOT,

@@ -7,6 +7,8 @@ import scipy.linalg
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.basis import cantilever_roots
 
+pytestmark = pytest.mark.model
+
 L_FULL = 50.0 * np.sqrt(2.0)
 
 

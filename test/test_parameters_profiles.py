@@ -14,6 +14,8 @@ from sail_ros.model import (
     WaypointProfile,
 )
 
+pytestmark = pytest.mark.model
+
 CONFIG = "config/sail.yaml"
 
 

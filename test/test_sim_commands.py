@@ -21,6 +21,8 @@ from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.sim_params import DEFAULTS, SPECS, ConfigError, config_from_values
 from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation
 
+pytestmark = pytest.mark.model
+
 ROOT = Path(__file__).resolve().parents[1]
 LIMITS = Limits(min_length=1.0, max_length=70.0, max_rate=1.0, max_acceleration=0.5)
 REST = BoomState(2.0, np.full(4, 10.0), np.zeros(4), np.zeros(4))
@@ -31,9 +33,10 @@ def trajectory(names, *points, **fields):
     message = JointTrajectory(joint_names=list(names))
     for positions, seconds in points:
         sec = math.floor(seconds)
-        point = JointTrajectoryPoint(positions=list(positions),
-                                     time_from_start=Duration(sec=sec,
-                                                              nanosec=round((seconds - sec) * 1e9)))
+        point = JointTrajectoryPoint(
+            positions=list(positions),
+            time_from_start=Duration(sec=sec, nanosec=round((seconds - sec) * 1e9)),
+        )
         for name, value in fields.items():
             setattr(point, name, value)
         message.points.append(point)
@@ -42,13 +45,19 @@ def trajectory(names, *points, **fields):
 
 # -- trajectories -------------------------------------------------------------------------------
 
+
 def test_trajectory_passes_through_points_and_others_are_untouched():
-    plan = plan_trajectory(trajectory(["boom_c", "boom_a"], ([11.0, 11.5], 6.0),
-                                      ([12.0, 12.0], 12.0)), REST, LIMITS)
+    plan = plan_trajectory(
+        trajectory(["boom_c", "boom_a"], ([11.0, 11.5], 6.0), ([12.0, 12.0], 12.0)), REST, LIMITS
+    )
     assert plan.booms == (2, 0)
     assert (plan.t_start, plan.t_end) == (2.0, 14.0)
-    for t, (c, a) in [(2.0, (10.0, 10.0)), (8.0, (11.0, 11.5)), (14.0, (12.0, 12.0)),
-                      (30.0, (12.0, 12.0))]:
+    for t, (c, a) in [
+        (2.0, (10.0, 10.0)),
+        (8.0, (11.0, 11.5)),
+        (14.0, (12.0, 12.0)),
+        (30.0, (12.0, 12.0)),
+    ]:
         lengths, rates, _ = plan.profile(t)
         assert (lengths[2], lengths[0]) == pytest.approx((c, a), abs=1e-12)
     assert np.all(plan.profile(14.0)[1] == 0.0)  # at rest at the last point
@@ -56,8 +65,9 @@ def test_trajectory_passes_through_points_and_others_are_untouched():
 
 
 def test_trajectory_starts_from_the_current_rates():
-    moving = BoomState(0.0, np.array([10.0, 11.0, 12.0, 13.0]), np.array([0.3, 0.0, -0.2, 0.0]),
-                       np.zeros(4))
+    moving = BoomState(
+        0.0, np.array([10.0, 11.0, 12.0, 13.0]), np.array([0.3, 0.0, -0.2, 0.0]), np.zeros(4)
+    )
     plan = plan_trajectory(trajectory(["boom_a", "boom_c"], ([12.0, 12.0], 10.0)), moving, LIMITS)
     lengths, rates, _ = plan.profile(0.0)
     assert lengths[[0, 2]] == pytest.approx([10.0, 12.0])
@@ -68,31 +78,51 @@ def test_trajectory_starts_from_the_current_rates():
 
 BAD_TRAJECTORIES = {
     "no names": (trajectory([], ([], 1.0)), "no joint_names"),
-    "unknown name": (trajectory(["boom_a", "mast"], ([11.0, 11.0], 1.0)),
-                     "unknown joint name\\(s\\) 'mast'"),
-    "repeated name": (trajectory(["boom_b", "boom_b"], ([11.0, 11.0], 5.0)),
-                      "'boom_b' given more than once"),
+    "unknown name": (
+        trajectory(["boom_a", "mast"], ([11.0, 11.0], 1.0)),
+        "unknown joint name\\(s\\) 'mast'",
+    ),
+    "repeated name": (
+        trajectory(["boom_b", "boom_b"], ([11.0, 11.0], 5.0)),
+        "'boom_b' given more than once",
+    ),
     "no points": (trajectory(["boom_a"]), "no points"),
-    "too few positions": (trajectory(["boom_a", "boom_b"], ([11.0], 5.0)),
-                          "point 0 has 1 positions for 2 joint names"),
-    "too many positions": (trajectory(["boom_a"], ([11.0], 5.0), ([11.0, 12.0], 9.0)),
-                           "point 1 has 2 positions for 1 joint names"),
-    "velocities": (trajectory(["boom_a"], ([11.0], 5.0), velocities=[0.0]),
-                   "point 0: velocities are not supported"),
-    "zero time": (trajectory(["boom_a"], ([11.0], 0.0)),
-                  "point 0: time_from_start 0 s must be > 0"),
+    "too few positions": (
+        trajectory(["boom_a", "boom_b"], ([11.0], 5.0)),
+        "point 0 has 1 positions for 2 joint names",
+    ),
+    "too many positions": (
+        trajectory(["boom_a"], ([11.0], 5.0), ([11.0, 12.0], 9.0)),
+        "point 1 has 2 positions for 1 joint names",
+    ),
+    "velocities": (
+        trajectory(["boom_a"], ([11.0], 5.0), velocities=[0.0]),
+        "point 0: velocities are not supported",
+    ),
+    "zero time": (
+        trajectory(["boom_a"], ([11.0], 0.0)),
+        "point 0: time_from_start 0 s must be > 0",
+    ),
     "negative time": (trajectory(["boom_a"], ([11.0], -2.0)), "time_from_start -2 s must be > 0"),
-    "times not increasing": (trajectory(["boom_a"], ([11.0], 5.0), ([12.0], 5.0)),
-                             "point 1: time_from_start 5 s must be > that of point 0 \\(5 s\\)"),
+    "times not increasing": (
+        trajectory(["boom_a"], ([11.0], 5.0), ([12.0], 5.0)),
+        "point 1: time_from_start 5 s must be > that of point 0 \\(5 s\\)",
+    ),
     "nan length": (trajectory(["boom_a"], ([math.nan], 5.0)), "point 0: boom_a is nan"),
     "inf length": (trajectory(["boom_a"], ([math.inf], 5.0)), "point 0: boom_a is inf"),
-    "too short": (trajectory(["boom_d"], ([0.5], 50.0)),
-                  "boom_d = 0.5 m is outside \\[min_length, max_length\\] = \\[1, 70\\] m"),
+    "too short": (
+        trajectory(["boom_d"], ([0.5], 50.0)),
+        "boom_d = 0.5 m is outside \\[min_length, max_length\\] = \\[1, 70\\] m",
+    ),
     "too long": (trajectory(["boom_d"], ([70.5], 500.0)), "boom_d = 70.5 m is outside"),
-    "too fast": (trajectory(["boom_a"], ([40.0], 30.0)),
-                 "boom_a would move at 1.5 m/s, above max_rate 1 m/s"),
-    "too abrupt": (trajectory(["boom_b"], ([10.4], 1.0)),
-                   "boom_b would accelerate at 2.4 m/s\\^2, above max_acceleration 0.5"),
+    "too fast": (
+        trajectory(["boom_a"], ([40.0], 30.0)),
+        "boom_a would move at 1.5 m/s, above max_rate 1 m/s",
+    ),
+    "too abrupt": (
+        trajectory(["boom_b"], ([10.4], 1.0)),
+        "boom_b would accelerate at 2.4 m/s\\^2, above max_acceleration 0.5",
+    ),
 }
 
 
@@ -106,14 +136,16 @@ def test_bad_trajectory_is_rejected_with_its_reason(case):
 def test_spline_overshoot_beyond_the_limits_is_rejected():
     # moving out at 0.5 m/s, 0.4 m below max_length, asked to stop 0.3 m further in 8 s:
     # the spline carries the boom to 70.12 m first
-    moving = BoomState(0.0, np.array([69.5, 10.0, 10.0, 10.0]), np.array([0.5, 0, 0, 0]),
-                       np.zeros(4))
+    moving = BoomState(
+        0.0, np.array([69.5, 10.0, 10.0, 10.0]), np.array([0.5, 0, 0, 0]), np.zeros(4)
+    )
     with pytest.raises(CommandError, match="boom_a would pass through 70.12 m on the way"):
         plan_trajectory(trajectory(["boom_a"], ([69.6], 8.0)), moving, LIMITS)
     assert plan_trajectory(trajectory(["boom_a"], ([69.6], 4.0)), moving, LIMITS)
 
 
 # -- deployment ---------------------------------------------------------------------------------
+
 
 def test_deploy_from_rest_is_the_fastest_cycloidal_within_limits():
     plan = plan_deploy(15.0, REST, LIMITS)
@@ -131,20 +163,28 @@ def test_deploy_duration_is_honoured_or_rejected():
         plan_deploy(15.0, REST, LIMITS, duration=4.0)
 
 
-@pytest.mark.parametrize(("target", "reason"), [
-    (math.nan, "target is nan, not a finite length"),
-    (-math.inf, "target is -inf"),
-    (0.9, "target = 0.9 m is outside"),
-    (80.0, "target = 80 m is outside"),
-], ids=str)
+@pytest.mark.parametrize(
+    ("target", "reason"),
+    [
+        (math.nan, "target is nan, not a finite length"),
+        (-math.inf, "target is -inf"),
+        (0.9, "target = 0.9 m is outside"),
+        (80.0, "target = 80 m is outside"),
+    ],
+    ids=str,
+)
 def test_bad_deploy_target_is_rejected(target, reason):
     with pytest.raises(CommandError, match=reason):
         plan_deploy(target, REST, LIMITS)
 
 
 def test_deploy_while_moving_continues_smoothly_within_limits():
-    now = BoomState(3.0, np.array([12.0, 12.0, 11.0, 11.0]), np.array([0.8, 0.8, -0.5, 0.0]),
-                    np.array([0.1, 0.1, 0.0, 0.0]))
+    now = BoomState(
+        3.0,
+        np.array([12.0, 12.0, 11.0, 11.0]),
+        np.array([0.8, 0.8, -0.5, 0.0]),
+        np.array([0.1, 0.1, 0.0, 0.0]),
+    )
     plan = plan_deploy(11.5, now, LIMITS)
     assert isinstance(plan.profile, WaypointProfile)
     lengths, rates, _ = plan.profile(now.t)
@@ -154,13 +194,17 @@ def test_deploy_while_moving_continues_smoothly_within_limits():
     low, high, rate, acceleration = plan.profile.extremes()
     assert np.all(rate <= LIMITS.max_rate) and np.all(acceleration <= LIMITS.max_acceleration)
     # the quickest such move: 10 % shorter breaks a limit
-    shorter = WaypointProfile([now.t, now.t + (plan.t_end - now.t) / 1.1],
-                              [now.lengths, np.full(4, 11.5)], start_rates=now.rates)
+    shorter = WaypointProfile(
+        [now.t, now.t + (plan.t_end - now.t) / 1.1],
+        [now.lengths, np.full(4, 11.5)],
+        start_rates=now.rates,
+    )
     _, _, rate, acceleration = shorter.extremes()
     assert np.any(rate > LIMITS.max_rate) or np.any(acceleration > LIMITS.max_acceleration)
 
 
 # -- boom motion --------------------------------------------------------------------------------
+
 
 def test_boom_motion_takes_each_boom_from_its_own_profile():
     hold = StaticProfile([10.0, 11.0, 12.0, 13.0])
@@ -175,10 +219,12 @@ def test_boom_motion_takes_each_boom_from_its_own_profile():
 
 # -- the simulation core ------------------------------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def config():
-    return config_from_values({"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0],
-                               "max_rate": 1.0, "max_acceleration": 0.5})
+    return config_from_values(
+        {"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0], "max_rate": 1.0, "max_acceleration": 0.5}
+    )
 
 
 @pytest.fixture(scope="module")
@@ -197,8 +243,9 @@ def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
     assert sim.accepted == 1 and sim.last_command_start == pytest.approx(1.0)
     # the same motion offline, on the same step: agreement to round-off
     profile = CycloidalProfile.within_limits(10.0, 12.0, 1.0, 0.5, t0=sim.last_command_start)
-    _, q, _ = model.simulate(profile, 6.0, model.initial_coordinates([0.1, 0, 0, 0]),
-                             t_eval=[6.0], max_step=0.01)
+    _, q, _ = model.simulate(
+        profile, 6.0, model.initial_coordinates([0.1, 0, 0, 0]), t_eval=[6.0], max_step=0.01
+    )
     assert sim.stepper.q == pytest.approx(q[0], abs=1e-12)
     assert sim.sample().lengths == pytest.approx(profile(6.0)[0])
 
@@ -227,8 +274,9 @@ def test_rejected_command_leaves_the_state_alone(model, config):
 
 
 def test_non_finite_state_stops_until_reset(config):
-    buckling = config_from_values({**DEFAULTS, "sail.boom_axial_load": 1e6,
-                                   "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
+    buckling = config_from_values(
+        {**DEFAULTS, "sail.boom_axial_load": 1e6, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]}
+    )
     sim = Simulation(SailModel(buckling.sail), buckling)
     while sim.step():
         assert sim.steps < 1000, "the buckled booms should diverge within 10 s"
@@ -247,7 +295,10 @@ def test_non_finite_state_stops_until_reset(config):
 
 # -- pacing -------------------------------------------------------------------------------------
 
+
 class FakeClock:
+    """A monotonic clock the test moves by hand [s]."""
+
     def __init__(self):
         self.now = 100.0
 
@@ -293,7 +344,6 @@ def test_overrun_is_a_tick_more_than_one_step_late_or_left_behind():
     assert pacer.tick(t)[2] is True
 
 
-
 def test_real_time_factor_is_measured_over_long_uninterrupted_running_windows():
     clock = FakeClock()
     clock.now = 0.0
@@ -316,8 +366,7 @@ def test_real_time_factor_is_measured_over_long_uninterrupted_running_windows():
     assert (rtf.value, rtf.window) == (pytest.approx(1.1 / 0.6), pytest.approx(0.6))
     clock.now = 1.75  # a pause after 0.55 s of running: that window counts
     rtf.restart(3.4, running=False)
-    assert (rtf.value, rtf.window, rtf.current) == (pytest.approx(2.0), pytest.approx(0.55),
-                                                    False)
+    assert (rtf.value, rtf.window, rtf.current) == (pytest.approx(2.0), pytest.approx(0.55), False)
     assert not update(5.0, 3.4)  # paused: nothing measured, the last value stays
     clock.now = 5.0
     rtf.restart(3.4, running=True)  # resumed...
@@ -327,7 +376,9 @@ def test_real_time_factor_is_measured_over_long_uninterrupted_running_windows():
     assert not update(5.5, 4.4)
     assert update(5.7, 4.8) and rtf.value == pytest.approx(2.0) and rtf.current
 
+
 # -- parameters ---------------------------------------------------------------------------------
+
 
 def test_config_file_holds_the_defaults():
     document = yaml.safe_load((ROOT / "config/sim.yaml").read_text())
@@ -335,8 +386,9 @@ def test_config_file_holds_the_defaults():
     flat = {f"sail.{key}": value for key, value in values.pop("sail").items()} | values
     assert flat == DEFAULTS
     sail = yaml.safe_load((ROOT / "config/sail.yaml").read_text())["sail"]
-    assert {f"sail.{key}": value for key, value in sail.items()} == \
-        {name: value for name, value in DEFAULTS.items() if name.startswith("sail.")}
+    assert {f"sail.{key}": value for key, value in sail.items()} == {
+        name: value for name, value in DEFAULTS.items() if name.startswith("sail.")
+    }
 
 
 def test_every_parameter_is_described_with_unit_and_range():
@@ -346,23 +398,33 @@ def test_every_parameter_is_described_with_unit_and_range():
         if spec.name != "frame_id":
             assert "[" in spec.description, f"{spec.name}: no unit"
             assert descriptor.floating_point_range or descriptor.integer_range
-        assert descriptor.read_only == (spec.name.startswith("sail.") or spec.name in
-                                        {"integration_step", "time_scale", "frame_id",
-                                         "shape_divisions"})
+        assert descriptor.read_only == (
+            spec.name.startswith("sail.")
+            or spec.name in {"integration_step", "time_scale", "frame_id", "shape_divisions"}
+        )
 
 
-@pytest.mark.parametrize(("change", "reason"), [
-    ({"min_length": 20.0, "max_length": 15.0}, "min_length \\(20 m\\) must be below max_length"),
-    ({"initial_lengths": [10.0, 10.0, 80.0, 10.0]}, "initial_lengths .* must lie in"),
-    ({"initial_lengths": [10.0, 10.0]},
-     "initial_lengths must hold 1 or 4 values, got 2: \\[10.0, 10.0\\]"),
-    ({"max_rate": 2}, "max_rate must be a double: write 2.0, not 2"),
-    ({"max_rate": -1.0}, "max_rate = -1.0 is outside"),
-    ({"initial_tip_deflection": [math.nan]}, "initial_tip_deflection = nan is outside"),
-    ({"state_rate_hz": 200.0}, "state_rate_hz = 200 Hz is faster than the integration step"),
-    ({"sail.sail_side": 0.0}, "sail.sail_side must be > 0"),
-    ({"frame_id": 3}, "frame_id must be a str"),
-], ids=str)
+@pytest.mark.parametrize(
+    ("change", "reason"),
+    [
+        (
+            {"min_length": 20.0, "max_length": 15.0},
+            "min_length \\(20 m\\) must be below max_length",
+        ),
+        ({"initial_lengths": [10.0, 10.0, 80.0, 10.0]}, "initial_lengths .* must lie in"),
+        (
+            {"initial_lengths": [10.0, 10.0]},
+            "initial_lengths must hold 1 or 4 values, got 2: \\[10.0, 10.0\\]",
+        ),
+        ({"max_rate": 2}, "max_rate must be a double: write 2.0, not 2"),
+        ({"max_rate": -1.0}, "max_rate = -1.0 is outside"),
+        ({"initial_tip_deflection": [math.nan]}, "initial_tip_deflection = nan is outside"),
+        ({"state_rate_hz": 200.0}, "state_rate_hz = 200 Hz is faster than the integration step"),
+        ({"sail.sail_side": 0.0}, "sail.sail_side must be > 0"),
+        ({"frame_id": 3}, "frame_id must be a str"),
+    ],
+    ids=str,
+)
 def test_bad_configuration_names_the_parameter(change, reason):
     with pytest.raises(ConfigError, match=reason):
         config_from_values(change)
@@ -375,6 +437,7 @@ def test_publication_intervals_round_to_whole_steps():
 
 
 # -- message builders ---------------------------------------------------------------------------
+
 
 def test_state_messages_carry_stamp_frame_names_and_values():
     stamp = topics.stamp_ns(1_700_000_000_123_000_000, 2.5)
@@ -398,19 +461,25 @@ def test_shape_markers_draw_the_deflected_membrane_and_the_booms(model):
     vertices = surface.vertices(q, lengths)
     markers = topics.shape(5, vertices, surface.triangles, surface.boom_lines(q, lengths)).markers
     membrane, booms = markers[0], markers[1:]
-    assert (membrane.ns, membrane.type, membrane.header.frame_id) == \
-        ("membrane", Marker.TRIANGLE_LIST, "sail")
+    assert (membrane.ns, membrane.type, membrane.header.frame_id) == (
+        "membrane",
+        Marker.TRIANGLE_LIST,
+        "sail",
+    )
     assert len(membrane.points) == len(membrane.colors) == 3 * len(surface.triangles)
     corner = surface.triangles[7, 1]
-    assert (membrane.points[7 * 3 + 1].x, membrane.points[7 * 3 + 1].z) == \
-        (vertices[corner, 0], vertices[corner, 2])
+    assert (membrane.points[7 * 3 + 1].x, membrane.points[7 * 3 + 1].z) == (
+        vertices[corner, 0],
+        vertices[corner, 2],
+    )
     # colours scale with the largest |height| (0.1 m at tip a): red there, half blue at tip d
     heights = [p.z for p in membrane.points]
     top, bottom = membrane.colors[int(np.argmax(heights))], membrane.colors[int(np.argmin(heights))]
     assert (top.r, top.g, top.b) == (1.0, 0.0, 0.0)
     assert (bottom.r, bottom.g, bottom.b) == pytest.approx((0.5, 0.5, 1.0))
-    assert [(m.ns, m.id, m.type) for m in booms] == [("booms", k, Marker.LINE_STRIP)
-                                                     for k in range(4)]
+    assert [(m.ns, m.id, m.type) for m in booms] == [
+        ("booms", k, Marker.LINE_STRIP) for k in range(4)
+    ]
     tip_a = booms[0].points[-1]
     assert (tip_a.x, tip_a.y, tip_a.z) == pytest.approx((10.0, 0.0, 0.1))
     assert booms[3].points[-1].y == pytest.approx(-13.0)

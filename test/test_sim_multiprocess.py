@@ -6,21 +6,16 @@ against the model run offline for the same motion.
 """
 
 import math
-import os
 import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
-import rclpy
 import yaml
 from builtin_interfaces.msg import Duration
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 from rcl_interfaces.srv import SetParameters
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
@@ -34,7 +29,7 @@ from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion
 from sail_ros.nodes.commands import BoomState, Limits, plan_deploy, plan_trajectory
 
-pytestmark = pytest.mark.slow
+pytestmark = pytest.mark.multiprocess
 
 STEP = 0.01  # s, integration_step (default)
 LIMITS = Limits(min_length=1.0, max_length=70.71, max_rate=1.0, max_acceleration=0.5)  # defaults
@@ -44,176 +39,30 @@ LIMITS = Limits(min_length=1.0, max_length=70.71, max_rate=1.0, max_acceleration
 TIP_TOLERANCE = 1e-6  # m; rates 1e-5 m/s
 
 
-# -- processes and the operator node ------------------------------------------------------------
-
-@pytest.fixture
-def ros_env(tmp_path, request):
-    """Environment of a test's processes: its own domain, localhost, private home."""
-    domain = 151 + (os.getpid() + request.node.nodeid.__hash__()) % 60
-    home = tmp_path / "home"
-    home.mkdir()
-    return dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-                HOME=str(home), ROS_LOG_DIR=str(home / "log"), PYTHONUNBUFFERED="1",
-                RCUTILS_COLORIZED_OUTPUT="0")
-
-
-class Tool:
-    """A `sail-ros <tool>` process whose output goes to a file."""
-
-    def __init__(self, tool, args, env, log_path):
-        self.log_path = log_path
-        with open(log_path, "w") as log:
-            self.process = subprocess.Popen([sys.executable, "-m", "sail_ros.cli", tool, *args],
-                                            env=env, stdout=log, stderr=subprocess.STDOUT)
-
-    def stop(self, signum, timeout=20.0) -> int:
-        self.process.send_signal(signum)
-        try:
-            return self.process.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            pytest.fail(f"{self.log_path.stem} did not exit within {timeout} s:\n{self.log()}")
-
-    def log(self) -> str:
-        return self.log_path.read_text()
-
-
-def ros_value(value) -> str:
-    """A parameter value for `-p name:=value`."""
-    if isinstance(value, list):
-        return "[" + ",".join(map(repr, value)) + "]"
-    return repr(value)
-
-
-@pytest.fixture
-def processes(tmp_path, ros_env):
-    """`start(tool, *args)`; every process still running at the end is killed."""
-    started = []
-
-    def start(tool, *args, parameters=None):
-        ros_args = ["--ros-args"] + [item for name, value in parameters.items()
-                                     for item in ("-p", f"{name}:={ros_value(value)}")] \
-            if parameters else []
-        tool_process = Tool(tool, [*args, *ros_args], ros_env, tmp_path / f"{tool}.log")
-        started.append(tool_process)
-        return tool_process
-
-    yield start
-    for tool_process in started:
-        if tool_process.process.poll() is None:
-            tool_process.process.kill()
-            tool_process.process.wait()
-
-
-@pytest.fixture
-def operator(ros_env, monkeypatch):
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=int(ros_env["ROS_DOMAIN_ID"]))
-    node = Operator(context)
-    yield node
-    node.spinner.shutdown()
-    node.destroy_node()
-    rclpy.shutdown(context=context)
-
-
-class Operator(Node):
-    """Publishes commands, calls services, and keeps everything the simulator publishes."""
-
-    def __init__(self, context):
-        super().__init__("sim_operator", context=context)
-        self.spinner = SingleThreadedExecutor(context=context)
-        self.spinner.add_node(self)
-        self.states = {name: [] for name in (topics.BOOM_STATE, topics.MODAL_STATE,
-                                             topics.TIP_DEFLECTION)}
-        for name, kept in self.states.items():
-            self.create_subscription(JointState, name, kept.append, topics.STATE_QOS)
-        self.diagnostics: list[DiagnosticArray] = []
-        self.received_at: list[float] = []  # steady time [s] each diagnostics arrived
-        self.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, self._on_status,
-                                 topics.DIAGNOSTICS_QOS)
-        self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
-        self.trajectory = self.create_publisher(JointTrajectory, topics.BOOM_LENGTH_CMD,
-                                                topics.COMMAND_QOS)
-        self.reset = self.create_client(Trigger, topics.RESET_SERVICE)
-        self.pause = self.create_client(SetBool, topics.PAUSE_SERVICE)
-        self.set_parameters = self.create_client(SetParameters, "/sail_sim/set_parameters")
-
-    def _on_status(self, message: DiagnosticArray) -> None:
-        self.diagnostics.append(message)
-        self.received_at.append(time.monotonic())
-
-    def spin_until(self, condition, timeout, what):
-        deadline = time.monotonic() + timeout
-        while not condition():
-            assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
-            self.spinner.spin_once(timeout_sec=0.01)
-
-    def spin_for(self, seconds):
-        deadline = time.monotonic() + seconds
-        self.spin_until(lambda: time.monotonic() > deadline, seconds + 1.0, "time to pass")
-
-    def status(self, index=-1) -> dict:
-        """An integrator status (default the latest): its values, plus level,
-        message and stamp_ns."""
-        array = self.diagnostics[index]
-        status, stamp = array.status[0], array.header.stamp
-        return {**topics.diagnostic_values(array), "level": status.level,
-                "message": status.message, "stamp_ns": stamp.sec * 10**9 + stamp.nanosec}
-
-    def wait_for_status(self, condition, timeout, what) -> dict:
-        """The first status published from now on that satisfies `condition`."""
-        seen = len(self.diagnostics)
-        found = []
-
-        def check():
-            nonlocal seen
-            while seen < len(self.diagnostics) and not found:
-                if condition(self.status(seen)):
-                    found.append(self.status(seen))
-                seen += 1
-            return found
-
-        self.spin_until(check, timeout, what)
-        return found[0]
-
-    def epoch_ns(self) -> int:
-        """The stamp of simulation time 0: every stamp is epoch + simulation time."""
-        status = self.status()
-        return status["stamp_ns"] - round(float(status["sim_time_s"]) * 1e9)
-
-    def call(self, client, request, timeout=10.0):
-        self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
-        future = client.call_async(request)
-        self.spin_until(future.done, timeout, f"an answer from {client.srv_name}")
-        return future.result()
-
-    def wait_for_simulator(self, subscribers=1):
-        """Until the simulator publishes and each command publisher has `subscribers`."""
-        self.spin_until(lambda: self.diagnostics and self.states[topics.BOOM_STATE], 30.0,
-                        "the simulator")
-        self.spin_until(lambda: min(self.deploy.get_subscription_count(),
-                                    self.trajectory.get_subscription_count()) >= subscribers,
-                        10.0, f"{subscribers} subscriber(s) of the command topics")
-
-
 def trajectory(names, *points) -> JointTrajectory:
     """A JointTrajectory; each point is (positions [m], time_from_start [s])."""
     message = JointTrajectory(joint_names=list(names))
     for positions, seconds in points:
         sec = math.floor(seconds)
-        message.points.append(JointTrajectoryPoint(
-            positions=[float(p) for p in positions],
-            time_from_start=Duration(sec=sec, nanosec=round((seconds - sec) * 1e9))))
+        message.points.append(
+            JointTrajectoryPoint(
+                positions=[float(p) for p in positions],
+                time_from_start=Duration(sec=sec, nanosec=round((seconds - sec) * 1e9)),
+            )
+        )
     return message
 
 
 def series(messages, epoch_ns):
     """(simulation times on the grid [s], positions, velocities) of JointStates."""
-    t = np.array([(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec - epoch_ns) * 1e-9
-                  for m in messages])
-    return (np.round(t / STEP) * STEP, np.array([m.position for m in messages]),
-            np.array([m.velocity for m in messages]))
+    t = np.array(
+        [(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec - epoch_ns) * 1e-9 for m in messages]
+    )
+    return (
+        np.round(t / STEP) * STEP,
+        np.array([m.position for m in messages]),
+        np.array([m.velocity for m in messages]),
+    )
 
 
 class Switched:
@@ -234,32 +83,44 @@ class Switched:
 
 # -- tests --------------------------------------------------------------------------------------
 
+
 def test_deployment_follows_both_commands_and_is_recorded(processes, operator, tmp_path):
     """Deploy all booms 10 -> 12 m, and while they move send booms a and b elsewhere."""
     tip0 = [0.1, 0.0, 0.0, 0.0]
-    sim = processes("sim", parameters={"time_scale": 4.0, "initial_tip_deflection": tip0,
-                                       "diagnostics_rate_hz": 10.0})
+    sim = processes(
+        "sim",
+        parameters={"time_scale": 4.0, "initial_tip_deflection": tip0, "diagnostics_rate_hz": 10.0},
+    )
     bag = tmp_path / "bag"
     recorder = processes("recorder", "-o", str(bag))
     operator.wait_for_simulator(subscribers=2)  # the simulator and the recorder
-    operator.spin_until(lambda: operator.count_subscribers(topics.BOOM_STATE) >= 2, 10.0,
-                        "the recorder's subscription")
+    operator.spin_until(
+        lambda: operator.count_subscribers(topics.BOOM_STATE) >= 2,
+        10.0,
+        "the recorder's subscription",
+    )
 
     operator.deploy.publish(Float64(data=12.0))
-    deployed = operator.wait_for_status(lambda s: s["accepted_commands"] == "1", 10.0,
-                                        "the deployment to be accepted")
+    deployed = operator.wait_for_status(
+        lambda s: s["accepted_commands"] == "1", 10.0, "the deployment to be accepted"
+    )
     t_deploy = float(deployed["last_command_start_s"])
-    operator.spin_until(lambda: float(operator.status()["sim_time_s"]) > t_deploy + 2.0, 10.0,
-                        "the booms to be half way")
+    operator.spin_until(
+        lambda: float(operator.status()["sim_time_s"]) > t_deploy + 2.0,
+        10.0,
+        "the booms to be half way",
+    )
     command = trajectory(["boom_a", "boom_b"], ([12.5, 11.5], 8.0), ([13.0, 11.0], 14.0))
     operator.trajectory.publish(command)
-    moved = operator.wait_for_status(lambda s: s["accepted_commands"] == "2", 10.0,
-                                     "the trajectory to be accepted")
+    moved = operator.wait_for_status(
+        lambda s: s["accepted_commands"] == "2", 10.0, "the trajectory to be accepted"
+    )
     t_command = float(moved["last_command_start_s"])
     t_end = float(moved["motion_end_s"])
     assert t_end == pytest.approx(t_command + 14.0)
-    operator.spin_until(lambda: float(operator.status()["sim_time_s"]) > t_end + 1.0, 30.0,
-                        "the motion to end")
+    operator.spin_until(
+        lambda: float(operator.status()["sim_time_s"]) > t_end + 1.0, 30.0, "the motion to end"
+    )
     assert sim.stop(signal.SIGTERM) == 0, sim.log()
     operator.spin_for(0.3)  # the last samples in flight
     assert recorder.stop(signal.SIGINT) == 0, recorder.log()
@@ -286,8 +147,9 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
 
     model = SailModel(SailParameters())
     t_tip, tips, tip_rates = series(operator.states[topics.TIP_DEFLECTION], epoch)
-    _, q, qd = model.simulate(motion, t_tip[-1], model.initial_coordinates(tip0),
-                              t_eval=t_tip, max_step=STEP)
+    _, q, qd = model.simulate(
+        motion, t_tip[-1], model.initial_coordinates(tip0), t_eval=t_tip, max_step=STEP
+    )
     assert np.abs(tips).max() > 0.05  # the boom still rings: a real comparison
     assert tips == pytest.approx(model.tip_deflections(q), abs=TIP_TOLERANCE)
     assert tip_rates == pytest.approx(model.tip_deflections(qd), abs=10 * TIP_TOLERANCE)
@@ -297,8 +159,9 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
     counts = {name: info.message_count for name, info in reader.topics().items()}
     assert counts[topics.DEPLOY_CMD] == 1 and counts[topics.BOOM_LENGTH_CMD] == 1
     assert counts[topics.SHAPE] > 0 and counts[topics.DIAGNOSTICS] > 0
-    recorded = [deserialize_message(m.data, JointState)
-                for m in reader.messages([topics.BOOM_STATE])]
+    recorded = [
+        deserialize_message(m.data, JointState) for m in reader.messages([topics.BOOM_STATE])
+    ]
     t_bag, lengths_bag, _ = series(recorded, epoch)
     assert np.diff(t_bag) == pytest.approx(0.02, abs=1e-9)
     assert t_bag[-1] == t[-1]  # the simulator's last sample made it into the bag
@@ -316,8 +179,10 @@ BAD_COMMANDS = [
     (trajectory(["boom_e"], ([11.0], 5.0)), "unknown joint name(s) 'boom_e'"),
     (trajectory(["boom_a", "boom_a"], ([11.0, 11.0], 5.0)), "'boom_a' given more than once"),
     (trajectory(["boom_a", "boom_b"], ([11.0], 5.0)), "point 0 has 1 positions for 2"),
-    (trajectory(["boom_c"], ([11.0], 5.0), ([11.5], 4.0)),
-     "point 1: time_from_start 4 s must be > that of point 0 (5 s)"),
+    (
+        trajectory(["boom_c"], ([11.0], 5.0), ([11.5], 4.0)),
+        "point 1: time_from_start 4 s must be > that of point 0 (5 s)",
+    ),
     (trajectory(["boom_c"], ([11.0], 0.0)), "time_from_start 0 s must be > 0"),
     (trajectory(["boom_d"], ([math.nan], 5.0)), "point 0: boom_d is nan"),
     (trajectory(["boom_d"], ([80.0], 500.0)), "boom_d = 80 m is outside"),
@@ -330,14 +195,16 @@ BAD_COMMANDS = [
 def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator):
     """Real time; then pause, resume and reset through the services."""
     tip0 = [0.0, 0.02, 0.0, -0.01]
-    sim = processes("sim", parameters={"initial_tip_deflection": tip0,
-                                       "diagnostics_rate_hz": 20.0})
+    sim = processes("sim", parameters={"initial_tip_deflection": tip0, "diagnostics_rate_hz": 20.0})
     operator.wait_for_simulator()
     for count, (command, reason) in enumerate(BAD_COMMANDS, start=1):
         publisher = operator.deploy if isinstance(command, Float64) else operator.trajectory
         publisher.publish(command)
-        status = operator.wait_for_status(lambda s, c=count: s["rejected_commands"] == str(c),
-                                          5.0, f"rejection {count} ({reason})")
+        status = operator.wait_for_status(
+            lambda s, c=count: s["rejected_commands"] == str(c),
+            5.0,
+            f"rejection {count} ({reason})",
+        )
         assert reason in status["last_rejection"]
         assert status["level"] == DiagnosticStatus.WARN
     operator.spin_for(1.0)
@@ -349,14 +216,16 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     assert np.all(lengths == 10.0) and np.all(rates == 0.0)
     t, q, _ = series(operator.states[topics.MODAL_STATE], epoch)
     model = SailModel(SailParameters())
-    _, q_alone, _ = model.simulate(StaticProfile(10.0), t[-1], model.initial_coordinates(tip0),
-                                   t_eval=t, max_step=STEP)
+    _, q_alone, _ = model.simulate(
+        StaticProfile(10.0), t[-1], model.initial_coordinates(tip0), t_eval=t, max_step=STEP
+    )
     assert np.abs(q).max() > 0.005
     assert q == pytest.approx(q_alone, abs=1e-9)
     # real time: simulation time kept pace with the wall clock (to its 0.02 s ticks)
     first, last = 2, len(operator.diagnostics) - 1
-    advanced = float(operator.status(last)["sim_time_s"]) - \
-        float(operator.status(first)["sim_time_s"])
+    advanced = float(operator.status(last)["sim_time_s"]) - float(
+        operator.status(first)["sim_time_s"]
+    )
     elapsed = operator.received_at[last] - operator.received_at[first]
     assert elapsed > 1.0 and advanced / elapsed == pytest.approx(1.0, abs=0.05)
 
@@ -368,14 +237,19 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     count = len(operator.states[topics.MODAL_STATE])
     answer = operator.call(operator.reset, Trigger.Request())
     assert answer.success and answer.message.endswith("(paused)")
-    operator.spin_until(lambda: len(operator.states[topics.MODAL_STATE]) > count, 5.0,
-                        "the state after the reset")
+    operator.spin_until(
+        lambda: len(operator.states[topics.MODAL_STATE]) > count, 5.0, "the state after the reset"
+    )
     after = operator.states[topics.MODAL_STATE][count]
     assert np.array(after.position) == pytest.approx(model.initial_coordinates(tip0), abs=1e-15)
     assert operator.call(operator.pause, SetBool.Request(data=False)).success
     running = operator.wait_for_status(
-        lambda s: s["state"] == "running" and float(s["sim_time_s"]) >
-        float(paused["sim_time_s"]) + 0.3, 5.0, "running again")
+        lambda s: (
+            s["state"] == "running" and float(s["sim_time_s"]) > float(paused["sim_time_s"]) + 0.3
+        ),
+        5.0,
+        "running again",
+    )
     assert running["level"] != DiagnosticStatus.ERROR  # WARN would be an overrun: load
     assert sim.stop(signal.SIGINT) == 0
     log = sim.log()
@@ -386,21 +260,36 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
 def test_non_finite_state_is_an_error_until_reset(processes, operator, tmp_path):
     """A boom axial load far beyond buckling: the booms diverge, the node stays up."""
     params = tmp_path / "buckling.yaml"
-    params.write_text(yaml.safe_dump({"sail_sim": {"ros__parameters": {
-        "sail": {"boom_axial_load": 1e4},  # N; the Euler load of a 10 m boom is 148 N
-        "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0],
-        "diagnostics_rate_hz": 20.0}}}))
+    params.write_text(
+        yaml.safe_dump(
+            {
+                "sail_sim": {
+                    "ros__parameters": {
+                        "sail": {
+                            "boom_axial_load": 1e4
+                        },  # N; the Euler load of a 10 m boom is 148 N
+                        "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0],
+                        "diagnostics_rate_hz": 20.0,
+                    }
+                }
+            }
+        )
+    )
     sim = processes("sim", "--ros-args", "--params-file", str(params))
     # diagnostics go on in the error state (the states stop), so this needs no head start
-    error = operator.wait_for_status(lambda s: s["level"] == DiagnosticStatus.ERROR, 30.0,
-                                     "the ERROR diagnostic")
+    error = operator.wait_for_status(
+        lambda s: s["level"] == DiagnosticStatus.ERROR, 30.0, "the ERROR diagnostic"
+    )
     assert error["state"] == "error" and "non-finite" in error["message"]
     operator.spin_for(0.3)
     assert operator.status()["sim_time_s"] == error["sim_time_s"]  # stopped
     assert sim.process.poll() is None  # but up
 
-    request = SetParameters.Request(parameters=[
-        Parameter("initial_tip_deflection", value=[0.0, 0.0, 0.0, 0.0]).to_parameter_msg()])
+    request = SetParameters.Request(
+        parameters=[
+            Parameter("initial_tip_deflection", value=[0.0, 0.0, 0.0, 0.0]).to_parameter_msg()
+        ]
+    )
     assert operator.call(operator.set_parameters, request).results[0].successful
     assert operator.call(operator.reset, Trigger.Request()).success
     operator.spin_for(0.5)  # a flat sail stays flat, buckling or not
@@ -415,9 +304,14 @@ def test_non_finite_state_is_an_error_until_reset(processes, operator, tmp_path)
 def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     """`sail-ros demo`: both processes, the deployment, a clean stop and the summary."""
     output = tmp_path / "demo"
-    result = subprocess.run([sys.executable, "-m", "sail_ros.cli", "demo", "-o", str(output),
-                             "--time-scale", "5.0"], env=ros_env, capture_output=True,
-                            text=True, timeout=120, cwd=tmp_path)
+    result = subprocess.run(
+        [sys.executable, "-m", "sail_ros.cli", "demo", "-o", str(output), "--time-scale", "5.0"],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stdout + result.stderr
     lines = result.stdout.splitlines()
     assert "simulator and recorder stopped cleanly (exit code 0)" in lines

@@ -2,12 +2,12 @@
 and a client node in the same context talking to it over (loopback) DDS."""
 
 import math
-import os
 import time
 
 import numpy as np
 import pytest
 import rclpy
+from conftest import DOMAIN_ID
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, SetParameters
@@ -23,14 +23,13 @@ from sail_ros import topics
 from sail_ros.nodes.sim import RTF_MIN_WINDOW_S, SimNode, main
 from sail_ros.nodes.sim_params import SPECS, ConfigError
 
-DOMAIN_ID = 101 + os.getpid() % 50
+pytestmark = pytest.mark.node
 
 
 @pytest.fixture
 def ros(monkeypatch, tmp_path):
     """A private context on a test-private domain, localhost only; yields a factory
     `start(**parameters) -> (sim node, client node, spin_until)`."""
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path))
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=DOMAIN_ID)
@@ -67,12 +66,16 @@ class Client(Node):
     def __init__(self, context):
         super().__init__("sim_test_client", context=context)
         self.boom_states, self.clocks, self.diagnostics = [], [], []
-        self.create_subscription(JointState, topics.BOOM_STATE, self.boom_states.append,
-                                 topics.STATE_QOS)
+        self.create_subscription(
+            JointState, topics.BOOM_STATE, self.boom_states.append, topics.STATE_QOS
+        )
         self.create_subscription(Clock, topics.CLOCK, self.clocks.append, topics.CLOCK_QOS)
-        self.create_subscription(DiagnosticArray, topics.DIAGNOSTICS,
-                                 lambda m: self.diagnostics.append(topics.diagnostic_values(m)),
-                                 topics.DIAGNOSTICS_QOS)
+        self.create_subscription(
+            DiagnosticArray,
+            topics.DIAGNOSTICS,
+            lambda m: self.diagnostics.append(topics.diagnostic_values(m)),
+            topics.DIAGNOSTICS_QOS,
+        )
         self.describe = self.create_client(DescribeParameters, "/sail_sim/describe_parameters")
         self.set = self.create_client(SetParameters, "/sail_sim/set_parameters")
         self.reset = self.create_client(Trigger, topics.RESET_SERVICE)
@@ -115,8 +118,10 @@ def test_writable_parameters_are_validated_then_applied(ros):
         return call(spin_until, client.set, request).results[0]
 
     result = set_parameter("min_length", 20.0)  # the initial lengths (10 m) would be too short
-    assert not result.successful and "initial_lengths [10.0, 10.0, 10.0, 10.0] m must lie" in \
-        result.reason
+    assert (
+        not result.successful
+        and "initial_lengths [10.0, 10.0, 10.0, 10.0] m must lie" in result.reason
+    )
     result = set_parameter("time_scale", 2.0)
     assert not result.successful and "read-only" in result.reason
     result = set_parameter("max_rate", float("nan"))
@@ -143,8 +148,9 @@ def test_as_fast_as_possible_publishes_clock(ros):
 
 
 def test_pause_resume_and_reset(ros):
-    sim, client, spin_until = ros(initial_tip_deflection=[0.0, 0.05, 0.0, 0.0],
-                                  diagnostics_rate_hz=20.0)
+    sim, client, spin_until = ros(
+        initial_tip_deflection=[0.0, 0.05, 0.0, 0.0], diagnostics_rate_hz=20.0
+    )
     spin_until(lambda: sim.sim.t > 0.3, 5.0, "0.3 s of simulation")
     answer = call(spin_until, client.pause, SetBool.Request(data=True))
     assert answer.success and answer.message.startswith("paused at t = ")
@@ -164,9 +170,9 @@ def test_pause_resume_and_reset(ros):
     answer = call(spin_until, client.reset, Trigger.Request())
     assert answer.success and "reset to the initial state" in answer.message
     assert sim.sim.stepper.q == pytest.approx(
-        sim.sim.model.initial_coordinates([0, 0.05, 0, 0]), abs=1e-15)
+        sim.sim.model.initial_coordinates([0, 0.05, 0, 0]), abs=1e-15
+    )
     assert sim.sim.t >= held  # time goes on: stamps never go backwards
-
 
 
 def test_real_time_factor_is_not_taken_over_short_windows(ros):
@@ -174,17 +180,23 @@ def test_real_time_factor_is_not_taken_over_short_windows(ros):
     measurement; after a stall, the catch-up tick then made the next window a few
     milliseconds long and the factor tens of times time_scale."""
     sim, client, spin_until = ros(time_scale=2.0, diagnostics_rate_hz=4.0, shape_rate_hz=0.0)
-    spin_until(lambda: float(client.diagnostics[-1]["real_time_factor_window_s"]) > 0, 5.0,
-               "the first measurement")  # which starts a new window
+    spin_until(
+        lambda: float(client.diagnostics[-1]["real_time_factor_window_s"]) > 0,
+        5.0,
+        "the first measurement",
+    )  # which starts a new window
     seen = len(client.diagnostics)
     time.sleep(0.05)  # the executor stalls: the model falls 0.1 s behind
     sim._publish_diagnostics()  # as on pause/resume/reset
     behind = sim.sim.t
     spin_until(lambda: sim.sim.t >= behind + 0.09, 2.0, "the model to catch up")
     sim._publish_diagnostics()  # a few ms after the previous one
-    spin_until(lambda: float(client.diagnostics[-1]["sim_time_s"]) > behind + 1.2, 5.0,
-               "the next measurement")
-    statuses = client.diagnostics[seen - 1:]
+    spin_until(
+        lambda: float(client.diagnostics[-1]["sim_time_s"]) > behind + 1.2,
+        5.0,
+        "the next measurement",
+    )
+    statuses = client.diagnostics[seen - 1 :]
     assert len(statuses) >= 4
     assert len({status["real_time_factor_window_s"] for status in statuses}) >= 2
     for status in statuses:
@@ -203,9 +215,11 @@ def test_command_times_read_minus_one_when_there_is_none(ros):
     start = float(client.diagnostics[-1]["last_command_start_s"])
     assert 0.0 <= start < float(client.diagnostics[-1]["motion_end_s"])
     assert call(spin_until, client.reset, Trigger.Request()).success
-    spin_until(lambda: client.diagnostics[-1]["motion_end_s"] == "-1.0", 2.0,
-               "the status after the reset")  # the reset ended the motion...
+    spin_until(
+        lambda: client.diagnostics[-1]["motion_end_s"] == "-1.0", 2.0, "the status after the reset"
+    )  # the reset ended the motion...
     assert float(client.diagnostics[-1]["last_command_start_s"]) == start  # ...not its record
+
 
 def test_bad_parameter_values_stop_the_start(ros):
     with pytest.raises(ConfigError, match="parameter max_rate: .*out of range"):

@@ -18,6 +18,8 @@ from sail_ros.nodes.recorder import PARAMETERS_METADATA
 from sail_ros.nodes.sim_params import SPEC_BY_NAME, config_from_values
 from sail_ros.tools import deploy
 
+pytestmark = pytest.mark.model
+
 CONFIG = Path(__file__).resolve().parents[1] / "config"
 
 SHORT = """
@@ -43,8 +45,9 @@ def test_summary_prints_the_reference_table(capsys):
     assert deploy.main(["--summary"]) == 0
     out = capsys.readouterr().out
     assert "booms 10 m -> 15 m in 15 s (cycloidal), boom a tip 0.1 m at t = 0" in out
-    rows = [line.split() for line in out.splitlines() if line[:9].strip().replace(".", "")
-            .isdigit()]
+    rows = [
+        line.split() for line in out.splitlines() if line[:9].strip().replace(".", "").isdigit()
+    ]
     assert [float(r[0]) for r in rows] == list(np.arange(16.0))
     assert rows[0][1:] == ["10.000", "100.000", "0.000", "0.000", "0.000"]
     assert rows[-1][1] == "15.000"
@@ -52,8 +55,9 @@ def test_summary_prints_the_reference_table(capsys):
 
 
 def test_reference_file_is_the_built_in_reference():
-    assert load_scenario(CONFIG / "scenario_reference.yaml").document == \
-        reference_scenario().document
+    assert (
+        load_scenario(CONFIG / "scenario_reference.yaml").document == reference_scenario().document
+    )
 
 
 def test_every_shipped_scenario_loads():
@@ -67,16 +71,36 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
     scenario = tmp_path / "short.yaml"
     scenario.write_text(SHORT)
     log = tmp_path / "logs" / "short.mcap"
-    assert deploy.main(["--scenario", str(scenario), "--rate", "10", "--shape-rate", "2",
-                        "--mcap", str(log), "--figures", str(tmp_path / "fig"),
-                        "--summary"]) == 0
+    assert (
+        deploy.main(
+            [
+                "--scenario",
+                str(scenario),
+                "--rate",
+                "10",
+                "--shape-rate",
+                "2",
+                "--mcap",
+                str(log),
+                "--figures",
+                str(tmp_path / "fig"),
+                "--summary",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "short staggered test" in out and f"wrote {log}" in out
 
     bag = BagReader(log)
     counts = {name: info.message_count for name, info in bag.topics().items()}
-    assert counts == {topics.CLOCK: 21, topics.BOOM_STATE: 21, topics.MODAL_STATE: 21,
-                      topics.TIP_DEFLECTION: 21, topics.SHAPE: 5}
+    assert counts == {
+        topics.CLOCK: 21,
+        topics.BOOM_STATE: 21,
+        topics.MODAL_STATE: 21,
+        topics.TIP_DEFLECTION: 21,
+        topics.SHAPE: 5,
+    }
     metadata = dict(bag.metadata())
     parameters = metadata[PARAMETERS_METADATA]
     # the simulator's own names and value syntax: its validator accepts them
@@ -104,20 +128,37 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
         assert_png(tmp_path / "fig" / f"{name}.png")
 
 
-@pytest.mark.parametrize(("document", "message"), [
-    ("scenario: {duration: 1.0, profile: {type: spiral}}",
-     "scenario.profile.type must be one of cycloidal, waypoints, static, got 'spiral'"),
-    ("scenario: {duration: 1.0, profile: {type: cycloidal, start: 10, end: 11}}",
-     "scenario.profile (cycloidal) needs duration"),
-    ("scenario: {duration: 1.0, profile: {a: {type: static, lengths: 1.0}}}",
-     "one profile for each boom a, b, c, d"),
-    ("scenario: {duration: 1.0, profile: {type: static, lengths: 5.0}, "
-     "initial: {q0: {boom_e_mode_1: 1.0}}}", "unknown coordinate 'boom_e_mode_1'"),
-    ("scenario: {duration: 1.0, profile: {type: static, lengths: 5.0}, snapshots: [2.0]}",
-     "scenario.snapshots[0] = 2.0 s is outside [0, duration = 1 s]"),
-    ("scenario: {duration: -1.0, profile: {type: static, lengths: 5.0}}",
-     "scenario.duration must be > 0, got -1.0"),
-], ids=["type", "missing", "per-boom", "coordinate", "snapshot", "duration"])
+@pytest.mark.parametrize(
+    ("document", "message"),
+    [
+        (
+            "scenario: {duration: 1.0, profile: {type: spiral}}",
+            "scenario.profile.type must be one of cycloidal, waypoints, static, got 'spiral'",
+        ),
+        (
+            "scenario: {duration: 1.0, profile: {type: cycloidal, start: 10, end: 11}}",
+            "scenario.profile (cycloidal) needs duration",
+        ),
+        (
+            "scenario: {duration: 1.0, profile: {a: {type: static, lengths: 1.0}}}",
+            "one profile for each boom a, b, c, d",
+        ),
+        (
+            "scenario: {duration: 1.0, profile: {type: static, lengths: 5.0}, "
+            "initial: {q0: {boom_e_mode_1: 1.0}}}",
+            "unknown coordinate 'boom_e_mode_1'",
+        ),
+        (
+            "scenario: {duration: 1.0, profile: {type: static, lengths: 5.0}, snapshots: [2.0]}",
+            "scenario.snapshots[0] = 2.0 s is outside [0, duration = 1 s]",
+        ),
+        (
+            "scenario: {duration: -1.0, profile: {type: static, lengths: 5.0}}",
+            "scenario.duration must be > 0, got -1.0",
+        ),
+    ],
+    ids=["type", "missing", "per-boom", "coordinate", "snapshot", "duration"],
+)
 def test_scenario_errors_name_the_entry(tmp_path, capsys, document, message):
     path = tmp_path / "bad.yaml"
     path.write_text(document)

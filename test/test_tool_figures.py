@@ -7,6 +7,8 @@ from matplotlib.image import imread
 from sail_ros.plots.histories import equal_groups
 from sail_ros.plots.sail3d import exaggeration_for, true_box_height
 
+pytestmark = pytest.mark.model
+
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
@@ -34,11 +36,15 @@ def test_assert_png_rejects_a_blank_figure(tmp_path):
         assert_png(path)
 
 
-@pytest.mark.parametrize(("height", "extent", "expected"), [
-    (0.1, 15.0, 50.0),  # 0.35 * 15 / 0.1 = 52.5 -> 50
-    (1.0, 70.0, 20.0),  # 24.5 -> 20
-    (0.01, 10.0, 200.0),  # 350 -> 200
-], ids=["deploy", "full-size", "tiny"])
+@pytest.mark.parametrize(
+    ("height", "extent", "expected"),
+    [
+        (0.1, 15.0, 50.0),  # 0.35 * 15 / 0.1 = 52.5 -> 50
+        (1.0, 70.0, 20.0),  # 24.5 -> 20
+        (0.01, 10.0, 200.0),  # 350 -> 200
+    ],
+    ids=["deploy", "full-size", "tiny"],
+)
 def test_exaggeration_is_a_round_number_below_the_target(height, extent, expected):
     assert exaggeration_for(height, extent, fraction=0.35) == expected
 

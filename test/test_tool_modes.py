@@ -11,6 +11,8 @@ from sail_ros.analysis.modes import group_multiplicities, modal_analysis, repres
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.tools import modes
 
+pytestmark = pytest.mark.model
+
 
 def test_table_csv_and_json_agree_with_the_model(tmp_path, capsys):
     csv_path, json_path = tmp_path / "f.csv", tmp_path / "f.json"
@@ -37,8 +39,24 @@ def test_mode_shape_figure_is_a_real_picture(tmp_path):
 
 
 def test_three_d_view_and_unequal_lengths(tmp_path):
-    assert modes.main(["--lengths", "30", "50", "30", "50", "--figures", str(tmp_path),
-                       "--shapes", "2", "--view", "3d"]) == 0
+    assert (
+        modes.main(
+            [
+                "--lengths",
+                "30",
+                "50",
+                "30",
+                "50",
+                "--figures",
+                str(tmp_path),
+                "--shapes",
+                "2",
+                "--view",
+                "3d",
+            ]
+        )
+        == 0
+    )
     assert_png(tmp_path / "mode_shapes.png")
 
 
@@ -61,10 +79,36 @@ def test_fem_cross_check_converges_and_agrees_within_one_percent(tmp_path, capsy
     shows the finest settings (0.06 % at n_B = n_M = 20). At these settings the FE
     frequencies are converged to ~1e-5 and the modal ones lie within 0.2 % above."""
     path, fem_csv = tmp_path / "m.json", tmp_path / "fem.csv"
-    assert modes.main(["--fem", "--fem-level", "4", "4", "2", "--fem-level", "8", "8", "2",
-                       "--fem-level", "16", "16", "2", "--fem-modes", "4", "6",
-                       "--fem-modes", "10", "10", "--json", str(path),
-                       "--fem-csv", str(fem_csv)]) == 0
+    assert (
+        modes.main(
+            [
+                "--fem",
+                "--fem-level",
+                "4",
+                "4",
+                "2",
+                "--fem-level",
+                "8",
+                "8",
+                "2",
+                "--fem-level",
+                "16",
+                "16",
+                "2",
+                "--fem-modes",
+                "4",
+                "6",
+                "--fem-modes",
+                "10",
+                "10",
+                "--json",
+                str(path),
+                "--fem-csv",
+                str(fem_csv),
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "Difference (%)" in out and "FE mesh refinement" in out and "agree within 1 %" in out
     check = json.loads(path.read_text())["fem_cross_check"]
@@ -80,12 +124,16 @@ def test_fem_cross_check_converges_and_agrees_within_one_percent(tmp_path, capsy
     assert len(rows) == 6 and float(rows[0]["fem_rad_s"]) == pytest.approx(levels[-1][0])
 
 
-@pytest.mark.parametrize(("argv", "message"), [
-    (["--lengths", "10", "20"], "--lengths takes 1 or 4 values, got 2"),
-    (["--fem", "--lengths", "30", "50", "30", "50"], "--fem needs one length for all booms"),
-    (["--fem-csv", "x.csv"], "--fem-csv x.csv needs --fem"),
-    (["--set", "membrane_prestress=-1"], "membrane_prestress must be >= 0, got -1"),
-], ids=["lengths", "fem-unequal", "fem-csv", "bad-parameter"])
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--lengths", "10", "20"], "--lengths takes 1 or 4 values, got 2"),
+        (["--fem", "--lengths", "30", "50", "30", "50"], "--fem needs one length for all booms"),
+        (["--fem-csv", "x.csv"], "--fem-csv x.csv needs --fem"),
+        (["--set", "membrane_prestress=-1"], "membrane_prestress must be >= 0, got -1"),
+    ],
+    ids=["lengths", "fem-unequal", "fem-csv", "bad-parameter"],
+)
 def test_errors_name_the_option_and_value(argv, message, capsys):
     assert modes.main(argv) == 2
     assert message in capsys.readouterr().err

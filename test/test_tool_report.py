@@ -12,6 +12,8 @@ from sail_ros.bag import BagWriter
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.tools import deploy, report
 
+pytestmark = pytest.mark.model
+
 FIGURES = ("tip_deflections", "boom_lengths", "modal_energies")
 
 
@@ -77,25 +79,40 @@ def _live_style_log(path, params, count=30):
     epoch = 1_700_000_000_000_000_000
     q = model.mode_state("c", 0.02)
     with BagWriter(path) as bag:
-        for topic, kind in ((topics.BOOM_STATE, "sensor_msgs/msg/JointState"),
-                            (topics.MODAL_STATE, "sensor_msgs/msg/JointState"),
-                            (topics.TIP_DEFLECTION, "sensor_msgs/msg/JointState"),
-                            (topics.DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray")):
+        for topic, kind in (
+            (topics.BOOM_STATE, "sensor_msgs/msg/JointState"),
+            (topics.MODAL_STATE, "sensor_msgs/msg/JointState"),
+            (topics.TIP_DEFLECTION, "sensor_msgs/msg/JointState"),
+            (topics.DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray"),
+        ):
             bag.add_topic(topic, kind)
         for i in range(count):
             stamp = topics.stamp_ns(epoch, 0.1 * i)
             lengths, rates = np.full(4, 20.0), np.zeros(4)
             messages = [
                 (topics.BOOM_STATE, topics.boom_state(stamp, lengths, rates)),
-                (topics.MODAL_STATE, topics.modal_state(stamp, model.coordinate_names, q,
-                                                        0 * q)),
-                (topics.TIP_DEFLECTION, topics.tip_deflection(stamp, model.tip_deflections(q),
-                                                              np.zeros(4))),
+                (topics.MODAL_STATE, topics.modal_state(stamp, model.coordinate_names, q, 0 * q)),
+                (
+                    topics.TIP_DEFLECTION,
+                    topics.tip_deflection(stamp, model.tip_deflections(q), np.zeros(4)),
+                ),
             ]
             if i % 10 == 0:
-                messages.append((topics.DIAGNOSTICS, topics.diagnostics(
-                    stamp, "OK", "running", {"real_time_factor": 0.98 + 0.01 * i / 10,
-                                             "step_time_ms": 0.4, "sim_time_s": 0.1 * i})))
+                messages.append(
+                    (
+                        topics.DIAGNOSTICS,
+                        topics.diagnostics(
+                            stamp,
+                            "OK",
+                            "running",
+                            {
+                                "real_time_factor": 0.98 + 0.01 * i / 10,
+                                "step_time_ms": 0.4,
+                                "sim_time_s": 0.1 * i,
+                            },
+                        ),
+                    )
+                )
             for topic, message in messages:
                 bag.write(topic, serialize_message(message), log_time_ns=stamp)
 

@@ -19,6 +19,8 @@ from sail_ros.analysis.stability import (
 from sail_ros.model import SailParameters
 from sail_ros.tools import stability
 
+pytestmark = pytest.mark.model
+
 PARAMS = SailParameters()
 L = PARAMS.full_boom_length
 
@@ -26,9 +28,31 @@ L = PARAMS.full_boom_length
 def test_tool_finds_instability_in_retraction_and_none_at_rest(tmp_path, capsys):
     """Two worker processes over a small grid; CSVs and figures hold what they claim."""
     critical, grid = tmp_path / "critical.csv", tmp_path / "grid.csv"
-    assert stability.main(["--rates", "-0.1", "0", "0.1", "1", "--prestress", "1", "1e4",
-                           "--points", "9", "--jobs", "2", "--csv", str(critical),
-                           "--grid-csv", str(grid), "--figures", str(tmp_path)]) == 0
+    assert (
+        stability.main(
+            [
+                "--rates",
+                "-0.1",
+                "0",
+                "0.1",
+                "1",
+                "--prestress",
+                "1",
+                "1e4",
+                "--points",
+                "9",
+                "--jobs",
+                "2",
+                "--csv",
+                str(critical),
+                "--grid-csv",
+                str(grid),
+                "--figures",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "unstable at every prestress" in out and "stable at every prestress" in out
 
@@ -84,12 +108,16 @@ def test_serial_and_parallel_sweeps_agree():
         np.testing.assert_array_equal(a.max_real, b.max_real)
 
 
-@pytest.mark.parametrize(("argv", "message"), [
-    (["--prestress", "10", "1"], "--prestress needs 0 < MIN < MAX [Pa], got 10 1"),
-    (["--points", "1"], "--points must be >= 2, got 1"),
-    (["--jobs", "0", "--rates", "0.1"], "jobs must be >= 1, got 0"),
-    (["--lengths", "-5"], "lengths must be > 0 [m], got [-5.0]"),
-], ids=["range", "points", "jobs", "length"])
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--prestress", "10", "1"], "--prestress needs 0 < MIN < MAX [Pa], got 10 1"),
+        (["--points", "1"], "--points must be >= 2, got 1"),
+        (["--jobs", "0", "--rates", "0.1"], "jobs must be >= 1, got 0"),
+        (["--lengths", "-5"], "lengths must be > 0 [m], got [-5.0]"),
+    ],
+    ids=["range", "points", "jobs", "length"],
+)
 def test_errors_name_the_option_and_value(argv, message, capsys):
     assert stability.main(argv) == 2
     assert message in capsys.readouterr().err

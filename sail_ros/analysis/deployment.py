@@ -46,14 +46,27 @@ class DeploymentRun:
     def subset(self, mask) -> DeploymentRun:
         """The run at the output times selected by `mask` (boolean or indices)."""
         return dataclasses.replace(
-            self, t=self.t[mask], lengths=self.lengths[mask], rates=self.rates[mask],
-            q=self.q[mask], qd=self.qd[mask], tips=self.tips[mask],
-            tip_rates=self.tip_rates[mask])
+            self,
+            t=self.t[mask],
+            lengths=self.lengths[mask],
+            rates=self.rates[mask],
+            q=self.q[mask],
+            qd=self.qd[mask],
+            tips=self.tips[mask],
+            tip_rates=self.tip_rates[mask],
+        )
 
     def sample(self, i: int) -> StateSample:
         """The state at output time `i`."""
-        return StateSample(float(self.t[i]), self.lengths[i], self.rates[i], self.q[i], self.qd[i],
-                           self.tips[i], self.tip_rates[i])
+        return StateSample(
+            float(self.t[i]),
+            self.lengths[i],
+            self.rates[i],
+            self.q[i],
+            self.qd[i],
+            self.tips[i],
+            self.tip_rates[i],
+        )
 
     def index_of(self, t: float) -> int:
         """Index of the output time nearest to `t` [s]."""
@@ -73,8 +86,9 @@ def output_times(duration: float, rate_hz: float, extra=()) -> np.ndarray:
     return merged[(merged >= 0.0) & (merged <= duration)]
 
 
-def run_deployment(model: SailModel, scenario: Scenario, t_eval, max_step: float = 0.2,
-                   progress=None) -> DeploymentRun:
+def run_deployment(
+    model: SailModel, scenario: Scenario, t_eval, max_step: float = 0.2, progress=None
+) -> DeploymentRun:
     """Integrate the scenario and sample it at `t_eval` [s].
 
     Args:
@@ -86,11 +100,19 @@ def run_deployment(model: SailModel, scenario: Scenario, t_eval, max_step: float
     """
     q0, qd0 = scenario.initial_state(model)
     started = time.perf_counter()
-    t, q, qd = model.simulate(scenario.profile, scenario.duration, q0, qd0, t_eval=t_eval,
-                              progress=progress, max_step=max_step)
+    t, q, qd = model.simulate(
+        scenario.profile,
+        scenario.duration,
+        q0,
+        qd0,
+        t_eval=t_eval,
+        progress=progress,
+        max_step=max_step,
+    )
     wall = time.perf_counter() - started
     motion = [scenario.profile(ti) for ti in t]
     lengths = np.array([m[0] for m in motion], dtype=float)
     rates = np.array([m[1] for m in motion], dtype=float)
-    return DeploymentRun(t, lengths, rates, q, qd, model.tip_deflections(q),
-                         model.tip_deflections(qd), wall)
+    return DeploymentRun(
+        t, lengths, rates, q, qd, model.tip_deflections(q), model.tip_deflections(qd), wall
+    )

@@ -42,15 +42,23 @@ def group_energies(model: SailModel, lengths, q, qd) -> GroupEnergies:
     Args:
         model: the sail model the coordinates belong to.
         lengths: boom lengths [m], (k, 4).
-        q, qd: coordinates and velocities, (k, n).
+        q: coordinates [m], (k, n).
+        qd: velocities [m/s], (k, n).
     """
     lengths, q, qd = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (lengths, q, qd))
-    if not (lengths.shape[0] == q.shape[0] == qd.shape[0]) or q.shape[1] != model.n \
-            or qd.shape != q.shape or lengths.shape[1] != 4:
-        raise ValueError(f"need lengths (k, 4) and q, qd (k, {model.n}); got "
-                         f"{lengths.shape}, {q.shape}, {qd.shape}")
-    slices = [model.boom_slice(b) for b in BOOMS] + [model.membrane_slice(name)
-                                                     for name, _, _ in QUADRANTS]
+    if (
+        not (lengths.shape[0] == q.shape[0] == qd.shape[0])
+        or q.shape[1] != model.n
+        or qd.shape != q.shape
+        or lengths.shape[1] != 4
+    ):
+        raise ValueError(
+            f"need lengths (k, 4) and q, qd (k, {model.n}); got "
+            f"{lengths.shape}, {q.shape}, {qd.shape}"
+        )
+    slices = [model.boom_slice(b) for b in BOOMS] + [
+        model.membrane_slice(name) for name, _, _ in QUADRANTS
+    ]
     groups = np.empty((q.shape[0], len(slices)))
     total = np.empty(q.shape[0])
     last_key, M, K = None, None, None

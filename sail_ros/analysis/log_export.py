@@ -42,9 +42,16 @@ CHUNK_SECONDS = 1.0  # simulated time per MCAP chunk [s]
 LOGGED_TOPICS = (topics.CLOCK, *topics.STATE_TOPICS, topics.SHAPE)
 
 
-def simulator_parameters(model: SailModel, run: DeploymentRun, *, state_rate_hz: float,
-                         shape_rate_hz: float, max_step: float, shape_divisions: int,
-                         frame_id: str = topics.FRAME_ID) -> dict[str, str]:
+def simulator_parameters(
+    model: SailModel,
+    run: DeploymentRun,
+    *,
+    state_rate_hz: float,
+    shape_rate_hz: float,
+    max_step: float,
+    shape_divisions: int,
+    frame_id: str = topics.FRAME_ID,
+) -> dict[str, str]:
     """The run's settings under the simulator's parameter names, values as YAML text.
 
     `initial_lengths` and `initial_tip_deflection` are the lengths [m] and
@@ -55,16 +62,18 @@ def simulator_parameters(model: SailModel, run: DeploymentRun, *, state_rate_hz:
     run is.
     """
     values = topics.flat_sail_parameters(model.params)
-    values.update({
-        "initial_lengths": [float(v) for v in run.lengths[0]],
-        "initial_tip_deflection": [float(v) for v in run.tips[0]],
-        "state_rate_hz": float(state_rate_hz),
-        "shape_rate_hz": float(shape_rate_hz),
-        "integration_step": min(float(max_step), 1.0 / state_rate_hz),
-        "time_scale": 0.0,
-        "frame_id": frame_id,
-        "shape_divisions": int(shape_divisions),
-    })
+    values.update(
+        {
+            "initial_lengths": [float(v) for v in run.lengths[0]],
+            "initial_tip_deflection": [float(v) for v in run.tips[0]],
+            "state_rate_hz": float(state_rate_hz),
+            "shape_rate_hz": float(shape_rate_hz),
+            "integration_step": min(float(max_step), 1.0 / state_rate_hz),
+            "time_scale": 0.0,
+            "frame_id": frame_id,
+            "shape_divisions": int(shape_divisions),
+        }
+    )
     return {name: topics.yaml_value(value) for name, value in values.items()}
 
 
@@ -72,11 +81,18 @@ def _cdr(message, type_name: str) -> bytes:
     return trim_cdr(serialize_message(message), type_name)
 
 
-def write_deployment_log(path, model: SailModel, run: DeploymentRun, *,
-                         parameters: dict[str, str], scenario_document: dict,
-                         shape_every: int, shape_divisions: int,
-                         frame_id: str = topics.FRAME_ID,
-                         progress: Callable[[float], None] | None = None) -> list:
+def write_deployment_log(
+    path,
+    model: SailModel,
+    run: DeploymentRun,
+    *,
+    parameters: dict[str, str],
+    scenario_document: dict,
+    shape_every: int,
+    shape_divisions: int,
+    frame_id: str = topics.FRAME_ID,
+    progress: Callable[[float], None] | None = None,
+) -> list:
     """Write `run` to `path` (a `.mcap` file, replaced if present, or a bag folder).
 
     Args:
@@ -98,10 +114,13 @@ def write_deployment_log(path, model: SailModel, run: DeploymentRun, *,
     names = model.coordinate_names
     with BagWriter(path, overwrite=True, fsync=False) as bag:  # regenerable: no fsync cost
         bag.add_metadata(topics.PARAMETERS_METADATA, parameters)
-        bag.add_metadata(topics.SCENARIO_METADATA, {
-            "scenario": yaml.safe_dump(scenario_document, sort_keys=False),
-            "epoch_ns": str(LOG_EPOCH_NS),
-        })
+        bag.add_metadata(
+            topics.SCENARIO_METADATA,
+            {
+                "scenario": yaml.safe_dump(scenario_document, sort_keys=False),
+                "epoch_ns": str(LOG_EPOCH_NS),
+            },
+        )
         for name in LOGGED_TOPICS:
             if name != topics.SHAPE or shape_every:
                 topic = topics.TOPICS[name]
@@ -112,17 +131,23 @@ def write_deployment_log(path, model: SailModel, run: DeploymentRun, *,
                 bag.flush()
                 chunk_end = (t // CHUNK_SECONDS + 1) * CHUNK_SECONDS
             stamp = topics.stamp_ns(LOG_EPOCH_NS, float(t))
-            messages = topics.state_messages(stamp, run.sample(i), names, frame_id,
-                                             with_clock=True)
+            messages = topics.state_messages(stamp, run.sample(i), names, frame_id, with_clock=True)
             if shape_every and i % shape_every == 0:
                 vertices = surface.vertices(run.q[i], run.lengths[i])
                 booms = surface.boom_lines(run.q[i], run.lengths[i])
-                messages.append((topics.SHAPE, topics.shape(stamp, vertices, surface.triangles,
-                                                            booms, frame_id)))
+                messages.append(
+                    (
+                        topics.SHAPE,
+                        topics.shape(stamp, vertices, surface.triangles, booms, frame_id),
+                    )
+                )
             for topic, message in messages:
-                bag.write(topic, _cdr(message, topics.TOPICS[topic].type_name), log_time_ns=stamp,
-                          publish_time_ns=stamp)
+                bag.write(
+                    topic,
+                    _cdr(message, topics.TOPICS[topic].type_name),
+                    log_time_ns=stamp,
+                    publish_time_ns=stamp,
+                )
             if progress is not None:
                 progress(float(t))
     return bag.close()
-

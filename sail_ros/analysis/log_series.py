@@ -91,9 +91,11 @@ def _joint_series(messages) -> JointSeries | None:
     names = list(messages[0].name)
     kept = [m for m in messages if list(m.name) == names]  # a reset may not rename joints
     return JointSeries(
-        np.array([_stamp_ns(m.header) for m in kept], dtype=np.int64), names,
+        np.array([_stamp_ns(m.header) for m in kept], dtype=np.int64),
+        names,
         np.array([m.position for m in kept], dtype=float).reshape(len(kept), len(names)),
-        np.array([m.velocity for m in kept], dtype=float).reshape(len(kept), len(names)))
+        np.array([m.velocity for m in kept], dtype=float).reshape(len(kept), len(names)),
+    )
 
 
 def read_log(path) -> LogSeries:
@@ -120,22 +122,30 @@ def read_log(path) -> LogSeries:
     series = {topic: _joint_series(joints[topic]) for topic in STATE_TOPICS}
     present = [s for s in series.values() if s is not None]
     if not present:
-        raise ValueError(f"'{path}' holds none of {', '.join(STATE_TOPICS)}: not a sail "
-                         "simulator log, or cut before its first state message")
+        raise ValueError(
+            f"'{path}' holds none of {', '.join(STATE_TOPICS)}: not a sail "
+            "simulator log, or cut before its first state message"
+        )
     status = _diagnostics(diagnostics)
     if epoch_ns is None and status is not None:
         epoch_ns = _epoch_from_diagnostics(*status)
     first = min(int(s.stamp_ns[0]) for s in present)
     return LogSeries(
-        path=Path(path), incomplete=reader.incomplete_files, topic_counts=counts,
-        parameters=parameters, origin_ns=first if epoch_ns is None else epoch_ns,
-        simulation_time=epoch_ns is not None, boom=series[topics.BOOM_STATE],
-        tips=series[topics.TIP_DEFLECTION], modal=series[topics.MODAL_STATE],
-        diagnostics=status)
+        path=Path(path),
+        incomplete=reader.incomplete_files,
+        topic_counts=counts,
+        parameters=parameters,
+        origin_ns=first if epoch_ns is None else epoch_ns,
+        simulation_time=epoch_ns is not None,
+        boom=series[topics.BOOM_STATE],
+        tips=series[topics.TIP_DEFLECTION],
+        modal=series[topics.MODAL_STATE],
+        diagnostics=status,
+    )
 
 
 def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) -> int | None:
-    """stamp - sim_time_s of the first /diagnostics message that has both (the
+    """Stamp - sim_time_s of the first /diagnostics message that has both (the
     simulator stamps its status with the simulation time of the state)."""
     for stamp, text in zip(stamps, values.get("sim_time_s", []), strict=False):
         try:
@@ -156,5 +166,7 @@ def _diagnostics(arrays: list[DiagnosticArray]):
         return None
     order = np.argsort(stamps, kind="stable")
     keys = sorted({key for pairs in values for key in pairs})
-    return (np.asarray(stamps, dtype=np.int64)[order],
-            {key: [values[i].get(key, "") for i in order] for key in keys})
+    return (
+        np.asarray(stamps, dtype=np.int64)[order],
+        {key: [values[i].get(key, "") for i in order] for key in keys},
+    )

@@ -81,7 +81,7 @@ def representative_shapes(model: SailModel, modes: Modes, count: int):
     tip_a = model.tip_deflections(np.eye(model.n))[:, 0]  # psi(1)^T p_a as a row
     shapes = []
     for number, (first, multiplicity) in enumerate(modes.groups[:count], start=1):
-        basis = modes.vectors[:, first:first + multiplicity]
+        basis = modes.vectors[:, first : first + multiplicity]
         weights = tip_a @ basis
         if np.linalg.norm(weights) <= 1e-9 * np.abs(tip_a).max() * np.abs(basis).max():
             row = int(np.argmax(np.linalg.norm(basis, axis=1)))
@@ -122,8 +122,7 @@ class CrossCheck:
         return 100.0 * (self.modal - self.fem) / self.fem
 
 
-def fem_cross_check(params: SailParameters, fem_levels, modal_counts, count: int = 6
-                    ) -> CrossCheck:
+def fem_cross_check(params: SailParameters, fem_levels, modal_counts, count: int = 6) -> CrossCheck:
     """Lowest `count` frequencies of the fully deployed sail from both models.
 
     Args:

@@ -130,38 +130,54 @@ def scenario_from_dict(document) -> Scenario:
     _known(initial, {"mode_state", "q0", "qd0"}, "scenario.initial")
     modes = initial.get("mode_state") or {}
     if not isinstance(modes, dict):
-        raise ValueError(f"scenario.initial.mode_state must map booms (a, b, c, d) to tip "
-                         f"deflections [m], got {modes!r}")
+        raise ValueError(
+            f"scenario.initial.mode_state must map booms (a, b, c, d) to tip "
+            f"deflections [m], got {modes!r}"
+        )
     for boom, tip in modes.items():
         if boom not in BOOMS:
-            raise ValueError(f"scenario.initial.mode_state: boom must be one of a, b, c, d, "
-                             f"got {boom!r}")
+            raise ValueError(
+                f"scenario.initial.mode_state: boom must be one of a, b, c, d, got {boom!r}"
+            )
         _finite(tip, f"scenario.initial.mode_state.{boom}")
     snapshots = body.get("snapshots", np.linspace(0.0, duration, 6).tolist())
     if not isinstance(snapshots, list) or not snapshots:
-        raise ValueError(f"scenario.snapshots must be a non-empty list of times [s], "
-                         f"got {snapshots!r}")
+        raise ValueError(
+            f"scenario.snapshots must be a non-empty list of times [s], got {snapshots!r}"
+        )
     for i, t in enumerate(snapshots):
         _finite(t, f"scenario.snapshots[{i}]")
         if not 0.0 <= t <= duration:
-            raise ValueError(f"scenario.snapshots[{i}] = {t!r} s is outside [0, duration = "
-                             f"{duration:g} s]")
+            raise ValueError(
+                f"scenario.snapshots[{i}] = {t!r} s is outside [0, duration = {duration:g} s]"
+            )
     sail = document.get("sail") or {}
     if not isinstance(sail, dict):
         raise ValueError(f"sail must be a mapping of SailParameters fields, got {sail!r}")
-    return Scenario(str(body.get("description", "")), duration, profile, dict(initial),
-                    tuple(float(t) for t in snapshots), dict(sail), document)
+    return Scenario(
+        str(body.get("description", "")),
+        duration,
+        profile,
+        dict(initial),
+        tuple(float(t) for t in snapshots),
+        dict(sail),
+        document,
+    )
 
 
 def _motion(spec, where: str):
     if not isinstance(spec, dict):
-        raise ValueError(f"{where} must be a mapping (type: cycloidal | waypoints | static, "
-                         f"or one profile per boom a, b, c, d), got {spec!r}")
+        raise ValueError(
+            f"{where} must be a mapping (type: cycloidal | waypoints | static, "
+            f"or one profile per boom a, b, c, d), got {spec!r}"
+        )
     if "type" in spec:
         return _profile(spec, where)
     if set(spec) != set(BOOMS):
-        raise ValueError(f"{where} needs 'type', or one profile for each boom a, b, c, d; "
-                         f"got keys {sorted(spec)}")
+        raise ValueError(
+            f"{where} needs 'type', or one profile for each boom a, b, c, d; "
+            f"got keys {sorted(spec)}"
+        )
     return BoomMotion(_profile(spec[boom], f"{where}.{boom}") for boom in BOOMS)
 
 
@@ -195,23 +211,29 @@ def _coordinates(spec, model: SailModel, where: str) -> np.ndarray:
         names = model.coordinate_names
         for name, value in spec.items():
             if name not in names:
-                raise ValueError(f"{where}: unknown coordinate {name!r}; coordinates are "
-                                 f"{names[0]} ... {names[-1]} (SailModel.coordinate_names)")
+                raise ValueError(
+                    f"{where}: unknown coordinate {name!r}; coordinates are "
+                    f"{names[0]} ... {names[-1]} (SailModel.coordinate_names)"
+                )
             values[names.index(name)] = _finite(value, f"{where}.{name}")
         return values
     array = np.asarray(spec, dtype=float)
     if array.shape != (model.n,) or not np.all(np.isfinite(array)):
-        raise ValueError(f"{where} must be a mapping of coordinate names or {model.n} finite "
-                         f"values (n_B = {model.n_boom_modes}, n_M = {model.n_membrane_modes}), "
-                         f"got {len(spec) if hasattr(spec, '__len__') else spec!r} values")
+        raise ValueError(
+            f"{where} must be a mapping of coordinate names or {model.n} finite "
+            f"values (n_B = {model.n_boom_modes}, n_M = {model.n_membrane_modes}), "
+            f"got {len(spec) if hasattr(spec, '__len__') else spec!r} values"
+        )
     return array
 
 
 def _known(mapping: dict, allowed: set, where: str) -> None:
     unknown = sorted(set(mapping) - allowed)
     if unknown:
-        raise ValueError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; "
-                         f"known: {', '.join(sorted(allowed))}")
+        raise ValueError(
+            f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; "
+            f"known: {', '.join(sorted(allowed))}"
+        )
 
 
 def _finite(value, where: str) -> float:

@@ -47,8 +47,9 @@ UNSTABLE = "unstable"  # unstable at every prestress of the grid
 CRITICAL = "critical"  # unstable below the critical prestress, stable above it
 
 
-def frozen_eigenvalues(params: SailParameters, length: float, rate: float,
-                       prestress: float) -> np.ndarray:
+def frozen_eigenvalues(
+    params: SailParameters, length: float, rate: float, prestress: float
+) -> np.ndarray:
     """Eigenvalues [1/s] of Eq. 3 at boom length `length` [m] (all booms),
     constant rate `rate` [m/s] and membrane prestress `prestress` [Pa]."""
     model = SailModel(params.replace(membrane_prestress=prestress))
@@ -99,8 +100,9 @@ class PrestressSweep:
         return self.max_real > INSTABILITY_RTOL * self.max_abs
 
 
-def critical_prestress(params, length, rate, low: float, high: float,
-                       rtol: float = BISECTION_RTOL) -> float:
+def critical_prestress(
+    params, length, rate, low: float, high: float, rtol: float = BISECTION_RTOL
+) -> float:
     """Bisect (in log prestress) a bracket with `low` [Pa] unstable and `high`
     [Pa] stable down to `high / low <= 1 + rtol`; returns the bracket's middle [Pa]."""
     while high / low > 1.0 + rtol:
@@ -112,8 +114,9 @@ def critical_prestress(params, length, rate, low: float, high: float,
     return math.sqrt(low * high)
 
 
-def prestress_sweep(params: SailParameters, length: float, rate: float,
-                    prestresses: Sequence[float]) -> PrestressSweep:
+def prestress_sweep(
+    params: SailParameters, length: float, rate: float, prestresses: Sequence[float]
+) -> PrestressSweep:
     """Max Re over `prestresses` [Pa] at `length` [m] and `rate` [m/s], and the
     critical prestress bracketed on the grid and bisected."""
     prestresses = np.asarray(prestresses, dtype=float)
@@ -128,10 +131,19 @@ def prestress_sweep(params: SailParameters, length: float, rate: float,
     else:
         last = int(np.flatnonzero(unstable)[-1])
         status = CRITICAL
-        critical = critical_prestress(params, length, rate, prestresses[last],
-                                      prestresses[last + 1])
-    return PrestressSweep(float(length), float(rate), prestresses, max_real, max_abs, status,
-                          critical, monotone=changes <= 1)
+        critical = critical_prestress(
+            params, length, rate, prestresses[last], prestresses[last + 1]
+        )
+    return PrestressSweep(
+        float(length),
+        float(rate),
+        prestresses,
+        max_real,
+        max_abs,
+        status,
+        critical,
+        monotone=changes <= 1,
+    )
 
 
 def _sweep_task(task):
@@ -139,9 +151,14 @@ def _sweep_task(task):
     return prestress_sweep(SailParameters(**params_dict), length, rate, prestresses)
 
 
-def stability_sweep(params: SailParameters, lengths: Sequence[float], rates: Sequence[float],
-                    prestresses: Sequence[float], jobs: int | None = None,
-                    progress: Callable[[int], None] | None = None) -> list[PrestressSweep]:
+def stability_sweep(
+    params: SailParameters,
+    lengths: Sequence[float],
+    rates: Sequence[float],
+    prestresses: Sequence[float],
+    jobs: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> list[PrestressSweep]:
     """`prestress_sweep` for every (length, rate), in parallel processes.
 
     Args:
@@ -156,10 +173,15 @@ def stability_sweep(params: SailParameters, lengths: Sequence[float], rates: Seq
         one sweep per (length, rate), lengths outer, in the order given.
     """
     prestresses = np.asarray(prestresses, dtype=float)
-    if prestresses.ndim != 1 or prestresses.size < 2 or np.any(prestresses <= 0) or \
-            np.any(np.diff(prestresses) <= 0):
-        raise ValueError(f"prestresses must be >= 2 increasing values > 0 [Pa], "
-                         f"got {prestresses.tolist()!r}")
+    if (
+        prestresses.ndim != 1
+        or prestresses.size < 2
+        or np.any(prestresses <= 0)
+        or np.any(np.diff(prestresses) <= 0)
+    ):
+        raise ValueError(
+            f"prestresses must be >= 2 increasing values > 0 [Pa], got {prestresses.tolist()!r}"
+        )
     for name, values in (("lengths", lengths), ("rates", rates)):
         if len(values) == 0 or not np.all(np.isfinite(values)):
             raise ValueError(f"{name} must be one or more finite values, got {list(values)!r}")
@@ -169,8 +191,11 @@ def stability_sweep(params: SailParameters, lengths: Sequence[float], rates: Seq
         jobs = os.cpu_count() or 1
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs!r}")
-    tasks = [(params.to_dict(), float(length), float(rate), prestresses)
-             for length in lengths for rate in rates]
+    tasks = [
+        (params.to_dict(), float(length), float(rate), prestresses)
+        for length in lengths
+        for rate in rates
+    ]
     results: list[PrestressSweep | None] = [None] * len(tasks)
     if jobs == 1 or len(tasks) == 1:
         for index, task in enumerate(tasks):
@@ -187,7 +212,8 @@ def stability_sweep(params: SailParameters, lengths: Sequence[float], rates: Seq
     return results
 
 
-def eigenvalue_loci(params: SailParameters, length: float, rate: float,
-                    prestresses: Sequence[float]) -> list[np.ndarray]:
+def eigenvalue_loci(
+    params: SailParameters, length: float, rate: float, prestresses: Sequence[float]
+) -> list[np.ndarray]:
     """All eigenvalues [1/s] of Eq. 3 at each prestress [Pa] (one array each)."""
     return [frozen_eigenvalues(params, length, rate, s) for s in prestresses]

@@ -27,8 +27,21 @@ SEPARATOR = "=" * 80
 # reduced to `string` before the lookup)
 PRIMITIVE_TYPES = frozenset(
     {
-        "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16",
-        "int32", "uint32", "int64", "uint64", "string", "wstring",
+        "bool",
+        "byte",
+        "char",
+        "float32",
+        "float64",
+        "int8",
+        "uint8",
+        "int16",
+        "uint16",
+        "int32",
+        "uint32",
+        "int64",
+        "uint64",
+        "string",
+        "wstring",
     }
 )
 
@@ -120,8 +133,9 @@ def _message_definition(type_name: str, prefixes: tuple[Path, ...]) -> MessageDe
         return MessageDefinition("ros2idl", root + _append_idl(type_name, prefixes, set(), 0))
     package, namespace, name = split_type_name(type_name)
     # the root is named as in its own file; dependencies as written in .msg fields
-    return MessageDefinition("ros2msg", _append_msg(f"{package}/{name}", namespace, prefixes,
-                                                    set(), 0))
+    return MessageDefinition(
+        "ros2msg", _append_msg(f"{package}/{name}", namespace, prefixes, set(), 0)
+    )
 
 
 def _append_msg(name: str, namespace: str, prefixes, seen: set[str], depth: int) -> str:

@@ -61,6 +61,16 @@ class TopicInfo(NamedTuple):
     message_count: int
 
 
+def _bag_message(channel: Channel, schema: Schema | None, message: Message) -> BagMessage:
+    return BagMessage(
+        channel.topic,
+        schema.name if schema else "",
+        message.data,
+        message.log_time,
+        message.publish_time,
+    )
+
+
 def bag_files(path: str | Path) -> list[Path]:
     """The MCAP files of a bag: `path` itself, or a folder's `*.mcap` in index order.
 
@@ -135,8 +145,9 @@ class _McapFile:
                 raise ValueError(f"'{path}' is not an MCAP file")
             profile = _header_profile(stream, path)
             if profile != "ros2":
-                raise ValueError(f"'{path}' is not a ROS 2 recording: MCAP profile "
-                                 f"{profile!r}, expected 'ros2'")
+                raise ValueError(
+                    f"'{path}' is not a ROS 2 recording: MCAP profile {profile!r}, expected 'ros2'"
+                )
             self.summary = _summary_or_none(stream)
         self._scan: tuple[list[TopicInfo], list[tuple[str, dict]]] | None = None
         self._warned = False  # about an incomplete file, once
@@ -146,16 +157,21 @@ class _McapFile:
             return self._scanned()[0]
         statistics = self.summary.statistics
         counts = statistics.channel_message_counts if statistics else {}
-        return [_topic_info(channel, self.summary.schemas.get(channel.schema_id),
-                            counts.get(channel.id, 0))
-                for channel in self.summary.channels.values()]
+        return [
+            _topic_info(
+                channel, self.summary.schemas.get(channel.schema_id), counts.get(channel.id, 0)
+            )
+            for channel in self.summary.channels.values()
+        ]
 
     def metadata(self) -> list[tuple[str, dict[str, str]]]:
         if self.summary is None:
             return self._scanned()[1]
         with self.path.open("rb") as stream:
-            return [(record.name, dict(record.metadata))
-                    for record in SeekingReader(stream).iter_metadata()]
+            return [
+                (record.name, dict(record.metadata))
+                for record in SeekingReader(stream).iter_metadata()
+            ]
 
     def messages(self, wanted: set[str] | None) -> Iterator[BagMessage]:
         if self.summary is None:
@@ -163,9 +179,9 @@ class _McapFile:
             return
         with self.path.open("rb") as stream:
             for schema, channel, message in SeekingReader(stream).iter_messages(
-                    topics=wanted, log_time_order=True):
-                yield BagMessage(channel.topic, schema.name if schema else "", message.data,
-                                 message.log_time, message.publish_time)
+                topics=wanted, log_time_order=True
+            ):
+                yield _bag_message(channel, schema, message)
 
     def _scanned(self) -> tuple[list[TopicInfo], list[tuple[str, dict]]]:
         """Topics (with counts) and metadata of an incomplete file, from one pass."""
@@ -183,8 +199,10 @@ class _McapFile:
                     counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
                 elif isinstance(record, Metadata):
                     metadata.append((record.name, dict(record.metadata)))
-            topics = [_topic_info(channel, schemas.get(channel.schema_id), counts.get(cid, 0))
-                      for cid, channel in channels.items()]
+            topics = [
+                _topic_info(channel, schemas.get(channel.schema_id), counts.get(cid, 0))
+                for cid, channel in channels.items()
+            ]
             self._scan = (topics, metadata)
         return self._scan
 
@@ -200,9 +218,7 @@ class _McapFile:
                 channel = channels.get(record.channel_id)
                 if channel is None or (wanted is not None and channel.topic not in wanted):
                     continue
-                schema = schemas.get(channel.schema_id)
-                yield BagMessage(channel.topic, schema.name if schema else "", record.data,
-                                 record.log_time, record.publish_time)
+                yield _bag_message(channel, schemas.get(channel.schema_id), record)
 
     def _records(self) -> Iterator:
         """The records of an incomplete file up to its last complete one, chunks opened."""
@@ -224,8 +240,12 @@ class _McapFile:
                 yield record
             if end < size and not self._warned:
                 self._warned = True
-                _log.warning("'%s' is incomplete: read %d of %d bytes (up to its last complete "
-                             "record)", self.path, end, size)
+                _log.warning(
+                    "'%s' is incomplete: read %d of %d bytes (up to its last complete record)",
+                    self.path,
+                    end,
+                    size,
+                )
 
 
 class _Prefix(io.RawIOBase):
@@ -293,5 +313,8 @@ def _topic_info(channel: Channel, schema: Schema | None, count: int) -> TopicInf
 def _index_order(path: Path) -> tuple:
     """`name_10.mcap` after `name_9.mcap`."""
     match = re.search(r"_(\d+)$", path.stem)
-    return (path.stem[: match.start()] if match else path.stem,
-            int(match.group(1)) if match else -1, path.name)
+    return (
+        path.stem[: match.start()] if match else path.stem,
+        int(match.group(1)) if match else -1,
+        path.name,
+    )

@@ -83,12 +83,15 @@ class BagWriter:
         _check_number("max_chunk_duration_s", max_chunk_duration_s, minimum=0.0, exclusive=True)
         _check_number("max_file_size_bytes", max_file_size_bytes, minimum=0, integer=True)
         if 0 < max_file_size_bytes < MIN_FILE_SIZE_BYTES:
-            raise ValueError(f"max_file_size_bytes must be 0 (no split) or >= "
-                             f"{MIN_FILE_SIZE_BYTES}, got {max_file_size_bytes!r}")
+            raise ValueError(
+                f"max_file_size_bytes must be 0 (no split) or >= "
+                f"{MIN_FILE_SIZE_BYTES}, got {max_file_size_bytes!r}"
+            )
         _check_number("max_file_duration_s", max_file_duration_s, minimum=0.0)
         if self._single_file and (max_file_size_bytes or max_file_duration_s):
-            raise ValueError(f"splitting files needs a folder as output, got the file "
-                             f"path {str(self._path)!r}")
+            raise ValueError(
+                f"splitting files needs a folder as output, got the file path {str(self._path)!r}"
+            )
         self._compression = compression
         self._chunk_size = chunk_size
         self._max_chunk_duration_s = max_chunk_duration_s
@@ -256,8 +259,9 @@ class BagWriter:
         self._finish_file()
         if not self._single_file:
             metadata = bag_metadata(list(self._topics.values()), self._files, self._ros_distro)
-            self._attempt(guarded, self._path / "metadata.yaml", write_metadata_yaml,
-                          self._path, metadata)
+            self._attempt(
+                guarded, self._path / "metadata.yaml", write_metadata_yaml, self._path, metadata
+            )
         return list(self._files)
 
     def __enter__(self) -> BagWriter:

@@ -40,14 +40,18 @@ def hermite_shapes(t: np.ndarray, h: float, derivative: int) -> np.ndarray:
     """
     t2, t3 = t * t, t * t * t
     if derivative == 0:
-        return np.stack([1 - 3 * t2 + 2 * t3, h * (t - 2 * t2 + t3), 3 * t2 - 2 * t3,
-                         h * (t3 - t2)], axis=-1)
+        return np.stack(
+            [1 - 3 * t2 + 2 * t3, h * (t - 2 * t2 + t3), 3 * t2 - 2 * t3, h * (t3 - t2)], axis=-1
+        )
     if derivative == 1:
-        return np.stack([(6 * t2 - 6 * t) / h, 1 - 4 * t + 3 * t2, (6 * t - 6 * t2) / h,
-                         3 * t2 - 2 * t], axis=-1)
+        return np.stack(
+            [(6 * t2 - 6 * t) / h, 1 - 4 * t + 3 * t2, (6 * t - 6 * t2) / h, 3 * t2 - 2 * t],
+            axis=-1,
+        )
     if derivative == 2:
-        return np.stack([(12 * t - 6) / h**2, (6 * t - 4) / h, (6 - 12 * t) / h**2,
-                         (6 * t - 2) / h], axis=-1)
+        return np.stack(
+            [(12 * t - 6) / h**2, (6 * t - 4) / h, (6 - 12 * t) / h**2, (6 * t - 2) / h], axis=-1
+        )
     raise ValueError(f"derivative must be 0, 1 or 2, got {derivative!r}")
 
 
@@ -90,8 +94,7 @@ class HermiteBoom:
         cols = 2 * element[:, None] + np.arange(4) - 2
         rows = np.broadcast_to(np.arange(s.size)[:, None], cols.shape)
         kept = cols >= 0
-        return sp.csr_matrix((shapes[kept], (rows[kept], cols[kept])),
-                             shape=(s.size, self.n_dofs))
+        return sp.csr_matrix((shapes[kept], (rows[kept], cols[kept])), shape=(s.size, self.n_dofs))
 
     def quadrature(self) -> tuple[np.ndarray, np.ndarray]:
         """Gauss points [m] and weights [m] over the whole boom, exact to degree 7."""
@@ -100,8 +103,9 @@ class HermiteBoom:
         s = (np.arange(self.n_elements)[:, None] + (nodes + 1) / 2) * h
         return s.ravel(), np.tile(weights * h / 2, self.n_elements)
 
-    def matrices(self, linear_density: float, bending_stiffness: float,
-                 axial_load: float = 0.0) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    def matrices(
+        self, linear_density: float, bending_stiffness: float, axial_load: float = 0.0
+    ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """Consistent mass and stiffness of the boom.
 
             M = rho_B int N N^T ds                           [kg]

@@ -61,7 +61,8 @@ def check_mesh(boom_elements: int, divisions: int, order: int) -> None:
     if divisions % boom_elements:
         raise ValueError(
             f"membrane divisions ({divisions}) must be a multiple of the boom elements "
-            f"({boom_elements}) so that each triangle lies in one boom element")
+            f"({boom_elements}) so that each triangle lies in one boom element"
+        )
 
 
 def quadrant_mesh(length: float, divisions: int) -> MeshTri:
@@ -83,10 +84,12 @@ def quadrant_mesh(length: float, divisions: int) -> MeshTri:
     upper = ci + cj <= n - 2
     a, b = ci[lower], cj[lower]
     c, d = ci[upper], cj[upper]
-    triangles = np.hstack([
-        np.stack([index[a, b], index[a + 1, b], index[a, b + 1]]),
-        np.stack([index[c + 1, d], index[c + 1, d + 1], index[c, d + 1]]),
-    ])
+    triangles = np.hstack(
+        [
+            np.stack([index[a, b], index[a + 1, b], index[a, b + 1]]),
+            np.stack([index[c + 1, d], index[c + 1, d + 1], index[c, d + 1]]),
+        ]
+    )
     return MeshTri(points, triangles)
 
 
@@ -124,14 +127,16 @@ class QuadrantFE:
 
         # membrane basis at the quadrature points, rows ordered (element, point)
         n_points = basis.dx.size
-        rows = np.broadcast_to(np.arange(n_points).reshape(basis.dx.shape),
-                               (basis.Nbfun, *basis.dx.shape))
+        rows = np.broadcast_to(
+            np.arange(n_points).reshape(basis.dx.shape), (basis.Nbfun, *basis.dx.shape)
+        )
         cols = np.broadcast_to(interior[basis.element_dofs][:, :, None], rows.shape)
         kept = cols >= 0
 
         def membrane_rows(data: np.ndarray) -> sp.csr_matrix:
-            return sp.csr_matrix((data[kept], (rows[kept], cols[kept])),
-                                 shape=(n_points, free.size))
+            return sp.csr_matrix(
+                (data[kept], (rows[kept], cols[kept])), shape=(n_points, free.size)
+            )
 
         fields = [basis.basis[i][0] for i in range(basis.Nbfun)]
         Nv = membrane_rows(np.stack([np.asarray(f) for f in fields]))

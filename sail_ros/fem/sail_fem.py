@@ -46,8 +46,12 @@ def _factorize(A: sp.spmatrix) -> sp.linalg.SuperLU:
     keeps the factor small (SuperLU's default column ordering fills the
     strips that couple each boom to its two quadrants some 10 times more).
     """
-    return sp.linalg.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                          options={"SymmetricMode": True})
+    return sp.linalg.splu(
+        A.tocsc(),
+        permc_spec="MMD_AT_PLUS_A",
+        diag_pivot_thresh=0.1,
+        options={"SymmetricMode": True},
+    )
 
 
 def _scatter(block: sp.spmatrix, index: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -79,14 +83,20 @@ class SailFEM:
           many zero frequencies; rejected with ValueError.
     """
 
-    def __init__(self, params: SailParameters, boom_elements: int = 32,
-                 membrane_divisions: int = 64, membrane_order: int = 2):
+    def __init__(
+        self,
+        params: SailParameters,
+        boom_elements: int = 32,
+        membrane_divisions: int = 64,
+        membrane_order: int = 2,
+    ):
         HermiteBoom(1.0, boom_elements)  # validates the element count
         check_mesh(boom_elements, membrane_divisions, membrane_order)
         if params.membrane_tension == 0 and params.membrane_areal_density > 0:
             raise ValueError(
                 "membrane prestress 0 with non-zero membrane density: the slack "
-                "membrane has no stiffness (all its frequencies are zero)")
+                "membrane has no stiffness (all its frequencies are zero)"
+            )
         self.params = params
         self.boom_elements = boom_elements
         self.membrane_divisions = membrane_divisions
@@ -120,9 +130,11 @@ class SailFEM:
         booms = f"4 x {self.boom_elements} Hermite beam elements"
         if not self.has_membrane:
             return f"{booms}, no membrane ({self.n_dofs} DOFs)"
-        return (f"{booms}, 4 x {self.membrane_divisions**2} P{self.membrane_order} "
-                f"triangles ({4 * self.n_membrane_dofs} membrane DOFs, "
-                f"{self.n_dofs} in all)")
+        return (
+            f"{booms}, 4 x {self.membrane_divisions**2} P{self.membrane_order} "
+            f"triangles ({4 * self.n_membrane_dofs} membrane DOFs, "
+            f"{self.n_dofs} in all)"
+        )
 
     # matrices ----------------------------------------------------------
     def _length(self, length: float | None) -> float:
@@ -144,8 +156,9 @@ class SailFEM:
         boom = HermiteBoom(L, self.boom_elements)
         nb, nm = self.n_boom_dofs, self.n_membrane_dofs
         boom_dofs = [k * nb + np.arange(nb) for k in range(4)]
-        M_boom, K_boom = boom.matrices(p.boom_linear_density, p.boom_bending_stiffness,
-                                       p.boom_axial_load)
+        M_boom, K_boom = boom.matrices(
+            p.boom_linear_density, p.boom_bending_stiffness, p.boom_axial_load
+        )
         mass = [_scatter(M_boom, dofs) for dofs in boom_dofs]
         stiffness = [_scatter(K_boom, dofs) for dofs in boom_dofs]
         if self.has_membrane:
@@ -153,8 +166,9 @@ class SailFEM:
             M_q = p.membrane_areal_density * quadrant.area_integral
             K_q = p.membrane_tension * quadrant.gradient_integral
             for q, (first, second) in enumerate(QUADRANT_BOOMS):
-                dofs = np.concatenate([boom_dofs[first], boom_dofs[second],
-                                       4 * nb + q * nm + np.arange(nm)])
+                dofs = np.concatenate(
+                    [boom_dofs[first], boom_dofs[second], 4 * nb + q * nm + np.arange(nm)]
+                )
                 mass.append(_scatter(M_q, dofs))
                 stiffness.append(_scatter(K_q, dofs))
 
@@ -198,16 +212,18 @@ class SailFEM:
         n = M.shape[0]
         k = min(k, n)
         if k + EIGEN_MARGIN >= n:
-            return scipy.linalg.eigh(K.toarray(), M.toarray(), eigvals_only=True,
-                                     subset_by_index=[0, k - 1])
-        K_inverse = sp.linalg.LinearOperator(K.shape, matvec=_factorize(K).solve,
-                                             dtype=float)
+            return scipy.linalg.eigh(
+                K.toarray(), M.toarray(), eigvals_only=True, subset_by_index=[0, k - 1]
+            )
+        K_inverse = sp.linalg.LinearOperator(K.shape, matvec=_factorize(K).solve, dtype=float)
         start = np.random.default_rng(0).standard_normal(n)  # not symmetric: all irreps
-        _, V = sp.linalg.eigsh(K, k=k + EIGEN_MARGIN, M=M, sigma=0.0, which="LM",
-                               OPinv=K_inverse, v0=start)
+        _, V = sp.linalg.eigsh(
+            K, k=k + EIGEN_MARGIN, M=M, sigma=0.0, which="LM", OPinv=K_inverse, v0=start
+        )
         K_V, M_V = V.T @ (K @ V), V.T @ (M @ V)
-        return scipy.linalg.eigh((K_V + K_V.T) / 2, (M_V + M_V.T) / 2, eigvals_only=True,
-                                 subset_by_index=[0, k - 1])
+        return scipy.linalg.eigh(
+            (K_V + K_V.T) / 2, (M_V + M_V.T) / 2, eigvals_only=True, subset_by_index=[0, k - 1]
+        )
 
     def natural_frequencies(self, k: int = 12, length: float | None = None) -> np.ndarray:
         """Lowest `k` natural frequencies `omega` [rad/s], ascending.
@@ -220,9 +236,9 @@ class SailFEM:
         return np.sign(values) * np.sqrt(np.abs(values))
 
 
-def fem_convergence(params: SailParameters,
-                    levels=((8, 8, 2), (16, 16, 2), (32, 32, 2), (64, 64, 2)),
-                    k: int = 6) -> list[tuple[dict, np.ndarray]]:
+def fem_convergence(
+    params: SailParameters, levels=((8, 8, 2), (16, 16, 2), (32, 32, 2), (64, 64, 2)), k: int = 6
+) -> list[tuple[dict, np.ndarray]]:
     """Lowest `k` frequencies [rad/s] on a sequence of meshes.
 
     Args:
@@ -242,9 +258,13 @@ def fem_convergence(params: SailParameters,
         start = time.perf_counter()
         fem = SailFEM(params, boom_elements, divisions, order)
         frequencies = fem.natural_frequencies(k)
-        settings = {"boom_elements": boom_elements, "membrane_divisions": divisions,
-                    "membrane_order": order, "n_dofs": fem.n_dofs,
-                    "description": fem.mesh_description(),
-                    "seconds": time.perf_counter() - start}
+        settings = {
+            "boom_elements": boom_elements,
+            "membrane_divisions": divisions,
+            "membrane_order": order,
+            "n_dofs": fem.n_dofs,
+            "description": fem.mesh_description(),
+            "seconds": time.perf_counter() - start,
+        }
         results.append((settings, frequencies))
     return results

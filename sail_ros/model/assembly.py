@@ -310,8 +310,9 @@ class SystemAssembler:
 
         Args:
             outputs: a tuple of the output names above, in any order.
-            lengths, rates, accelerations: arrays of 4 values (m, m/s, m/s^2),
-                already validated.
+            lengths: boom lengths [m], 4 values, already validated.
+            rates: extension rates [m/s], 4 values.
+            accelerations: extension accelerations [m/s^2], 4 values.
         """
         outputs = tuple(outputs)
         k = len(outputs)

@@ -23,7 +23,8 @@ def simulate(
         system: the structure (`stepper.LinearSystem`, e.g. a `SailModel`).
         profile: callable `t -> (lengths, rates, accelerations)` (see `profiles`).
         t_end: final time [s], > 0.
-        q0, qd0: initial coordinates and velocities (default rest).
+        q0: initial coordinates [m] (default 0).
+        qd0: initial velocities [m/s] (default 0).
         t_eval: increasing output times in [0, t_end]; default a uniform
             grid with the stepper's `max_step` spacing (0.2 s).
         progress: optional callable `progress(t)` after each output time.

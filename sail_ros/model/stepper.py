@@ -98,7 +98,7 @@ class SailStepper:
         profile: callable `t -> (lengths, rates, accelerations)` (4 values
             each, SI); see `profiles`. May be replaced between steps.
         q0: initial coordinates (default 0).
-        qd0: initial velocities [1/s] (default 0).
+        qd0: initial velocities [m/s] (default 0).
         t0: initial time [s].
         max_step: largest internal step [s].
         resolved_frequency: highest angular frequency [rad/s] to integrate
@@ -167,7 +167,7 @@ class SailStepper:
 
     @property
     def qd(self) -> np.ndarray:
-        """Current generalised velocities `M^-1 (p - G q)` [1/s] (copy)."""
+        """Current generalised velocities `M^-1 (p - G q)` [m/s] (copy)."""
         if self._qd_cache[0] != self._t:
             M, G = self._mass_gyro(self._t)
             qd = scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), self._p - G @ self._q)

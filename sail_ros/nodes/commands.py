@@ -101,12 +101,13 @@ def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
         raise CommandError("no joint_names: name at least one of " + ", ".join(BOOM_JOINTS))
     unknown = [name for name in names if name not in BOOM_JOINTS]
     if unknown:
-        raise CommandError(f"unknown joint name(s) {', '.join(map(repr, unknown))}; "
-                           f"known: {', '.join(BOOM_JOINTS)}")
+        raise CommandError(
+            f"unknown joint name(s) {', '.join(map(repr, unknown))}; "
+            f"known: {', '.join(BOOM_JOINTS)}"
+        )
     repeated = sorted({name for name in names if names.count(name) > 1})
     if repeated:
-        raise CommandError(f"joint name(s) {', '.join(map(repr, repeated))} given more "
-                           "than once")
+        raise CommandError(f"joint name(s) {', '.join(map(repr, repeated))} given more than once")
     points = list(trajectory.points)
     if not points:
         raise CommandError("no points")
@@ -116,17 +117,21 @@ def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
     for i, point in enumerate(points):
         positions = list(point.positions)
         if len(positions) != len(names):
-            raise CommandError(f"point {i} has {len(positions)} positions for "
-                               f"{len(names)} joint names")
+            raise CommandError(
+                f"point {i} has {len(positions)} positions for {len(names)} joint names"
+            )
         for field in ("velocities", "accelerations", "effort"):
             if len(getattr(point, field)):
-                raise CommandError(f"point {i}: {field} are not supported (leave them "
-                                   "empty; the booms follow a spline through the positions)")
+                raise CommandError(
+                    f"point {i}: {field} are not supported (leave them "
+                    "empty; the booms follow a spline through the positions)"
+                )
         offset = point.time_from_start.sec + point.time_from_start.nanosec * 1e-9
         if offset <= previous:
             raise CommandError(
                 f"point {i}: time_from_start {offset:g} s must be > "
-                + ("0" if i == 0 else f"that of point {i - 1} ({previous:g} s)"))
+                + ("0" if i == 0 else f"that of point {i - 1} ({previous:g} s)")
+            )
         previous = offset
         for name, value in zip(names, positions, strict=True):
             _check_length(value, f"point {i}: {name}", limits)
@@ -138,9 +143,13 @@ def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
     start_rates[list(booms)] = np.asarray(now.rates)[list(booms)]
     profile = WaypointProfile(times, np.array(rows), start_rates=start_rates)
     _check_motion(profile, booms, limits)
-    return Plan(profile, booms, now.t, times[-1],
-                f"trajectory for {', '.join(names)}: {len(points)} point(s) over "
-                f"{times[-1] - now.t:g} s")
+    return Plan(
+        profile,
+        booms,
+        now.t,
+        times[-1],
+        f"trajectory for {', '.join(names)}: {len(points)} point(s) over {times[-1] - now.t:g} s",
+    )
 
 
 def plan_deploy(target: float, now: BoomState, limits: Limits, duration: float = 0.0) -> Plan:
@@ -166,22 +175,30 @@ def plan_deploy(target: float, now: BoomState, limits: Limits, duration: float =
             profile = CycloidalProfile(lengths, target, duration, t0=now.t)
             travel = float(np.max(np.abs(target - lengths)))
             peak_rate, peak_acceleration = 2 * travel / duration, 2 * math.pi * travel / duration**2
-            if peak_rate > limits.max_rate * (1 + TOLERANCE) or \
-                    peak_acceleration > limits.max_acceleration * (1 + TOLERANCE):
+            if peak_rate > limits.max_rate * (
+                1 + TOLERANCE
+            ) or peak_acceleration > limits.max_acceleration * (1 + TOLERANCE):
                 raise CommandError(
                     f"a {duration:g} s deployment to {target:g} m needs {peak_rate:.4g} m/s and "
                     f"{peak_acceleration:.4g} m/s^2; limits {limits.max_rate:g} m/s, "
                     f"{limits.max_acceleration:g} m/s^2 (raise deploy_duration, or set it "
-                    "to 0 for the fastest allowed)")
+                    "to 0 for the fastest allowed)"
+                )
         else:
             profile = CycloidalProfile.within_limits(
-                lengths, target, limits.max_rate, limits.max_acceleration, t0=now.t)
+                lengths, target, limits.max_rate, limits.max_acceleration, t0=now.t
+            )
         kind = "cycloidal"
     else:
         profile = _moving_deploy(target, now, limits, duration if fixed else None)
         kind = "cubic from the current rates"
-    return Plan(profile, (0, 1, 2, 3), now.t, profile.t_end,
-                f"deploy to {target:g} m: {kind} over {profile.t_end - now.t:.4g} s")
+    return Plan(
+        profile,
+        (0, 1, 2, 3),
+        now.t,
+        profile.t_end,
+        f"deploy to {target:g} m: {kind} over {profile.t_end - now.t:.4g} s",
+    )
 
 
 def _moving_deploy(target: float, now: BoomState, limits: Limits, duration: float | None):
@@ -192,33 +209,44 @@ def _moving_deploy(target: float, now: BoomState, limits: Limits, duration: floa
     else:
         # the time to go there from rest, or to stop the fastest boom, sets the scale
         base = max(
-            CycloidalProfile.within_limits(now.lengths, target, limits.max_rate,
-                                           limits.max_acceleration).duration,
-            2.0 * float(np.max(np.abs(now.rates))) / limits.max_acceleration)
+            CycloidalProfile.within_limits(
+                now.lengths, target, limits.max_rate, limits.max_acceleration
+            ).duration,
+            2.0 * float(np.max(np.abs(now.rates))) / limits.max_acceleration,
+        )
         candidates = [base * GROWTH**k for k in range(-DURATION_STEPS_DOWN, DURATION_STEPS_UP)]
     reason = ""
     for length in candidates:
-        profile = WaypointProfile([now.t, now.t + length],
-                                  [np.asarray(now.lengths, dtype=float), np.full(4, target)],
-                                  start_rates=now.rates)
+        profile = WaypointProfile(
+            [now.t, now.t + length],
+            [np.asarray(now.lengths, dtype=float), np.full(4, target)],
+            start_rates=now.rates,
+        )
         try:
             _check_motion(profile, (0, 1, 2, 3), limits)
         except CommandError as error:
             reason = str(error)
             continue
         return profile
-    tried = (f"{duration:g} s" if duration is not None
-             else f"{candidates[0]:.3g} to {candidates[-1]:.3g} s")
-    raise CommandError(f"no deployment to {target:g} m from the current motion within the "
-                       f"limits (durations {tried}; e.g. {reason})")
+    tried = (
+        f"{duration:g} s"
+        if duration is not None
+        else f"{candidates[0]:.3g} to {candidates[-1]:.3g} s"
+    )
+    raise CommandError(
+        f"no deployment to {target:g} m from the current motion within the "
+        f"limits (durations {tried}; e.g. {reason})"
+    )
 
 
 def _check_length(value, what: str, limits: Limits) -> None:
     if not math.isfinite(value):
         raise CommandError(f"{what} is {value!r}, not a finite length")
     if not limits.min_length <= value <= limits.max_length:
-        raise CommandError(f"{what} = {value:g} m is outside [min_length, max_length] = "
-                           f"[{limits.min_length:g}, {limits.max_length:g}] m")
+        raise CommandError(
+            f"{what} = {value:g} m is outside [min_length, max_length] = "
+            f"[{limits.min_length:g}, {limits.max_length:g}] m"
+        )
 
 
 def _check_motion(profile: WaypointProfile, booms, limits: Limits) -> None:
@@ -232,10 +260,14 @@ def _check_motion(profile: WaypointProfile, booms, limits: Limits) -> None:
             raise CommandError(
                 f"{name} would pass through {low[k] if low[k] < limits.min_length else high[k]:.4g}"
                 f" m on the way, outside [min_length, max_length] = "
-                f"[{limits.min_length:g}, {limits.max_length:g}] m")
+                f"[{limits.min_length:g}, {limits.max_length:g}] m"
+            )
         if rate[k] > limits.max_rate * slack:
-            raise CommandError(f"{name} would move at {rate[k]:.4g} m/s, above max_rate "
-                               f"{limits.max_rate:g} m/s")
+            raise CommandError(
+                f"{name} would move at {rate[k]:.4g} m/s, above max_rate {limits.max_rate:g} m/s"
+            )
         if acceleration[k] > limits.max_acceleration * slack:
-            raise CommandError(f"{name} would accelerate at {acceleration[k]:.4g} m/s^2, "
-                               f"above max_acceleration {limits.max_acceleration:g} m/s^2")
+            raise CommandError(
+                f"{name} would accelerate at {acceleration[k]:.4g} m/s^2, "
+                f"above max_acceleration {limits.max_acceleration:g} m/s^2"
+            )

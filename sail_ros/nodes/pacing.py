@@ -39,8 +39,7 @@ class Pacer:
         now: the steady clock [s] (injectable for tests).
     """
 
-    def __init__(self, time_scale: float, step: float, tick_steps: int = 1,
-                 now=time.monotonic):
+    def __init__(self, time_scale: float, step: float, tick_steps: int = 1, now=time.monotonic):
         self.time_scale = float(time_scale)
         self.step = float(step)
         self.now = now
@@ -96,8 +95,7 @@ class Pacer:
         if self.running and self.paced and self._last_tick is not None:
             late = wall - self._last_tick - self.tick_period
             left_behind = self._last_due - t_model
-            overrun = late * self.time_scale > self.step or \
-                left_behind >= self.step * (1.0 - 1e-9)
+            overrun = late * self.time_scale > self.step or left_behind >= self.step * (1.0 - 1e-9)
         self._last_tick, self._last_due = wall, due
         return due, wall + self.budget, overrun
 

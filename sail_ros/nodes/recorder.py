@@ -49,26 +49,68 @@ DRAIN_QUIET_S = 0.1  # at shutdown, stop taking messages once none came for this
 DRAIN_MAX_S = 2.0  # ... or after this long, if publishers keep sending
 
 SPECS = [
-    ParamSpec("output", "", "bag folder to create (must be absent or empty); holds "
-              "<name>_<index>.mcap and metadata.yaml; empty: sail_<UTC time> in the "
-              "working directory", short="-o"),
-    ParamSpec("topics", list(RECORDED_TOPICS), "topics to record; each is subscribed once a "
-              "publisher of it appears (ignored when all_topics is true)"),
-    ParamSpec("all_topics", False, "record every topic with a publisher, except hidden ones "
-              "(a name part starting with '_'), including topics that appear later"),
+    ParamSpec(
+        "output",
+        "",
+        "bag folder to create (must be absent or empty); holds "
+        "<name>_<index>.mcap and metadata.yaml; empty: sail_<UTC time> in the "
+        "working directory",
+        short="-o",
+    ),
+    ParamSpec(
+        "topics",
+        list(RECORDED_TOPICS),
+        "topics to record; each is subscribed once a "
+        "publisher of it appears (ignored when all_topics is true)",
+    ),
+    ParamSpec(
+        "all_topics",
+        False,
+        "record every topic with a publisher, except hidden ones "
+        "(a name part starting with '_'), including topics that appear later",
+    ),
     ParamSpec("compression", "zstd", "chunk compression", choices=tuple(COMPRESSIONS)),
-    ParamSpec("chunk_size_bytes", 1 << 20, "close a chunk when its messages reach this size "
-              "[bytes]", minimum=1024, maximum=1 << 30),
-    ParamSpec("max_chunk_duration_s", 1.0, "close a chunk at most this long after its first "
-              "message [s]; a kill loses at most this much", minimum=0.01, maximum=3600.0),
-    ParamSpec("max_file_size_bytes", 0, "start a new file when the current one reaches this "
-              "size [bytes]; 0: never (else >= 1024)", minimum=0),
-    ParamSpec("max_file_duration_s", 0.0, "start a new file when the current one spans this "
-              "much log time [s]; 0: never", minimum=0.0),
-    ParamSpec("parameter_node", "/sail_sim", "node whose parameters are stored in each file "
-              f"as metadata '{PARAMETERS_METADATA}'; empty: none"),
-    ParamSpec("qos_depth", 100, "history depth of each subscription [messages]: how many "
-              "may wait while the recorder is busy", minimum=1, maximum=100000),
+    ParamSpec(
+        "chunk_size_bytes",
+        1 << 20,
+        "close a chunk when its messages reach this size [bytes]",
+        minimum=1024,
+        maximum=1 << 30,
+    ),
+    ParamSpec(
+        "max_chunk_duration_s",
+        1.0,
+        "close a chunk at most this long after its first "
+        "message [s]; a kill loses at most this much",
+        minimum=0.01,
+        maximum=3600.0,
+    ),
+    ParamSpec(
+        "max_file_size_bytes",
+        0,
+        "start a new file when the current one reaches this size [bytes]; 0: never (else >= 1024)",
+        minimum=0,
+    ),
+    ParamSpec(
+        "max_file_duration_s",
+        0.0,
+        "start a new file when the current one spans this much log time [s]; 0: never",
+        minimum=0.0,
+    ),
+    ParamSpec(
+        "parameter_node",
+        "/sail_sim",
+        "node whose parameters are stored in each file "
+        f"as metadata '{PARAMETERS_METADATA}'; empty: none",
+    ),
+    ParamSpec(
+        "qos_depth",
+        100,
+        "history depth of each subscription [messages]: how many "
+        "may wait while the recorder is busy",
+        minimum=1,
+        maximum=100000,
+    ),
 ]
 
 
@@ -144,8 +186,7 @@ class Recorder(Node):
     """
 
     def __init__(self, parameter_overrides=(), context=None):
-        super().__init__(NODE_NAME, context=context,
-                         parameter_overrides=list(parameter_overrides))
+        super().__init__(NODE_NAME, context=context, parameter_overrides=list(parameter_overrides))
         self.config = declare(self, SPECS)
         self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
         self._recording: dict[str, object] = {}
@@ -186,14 +227,16 @@ class Recorder(Node):
 
     def _create_parameter_clients(self, parameter_node: str) -> None:
         try:
-            self._list_client = self.create_client(ListParameters,
-                                                   f"{parameter_node}/list_parameters")
-            self._get_client = self.create_client(GetParameters,
-                                                  f"{parameter_node}/get_parameters")
+            self._list_client = self.create_client(
+                ListParameters, f"{parameter_node}/list_parameters"
+            )
+            self._get_client = self.create_client(GetParameters, f"{parameter_node}/get_parameters")
         except NameValidationException as error:
             reason = str(error).splitlines()[0].split(": ", 1)[-1].rstrip(":")
-            raise ConfigError(f"parameter_node: {self.config['parameter_node']!r} is not a "
-                              f"valid node name ({reason})") from None
+            raise ConfigError(
+                f"parameter_node: {self.config['parameter_node']!r} is not a "
+                f"valid node name ({reason})"
+            ) from None
         # wakes the executor from the writer thread when a split needs the parameters
         self._refetch_guard = self.create_guard_condition(self._poll_parameters)
 
@@ -216,8 +259,9 @@ class Recorder(Node):
                 self._drain(executor)
         except Exception as exception:  # a bug, not a condition the recorder knows
             error = exception
-            self.get_logger().error("recording stopped by an unexpected error:\n"
-                                    + traceback.format_exc().rstrip())
+            self.get_logger().error(
+                "recording stopped by an unexpected error:\n" + traceback.format_exc().rstrip()
+            )
         finally:
             for subscription in self._recording.values():
                 self.destroy_subscription(subscription)
@@ -231,8 +275,8 @@ class Recorder(Node):
         start = last_change = time.monotonic()
         last_count = self._received
         while time.monotonic() - start < DRAIN_MAX_S and (
-                time.monotonic() - last_change < DRAIN_QUIET_S
-                or self._request_started is not None):
+            time.monotonic() - last_change < DRAIN_QUIET_S or self._request_started is not None
+        ):
             executor.spin_once(timeout_sec=0.02)
             if self._received != last_count:
                 last_count, last_change = self._received, time.monotonic()
@@ -241,19 +285,25 @@ class Recorder(Node):
         """Log what was recorded; 1 if the recording failed (`error` or a write error)."""
         logger = self.get_logger()
         if self._parameter_node and self._sim_parameters is None:
-            logger.warning(f"parameter node '{self._parameter_node}' never answered: no "
-                           f"'{PARAMETERS_METADATA}' metadata in the bag")
+            logger.warning(
+                f"parameter node '{self._parameter_node}' never answered: no "
+                f"'{PARAMETERS_METADATA}' metadata in the bag"
+            )
         writer = self.bag.writer
         counts = writer.topic_counts
         files = ", ".join(path.name for path in writer.files)
         where = f"{len(writer.files)} file(s) in '{writer.path.resolve()}': {files}"
         if self.bag.error is not None:
             logger.error(f"recording failed: {self.bag.error}")
-            logger.error(f"{sum(counts.values())} messages were written to {where}; those in "
-                         "chunks completed before the failure are readable")
+            logger.error(
+                f"{sum(counts.values())} messages were written to {where}; those in "
+                "chunks completed before the failure are readable"
+            )
         elif error is not None:
-            logger.error(f"recording failed: {error!r}; {sum(counts.values())} messages "
-                         f"received before it are in {where}")
+            logger.error(
+                f"recording failed: {error!r}; {sum(counts.values())} messages "
+                f"received before it are in {where}"
+            )
         else:
             logger.info(f"{sum(counts.values())} messages in {where}")
         for topic, count in sorted(counts.items()):
@@ -287,8 +337,9 @@ class Recorder(Node):
         logger = self.get_logger()
         type_names = sorted({p.topic_type for p in publishers})
         if len(type_names) > 1:
-            logger.warning(f"not recording {topic}: publishers disagree on its type "
-                           f"({', '.join(type_names)})")
+            logger.warning(
+                f"not recording {topic}: publishers disagree on its type ({', '.join(type_names)})"
+            )
             self._ignored.add(topic)
             return
         type_name = type_names[0]
@@ -300,17 +351,26 @@ class Recorder(Node):
             return
         offered = [p.qos_profile for p in publishers]
         if len({(p.reliability, p.durability) for p in offered}) > 1:
-            logger.warning(f"{topic}: publishers offer different reliability/durability; "
-                           "subscribing with what all of them serve")
+            logger.warning(
+                f"{topic}: publishers offer different reliability/durability; "
+                "subscribing with what all of them serve"
+            )
         type_hash = str(publishers[0].topic_type_hash)
-        self.bag.submit(self.bag.writer.add_topic, topic, type_name,
-                        [qos.entry_of(p) for p in offered],
-                        type_hash if type_hash.startswith("RIHS01_") else None)
+        self.bag.submit(
+            self.bag.writer.add_topic,
+            topic,
+            type_name,
+            [qos.entry_of(p) for p in offered],
+            type_hash if type_hash.startswith("RIHS01_") else None,
+        )
         request = qos.subscription_for(offered, self.config["qos_depth"])
         self._recording[topic] = self.create_subscription(
-            msg_class, topic, functools.partial(self._on_message, topic), request, raw=True)
-        logger.info(f"recording {topic} ({type_name}, {request.reliability.name.lower()}, "
-                    f"{request.durability.name.lower()})")
+            msg_class, topic, functools.partial(self._on_message, topic), request, raw=True
+        )
+        logger.info(
+            f"recording {topic} ({type_name}, {request.reliability.name.lower()}, "
+            f"{request.durability.name.lower()})"
+        )
 
     def _on_message(self, topic: str, data: bytes, info: dict) -> None:
         log_time = info.get("received_timestamp") or time.time_ns()
@@ -331,8 +391,10 @@ class Recorder(Node):
         if self._request_started is not None:
             if time.monotonic() - self._request_started < SERVICE_TIMEOUT_S:
                 return
-            self.get_logger().warning(f"'{self._parameter_node}' did not answer a parameter "
-                                      f"request within {SERVICE_TIMEOUT_S} s; asking again")
+            self.get_logger().warning(
+                f"'{self._parameter_node}' did not answer a parameter "
+                f"request within {SERVICE_TIMEOUT_S} s; asking again"
+            )
             self._request_started = None
         if self._sim_parameters is not None and not self._refetch.is_set():
             return
@@ -340,15 +402,22 @@ class Recorder(Node):
             if self._refetch.is_set() and self._sim_parameters is not None:
                 # a split while the node is gone: the new file gets the last values it had
                 self._refetch.clear()
-                self.get_logger().warning(f"'{self._parameter_node}' is gone; the new file "
-                                          "gets the parameters fetched before")
-                self.bag.submit(self.bag.writer.add_metadata, PARAMETERS_METADATA,
-                                self._sim_parameters)
-            elif (not self._warned_absent
-                  and time.monotonic() - self._started > PARAMETER_WAIT_WARNING_S):
+                self.get_logger().warning(
+                    f"'{self._parameter_node}' is gone; the new file "
+                    "gets the parameters fetched before"
+                )
+                self.bag.submit(
+                    self.bag.writer.add_metadata, PARAMETERS_METADATA, self._sim_parameters
+                )
+            elif (
+                not self._warned_absent
+                and time.monotonic() - self._started > PARAMETER_WAIT_WARNING_S
+            ):
                 self._warned_absent = True
-                self.get_logger().warning(f"parameter node '{self._parameter_node}' not "
-                                          "found yet; its parameters are stored once it appears")
+                self.get_logger().warning(
+                    f"parameter node '{self._parameter_node}' not "
+                    "found yet; its parameters are stored once it appears"
+                )
             return
         self._refetch.clear()
         self._request_started = time.monotonic()
@@ -359,7 +428,8 @@ class Recorder(Node):
         names = list(future.result().result.names)
         request = GetParameters.Request(names=names)
         self._get_client.call_async(request).add_done_callback(
-            functools.partial(self._on_parameter_values, names))
+            functools.partial(self._on_parameter_values, names)
+        )
 
     def _on_parameter_values(self, names: list[str], future) -> None:
         self._request_started = None
@@ -372,8 +442,7 @@ class Recorder(Node):
         self._sim_parameters = values
         self.bag.submit(self.bag.writer.add_metadata, PARAMETERS_METADATA, values)
         if first:
-            self.get_logger().info(f"stored {len(values)} parameters of "
-                                   f"'{self._parameter_node}'")
+            self.get_logger().info(f"stored {len(values)} parameters of '{self._parameter_node}'")
 
 
 def main(argv=None) -> int:

@@ -17,6 +17,7 @@ done unless `loop`.
 from __future__ import annotations
 
 import contextlib
+import math
 import sys
 import threading
 import time
@@ -32,28 +33,59 @@ from sail_ros.nodes.parameters import ConfigError, ParamSpec, declare, make_pars
 from sail_ros.nodes.ros_args import message_class, run_node
 
 NODE_NAME = "sail_replay"
+ACK_POLL_S = 0.1  # s: how often the wait for acknowledgements looks at a stop
 CLOCK_TOPIC = "/clock"
 
 SPECS = [
     ParamSpec("bag", "", "MCAP file or bag folder to play (also the first positional argument)"),
-    ParamSpec("rate", 1.0, "playback speed factor: 2.0 plays twice as fast", minimum=0.001,
-              maximum=1000.0),
-    ParamSpec("start_offset_s", 0.0, "start this far into the recording [s of log time]",
-              minimum=0.0),
+    ParamSpec(
+        "rate", 1.0, "playback speed factor: 2.0 plays twice as fast", minimum=0.001, maximum=1000.0
+    ),
+    ParamSpec(
+        "start_offset_s", 0.0, "start this far into the recording [s of log time]", minimum=0.0
+    ),
     ParamSpec("loop", False, "play again from start_offset_s when done, until stopped"),
     ParamSpec("topics", [], "topics to play; empty: every recorded topic"),
-    ParamSpec("clock", True, f"publish {CLOCK_TOPIC} from the recorded log times (and skip the "
-              f"recorded {CLOCK_TOPIC}); false: play the recorded {CLOCK_TOPIC} like any topic"),
-    ParamSpec("clock_frequency_hz", 100.0, f"rate of generated {CLOCK_TOPIC} messages [Hz of "
-              "wall time]", minimum=1.0, maximum=10000.0),
-    ParamSpec("qos_depth", 100, "history depth of a publisher whose recorded QoS has none "
-              "[messages]", minimum=1, maximum=100000),
-    ParamSpec("delay_s", 0.0, "wait this long after creating the publishers, before the "
-              "first message [s]", minimum=0.0),
-    ParamSpec("wait_for_subscribers", 0, "before the first message, wait until every played "
-              "topic has at least this many subscribers", minimum=0),
-    ParamSpec("wait_for_all_acked_s", 1.0, "at the end, wait up to this long until reliable "
-              "subscribers acknowledged everything [s]; 0: exit at once", minimum=0.0),
+    ParamSpec(
+        "clock",
+        True,
+        f"publish {CLOCK_TOPIC} from the recorded log times (and skip the "
+        f"recorded {CLOCK_TOPIC}); false: play the recorded {CLOCK_TOPIC} like any topic",
+    ),
+    ParamSpec(
+        "clock_frequency_hz",
+        100.0,
+        f"rate of generated {CLOCK_TOPIC} messages [Hz of wall time]",
+        minimum=1.0,
+        maximum=10000.0,
+    ),
+    ParamSpec(
+        "qos_depth",
+        100,
+        "history depth of a publisher whose recorded QoS has none [messages]",
+        minimum=1,
+        maximum=100000,
+    ),
+    ParamSpec(
+        "delay_s",
+        0.0,
+        "wait this long after creating the publishers, before the first message [s]",
+        minimum=0.0,
+    ),
+    ParamSpec(
+        "wait_for_subscribers",
+        0,
+        "before the first message, wait until every played "
+        "topic has at least this many subscribers",
+        minimum=0,
+    ),
+    ParamSpec(
+        "wait_for_all_acked_s",
+        0.0,
+        "at the end, wait until every reliable subscriber acknowledged every message, "
+        "at most this long [s]; 0: as long as it takes (a stop signal ends the wait)",
+        minimum=0.0,
+    ),
 ]
 
 
@@ -70,8 +102,7 @@ class Replay(Node):
     """
 
     def __init__(self, parameter_overrides=(), context=None):
-        super().__init__(NODE_NAME, context=context,
-                         parameter_overrides=list(parameter_overrides))
+        super().__init__(NODE_NAME, context=context, parameter_overrides=list(parameter_overrides))
         self.config = declare(self, SPECS)
         if not self.config["bag"]:
             raise ConfigError("bag: no bag given (a file or folder, e.g. `sail-ros replay run1`)")
@@ -80,8 +111,10 @@ class Replay(Node):
         except (FileNotFoundError, ValueError) as error:
             raise ConfigError(f"bag: {error}") from None
         for path in self.reader.incomplete_files:
-            self.get_logger().warning(f"'{path}' has no summary (recording interrupted): "
-                                      "playing it up to its last complete chunk")
+            self.get_logger().warning(
+                f"'{path}' has no summary (recording interrupted): "
+                "playing it up to its last complete chunk"
+            )
         recorded = self.reader.topics()
         wanted = self.config["topics"] or list(recorded)
         missing = sorted(set(wanted) - set(recorded))
@@ -95,16 +128,20 @@ class Replay(Node):
             try:
                 msg_class = message_class(info.type_name)
             except (ImportError, ValueError) as error:
-                self.get_logger().warning(f"not playing {topic}: type {info.type_name!r} is "
-                                          f"not installed ({error})")
+                self.get_logger().warning(
+                    f"not playing {topic}: type {info.type_name!r} is not installed ({error})"
+                )
                 continue
             profile = qos.publisher_for(info.offered_qos_profiles, self.config["qos_depth"])
             self._players[topic] = self.create_publisher(msg_class, topic, profile)
         if not self._players:
-            raise ConfigError(f"topics: nothing to play from '{self.config['bag']}' (it has: "
-                              f"{', '.join(sorted(recorded)) or 'no topics'})")
+            raise ConfigError(
+                f"topics: nothing to play from '{self.config['bag']}' (it has: "
+                f"{', '.join(sorted(recorded)) or 'no topics'})"
+            )
         self._message_count = self._count_messages(
-            sum(recorded[topic].message_count for topic in self._players))
+            sum(recorded[topic].message_count for topic in self._players)
+        )
         self._clock_publisher = None
         if self.config["clock"]:
             self._clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(depth=10))
@@ -127,11 +164,15 @@ class Replay(Node):
             last = max(last, message.log_time_ns)
             count += message.log_time_ns >= start
         if first is None:
-            raise ConfigError(f"bag: '{self.config['bag']}' has no messages on the topics to "
-                              f"play ({', '.join(self._players)})")
+            raise ConfigError(
+                f"bag: '{self.config['bag']}' has no messages on the topics to "
+                f"play ({', '.join(self._players)})"
+            )
         if not count:
-            raise ConfigError(f"start_offset_s = {offset_s:g} s is past the end of the bag "
-                              f"(span {(last - first) / 1e9:.2f} s)")
+            raise ConfigError(
+                f"start_offset_s = {offset_s:g} s is past the end of the bag "
+                f"(span {(last - first) / 1e9:.2f} s)"
+            )
         return count
 
     def play(self, stop: threading.Event) -> int:
@@ -142,10 +183,12 @@ class Replay(Node):
         played, code = 0, 0
         started = time.monotonic()
         offset_s = self.config["start_offset_s"]
-        logger.info(f"playing {self._message_count} messages"
-                    + (f" (from {offset_s:g} s on)" if offset_s else "")
-                    + f" on {len(self._players)} topic(s) from '{self.config['bag']}' at rate "
-                    f"{self.config['rate']}" + (", looping" if self.config["loop"] else ""))
+        logger.info(
+            f"playing {self._message_count} messages"
+            + (f" (from {offset_s:g} s on)" if offset_s else "")
+            + f" on {len(self._players)} topic(s) from '{self.config['bag']}' at rate "
+            f"{self.config['rate']}" + (", looping" if self.config["loop"] else "")
+        )
         while not stop.is_set():
             count = self._play_once(stop)
             played += count
@@ -155,7 +198,7 @@ class Replay(Node):
                 break
             if not self.config["loop"]:
                 break
-        self._wait_for_acknowledgements()
+        self._wait_for_acknowledgements(stop)
         logger.info(f"played {played} messages in {time.monotonic() - started:.2f} s")
         return code
 
@@ -204,26 +247,35 @@ class Replay(Node):
         message.clock.sec, message.clock.nanosec = divmod(time_ns, 1_000_000_000)
         self._clock_publisher.publish(message)
 
-    def _wait_for_acknowledgements(self) -> None:
-        """Give reliable subscribers up to wait_for_all_acked_s to acknowledge what was
-        published: destroying the publishers at once can lose the last messages. A
-        publisher that reports not everything acknowledged is no failure (Fast DDS
-        may say so about messages it delivered)."""
-        deadline = time.monotonic() + self.config["wait_for_all_acked_s"]
-        for topic, publisher in self._players.items():
-            left = deadline - time.monotonic()
-            if left <= 0:
-                return
-            if not publisher.wait_for_all_acked(Duration(nanoseconds=round(left * 1e9))):
-                self.get_logger().debug(f"{topic}: not every message was acknowledged")
+    def _wait_for_acknowledgements(self, stop: threading.Event) -> None:
+        """Keep the publishers until every reliable subscriber acknowledged every message:
+        destroying them earlier drops what is still in flight (large messages, a busy
+        machine). Ends early on `stop`, or after wait_for_all_acked_s if that is > 0,
+        saying which topics were not acknowledged. A subscriber that vanished without
+        a word stops counting once DDS drops it (its lease, at most 20 s)."""
+        limit = self.config["wait_for_all_acked_s"]
+        deadline = time.monotonic() + limit if limit > 0 else math.inf
+        pending = dict(self._players)
+        while pending and not stop.is_set() and time.monotonic() < deadline:
+            slice_s = min(ACK_POLL_S, max(0.0, deadline - time.monotonic()))
+            for topic, publisher in list(pending.items()):
+                if publisher.wait_for_all_acked(Duration(nanoseconds=round(slice_s * 1e9))):
+                    del pending[topic]
+        if pending:
+            why = "stopped" if stop.is_set() else f"after {limit:g} s"
+            self.get_logger().warning(
+                f"{why}: not every subscriber acknowledged the messages of "
+                f"{', '.join(sorted(pending))}; some may not have arrived"
+            )
 
 
 def main(argv=None) -> int:
     """`sail-ros replay FILE [options] [--ros-args ...]`; returns the exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS)
-    parser.add_argument("bag_path", nargs="?", metavar="FILE",
-                        help="MCAP file or bag folder (same as --bag)")
+    parser.add_argument(
+        "bag_path", nargs="?", metavar="FILE", help="MCAP file or bag folder (same as --bag)"
+    )
     return run_node(NODE_NAME, parser, argv, _replay)
 
 

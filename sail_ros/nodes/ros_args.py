@@ -33,6 +33,7 @@ def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[st
         parser.error(f"invalid ROS arguments: {error}")
     return parser.parse_args(own_args), ros_argv
 
+
 class StopSignals:
     """While active, SIGINT and SIGTERM set `event` instead of raising.
 

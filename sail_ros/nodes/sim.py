@@ -41,6 +41,7 @@ from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory
 
 from sail_ros import topics
+from sail_ros.cli import PHYSICS_DOC
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import CommandError
@@ -68,16 +69,16 @@ class SimNode(Node):
     """
 
     def __init__(self, parameter_overrides=(), context=None):
-        super().__init__(NODE_NAME, context=context,
-                         parameter_overrides=list(parameter_overrides))
+        super().__init__(NODE_NAME, context=context, parameter_overrides=list(parameter_overrides))
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
         model = SailModel(config.sail)
         self.sim = Simulation(model, config)
         self.surface = SailSurface(model, config.shape_divisions)
         self.coordinate_names = model.coordinate_names
-        self.pacer = Pacer(config.time_scale, config.integration_step,
-                           config.steps_between(config.state_rate_hz))
+        self.pacer = Pacer(
+            config.time_scale, config.integration_step, config.steps_between(config.state_rate_hz)
+        )
         self.overruns = 0
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
 
@@ -85,12 +86,15 @@ class SimNode(Node):
         if config.time_scale != 1.0:
             published.append(topics.CLOCK)
         self._outputs = {
-            name: self.create_publisher(topics.TOPICS[name].message_type, name,
-                                        topics.TOPICS[name].qos)
+            name: self.create_publisher(
+                topics.TOPICS[name].message_type, name, topics.TOPICS[name].qos
+            )
             for name in published
         }
-        for name, callback in ((topics.BOOM_LENGTH_CMD, self._on_trajectory),
-                               (topics.DEPLOY_CMD, self._on_deploy)):
+        for name, callback in (
+            (topics.BOOM_LENGTH_CMD, self._on_trajectory),
+            (topics.DEPLOY_CMD, self._on_deploy),
+        ):
             topic = topics.TOPICS[name]
             self.create_subscription(topic.message_type, name, callback, topic.qos)
         self.create_service(Trigger, topics.RESET_SERVICE, self._on_reset)
@@ -98,8 +102,7 @@ class SimNode(Node):
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
 
-        self._tick_timer = self.create_timer(self.pacer.tick_period, self._tick,
-                                             clock=self._steady)
+        self._tick_timer = self.create_timer(self.pacer.tick_period, self._tick, clock=self._steady)
         self._diagnostics_timer = None
         self._use_config()
         self.epoch_ns = time.time_ns()  # the stamp of simulation time 0
@@ -108,13 +111,17 @@ class SimNode(Node):
         self.real_time_factor.restart(self.sim.t, self.sim.state == RUNNING)
         self._window = self._window_start()
         self._start_sampling()
-        speed = ("as fast as possible" if config.as_fast_as_possible
-                 else f"time scale {config.time_scale:g}")
+        speed = (
+            "as fast as possible"
+            if config.as_fast_as_possible
+            else f"time scale {config.time_scale:g}"
+        )
         self.get_logger().info(
             f"{model.n} coordinates (n_B = {model.n_boom_modes}, n_M = "
             f"{model.n_membrane_modes}), step {config.integration_step:g} s, {speed}; "
             f"booms at {config.initial_lengths.tolist()} m; stamps = {self.epoch_ns} ns + "
-            "simulation time")
+            "simulation time"
+        )
 
     # -- parameters -------------------------------------------------------------------------
 
@@ -139,12 +146,14 @@ class SimNode(Node):
         self.pacer.tick_steps = self._every_state
         self._tick_timer.timer_period_ns = round(self.pacer.tick_period * 1e9)
         period = 1.0 / config.diagnostics_rate_hz
-        if self._diagnostics_timer is None or \
-                self._diagnostics_timer.timer_period_ns != round(period * 1e9):
+        if self._diagnostics_timer is None or self._diagnostics_timer.timer_period_ns != round(
+            period * 1e9
+        ):
             if self._diagnostics_timer is not None:
                 self.destroy_timer(self._diagnostics_timer)
-            self._diagnostics_timer = self.create_timer(period, self._publish_diagnostics,
-                                                        clock=self._steady)
+            self._diagnostics_timer = self.create_timer(
+                period, self._publish_diagnostics, clock=self._steady
+            )
 
     # -- integration ------------------------------------------------------------------------
 
@@ -156,8 +165,9 @@ class SimNode(Node):
         if overrun:
             self.overruns += 1
             self.get_logger().warning(
-                f"overrun at t = {sim.t:.3f} s: the model is {due - sim.t:.3g} s behind the "
-                "clock", throttle_duration_sec=5.0)
+                f"overrun at t = {sim.t:.3f} s: the model is {due - sim.t:.3g} s behind the clock",
+                throttle_duration_sec=5.0,
+            )
         limit = due + 1e-9 * sim.step_size  # round-off must not cost a step
         while sim.t + sim.step_size <= limit and time.monotonic() < deadline:
             if not sim.step():
@@ -181,8 +191,9 @@ class SimNode(Node):
 
     def _stop_on_error(self) -> None:
         self._set_running()
-        self.get_logger().error(f"integration stopped: {self.sim.error}; call "
-                                f"{topics.RESET_SERVICE} to start again")
+        self.get_logger().error(
+            f"integration stopped: {self.sim.error}; call {topics.RESET_SERVICE} to start again"
+        )
         self._publish_diagnostics()
 
     # -- commands and services ----------------------------------------------------------------
@@ -191,8 +202,10 @@ class SimNode(Node):
         self._command(topics.BOOM_LENGTH_CMD, lambda: self.sim.follow(message, self.config.limits))
 
     def _on_deploy(self, message: Float64) -> None:
-        self._command(topics.DEPLOY_CMD, lambda: self.sim.deploy(
-            message.data, self.config.limits, self.config.deploy_duration))
+        self._command(
+            topics.DEPLOY_CMD,
+            lambda: self.sim.deploy(message.data, self.config.limits, self.config.deploy_duration),
+        )
 
     def _command(self, topic: str, run) -> None:
         try:
@@ -207,8 +220,9 @@ class SimNode(Node):
         self._set_running()
         self._start_sampling()
         response.success = True
-        response.message = (f"reset to the initial state at t = {self.sim.t:.6f} s"
-                            + (" (paused)" if self.sim.paused else ""))
+        response.message = f"reset to the initial state at t = {self.sim.t:.6f} s" + (
+            " (paused)" if self.sim.paused else ""
+        )
         self.get_logger().info(response.message)
         self._publish_diagnostics()
         return response
@@ -242,21 +256,30 @@ class SimNode(Node):
         return topics.stamp_ns(self.epoch_ns, self.sim.t)
 
     def _publish_state(self) -> None:
-        messages = topics.state_messages(self._stamp(), self.sim.sample(), self.coordinate_names,
-                                         self.config.frame_id,
-                                         with_clock=topics.CLOCK in self._outputs)
+        messages = topics.state_messages(
+            self._stamp(),
+            self.sim.sample(),
+            self.coordinate_names,
+            self.config.frame_id,
+            with_clock=topics.CLOCK in self._outputs,
+        )
         for name, message in messages:
             self._outputs[name].publish(message)
 
     def _publish_shape(self) -> None:
         q, lengths = self.sim.stepper.q, self.sim.stepper.boom_motion()[0]
-        self._outputs[topics.SHAPE].publish(topics.shape(
-            self._stamp(), self.surface.vertices(q, lengths), self.surface.triangles,
-            self.surface.boom_lines(q, lengths), self.config.frame_id))
+        self._outputs[topics.SHAPE].publish(
+            topics.shape(
+                self._stamp(),
+                self.surface.vertices(q, lengths),
+                self.surface.triangles,
+                self.surface.boom_lines(q, lengths),
+                self.config.frame_id,
+            )
+        )
 
     def _window_start(self) -> dict:
-        return {"wall": time.monotonic(), "overruns": self.overruns,
-                "rejected": self.sim.rejected}
+        return {"wall": time.monotonic(), "overruns": self.overruns, "rejected": self.sim.rejected}
 
     def _publish_diagnostics(self) -> None:
         """The integrator's status: counts over the window since the last message, and
@@ -268,11 +291,20 @@ class SimNode(Node):
         steps, mean, largest = sim.step_times.take()
         overruns = self.overruns - window["overruns"]
         rejected = sim.rejected - window["rejected"]
-        level, message = diagnose(Observations(
-            state=sim.state, error=sim.error or "", window_s=span, overruns=overruns,
-            rejected=rejected, last_rejection=sim.last_rejection, paced=self.pacer.paced,
-            rtf_measured=bool(rtf.current), real_time_factor=rtf.value,
-            time_scale=config.time_scale))
+        level, message = diagnose(
+            Observations(
+                state=sim.state,
+                error=sim.error or "",
+                window_s=span,
+                overruns=overruns,
+                rejected=rejected,
+                last_rejection=sim.last_rejection,
+                paced=self.pacer.paced,
+                rtf_measured=bool(rtf.current),
+                real_time_factor=rtf.value,
+                time_scale=config.time_scale,
+            )
+        )
         values = {
             "state": sim.state,
             "sim_time_s": round(sim.t, 9),
@@ -292,8 +324,7 @@ class SimNode(Node):
             "mechanical_energy_J": float(f"{sim.energy():.6g}"),
         }
         stamp = self._stamp()
-        self._outputs[topics.DIAGNOSTICS].publish(
-            topics.diagnostics(stamp, level, message, values))
+        self._outputs[topics.DIAGNOSTICS].publish(topics.diagnostics(stamp, level, message, values))
         if topics.CLOCK in self._outputs:  # fresh for late joiners, also while paused
             self._outputs[topics.CLOCK].publish(topics.clock(stamp))
         self._window = self._window_start()
@@ -315,10 +346,13 @@ def _time_or_none(t: float) -> float:
 def _parser() -> argparse.ArgumentParser:
     lines = [spec.help_line() for spec in SPECS]
     return argparse.ArgumentParser(
-        prog="sail-ros sim", description=__doc__.split("\n\n")[0],
+        prog="sail-ros sim",
+        description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="ROS parameters (--ros-args -p name:=value, or --params-file config/sim.yaml; "
-               "write doubles with a decimal point):\n" + "\n".join(lines))
+        epilog=PHYSICS_DOC
+        + "\n\nROS parameters (--ros-args -p name:=value, or --params-file config/sim.yaml; "
+        "write doubles with a decimal point):\n" + "\n".join(lines),
+    )
 
 
 def main(argv=None) -> int:

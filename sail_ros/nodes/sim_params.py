@@ -23,58 +23,147 @@ from sail_ros.topics import SAIL_PREFIX, sail_parameters_from_flat
 
 _DEFAULT_SAIL = SailParameters()
 _SAIL_SPECS = [
-    ("sail_side", "side a of the square sail [m]; the fully deployed boom length is a/sqrt(2)",
-     0.0, 1e4),
+    (
+        "sail_side",
+        "side a of the square sail [m]; the fully deployed boom length is a/sqrt(2)",
+        0.0,
+        1e4,
+    ),
     ("boom_bending_stiffness", "bending stiffness EI of each boom [N m^2]", 0.0, 1e12),
     ("boom_linear_density", "mass per length rho_B of each boom [kg/m]", 0.0, 1e6),
     ("membrane_thickness", "film thickness h [m]", 0.0, 1e-2),
     ("membrane_density", "film density rho [kg/m^3]; areal density rho h", 0.0, 1e5),
-    ("membrane_prestress", "isotropic film prestress sigma [Pa]; tension N0 = sigma h",
-     0.0, 1e10),
+    ("membrane_prestress", "isotropic film prestress sigma [Pa]; tension N0 = sigma h", 0.0, 1e10),
     ("boom_axial_load", "axial compression P the membrane puts on each boom [N]", 0.0, 1e12),
     ("n_boom_modes", "cantilever modes per boom n_B [-]", 1, 30),
     ("n_membrane_modes", "clamped-triangle modes per quadrant n_M [-]", 1, 100),
 ]
 
 SPECS = [
-    ParamSpec(SAIL_PREFIX + name, getattr(_DEFAULT_SAIL, name),
-         f"{text} (model.md §10; fixes the model)", True, low, high)
+    ParamSpec(
+        SAIL_PREFIX + name,
+        getattr(_DEFAULT_SAIL, name),
+        f"{text} (docs/model.md §10; fixes the model)",
+        True,
+        low,
+        high,
+    )
     for name, text, low, high in _SAIL_SPECS
 ] + [
-    ParamSpec("initial_lengths", [10.0], "boom lengths at start and after sail/reset [m]: one "
-         "value for all booms or four (a, b, c, d), within [min_length, max_length]; a change "
-         "applies at the next reset", False, 1e-3, 1e4, sizes=(1, 4)),
-    ParamSpec("initial_tip_deflection", [0.0, 0.0, 0.0, 0.0], "tip deflection of each boom at "
-         "start and after sail/reset [m], +z of the sail frame, as that boom's first cantilever "
-         "mode; one value or four (a, b, c, d); a change applies at the next reset",
-         False, -10.0, 10.0, sizes=(1, 4)),
-    ParamSpec("min_length", 1.0, "shortest boom length a command may ask for or pass through [m]",
-         False, 1e-3, 1e4),
-    ParamSpec("max_length", 70.71, "longest boom length a command may ask for or pass through [m] "
-         "(default: the 100 m sail fully deployed, a/sqrt(2) rounded down)", False, 1e-3, 1e4),
-    ParamSpec("max_rate", 1.0, "largest |extension rate| of a commanded motion [m/s]",
-         False, 1e-6, 100.0),
-    ParamSpec("max_acceleration", 0.5, "largest |extension acceleration| of a commanded motion "
-         "[m/s^2]", False, 1e-6, 100.0),
-    ParamSpec("deploy_duration", 0.0, "duration of a sail/deploy_cmd motion [s]; 0: the fastest "
-         "within max_rate and max_acceleration", False, 0.0, 1e6),
-    ParamSpec("state_rate_hz", 50.0, "boom_state, modal_state, tip_deflection (and /clock) per "
-         "second of simulation time [Hz], rounded to whole integration steps",
-         False, 0.01, 1000.0),
-    ParamSpec("shape_rate_hz", 5.0, "sail/shape markers per second of simulation time [Hz], "
-         "rounded to whole integration steps; 0: none", False, 0.0, 1000.0),
-    ParamSpec("diagnostics_rate_hz", 1.0, "/diagnostics per second of wall time [Hz]; also the "
-         "window of the step statistics it reports (the real-time factor is measured over "
-         "at least 0.5 s)", False, 0.01, 100.0),
-    ParamSpec("integration_step", 0.01, "time step of the simulation grid [s]; each is split "
-         "further where the shortest boom's first bending mode needs it",
-         True, 1e-4, 0.2),
-    ParamSpec("time_scale", 1.0, "simulation seconds per wall-clock second [-]: 1 follows the "
-         "wall clock; other values publish /clock; 0 or negative: as fast as possible",
-         True, -1.0, 1000.0),
+    ParamSpec(
+        "initial_lengths",
+        [10.0],
+        "boom lengths at start and after sail/reset [m]: one "
+        "value for all booms or four (a, b, c, d), within [min_length, max_length]; a change "
+        "applies at the next reset",
+        False,
+        1e-3,
+        1e4,
+        sizes=(1, 4),
+    ),
+    ParamSpec(
+        "initial_tip_deflection",
+        [0.0, 0.0, 0.0, 0.0],
+        "tip deflection of each boom at "
+        "start and after sail/reset [m], +z of the sail frame, as that boom's first cantilever "
+        "mode; one value or four (a, b, c, d); a change applies at the next reset",
+        False,
+        -10.0,
+        10.0,
+        sizes=(1, 4),
+    ),
+    ParamSpec(
+        "min_length",
+        1.0,
+        "shortest boom length a command may ask for or pass through [m]",
+        False,
+        1e-3,
+        1e4,
+    ),
+    ParamSpec(
+        "max_length",
+        70.71,
+        "longest boom length a command may ask for or pass through [m] "
+        "(default: the 100 m sail fully deployed, a/sqrt(2) rounded down)",
+        False,
+        1e-3,
+        1e4,
+    ),
+    ParamSpec(
+        "max_rate", 1.0, "largest |extension rate| of a commanded motion [m/s]", False, 1e-6, 100.0
+    ),
+    ParamSpec(
+        "max_acceleration",
+        0.5,
+        "largest |extension acceleration| of a commanded motion [m/s^2]",
+        False,
+        1e-6,
+        100.0,
+    ),
+    ParamSpec(
+        "deploy_duration",
+        0.0,
+        "duration of a sail/deploy_cmd motion [s]; 0: the fastest "
+        "within max_rate and max_acceleration",
+        False,
+        0.0,
+        1e6,
+    ),
+    ParamSpec(
+        "state_rate_hz",
+        50.0,
+        "boom_state, modal_state, tip_deflection (and /clock) per "
+        "second of simulation time [Hz], rounded to whole integration steps",
+        False,
+        0.01,
+        1000.0,
+    ),
+    ParamSpec(
+        "shape_rate_hz",
+        5.0,
+        "sail/shape markers per second of simulation time [Hz], "
+        "rounded to whole integration steps; 0: none",
+        False,
+        0.0,
+        1000.0,
+    ),
+    ParamSpec(
+        "diagnostics_rate_hz",
+        1.0,
+        "/diagnostics per second of wall time [Hz]; also the "
+        "window of the step statistics it reports (the real-time factor is measured over "
+        "at least 0.5 s)",
+        False,
+        0.01,
+        100.0,
+    ),
+    ParamSpec(
+        "integration_step",
+        0.01,
+        "time step of the simulation grid [s]; each is split "
+        "further where the shortest boom's first bending mode needs it",
+        True,
+        1e-4,
+        0.2,
+    ),
+    ParamSpec(
+        "time_scale",
+        1.0,
+        "simulation seconds per wall-clock second [-]: 1 follows the "
+        "wall clock; other values publish /clock; 0 or negative: as fast as possible",
+        True,
+        -1.0,
+        1000.0,
+    ),
     ParamSpec("frame_id", "sail", "frame of every published state and marker", True),
-    ParamSpec("shape_divisions", 10, "mesh subdivisions of each quadrant edge in sail/shape [-]",
-         True, 1, 50),
+    ParamSpec(
+        "shape_divisions",
+        10,
+        "mesh subdivisions of each quadrant edge in sail/shape [-]",
+        True,
+        1,
+        50,
+    ),
 ]
 SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
 DEFAULTS = {spec.name: spec.default for spec in SPECS}
@@ -125,25 +214,36 @@ def config_from_values(values: dict) -> SimConfig:
         sail = sail_parameters_from_flat(values)
     except ValueError as error:
         raise ConfigError(str(error)) from None
-    limits = Limits(float(values["min_length"]), float(values["max_length"]),
-                    float(values["max_rate"]), float(values["max_acceleration"]))
+    limits = Limits(
+        float(values["min_length"]),
+        float(values["max_length"]),
+        float(values["max_rate"]),
+        float(values["max_acceleration"]),
+    )
     if not limits.min_length < limits.max_length:
-        raise ConfigError(f"min_length ({limits.min_length:g} m) must be below max_length "
-                          f"({limits.max_length:g} m)")
+        raise ConfigError(
+            f"min_length ({limits.min_length:g} m) must be below max_length "
+            f"({limits.max_length:g} m)"
+        )
     lengths = _per_boom(values["initial_lengths"], "initial_lengths")
     if np.any(lengths < limits.min_length) or np.any(lengths > limits.max_length):
-        raise ConfigError(f"initial_lengths {lengths.tolist()} m must lie in [min_length, "
-                          f"max_length] = [{limits.min_length:g}, {limits.max_length:g}] m")
+        raise ConfigError(
+            f"initial_lengths {lengths.tolist()} m must lie in [min_length, "
+            f"max_length] = [{limits.min_length:g}, {limits.max_length:g}] m"
+        )
     step = float(values["integration_step"])
     for name in ("state_rate_hz", "shape_rate_hz"):
         if values[name] * step > 1.0 + 1e-9:
-            raise ConfigError(f"{name} = {values[name]:g} Hz is faster than the integration "
-                              f"step allows (at most 1 / integration_step = {1 / step:g} Hz)")
+            raise ConfigError(
+                f"{name} = {values[name]:g} Hz is faster than the integration "
+                f"step allows (at most 1 / integration_step = {1 / step:g} Hz)"
+            )
     return SimConfig(
         sail=sail,
         initial_lengths=lengths,
-        initial_tip_deflection=_per_boom(values["initial_tip_deflection"],
-                                         "initial_tip_deflection"),
+        initial_tip_deflection=_per_boom(
+            values["initial_tip_deflection"], "initial_tip_deflection"
+        ),
         limits=limits,
         deploy_duration=float(values["deploy_duration"]),
         state_rate_hz=float(values["state_rate_hz"]),

@@ -62,8 +62,10 @@ class Simulation:
         self.step_size = config.integration_step
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
         self.stepper = model.stepper(
-            self.motion, q0=model.initial_coordinates(config.initial_tip_deflection),
-            max_step=self.step_size)
+            self.motion,
+            q0=model.initial_coordinates(config.initial_tip_deflection),
+            max_step=self.step_size,
+        )
         self.steps = 0  # grid steps taken since start
         self.paused = False
         self.error: str | None = None
@@ -83,7 +85,7 @@ class Simulation:
 
     @property
     def state(self) -> str:
-        """"error", "paused" or "running"."""
+        """One of "error", "paused" or "running"."""
         return ERROR if self.error else PAUSED if self.paused else RUNNING
 
     def boom_state(self) -> BoomState:
@@ -125,8 +127,12 @@ class Simulation:
         """Back to the initial lengths (at rest) and tip deflections of `config`, at
         the current time; clears an error. The pause state is kept."""
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
-        self.stepper.reset(self.model.initial_coordinates(config.initial_tip_deflection),
-                           None, self.t, profile=self.motion)
+        self.stepper.reset(
+            self.model.initial_coordinates(config.initial_tip_deflection),
+            None,
+            self.t,
+            profile=self.motion,
+        )
         self.error = None
 
     # -- commands ---------------------------------------------------------------------------
@@ -151,8 +157,9 @@ class Simulation:
     def _command(self, make_plan) -> Plan:
         try:
             if self.error:
-                raise CommandError("the integration stopped on a non-finite state; call "
-                                   "sail/reset first")
+                raise CommandError(
+                    "the integration stopped on a non-finite state; call sail/reset first"
+                )
             plan = make_plan(self.boom_state())
         except CommandError as error:
             self.rejected += 1

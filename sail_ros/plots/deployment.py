@@ -31,8 +31,9 @@ def _lengths_text(lengths) -> str:
 
 
 @styled
-def snapshots_figure(model, times, lengths, q, path, title: str = "", divisions: int = 14,
-                     columns: int = 3):
+def snapshots_figure(
+    model, times, lengths, q, path, title: str = "", divisions: int = 14, columns: int = 3
+):
     """Write 3-D snapshots of the sail as a PNG.
 
     Args:
@@ -46,8 +47,10 @@ def snapshots_figure(model, times, lengths, q, path, title: str = "", divisions:
         columns: panels per row.
     """
     surface = SailSurface(model, divisions)
-    frames = [(surface.vertices(qi, li), surface.boom_lines(qi, li))
-              for qi, li in zip(q, lengths, strict=True)]
+    frames = [
+        (surface.vertices(qi, li), surface.boom_lines(qi, li))
+        for qi, li in zip(q, lengths, strict=True)
+    ]
     peak_m = max(max(np.abs(v[:, 2]).max(), np.abs(b[:, :, 2]).max()) for v, b in frames)
     peak_m = max(peak_m, 1e-6)  # an undeflected run still gets an axis
     extent = 1.03 * float(np.max(lengths))
@@ -58,25 +61,45 @@ def snapshots_figure(model, times, lengths, q, path, title: str = "", divisions:
 
     columns = min(columns, len(times))
     rows = math.ceil(len(times) / columns)
-    fig, axes = figure(2.8 * columns + 0.9, 2.6 * rows + 0.7, nrows=rows, ncols=columns,
-                       squeeze=False, subplot_kw={"projection": "3d"})
+    fig, axes = figure(
+        2.8 * columns + 0.9,
+        2.6 * rows + 0.7,
+        nrows=rows,
+        ncols=columns,
+        squeeze=False,
+        subplot_kw={"projection": "3d"},
+    )
     for ax, t, li, (vertices, booms) in zip(axes.flat, times, lengths, frames, strict=False):
-        draw_sail(ax, vertices, surface.triangles, booms, z_factor=1e3, norm=norm,
-                  extent=extent, z_limit=z_limit_mm, box_height=box)
+        draw_sail(
+            ax,
+            vertices,
+            surface.triangles,
+            booms,
+            z_factor=1e3,
+            norm=norm,
+            extent=extent,
+            z_limit=z_limit_mm,
+            box_height=box,
+        )
         ax.set_title(f"t = {t:.1f} s\n{_lengths_text(li)}", pad=0)
         ax.set_xlabel("x [m]", labelpad=-6)
         ax.set_ylabel("y [m]", labelpad=-6)
         ax.set_zticks(_z_ticks(z_limit_mm))
         ax.tick_params(axis="z", pad=0)
-    for ax in axes.flat[len(times):]:
+    for ax in axes.flat[len(times) :]:
         ax.set_visible(False)
     heading = f"{title}\n" if title else ""
-    fig.suptitle(f"{heading}deflection w drawn {exaggeration:g}x true scale "
-                 "(tick labels true: x, y in m, w in mm); booms black", fontsize=10)
-    fig.subplots_adjust(left=0.02, right=0.86, bottom=0.03, top=0.86 if rows > 1 else 0.76,
-                        wspace=0.22, hspace=0.1)
-    bar = fig.colorbar(cm.ScalarMappable(norm=norm, cmap=CMAP), ax=axes.ravel().tolist(),
-                       shrink=0.7, pad=0.07)
+    fig.suptitle(
+        f"{heading}deflection w drawn {exaggeration:g}x true scale "
+        "(tick labels true: x, y in m, w in mm); booms black",
+        fontsize=10,
+    )
+    fig.subplots_adjust(
+        left=0.02, right=0.86, bottom=0.03, top=0.86 if rows > 1 else 0.76, wspace=0.22, hspace=0.1
+    )
+    bar = fig.colorbar(
+        cm.ScalarMappable(norm=norm, cmap=CMAP), ax=axes.ravel().tolist(), shrink=0.7, pad=0.07
+    )
     bar.set_label("deflection w [mm]")
     return save(fig, path)
 

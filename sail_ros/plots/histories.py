@@ -20,8 +20,13 @@ def tip_deflections_figure(t, tips, path, title: str = "", time_label: str = TIM
     fig, ax = figure(6.4, 3.4)
     tips = np.asarray(tips)
     for group in equal_groups(tips):
-        ax.plot(t, 1e3 * tips[:, group[0]], color=BOOM_COLOURS[BOOMS[group[0]]], lw=1.2,
-                label=_boom_label(group))
+        ax.plot(
+            t,
+            1e3 * tips[:, group[0]],
+            color=BOOM_COLOURS[BOOMS[group[0]]],
+            lw=1.2,
+            label=_boom_label(group),
+        )
     ax.set_xlabel(time_label)
     ax.set_ylabel("tip deflection [mm]")
     ax.set_title(_title("Boom-tip deflections", title))
@@ -53,25 +58,40 @@ def boom_lengths_figure(t, lengths, rates, path, title: str = "", time_label: st
 
 
 @styled
-def energies_figure(t, booms, quadrants, total, path, title: str = "",
-                    time_label: str = TIME_LABEL):
+def energies_figure(
+    t, booms, quadrants, total, path, title: str = "", time_label: str = TIME_LABEL
+):
     """Mechanical energy [J] per boom and per quadrant group, and in all, against time [s].
 
     Args:
+        t: times [s], (k,).
         booms: (k, 4) energies of the boom coordinate groups a..d.
         quadrants: (k, 4) energies of the membrane groups ab, bc, cd, da.
         total: (k,) total mechanical energy of the sail.
+        path: output file.
+        title: figure title.
+        time_label: label of the time axis.
     """
     fig, axes = figure(6.4, 6.0, nrows=3, sharex=True)
     booms, quadrants = np.asarray(booms), np.asarray(quadrants)
     for group in equal_groups(booms):
-        axes[0].plot(t, booms[:, group[0]], color=BOOM_COLOURS[BOOMS[group[0]]], lw=1.2,
-                     label=_boom_label(group))
+        axes[0].plot(
+            t,
+            booms[:, group[0]],
+            color=BOOM_COLOURS[BOOMS[group[0]]],
+            lw=1.2,
+            label=_boom_label(group),
+        )
     names = tuple(QUADRANT_COLOURS)
     for group in equal_groups(quadrants):
         label = ", ".join(names[k] for k in group)
-        axes[1].plot(t, quadrants[:, group[0]], color=QUADRANT_COLOURS[names[group[0]]], lw=1.2,
-                     label=f"membrane{'s' if len(group) > 1 else ''} {label}")
+        axes[1].plot(
+            t,
+            quadrants[:, group[0]],
+            color=QUADRANT_COLOURS[names[group[0]]],
+            lw=1.2,
+            label=f"membrane{'s' if len(group) > 1 else ''} {label}",
+        )
     axes[2].plot(t, total, color="k", lw=1.3, label="total")
     # from zero: a conserved energy must look flat, not magnify its round-off
     axes[2].set_ylim(0.0, 1.15 * max(float(np.max(total)), 1e-300))
@@ -83,8 +103,9 @@ def energies_figure(t, booms, quadrants, total, path, title: str = "",
         ax.legend(ncols=4, loc="best", frameon=False, fontsize=7)
         ax.margins(x=0)
     axes[2].set_xlabel(time_label)
-    axes[0].set_title(_title("Mechanical energy by coordinate group (log) and in total (linear)",
-                             title))
+    axes[0].set_title(
+        _title("Mechanical energy by coordinate group (log) and in total (linear)", title)
+    )
     fig.tight_layout()
     return save(fig, path)
 

@@ -38,13 +38,21 @@ def _title(first: int, multiplicity: int, omega: float) -> str:
 
 
 def _draw_map(ax, vertices, triangles, booms, norm, extent):
-    ax.tricontourf(vertices[:, 0], vertices[:, 1], triangles, vertices[:, 2], levels=LEVELS,
-                   cmap=CMAP, norm=norm)
+    ax.tricontourf(
+        vertices[:, 0],
+        vertices[:, 1],
+        triangles,
+        vertices[:, 2],
+        levels=LEVELS,
+        cmap=CMAP,
+        norm=norm,
+    )
     for line in booms:
         points = line[:, :2]
         ax.plot(points[:, 0], points[:, 1], color="k", lw=3.2, solid_capstyle="butt")
-        strip = LineCollection(np.stack([points[:-1], points[1:]], axis=1), cmap=CMAP,
-                               norm=norm, linewidths=2.0)
+        strip = LineCollection(
+            np.stack([points[:-1], points[1:]], axis=1), cmap=CMAP, norm=norm, linewidths=2.0
+        )
         strip.set_array(0.5 * (line[:-1, 2] + line[1:, 2]))
         ax.add_collection(strip)
     ax.set_xlim(-extent, extent)
@@ -54,8 +62,9 @@ def _draw_map(ax, vertices, triangles, booms, norm, extent):
 
 
 @styled
-def mode_shapes_figure(model, lengths, shapes, path, view: str = "map", divisions: int = 24,
-                       columns: int = 3):
+def mode_shapes_figure(
+    model, lengths, shapes, path, view: str = "map", divisions: int = 24, columns: int = 3
+):
     """Write the mode shapes as a PNG.
 
     Args:
@@ -75,18 +84,29 @@ def mode_shapes_figure(model, lengths, shapes, path, view: str = "map", division
     extent = 1.03 * float(np.max(lengths))
     rows = math.ceil(len(shapes) / columns)
     columns = math.ceil(len(shapes) / rows)
-    options = {"subplot_kw": {"projection": "3d"}} if view == "3d" else {
-        "sharex": True, "sharey": True}
-    fig, axes = figure(2.45 * columns + 0.9, 2.45 * rows + 0.6, nrows=rows, ncols=columns,
-                       squeeze=False, **options)
+    options = (
+        {"subplot_kw": {"projection": "3d"}} if view == "3d" else {"sharex": True, "sharey": True}
+    )
+    fig, axes = figure(
+        2.45 * columns + 0.9, 2.45 * rows + 0.6, nrows=rows, ncols=columns, squeeze=False, **options
+    )
     norm = symmetric_norm(1.0)
     for ax, (_, first, multiplicity, omega, vector) in zip(axes.flat, shapes, strict=False):
         vertices = surface.vertices(vector, lengths)
         booms = surface.boom_lines(vector, lengths)
         peak = max(np.abs(vertices[:, 2]).max(), np.abs(booms[:, :, 2]).max())
         if view == "3d":
-            draw_sail(ax, vertices, surface.triangles, booms, z_factor=1.0 / peak, norm=norm,
-                      extent=extent, z_limit=1.0, box_height=BOX_HEIGHT)
+            draw_sail(
+                ax,
+                vertices,
+                surface.triangles,
+                booms,
+                z_factor=1.0 / peak,
+                norm=norm,
+                extent=extent,
+                z_limit=1.0,
+                box_height=BOX_HEIGHT,
+            )
             ax.set_xlabel("x [m]", labelpad=-6)
             ax.set_ylabel("y [m]", labelpad=-6)
             ax.set_zticks([-1, 0, 1], labels=[])
@@ -100,21 +120,25 @@ def mode_shapes_figure(model, lengths, shapes, path, view: str = "map", division
             ax.set_xlabel("x [m] (boom a)")
         for ax in axes[:, 0]:
             ax.set_ylabel("y [m] (boom b)")
-    for ax in axes.flat[len(shapes):]:
+    for ax in axes.flat[len(shapes) :]:
         ax.set_visible(False)
     equal = np.allclose(lengths, lengths[0])
-    shown = (f"L = {lengths[0]:.2f} m" if equal
-             else "L = " + ", ".join(f"{v:.4g}" for v in lengths) + " m (a, b, c, d)")
+    shown = (
+        f"L = {lengths[0]:.2f} m"
+        if equal
+        else "L = " + ", ".join(f"{v:.4g}" for v in lengths) + " m (a, b, c, d)"
+    )
     what = "booms as strips, seen from +z" if view == "map" else "booms black"
-    fig.suptitle(f"First {len(shapes)} distinct mode shapes, {shown}\n"
-                 f"{what}; w normalised to max |w| = 1", fontsize=10)
+    fig.suptitle(
+        f"First {len(shapes)} distinct mode shapes, {shown}\n{what}; w normalised to max |w| = 1",
+        fontsize=10,
+    )
     if view == "3d":
-        fig.subplots_adjust(left=0.02, right=0.86, bottom=0.03, top=0.84, wspace=0.15,
-                            hspace=0.18)
+        fig.subplots_adjust(left=0.02, right=0.86, bottom=0.03, top=0.84, wspace=0.15, hspace=0.18)
     else:
-        fig.subplots_adjust(left=0.1, right=0.86, bottom=0.1, top=0.82, wspace=0.15,
-                            hspace=0.3)
-    bar = fig.colorbar(cm.ScalarMappable(norm=norm, cmap=CMAP), ax=axes.ravel().tolist(),
-                       shrink=0.7, pad=0.03)
+        fig.subplots_adjust(left=0.1, right=0.86, bottom=0.1, top=0.82, wspace=0.15, hspace=0.3)
+    bar = fig.colorbar(
+        cm.ScalarMappable(norm=norm, cmap=CMAP), ax=axes.ravel().tolist(), shrink=0.7, pad=0.03
+    )
     bar.set_label("w / max|w|")
     return save(fig, path)

@@ -20,8 +20,18 @@ def symmetric_norm(limit: float) -> Normalize:
     return Normalize(-limit, limit)
 
 
-def draw_sail(ax, vertices, triangles, boom_lines, *, z_factor: float, norm: Normalize,
-              extent: float, z_limit: float, box_height: float) -> None:
+def draw_sail(
+    ax,
+    vertices,
+    triangles,
+    boom_lines,
+    *,
+    z_factor: float,
+    norm: Normalize,
+    extent: float,
+    z_limit: float,
+    box_height: float,
+) -> None:
     """Draw one sail state on a 3-D axes.
 
     Args:
@@ -40,9 +50,18 @@ def draw_sail(ax, vertices, triangles, boom_lines, *, z_factor: float, norm: Nor
     """
     z = vertices[:, 2] * z_factor
     ax.computed_zorder = False
-    ax.plot_trisurf(vertices[:, 0], vertices[:, 1], z, triangles=triangles, cmap=CMAP,
-                    norm=norm, linewidth=0.2, edgecolor=(0.4, 0.4, 0.4, 0.25), antialiased=True,
-                    shade=False)  # faint mesh edges show where a flat (white) membrane is
+    ax.plot_trisurf(
+        vertices[:, 0],
+        vertices[:, 1],
+        z,
+        triangles=triangles,
+        cmap=CMAP,
+        norm=norm,
+        linewidth=0.2,
+        edgecolor=(0.4, 0.4, 0.4, 0.25),
+        antialiased=True,
+        shade=False,
+    )  # faint mesh edges show where a flat (white) membrane is
     for line in boom_lines:  # drawn last and on top: mplot3d's depth sort would hide them
         ax.plot(line[:, 0], line[:, 1], line[:, 2] * z_factor, color="k", lw=1.4, zorder=10)
     ax.set_xlim(-extent, extent)

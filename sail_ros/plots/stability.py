@@ -36,7 +36,7 @@ def _rate_colours(rates) -> dict[float, tuple]:
 
 @styled
 def max_real_figure(sweeps, path, sail_prestress: float | None = None):
-    """max Re(lambda) [1/s] against membrane prestress [Pa], one panel per length.
+    """Max Re(lambda) [1/s] against membrane prestress [Pa], one panel per length.
 
     Deployment (rate > 0) solid, retraction dashed, zero rate black dotted;
     colour by |rate|; a dot marks each critical prestress; a grey line the
@@ -45,8 +45,9 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
     lengths = sorted({s.length for s in sweeps})
     columns = min(len(lengths), 3)
     rows = math.ceil(len(lengths) / columns)
-    fig, axes = figure(3.6 * columns + 2.0, 3.4 * rows + 0.6, nrows=rows, ncols=columns,
-                       squeeze=False, sharey=True)
+    fig, axes = figure(
+        3.6 * columns + 2.0, 3.4 * rows + 0.6, nrows=rows, ncols=columns, squeeze=False, sharey=True
+    )
     colours = _rate_colours([s.rate for s in sweeps])
     threshold = _linthresh(np.concatenate([s.max_real for s in sweeps]))
     for ax, length in zip(axes.flat, lengths, strict=False):
@@ -54,16 +55,30 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
             if sweep.rate == 0:
                 style = {"color": "k", "ls": ":"}
             else:
-                style = {"color": colours[abs(sweep.rate)],
-                         "ls": "-" if sweep.rate > 0 else "--"}
+                style = {"color": colours[abs(sweep.rate)], "ls": "-" if sweep.rate > 0 else "--"}
             ax.plot(sweep.prestress, sweep.max_real, lw=1.4, **style)
             if sweep.critical_prestress is not None:
-                ax.plot([sweep.critical_prestress], [0.0], "o", ms=4.5, mfc=style["color"],
-                        mec="k", mew=0.6, zorder=5)
+                ax.plot(
+                    [sweep.critical_prestress],
+                    [0.0],
+                    "o",
+                    ms=4.5,
+                    mfc=style["color"],
+                    mec="k",
+                    mew=0.6,
+                    zorder=5,
+                )
         if sail_prestress is not None:
             ax.axvline(sail_prestress, color="0.5", lw=1.0)
-            ax.annotate("sail", (sail_prestress, 1.0), xycoords=("data", "axes fraction"),
-                        xytext=(3, -10), textcoords="offset points", color="0.4", fontsize=8)
+            ax.annotate(
+                "sail",
+                (sail_prestress, 1.0),
+                xycoords=("data", "axes fraction"),
+                xytext=(3, -10),
+                textcoords="offset points",
+                color="0.4",
+                fontsize=8,
+            )
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_xscale("log")
         ax.set_yscale("symlog", linthresh=threshold, linscale=0.5)
@@ -71,34 +86,42 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
         ax.set_xlabel("membrane prestress $\\sigma$ [Pa]")
     for ax in axes[:, 0]:
         ax.set_ylabel("max Re($\\lambda$) [1/s]  (symlog)")
-    for ax in axes.flat[len(lengths):]:
+    for ax in axes.flat[len(lengths) :]:
         ax.set_visible(False)
-    handles = [Line2D([], [], color=colours[s], lw=1.4, label=f"|rate| {s:g} m/s")
-               for s in sorted(colours)]
-    handles += [Line2D([], [], color="0.3", ls="-", label="deployment"),
-                Line2D([], [], color="0.3", ls="--", label="retraction")]
+    handles = [
+        Line2D([], [], color=colours[s], lw=1.4, label=f"|rate| {s:g} m/s") for s in sorted(colours)
+    ]
+    handles += [
+        Line2D([], [], color="0.3", ls="-", label="deployment"),
+        Line2D([], [], color="0.3", ls="--", label="retraction"),
+    ]
     if any(s.rate == 0 for s in sweeps):
         handles.append(Line2D([], [], color="k", ls=":", label="rate 0"))
-    handles.append(Line2D([], [], ls="", marker="o", mfc="w", mec="k",
-                          label="critical prestress"))
+    handles.append(Line2D([], [], ls="", marker="o", mfc="w", mec="k", label="critical prestress"))
     fig.legend(handles=handles, loc="center right", frameon=False)
-    fig.suptitle("Frozen-length stability (seed Eq. 3)\nlargest real part of the eigenvalues; "
-                 "> 0 is unstable", fontsize=10)
+    fig.suptitle(
+        "Frozen-length stability (seed Eq. 3)\nlargest real part of the eigenvalues; "
+        "> 0 is unstable",
+        fontsize=10,
+    )
     right = 1.0 - 1.9 / fig.get_figwidth()  # room for the legend
-    fig.subplots_adjust(left=0.75 / fig.get_figwidth(), right=right, bottom=0.13, top=0.84,
-                        wspace=0.08, hspace=0.4)
+    fig.subplots_adjust(
+        left=0.75 / fig.get_figwidth(), right=right, bottom=0.13, top=0.84, wspace=0.08, hspace=0.4
+    )
     return save(fig, path)
 
 
 @styled
-def loci_figure(prestresses, eigenvalues, length: float, rate: float, path,
-                critical: float | None = None):
+def loci_figure(
+    prestresses, eigenvalues, length: float, rate: float, path, critical: float | None = None
+):
     """Eigenvalues in the complex plane (Im >= 0) as the prestress [Pa] varies.
 
     Args:
         prestresses: prestress per eigenvalue set [Pa].
         eigenvalues: one array of eigenvalues [1/s] per prestress.
-        length: boom length [m]; rate: extension rate [m/s] (titles only).
+        length: boom length [m] (title only).
+        rate: extension rate [m/s] (title only).
         path: output file.
         critical: critical prestress [Pa] to state in the title, if any.
     """
@@ -108,8 +131,15 @@ def loci_figure(prestresses, eigenvalues, length: float, rate: float, path,
     real = np.concatenate([e.real for e in eigenvalues])
     for s, values in zip(prestresses, eigenvalues, strict=True):
         upper = values[values.imag >= 0]
-        ax.scatter(upper.real, upper.imag, s=5, c=np.full(upper.size, s), cmap=cmap,
-                   norm=norm, linewidths=0)
+        ax.scatter(
+            upper.real,
+            upper.imag,
+            s=5,
+            c=np.full(upper.size, s),
+            cmap=cmap,
+            norm=norm,
+            linewidths=0,
+        )
     ax.axvline(0.0, color="k", lw=0.6)
     ax.set_xscale("symlog", linthresh=_linthresh(real), linscale=0.5)
     ax.set_yscale("symlog", linthresh=0.01, linscale=0.5)

@@ -15,12 +15,16 @@ from sail_ros.model import SailParameters
 def add_sail_options(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("sail")
     group.add_argument(
-        "--config", metavar="YAML",
+        "--config",
+        metavar="YAML",
         help="sail parameters file (keys of SailParameters, at top level or under `sail:`); "
         "default: the built-in defaults (config/sail.yaml)",
     )
     group.add_argument(
-        "--set", metavar="KEY=VALUE", action="append", default=[],
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
         help="override one parameter, e.g. --set n_boom_modes=10 (repeatable)",
     )
 
@@ -41,19 +45,22 @@ def sail_parameters(args: argparse.Namespace) -> SailParameters:
 
 def describe_parameters(params: SailParameters) -> str:
     """The parameters in one block, with units, for printing next to results."""
-    return "\n".join([
-        f"  sail side a             {params.sail_side:g} m (full boom length "
-        f"{params.full_boom_length:.4g} m)",
-        f"  boom EI                 {params.boom_bending_stiffness:g} N m^2",
-        f"  boom rho_B              {params.boom_linear_density:g} kg/m",
-        f"  film h, rho             {params.membrane_thickness:g} m, "
-        f"{params.membrane_density:g} kg/m^3 (rho_M = {params.membrane_areal_density:.4g} kg/m^2)",
-        f"  film prestress          {params.membrane_prestress:g} Pa "
-        f"(N0 = {params.membrane_tension:.4g} N/m)",
-        f"  boom axial load P       {params.boom_axial_load:g} N",
-        f"  modes n_B, n_M          {params.n_boom_modes}, {params.n_membrane_modes} "
-        f"({4 * params.n_boom_modes + 4 * params.n_membrane_modes} coordinates)",
-    ])
+    return "\n".join(
+        [
+            f"  sail side a             {params.sail_side:g} m (full boom length "
+            f"{params.full_boom_length:.4g} m)",
+            f"  boom EI                 {params.boom_bending_stiffness:g} N m^2",
+            f"  boom rho_B              {params.boom_linear_density:g} kg/m",
+            f"  film h, rho             {params.membrane_thickness:g} m, "
+            f"{params.membrane_density:g} kg/m^3 "
+            f"(rho_M = {params.membrane_areal_density:.4g} kg/m^2)",
+            f"  film prestress          {params.membrane_prestress:g} Pa "
+            f"(N0 = {params.membrane_tension:.4g} N/m)",
+            f"  boom axial load P       {params.boom_axial_load:g} N",
+            f"  modes n_B, n_M          {params.n_boom_modes}, {params.n_membrane_modes} "
+            f"({4 * params.n_boom_modes + 4 * params.n_membrane_modes} coordinates)",
+        ]
+    )
 
 
 def run(main_body, args) -> int:

@@ -24,6 +24,7 @@ from tqdm import tqdm
 
 from sail_ros.analysis.deployment import output_times, run_deployment
 from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
+from sail_ros.cli import PHYSICS_DOC
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.tools.common import (
     add_sail_options,
@@ -37,44 +38,80 @@ LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that bu
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sail-ros deploy", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="sail-ros deploy", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+    )
     add_sail_options(parser)
-    parser.add_argument("--scenario", type=Path, metavar="YAML",
-                        help="scenario file (profiles per boom, initial state, snapshot times; "
-                        "see config/scenario_reference.yaml); its `sail:` section overrides "
-                        "--config, --set overrides both")
-    scenario = parser.add_argument_group("reference scenario (model.md §9), without --scenario")
-    scenario.add_argument("--from", dest="start", type=float,
-                          help="initial boom length L0 [m] (10)")
+    parser.add_argument(
+        "--scenario",
+        type=Path,
+        metavar="YAML",
+        help="scenario file (profiles per boom, initial state, snapshot times; "
+        "see config/scenario_reference.yaml); its `sail:` section overrides "
+        "--config, --set overrides both",
+    )
+    scenario = parser.add_argument_group(
+        "reference scenario (docs/model.md §9), without --scenario"
+    )
+    scenario.add_argument(
+        "--from", dest="start", type=float, help="initial boom length L0 [m] (10)"
+    )
     scenario.add_argument("--to", dest="end", type=float, help="final boom length Lf [m] (15)")
     scenario.add_argument("--duration", type=float, help="deployment time T [s] (15)")
     scenario.add_argument("--t-end", type=float, help="simulated time [s] (default: T)")
     scenario.add_argument("--boom", choices="abcd", help="boom bent at t = 0 (a)")
     scenario.add_argument("--tip", type=float, help="its tip deflection [m] (0.1)")
-    parser.add_argument("--every", type=float, default=1.0,
-                        help="output interval for the table [s] (1)")
+    parser.add_argument(
+        "--every", type=float, default=1.0, help="output interval for the table [s] (1)"
+    )
     parser.add_argument("--max-step", type=float, default=0.2, help="largest integration step [s]")
-    parser.add_argument("--summary", action="store_true",
-                        help="print the table even when writing --mcap or --figures "
-                        "(it is printed anyway without them)")
+    parser.add_argument(
+        "--summary",
+        action="store_true",
+        help="print the table even when writing --mcap or --figures "
+        "(it is printed anyway without them)",
+    )
     output = parser.add_argument_group("output")
-    output.add_argument("--rate", type=float, default=50.0,
-                        help="state samples per simulated second in the log and the time "
-                        "histories [Hz] (50, as the simulator's state_rate_hz); the "
-                        "integration steps to each sample")
-    output.add_argument("--mcap", type=Path, metavar="FILE",
-                        help="write the run as a ROS 2 MCAP log with the simulator's topics "
-                        "(a .mcap file, replaced if present, or a new bag folder)")
-    output.add_argument("--shape-rate", type=float, default=5.0,
-                        help="/sail/shape messages per simulated second in the log [Hz] "
-                        "(5; 0: none)")
-    output.add_argument("--shape-divisions", type=int, default=10,
-                        help="mesh subdivisions of each quadrant edge in /sail/shape (10)")
-    output.add_argument("--figures", type=Path, metavar="DIR",
-                        help="write DIR/deployment_snapshots.png, DIR/tip_deflections.png and "
-                        "DIR/boom_lengths.png")
-    output.add_argument("--snapshots", type=float, nargs="+", metavar="T",
-                        help="snapshot times [s] (default: the scenario's)")
+    output.add_argument(
+        "--rate",
+        type=float,
+        default=50.0,
+        help="state samples per simulated second in the log and the time "
+        "histories [Hz] (50, as the simulator's state_rate_hz); the "
+        "integration steps to each sample",
+    )
+    output.add_argument(
+        "--mcap",
+        type=Path,
+        metavar="FILE",
+        help="write the run as a ROS 2 MCAP log with the simulator's topics "
+        "(a .mcap file, replaced if present, or a new bag folder)",
+    )
+    output.add_argument(
+        "--shape-rate",
+        type=float,
+        default=5.0,
+        help="/sail/shape messages per simulated second in the log [Hz] (5; 0: none)",
+    )
+    output.add_argument(
+        "--shape-divisions",
+        type=int,
+        default=10,
+        help="mesh subdivisions of each quadrant edge in /sail/shape (10)",
+    )
+    output.add_argument(
+        "--figures",
+        type=Path,
+        metavar="DIR",
+        help="write DIR/deployment_snapshots.png, DIR/tip_deflections.png and DIR/boom_lengths.png",
+    )
+    output.add_argument(
+        "--snapshots",
+        type=float,
+        nargs="+",
+        metavar="T",
+        help="snapshot times [s] (default: the scenario's)",
+    )
     return parser
 
 
@@ -83,10 +120,13 @@ def _scenario(args):
     given = [name for name in LEGACY if getattr(args, name) is not None]
     if args.scenario is not None:
         if given:
-            options = ", ".join("--" + {"start": "from", "end": "to"}.get(n, n).replace("_", "-")
-                                for n in given)
-            raise ValueError(f"{options} describe the reference scenario; with --scenario "
-                             f"{args.scenario} put them in the file")
+            options = ", ".join(
+                "--" + {"start": "from", "end": "to"}.get(n, n).replace("_", "-") for n in given
+            )
+            raise ValueError(
+                f"{options} describe the reference scenario; with --scenario "
+                f"{args.scenario} put them in the file"
+            )
         scenario = load_scenario(args.scenario)
         return scenario, f"{scenario.description or 'scenario'} ({args.scenario})"
     document = copy.deepcopy(REFERENCE)
@@ -102,8 +142,10 @@ def _scenario(args):
     body["initial"] = {"mode_state": {boom: tip}}
     if args.t_end is not None or args.duration is not None:
         body["snapshots"] = np.linspace(0.0, body["duration"], 6).round(6).tolist()
-    text = (f"booms {start:g} m -> {end:g} m in {duration:g} s (cycloidal), "
-            f"boom {boom} tip {tip:g} m at t = 0")
+    text = (
+        f"booms {start:g} m -> {end:g} m in {duration:g} s (cycloidal), "
+        f"boom {boom} tip {tip:g} m at t = 0"
+    )
     body["description"] = text
     return scenario_from_dict(document), text
 
@@ -129,16 +171,19 @@ def _print_table(run_result, table_times, description, params, wall, duration) -
     print(describe_parameters(params))
     print()
     label = "L [m]" if equal else "L_a [m]"
-    print(f"  {'t [s]':>7}{label:>9}   tip deflection [mm]: "
-          f"{'a':>9}{'b':>10}{'c':>10}{'d':>10}")
+    print(f"  {'t [s]':>7}{label:>9}   tip deflection [mm]: {'a':>9}{'b':>10}{'c':>10}{'d':>10}")
     for i in rows:
         tips = run_result.tips[i]
-        print(f"  {run_result.t[i]:7.2f}{run_result.lengths[i, 0]:9.3f}   {'':21}"
-              + "".join(f"{1e3 * v:10.3f}" for v in tips))
+        print(
+            f"  {run_result.t[i]:7.2f}{run_result.lengths[i, 0]:9.3f}   {'':21}"
+            + "".join(f"{1e3 * v:10.3f}" for v in tips)
+        )
     peak = np.abs(run_result.tips[rows]).max()
     print()
-    print(f"  peak |tip| {1e3 * peak:.3f} mm over the printed times; "
-          f"{duration:g} s simulated in {wall:.3f} s wall ({duration / wall:.0f}x real time)")
+    print(
+        f"  peak |tip| {1e3 * peak:.3f} mm over the printed times; "
+        f"{duration:g} s simulated in {wall:.3f} s wall ({duration / wall:.0f}x real time)"
+    )
 
 
 def _deploy(args) -> int:
@@ -149,8 +194,9 @@ def _deploy(args) -> int:
     if not args.rate > 0:
         raise ValueError(f"--rate must be > 0 Hz, got {args.rate}")
     if args.shape_rate < 0 or args.shape_rate > args.rate:
-        raise ValueError(f"--shape-rate must be in [0, --rate = {args.rate:g}] Hz, "
-                         f"got {args.shape_rate}")
+        raise ValueError(
+            f"--shape-rate must be in [0, --rate = {args.rate:g}] Hz, got {args.shape_rate}"
+        )
     if args.shape_divisions < 1:
         raise ValueError(f"--shape-divisions must be >= 1, got {args.shape_divisions}")
     duration = scenario.duration
@@ -167,11 +213,11 @@ def _deploy(args) -> int:
 
     model = SailModel(params)
     with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
+
         def progress(t):
             bar.update(t - bar.n)
 
-        result = run_deployment(model, scenario, t_eval, max_step=args.max_step,
-                                progress=progress)
+        result = run_deployment(model, scenario, t_eval, max_step=args.max_step, progress=progress)
 
     if args.summary or not (args.mcap or args.figures):
         _print_table(result, table_times, description, params, result.wall_seconds, duration)
@@ -184,21 +230,31 @@ def _deploy(args) -> int:
         logged = result.subset(on_grid)
         shape_every = round(args.rate / args.shape_rate) if args.shape_rate > 0 else 0
         parameters = simulator_parameters(
-            model, logged, state_rate_hz=args.rate,
+            model,
+            logged,
+            state_rate_hz=args.rate,
             shape_rate_hz=args.rate / shape_every if shape_every else 0.0,
-            max_step=args.max_step, shape_divisions=args.shape_divisions)
+            max_step=args.max_step,
+            shape_divisions=args.shape_divisions,
+        )
         from sail_ros.bag import BagWriteError
 
         if args.mcap.suffix == ".mcap":
             args.mcap.parent.mkdir(parents=True, exist_ok=True)
-        with tqdm(total=duration, unit="s sim", desc="mcap", disable=None, leave=False,
-                  file=sys.stderr) as bar:
+        with tqdm(
+            total=duration, unit="s sim", desc="mcap", disable=None, leave=False, file=sys.stderr
+        ) as bar:
             try:
-                write_deployment_log(args.mcap, model, logged, parameters=parameters,
-                                     scenario_document=scenario.document,
-                                     shape_every=shape_every,
-                                     shape_divisions=args.shape_divisions,
-                                     progress=lambda t: bar.update(t - bar.n))
+                write_deployment_log(
+                    args.mcap,
+                    model,
+                    logged,
+                    parameters=parameters,
+                    scenario_document=scenario.document,
+                    shape_every=shape_every,
+                    shape_divisions=args.shape_divisions,
+                    progress=lambda t: bar.update(t - bar.n),
+                )
             except BagWriteError as error:
                 print(f"error: --mcap: {error}", file=sys.stderr)
                 return 1
@@ -208,14 +264,30 @@ def _deploy(args) -> int:
         from sail_ros.plots.histories import boom_lengths_figure, tip_deflections_figure
 
         rows = [result.index_of(t) for t in snapshots]
-        written.append(snapshots_figure(model, result.t[rows], result.lengths[rows],
-                                        result.q[rows], args.figures / "deployment_snapshots.png",
-                                        title=f"Deployment snapshots: {description}"))
-        written.append(tip_deflections_figure(result.t, result.tips,
-                                              args.figures / "tip_deflections.png",
-                                              title=description))
-        written.append(boom_lengths_figure(result.t, result.lengths, result.rates,
-                                           args.figures / "boom_lengths.png", title=description))
+        written.append(
+            snapshots_figure(
+                model,
+                result.t[rows],
+                result.lengths[rows],
+                result.q[rows],
+                args.figures / "deployment_snapshots.png",
+                title=f"Deployment snapshots: {description}",
+            )
+        )
+        written.append(
+            tip_deflections_figure(
+                result.t, result.tips, args.figures / "tip_deflections.png", title=description
+            )
+        )
+        written.append(
+            boom_lengths_figure(
+                result.t,
+                result.lengths,
+                result.rates,
+                args.figures / "boom_lengths.png",
+                title=description,
+            )
+        )
     print_written(written)
     return 0
 

@@ -54,8 +54,9 @@ class Operator(Node):
         self.spinner = SingleThreadedExecutor(context=context)
         self.spinner.add_node(self)
         self.status: dict[str, str] = {}
-        self.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, self._on_status,
-                                 topics.DIAGNOSTICS_QOS)
+        self.create_subscription(
+            DiagnosticArray, topics.DIAGNOSTICS, self._on_status, topics.DIAGNOSTICS_QOS
+        )
         self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
         self.reset = self.create_client(Trigger, topics.RESET_SERVICE)
         self.pause = self.create_client(SetBool, topics.PAUSE_SERVICE)
@@ -85,17 +86,24 @@ class Operator(Node):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="sail-ros demo", description=__doc__.split("\n\n")[0],
+        prog="sail-ros demo",
+        description=__doc__.split("\n\n")[0],
         epilog="By default the simulation runs at 2x real time (about 8 s for the 16 s run), "
-               "publishing /clock; --time-scale 1 runs it in real time. Above about 2x one "
-               "integration step (0.01 s of simulation) is less wall time than a sail/shape "
-               "message takes to build (~5 ms on a small machine), so some ticks come late "
-               "and count as overruns. Discovery is limited to this machine unless "
-               "ROS_AUTOMATIC_DISCOVERY_RANGE is set.")
-    parser.add_argument("-o", "--output", type=Path,
-                        help="bag folder to create (default: out/demo_<UTC time>)")
-    parser.add_argument("--time-scale", type=float, default=2.0,
-                        help="simulation seconds per wall second (default 2.0)")
+        "publishing /clock; --time-scale 1 runs it in real time. Above about 2x one "
+        "integration step (0.01 s of simulation) is less wall time than a sail/shape "
+        "message takes to build (~5 ms on a small machine), so some ticks come late "
+        "and count as overruns. Discovery is limited to this machine unless "
+        "ROS_AUTOMATIC_DISCOVERY_RANGE is set.",
+    )
+    parser.add_argument(
+        "-o", "--output", type=Path, help="bag folder to create (default: out/demo_<UTC time>)"
+    )
+    parser.add_argument(
+        "--time-scale",
+        type=float,
+        default=2.0,
+        help="simulation seconds per wall second (default 2.0)",
+    )
     return parser
 
 
@@ -104,26 +112,33 @@ def main(argv=None) -> int:
     if not args.time_scale > 0:
         print("error: --time-scale must be > 0", file=sys.stderr)
         return 2
-    output = args.output or Path("out") / ("demo_" + datetime.datetime.now(datetime.UTC)
-                                          .strftime("%Y_%m_%d-%H_%M_%S"))
+    output = args.output or Path("out") / (
+        "demo_" + datetime.datetime.now(datetime.UTC).strftime("%Y_%m_%d-%H_%M_%S")
+    )
     if output.exists():
         print(f"error: {output} exists; give a new --output", file=sys.stderr)
         return 2
     output.parent.mkdir(parents=True, exist_ok=True)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    parameters = {"initial_lengths": f"[{START}]",
-                  "initial_tip_deflection": f"[{TIP},0.0,0.0,0.0]",
-                  "deploy_duration": str(DURATION), "time_scale": str(args.time_scale),
-                  "diagnostics_rate_hz": "10.0"}
-    sim_command = [sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args"] + \
-        [item for name, value in parameters.items() for item in ("-p", f"{name}:={value}")]
+    parameters = {
+        "initial_lengths": f"[{START}]",
+        "initial_tip_deflection": f"[{TIP},0.0,0.0,0.0]",
+        "deploy_duration": str(DURATION),
+        "time_scale": str(args.time_scale),
+        "diagnostics_rate_hz": "10.0",
+    }
+    sim_command = [sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args"] + [
+        item for name, value in parameters.items() for item in ("-p", f"{name}:={value}")
+    ]
     logs = output.parent / f"{output.name}.sim.log", output.parent / f"{output.name}.recorder.log"
     print(f"starting the simulator and the recorder (logs: {logs[0]}, {logs[1]})", flush=True)
     with open(logs[0], "w") as sim_log, open(logs[1], "w") as recorder_log:
         sim = subprocess.Popen(sim_command, stdout=sim_log, stderr=subprocess.STDOUT)
-        recorder = subprocess.Popen([sys.executable, "-m", "sail_ros.cli", "recorder",
-                                     "-o", str(output)],
-                                    stdout=recorder_log, stderr=subprocess.STDOUT)
+        recorder = subprocess.Popen(
+            [sys.executable, "-m", "sail_ros.cli", "recorder", "-o", str(output)],
+            stdout=recorder_log,
+            stderr=subprocess.STDOUT,
+        )
     processes = [("simulator", sim), ("recorder", recorder)]
     try:
         t_start = _run(processes, args.time_scale)
@@ -158,23 +173,39 @@ def _run(processes, time_scale: float) -> float:
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     operator = Operator(context)
     try:
-        operator.spin_until(lambda: operator.status and
-                            operator.count_subscribers(topics.BOOM_STATE) >= 1 and
-                            operator.deploy.get_subscription_count() >= 2,
-                            START_TIMEOUT_S, "the simulator and the recorder", processes)
+        operator.spin_until(
+            lambda: (
+                operator.status
+                and operator.count_subscribers(topics.BOOM_STATE) >= 1
+                and operator.deploy.get_subscription_count() >= 2
+            ),
+            START_TIMEOUT_S,
+            "the simulator and the recorder",
+            processes,
+        )
         operator.call(operator.pause, SetBool.Request(data=True))
         operator.call(operator.reset, Trigger.Request())
         operator.deploy.publish(Float64(data=END))
-        operator.spin_until(lambda: operator.status.get("accepted_commands") == "1", 10.0,
-                            "the deployment to be accepted", processes)
+        operator.spin_until(
+            lambda: operator.status.get("accepted_commands") == "1",
+            10.0,
+            "the deployment to be accepted",
+            processes,
+        )
         t_start = float(operator.status["last_command_start_s"])
         operator.call(operator.pause, SetBool.Request(data=False))
-        print(f"deploying 10 m -> 15 m in 15 s from t = {t_start:.2f} s (simulation time), "
-              f"{time_scale:g}x real time", flush=True)
+        print(
+            f"deploying 10 m -> 15 m in 15 s from t = {t_start:.2f} s (simulation time), "
+            f"{time_scale:g}x real time",
+            flush=True,
+        )
         done = t_start + DURATION + SETTLE_S
-        operator.spin_until(lambda: operator.sim_time() >= done,
-                            (DURATION + SETTLE_S) / time_scale + 30.0, "the deployment",
-                            processes)
+        operator.spin_until(
+            lambda: operator.sim_time() >= done,
+            (DURATION + SETTLE_S) / time_scale + 30.0,
+            "the deployment",
+            processes,
+        )
         return t_start
     finally:
         operator.destroy_node()
@@ -189,48 +220,72 @@ def summarise(output: Path, t_start: float) -> None:
     print(f"MCAP log: {output.resolve()}")
     for file in reader.files:
         print(f"  {file.name}  {file.stat().st_size / 1024:.0f} KiB")
-    print(f"  {sum(counts.values())} messages over {(max(log_times) - min(log_times)) * 1e-9:.2f}"
-          " s of wall time")
+    print(
+        f"  {sum(counts.values())} messages over {(max(log_times) - min(log_times)) * 1e-9:.2f}"
+        " s of wall time"
+    )
     for name, count in counts.items():
         print(f"    {name:<24}{count:>7}")
 
-    statuses = [topics.diagnostic_values(deserialize_message(m.data, DiagnosticArray)) |
-                {"stamp_ns": _stamp_ns(deserialize_message(m.data, DiagnosticArray))}
-                for m in reader.messages([topics.DIAGNOSTICS])]
+    statuses = [
+        topics.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
+        | {"stamp_ns": _stamp_ns(deserialize_message(m.data, DiagnosticArray))}
+        for m in reader.messages([topics.DIAGNOSTICS])
+    ]
     epoch = statuses[-1]["stamp_ns"] - round(float(statuses[-1]["sim_time_s"]) * 1e9)
     parameters = dict(reader.metadata()).get(topics.PARAMETERS_METADATA, {})
     sail = topics.sail_parameters_from_record(parameters) or SailParameters()
-    print(f"  simulator parameters stored: {len(parameters)} (n_B = {sail.n_boom_modes}, "
-          f"n_M = {sail.n_membrane_modes}, time_scale = {parameters.get('time_scale')})")
+    print(
+        f"  simulator parameters stored: {len(parameters)} (n_B = {sail.n_boom_modes}, "
+        f"n_M = {sail.n_membrane_modes}, time_scale = {parameters.get('time_scale')})"
+    )
 
-    tips = [deserialize_message(m.data, JointState)
-            for m in reader.messages([topics.TIP_DEFLECTION])]
+    tips = [
+        deserialize_message(m.data, JointState) for m in reader.messages([topics.TIP_DEFLECTION])
+    ]
     t = np.array([(_stamp_ns(m) - epoch) * 1e-9 - t_start for m in tips])
     chosen = [int(np.argmin(np.abs(t - wanted))) for wanted in REPORT_TIMES]
     model = SailModel(sail)
-    _, q, _ = model.simulate(CycloidalProfile(START, END, DURATION), DURATION + SETTLE_S,
-                             model.initial_coordinates([TIP, 0.0, 0.0, 0.0]),
-                             t_eval=np.round(t[chosen], 9), max_step=0.01)
+    _, q, _ = model.simulate(
+        CycloidalProfile(START, END, DURATION),
+        DURATION + SETTLE_S,
+        model.initial_coordinates([TIP, 0.0, 0.0, 0.0]),
+        t_eval=np.round(t[chosen], 9),
+        max_step=0.01,
+    )
     offline = model.tip_deflections(q)
-    print("\n  tip deflection [mm]      boom a     boom b     boom c     boom d   "
-          "(offline, same model: max |difference|)")
+    print(
+        "\n  tip deflection [mm]      boom a     boom b     boom c     boom d   "
+        "(offline, same model: max |difference|)"
+    )
     for index, reference in zip(chosen, offline, strict=True):
         live = np.array(tips[index].position)
-        print(f"    t = {t[index]:5.2f} s   " + "".join(f"{1e3 * v:11.4f}" for v in live)
-              + f"   ({np.abs(live - reference).max():.1e} m)")
+        print(
+            f"    t = {t[index]:5.2f} s   "
+            + "".join(f"{1e3 * v:11.4f}" for v in live)
+            + f"   ({np.abs(live - reference).max():.1e} m)"
+        )
     # while running; each status carries the last measurement over >= 0.5 s of running
     # (window 0 before the first)
-    running = [float(s["real_time_factor"]) for s in statuses
-               if s["state"] == "running" and float(s["real_time_factor_window_s"]) > 0]
+    running = [
+        float(s["real_time_factor"])
+        for s in statuses
+        if s["state"] == "running" and float(s["real_time_factor_window_s"]) > 0
+    ]
     final = statuses[-1]
     scale = float(parameters.get("time_scale", "1.0"))
     step = float(parameters.get("integration_step", "0.01"))
-    factor = (f"max {max(running):.3f}, median {np.median(running):.3f}" if running
-              else "not measured")
-    print(f"\n  real-time factor: {factor} (time scale {scale:g}); longest integration step "
-          f"{max(float(s['step_time_ms_max']) for s in statuses):.3f} ms")
-    print(f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
-          f"{final['overruns']}; rejected commands: {final['rejected_commands']}")
+    factor = (
+        f"max {max(running):.3f}, median {np.median(running):.3f}" if running else "not measured"
+    )
+    print(
+        f"\n  real-time factor: {factor} (time scale {scale:g}); longest integration step "
+        f"{max(float(s['step_time_ms_max']) for s in statuses):.3f} ms"
+    )
+    print(
+        f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
+        f"{final['overruns']}; rejected commands: {final['rejected_commands']}"
+    )
 
 
 def _stamp_ns(message) -> int:

@@ -25,6 +25,7 @@ from sail_ros.analysis.modes import (
     modal_analysis,
     representative_shapes,
 )
+from sail_ros.cli import PHYSICS_DOC
 from sail_ros.model import SailModel
 from sail_ros.tools.common import (
     add_sail_options,
@@ -71,10 +72,16 @@ def frequency_rows(omega: np.ndarray, count: int) -> list[dict]:
             break
         for index in range(first, first + multiplicity):
             value = float(omega[index])
-            rows.append({"mode": index + 1, "omega_rad_s": value,
-                         "frequency_hz": value / (2 * np.pi),
-                         "period_s": 2 * np.pi / value if value > 0 else None,
-                         "group": group, "multiplicity": multiplicity})
+            rows.append(
+                {
+                    "mode": index + 1,
+                    "omega_rad_s": value,
+                    "frequency_hz": value / (2 * np.pi),
+                    "period_s": 2 * np.pi / value if value > 0 else None,
+                    "group": group,
+                    "multiplicity": multiplicity,
+                }
+            )
     return rows
 
 
@@ -86,34 +93,44 @@ def cross_check_table(check) -> str:
     header = "  " + f"{'Modal frequency':<22}" + "".join(f"{f'w{i + 1}':>10}" for i in range(k))
     lines = [
         f"  FE:    {fem_settings['description']}",
-        f"  modal: n_B = {n_boom}, n_M = {n_membrane} "
-        f"({4 * n_boom + 4 * n_membrane} coordinates)",
+        f"  modal: n_B = {n_boom}, n_M = {n_membrane} ({4 * n_boom + 4 * n_membrane} coordinates)",
         "",
         header,
         "  " + f"{'FE (rad/s)':<22}" + "".join(f"{v:10.5f}" for v in check.fem),
         "  " + f"{'Modal (rad/s)':<22}" + "".join(f"{v:10.5f}" for v in check.modal),
         # + 0.0 turns a rounded -0.000 into +0.000
-        "  " + f"{'Difference (%)':<22}" + "".join(f"{round(v, 3) + 0.0:+10.3f}" for v in
-                                                 check.difference_percent),
+        "  "
+        + f"{'Difference (%)':<22}"
+        + "".join(f"{round(v, 3) + 0.0:+10.3f}" for v in check.difference_percent),
         "",
         f"  FE mesh refinement: lowest {k} frequencies [rad/s]",
         f"  {'NB':>4}{'ND':>5}{'order':>6}{'DOFs':>8}{'time [s]':>10}  "
         + "".join(f"{f'w{i + 1}':>11}" for i in range(k)),
     ]
     for settings, omega in check.fem_levels:
-        lines.append(f"  {settings['boom_elements']:>4}{settings['membrane_divisions']:>5}"
-                     f"{settings['membrane_order']:>6}{settings['n_dofs']:>8}"
-                     f"{settings['seconds']:>10.2f}  " + "".join(f"{v:11.7f}" for v in omega))
-    lines += ["", f"  Modal refinement: lowest {k} frequencies [rad/s]",
-              f"  {'n_B':>4}{'n_M':>5}{'coords':>8}{'time [s]':>10}       "
-              + "".join(f"{f'w{i + 1}':>11}" for i in range(k))]
+        lines.append(
+            f"  {settings['boom_elements']:>4}{settings['membrane_divisions']:>5}"
+            f"{settings['membrane_order']:>6}{settings['n_dofs']:>8}"
+            f"{settings['seconds']:>10.2f}  " + "".join(f"{v:11.7f}" for v in omega)
+        )
+    lines += [
+        "",
+        f"  Modal refinement: lowest {k} frequencies [rad/s]",
+        f"  {'n_B':>4}{'n_M':>5}{'coords':>8}{'time [s]':>10}       "
+        + "".join(f"{f'w{i + 1}':>11}" for i in range(k)),
+    ]
     for n_boom, n_membrane, seconds, omega in check.modal_levels:
-        lines.append(f"  {n_boom:>4}{n_membrane:>5}{4 * n_boom + 4 * n_membrane:>8}"
-                     f"{seconds:>10.2f}       " + "".join(f"{v:11.7f}" for v in omega))
+        lines.append(
+            f"  {n_boom:>4}{n_membrane:>5}{4 * n_boom + 4 * n_membrane:>8}"
+            f"{seconds:>10.2f}       " + "".join(f"{v:11.7f}" for v in omega)
+        )
     worst = float(np.max(np.abs(check.difference_percent)))
     verdict = "agree" if worst <= AGREEMENT_PERCENT else "DISAGREE"
-    lines += ["", f"  largest |difference| over the first {k}: {worst:.3f} % "
-              f"({verdict} within {AGREEMENT_PERCENT:g} %)"]
+    lines += [
+        "",
+        f"  largest |difference| over the first {k}: {worst:.3f} % "
+        f"({verdict} within {AGREEMENT_PERCENT:g} %)",
+    ]
     return "\n".join(lines)
 
 
@@ -124,57 +141,107 @@ def cross_check_record(check) -> dict:
         "fem": [float(v) for v in check.fem],
         "modal": [float(v) for v in check.modal],
         "difference_percent": [float(v) for v in check.difference_percent],
-        "fem_levels": [{**settings, "omega_rad_s": [float(v) for v in omega]}
-                       for settings, omega in check.fem_levels],
-        "modal_levels": [{"n_boom_modes": nb, "n_membrane_modes": nm, "seconds": seconds,
-                          "omega_rad_s": [float(v) for v in omega]}
-                         for nb, nm, seconds, omega in check.modal_levels],
+        "fem_levels": [
+            {**settings, "omega_rad_s": [float(v) for v in omega]}
+            for settings, omega in check.fem_levels
+        ],
+        "modal_levels": [
+            {
+                "n_boom_modes": nb,
+                "n_membrane_modes": nm,
+                "seconds": seconds,
+                "omega_rad_s": [float(v) for v in omega],
+            }
+            for nb, nm, seconds, omega in check.modal_levels
+        ],
     }
 
 
 def _fem_csv_rows(check) -> list[dict]:
-    return [{"mode": i + 1, "fem_rad_s": float(f), "modal_rad_s": float(m),
-             "difference_percent": float(d)}
-            for i, (f, m, d) in enumerate(zip(check.fem, check.modal, check.difference_percent,
-                                              strict=True))]
+    return [
+        {
+            "mode": i + 1,
+            "fem_rad_s": float(f),
+            "modal_rad_s": float(m),
+            "difference_percent": float(d),
+        }
+        for i, (f, m, d) in enumerate(
+            zip(check.fem, check.modal, check.difference_percent, strict=True)
+        )
+    ]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sail-ros modes", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="sail-ros modes", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+    )
     add_sail_options(parser)
     parser.add_argument(
-        "--lengths", type=float, nargs="+", metavar="L",
+        "--lengths",
+        type=float,
+        nargs="+",
+        metavar="L",
         help="boom lengths [m]: one value for all booms or four (a b c d); "
         "default: fully deployed, a/sqrt(2)",
     )
     parser.add_argument("--count", type=int, default=12, help="frequencies to list (default 12)")
     output = parser.add_argument_group("output")
-    output.add_argument("--csv", type=Path, metavar="FILE",
-                        help="write the listed frequencies as CSV")
-    output.add_argument("--json", type=Path, metavar="FILE",
-                        help="write parameters, lengths, frequencies (and the FE comparison) "
-                        "as JSON")
-    output.add_argument("--figures", type=Path, metavar="DIR",
-                        help="write DIR/mode_shapes.png: the first distinct mode shapes")
-    output.add_argument("--shapes", type=int, default=6,
-                        help="distinct mode shapes in the figure (default 6)")
-    output.add_argument("--view", choices=("map", "3d"), default="map",
-                        help="mode shapes as filled contour maps seen from above (default) "
-                        "or 3-D surfaces")
+    output.add_argument(
+        "--csv", type=Path, metavar="FILE", help="write the listed frequencies as CSV"
+    )
+    output.add_argument(
+        "--json",
+        type=Path,
+        metavar="FILE",
+        help="write parameters, lengths, frequencies (and the FE comparison) as JSON",
+    )
+    output.add_argument(
+        "--figures",
+        type=Path,
+        metavar="DIR",
+        help="write DIR/mode_shapes.png: the first distinct mode shapes",
+    )
+    output.add_argument(
+        "--shapes", type=int, default=6, help="distinct mode shapes in the figure (default 6)"
+    )
+    output.add_argument(
+        "--view",
+        choices=("map", "3d"),
+        default="map",
+        help="mode shapes as filled contour maps seen from above (default) or 3-D surfaces",
+    )
     fem = parser.add_argument_group("finite-element cross-check")
-    fem.add_argument("--fem", action="store_true",
-                     help="compare the lowest frequencies with the FE model at equal boom "
-                     "lengths, on a sequence of meshes")
-    fem.add_argument("--fem-csv", type=Path, metavar="FILE",
-                     help="write the FE comparison (FE, modal, difference per frequency) as CSV")
-    fem.add_argument("--fem-level", nargs=3, type=int, action="append",
-                     metavar=("NB", "ND", "ORDER"),
-                     help="an FE mesh: boom elements, membrane divisions per quadrant leg "
-                     "(a multiple of NB), order 1 or 2; repeat, coarse to fine "
-                     f"(default {' '.join(':'.join(map(str, lv)) for lv in FEM_LEVELS)})")
-    fem.add_argument("--fem-modes", nargs=2, type=int, action="append", metavar=("NB", "NM"),
-                     help="modal mode counts n_B n_M to compare; repeat, small to large "
-                     f"(default {' '.join(':'.join(map(str, c)) for c in MODAL_COUNTS)})")
+    fem.add_argument(
+        "--fem",
+        action="store_true",
+        help="compare the lowest frequencies with the FE model at equal boom "
+        "lengths, on a sequence of meshes",
+    )
+    fem.add_argument(
+        "--fem-csv",
+        type=Path,
+        metavar="FILE",
+        help="write the FE comparison (FE, modal, difference per frequency) as CSV",
+    )
+    fem.add_argument(
+        "--fem-level",
+        nargs=3,
+        type=int,
+        action="append",
+        metavar=("NB", "ND", "ORDER"),
+        help="an FE mesh: boom elements, membrane divisions per quadrant leg "
+        "(a multiple of NB), order 1 or 2; repeat, coarse to fine "
+        f"(default {' '.join(':'.join(map(str, lv)) for lv in FEM_LEVELS)})",
+    )
+    fem.add_argument(
+        "--fem-modes",
+        nargs=2,
+        type=int,
+        action="append",
+        metavar=("NB", "NM"),
+        help="modal mode counts n_B n_M to compare; repeat, small to large "
+        f"(default {' '.join(':'.join(map(str, c)) for c in MODAL_COUNTS)})",
+    )
     return parser
 
 
@@ -203,11 +270,14 @@ def _modes(args) -> int:
     check = None
     if args.fem:
         fem_params = params.replace(sail_side=lengths[0] * np.sqrt(2.0))
-        check = fem_cross_check(fem_params, args.fem_level or FEM_LEVELS,
-                                args.fem_modes or MODAL_COUNTS, FEM_COMPARED)
+        check = fem_cross_check(
+            fem_params, args.fem_level or FEM_LEVELS, args.fem_modes or MODAL_COUNTS, FEM_COMPARED
+        )
         print()
-        print(f"Independent finite-element cross-check (seed Tab. 2 layout), L = "
-              f"{lengths[0]:.4g} m, physical parameters above")
+        print(
+            f"Independent finite-element cross-check (seed Tab. 2 layout), L = "
+            f"{lengths[0]:.4g} m, physical parameters above"
+        )
         print(cross_check_table(check))
 
     written = []
@@ -219,8 +289,11 @@ def _modes(args) -> int:
         write_csv_rows(args.fem_csv, _fem_csv_rows(check))
         written.append(args.fem_csv)
     if args.json:
-        record = {"parameters": params.to_dict(), "lengths_m": list(modes.lengths),
-                  "frequencies": rows}
+        record = {
+            "parameters": params.to_dict(),
+            "lengths_m": list(modes.lengths),
+            "frequencies": rows,
+        }
         if check is not None:
             record["fem_cross_check"] = cross_check_record(check)
         args.json.parent.mkdir(parents=True, exist_ok=True)
@@ -230,8 +303,11 @@ def _modes(args) -> int:
         from sail_ros.plots.modes import mode_shapes_figure  # matplotlib only when drawing
 
         shapes = representative_shapes(model, modes, args.shapes)
-        written.append(mode_shapes_figure(model, modes.lengths, shapes,
-                                          args.figures / "mode_shapes.png", view=args.view))
+        written.append(
+            mode_shapes_figure(
+                model, modes.lengths, shapes, args.figures / "mode_shapes.png", view=args.view
+            )
+        )
     print_written(written)
     return 0
 

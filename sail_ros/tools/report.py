@@ -28,6 +28,7 @@ import numpy as np
 
 from sail_ros.analysis.energy import group_energies
 from sail_ros.analysis.log_series import read_log
+from sail_ros.cli import PHYSICS_DOC
 from sail_ros.model import SailModel
 from sail_ros.model.layout import BOOMS, QUADRANTS
 from sail_ros.plots.histories import (
@@ -45,17 +46,29 @@ from sail_ros.tools.common import (
 )
 
 # first columns of real_time_factor.csv; any other status values follow by name
-DIAGNOSTIC_COLUMNS = ("sim_time_s", "real_time_factor", "state", "step_time_ms_mean",
-                      "step_time_ms_max", "overruns", "rejected_commands",
-                      "mechanical_energy_J")
+DIAGNOSTIC_COLUMNS = (
+    "sim_time_s",
+    "real_time_factor",
+    "state",
+    "step_time_ms_mean",
+    "step_time_ms_max",
+    "overruns",
+    "rejected_commands",
+    "mechanical_energy_J",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sail-ros report", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="sail-ros report", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+    )
     parser.add_argument("log", type=Path, help="MCAP file or rosbag2 folder")
-    parser.add_argument("--out", type=Path, metavar="DIR",
-                        help="output folder (default: <log name>_report in the working "
-                        "directory)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help="output folder (default: <log name>_report in the working directory)",
+    )
     add_sail_options(parser)  # used only when the log has no recorded parameters
     return parser
 
@@ -84,31 +97,48 @@ def _report(args) -> int:
     log = read_log(args.log)
     out = args.out or Path(f"{args.log.stem if args.log.is_file() else args.log.name}_report")
     out.mkdir(parents=True, exist_ok=True)
-    time_label = ("simulation time t [s]" if log.simulation_time
-                  else "time since the first sample [s]")
+    time_label = (
+        "simulation time t [s]" if log.simulation_time else "time since the first sample [s]"
+    )
 
     print(f"Log {args.log}")
     if log.incomplete:
-        print(f"  incomplete (cut short): {', '.join(str(p) for p in log.incomplete)}; "
-              "read up to the last complete record")
+        print(
+            f"  incomplete (cut short): {', '.join(str(p) for p in log.incomplete)}; "
+            "read up to the last complete record"
+        )
     for topic, count in sorted(log.topic_counts.items()):
         print(f"  {topic}: {count} messages")
     written = []
 
     if log.tips is not None:
         t = log.seconds(log.tips.stamp_ns)
-        print(f"  tip deflections: {t[0]:.3f} .. {t[-1]:.3f} s, peak |tip| "
-              f"{1e3 * np.abs(log.tips.position).max():.3f} mm")
-        written.append(tip_deflections_figure(t, log.tips.position,
-                                              out / "tip_deflections.png", title=args.log.name,
-                                              time_label=time_label))
+        print(
+            f"  tip deflections: {t[0]:.3f} .. {t[-1]:.3f} s, peak |tip| "
+            f"{1e3 * np.abs(log.tips.position).max():.3f} mm"
+        )
+        written.append(
+            tip_deflections_figure(
+                t,
+                log.tips.position,
+                out / "tip_deflections.png",
+                title=args.log.name,
+                time_label=time_label,
+            )
+        )
     if log.boom is not None:
         t = log.seconds(log.boom.stamp_ns)
-        print(f"  boom lengths: {log.boom.position.min():.3f} .. "
-              f"{log.boom.position.max():.3f} m")
-        written.append(boom_lengths_figure(t, log.boom.position, log.boom.velocity,
-                                           out / "boom_lengths.png", title=args.log.name,
-                                           time_label=time_label))
+        print(f"  boom lengths: {log.boom.position.min():.3f} .. {log.boom.position.max():.3f} m")
+        written.append(
+            boom_lengths_figure(
+                t,
+                log.boom.position,
+                log.boom.velocity,
+                out / "boom_lengths.png",
+                title=args.log.name,
+                time_label=time_label,
+            )
+        )
     written.append(_write_states(log, out / "states.csv"))
     written += _energies(args, log, out, time_label)
     written += _real_time_factor(log, out, time_label, args.log.name)
@@ -118,12 +148,15 @@ def _report(args) -> int:
 
 def _write_states(log, path: Path) -> Path:
     """One row per stamp of boom_state and tip_deflection (empty where one is missing)."""
-    stamps = np.union1d(log.boom.stamp_ns if log.boom else [], log.tips.stamp_ns if log.tips
-                        else []).astype(np.int64)
+    stamps = np.union1d(
+        log.boom.stamp_ns if log.boom else [], log.tips.stamp_ns if log.tips else []
+    ).astype(np.int64)
     header = ["t_s", "stamp_ns"]
     columns = [log.seconds(stamps), stamps]
-    for series, names in ((log.boom, ("length_m", "rate_m_s")),
-                          (log.tips, ("tip_m", "tip_rate_m_s"))):
+    for series, names in (
+        (log.boom, ("length_m", "rate_m_s")),
+        (log.tips, ("tip_m", "tip_rate_m_s")),
+    ):
         header += [f"{boom}_{name}" for name in names for boom in BOOMS]
         block = np.full((stamps.size, 8), np.nan)
         if series is not None:
@@ -143,8 +176,10 @@ def _energies(args, log, out: Path, time_label: str) -> list[Path]:
     params = log.sail_parameters()
     if params is None:
         params = sail_parameters(args)
-        print("  no recorded sail parameters (sail_sim_parameters): energies use "
-              "--config/--set (built-in defaults if neither is given)")
+        print(
+            "  no recorded sail parameters (sail_sim_parameters): energies use "
+            "--config/--set (built-in defaults if neither is given)"
+        )
     else:
         print("  energies use the sail parameters recorded in the log:")
     print(describe_parameters(params))
@@ -154,29 +189,52 @@ def _energies(args, log, out: Path, time_label: str) -> list[Path]:
             f"/sail/modal_state has {len(log.modal.names)} coordinates "
             f"({log.modal.names[0]} ...), the sail's model has {model.n} "
             f"(n_B = {model.n_boom_modes}, n_M = {model.n_membrane_modes}); "
-            "give the recorded mode counts with --set n_boom_modes=.. --set n_membrane_modes=..")
+            "give the recorded mode counts with --set n_boom_modes=.. --set n_membrane_modes=.."
+        )
     t_boom = log.boom.stamp_ns
-    lengths = np.column_stack([np.interp(log.modal.stamp_ns, t_boom, log.boom.position[:, k])
-                               for k in range(4)])
+    lengths = np.column_stack(
+        [np.interp(log.modal.stamp_ns, t_boom, log.boom.position[:, k]) for k in range(4)]
+    )
     energies = group_energies(model, lengths, log.modal.position, log.modal.velocity)
     t = log.seconds(log.modal.stamp_ns)
-    print(f"  mechanical energy: {energies.total[0]:.4g} J at t = {t[0]:.3f} s, "
-          f"{energies.total[-1]:.4g} J at t = {t[-1]:.3f} s")
-    header = (["t_s", "stamp_ns"] + [f"boom_{b}_J" for b in BOOMS]
-              + [f"membrane_{name}_J" for name, _, _ in QUADRANTS]
-              + ["coupling_J", "total_J"])
-    columns = [t, log.modal.stamp_ns, *energies.booms.T, *energies.quadrants.T,
-               energies.coupling, energies.total]
-    return [_write_csv(out / "energies.csv", header, columns),
-            energies_figure(t, energies.booms, energies.quadrants, energies.total,
-                            out / "modal_energies.png", title=log.path.name,
-                            time_label=time_label)]
+    print(
+        f"  mechanical energy: {energies.total[0]:.4g} J at t = {t[0]:.3f} s, "
+        f"{energies.total[-1]:.4g} J at t = {t[-1]:.3f} s"
+    )
+    header = (
+        ["t_s", "stamp_ns"]
+        + [f"boom_{b}_J" for b in BOOMS]
+        + [f"membrane_{name}_J" for name, _, _ in QUADRANTS]
+        + ["coupling_J", "total_J"]
+    )
+    columns = [
+        t,
+        log.modal.stamp_ns,
+        *energies.booms.T,
+        *energies.quadrants.T,
+        energies.coupling,
+        energies.total,
+    ]
+    return [
+        _write_csv(out / "energies.csv", header, columns),
+        energies_figure(
+            t,
+            energies.booms,
+            energies.quadrants,
+            energies.total,
+            out / "modal_energies.png",
+            title=log.path.name,
+            time_label=time_label,
+        ),
+    ]
 
 
 def _real_time_factor(log, out: Path, time_label: str, title: str) -> list[Path]:
     if log.diagnostics is None:
-        print("  no /diagnostics in the log (an offline run from sail-ros deploy has none): "
-              "real-time factor not available")
+        print(
+            "  no /diagnostics in the log (an offline run from sail-ros deploy has none): "
+            "real-time factor not available"
+        )
         return []
     stamps, values = log.diagnostics
     if "real_time_factor" not in values:
@@ -186,15 +244,20 @@ def _real_time_factor(log, out: Path, time_label: str, title: str) -> list[Path]
     factor = _floats(values["real_time_factor"])
     finite = factor[np.isfinite(factor)]
     if finite.size:
-        print(f"  real-time factor: mean {finite.mean():.3g}, min {finite.min():.3g}, "
-              f"max {finite.max():.3g} over {finite.size} diagnostics messages")
+        print(
+            f"  real-time factor: mean {finite.mean():.3g}, min {finite.min():.3g}, "
+            f"max {finite.max():.3g} over {finite.size} diagnostics messages"
+        )
     keys = [key for key in DIAGNOSTIC_COLUMNS if key in values]
     keys += sorted(set(values) - set(keys))
     header = ["t_s", "stamp_ns", *keys]
     columns = [t, stamps, *[values[key] for key in keys]]
-    return [_write_csv(out / "real_time_factor.csv", header, columns),
-            real_time_factor_figure(t, factor, out / "real_time_factor.png", title=title,
-                                    time_label=time_label)]
+    return [
+        _write_csv(out / "real_time_factor.csv", header, columns),
+        real_time_factor_figure(
+            t, factor, out / "real_time_factor.png", title=title, time_label=time_label
+        ),
+    ]
 
 
 def main(argv=None) -> int:

@@ -29,6 +29,7 @@ from sail_ros.analysis.stability import (
     growth,
     stability_sweep,
 )
+from sail_ros.cli import PHYSICS_DOC
 from sail_ros.tools.common import (
     add_sail_options,
     describe_parameters,
@@ -44,33 +45,65 @@ POINTS_PER_DECADE = 8
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sail-ros stability",
-                                     description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="sail-ros stability", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+    )
     add_sail_options(parser)
     grid = parser.add_argument_group("grid")
-    grid.add_argument("--lengths", type=float, nargs="+", metavar="L",
-                      help="boom lengths [m], all booms alike (default: fully deployed)")
-    grid.add_argument("--rates", type=float, nargs="+", metavar="RATE",
-                      default=list(DEFAULT_RATES),
-                      help="extension rates [m/s], > 0 deployment, < 0 retraction "
-                      f"(default {' '.join(f'{r:g}' for r in DEFAULT_RATES)})")
-    grid.add_argument("--prestress", type=float, nargs=2, metavar=("MIN", "MAX"),
-                      default=list(DEFAULT_PRESTRESS),
-                      help="prestress range [Pa], log-spaced (default 0.01 1e5)")
-    grid.add_argument("--points", type=int,
-                      help=f"prestress grid points (default {POINTS_PER_DECADE} per decade)")
+    grid.add_argument(
+        "--lengths",
+        type=float,
+        nargs="+",
+        metavar="L",
+        help="boom lengths [m], all booms alike (default: fully deployed)",
+    )
+    grid.add_argument(
+        "--rates",
+        type=float,
+        nargs="+",
+        metavar="RATE",
+        default=list(DEFAULT_RATES),
+        help="extension rates [m/s], > 0 deployment, < 0 retraction "
+        f"(default {' '.join(f'{r:g}' for r in DEFAULT_RATES)})",
+    )
+    grid.add_argument(
+        "--prestress",
+        type=float,
+        nargs=2,
+        metavar=("MIN", "MAX"),
+        default=list(DEFAULT_PRESTRESS),
+        help="prestress range [Pa], log-spaced (default 0.01 1e5)",
+    )
+    grid.add_argument(
+        "--points", type=int, help=f"prestress grid points (default {POINTS_PER_DECADE} per decade)"
+    )
     grid.add_argument("--jobs", type=int, help="worker processes (default: all cores)")
     output = parser.add_argument_group("output")
-    output.add_argument("--csv", type=Path, metavar="FILE",
-                        help="write the critical prestress per length and rate as CSV")
-    output.add_argument("--grid-csv", type=Path, metavar="FILE",
-                        help="write max Re and max |lambda| at every grid point as CSV")
-    output.add_argument("--figures", type=Path, metavar="DIR",
-                        help="write DIR/stability.png (max Re against prestress) and "
-                        "DIR/eigenvalue_loci.png")
-    output.add_argument("--loci-rate", type=float, metavar="RATE",
-                        help="rate [m/s] of the eigenvalue loci, at the first length "
-                        "(default: the fastest deployment rate)")
+    output.add_argument(
+        "--csv",
+        type=Path,
+        metavar="FILE",
+        help="write the critical prestress per length and rate as CSV",
+    )
+    output.add_argument(
+        "--grid-csv",
+        type=Path,
+        metavar="FILE",
+        help="write max Re and max |lambda| at every grid point as CSV",
+    )
+    output.add_argument(
+        "--figures",
+        type=Path,
+        metavar="DIR",
+        help="write DIR/stability.png (max Re against prestress) and DIR/eigenvalue_loci.png",
+    )
+    output.add_argument(
+        "--loci-rate",
+        type=float,
+        metavar="RATE",
+        help="rate [m/s] of the eigenvalue loci, at the first length "
+        "(default: the fastest deployment rate)",
+    )
     return parser
 
 
@@ -87,17 +120,22 @@ def _critical_rows(sweeps, params) -> list[dict]:
     rows = []
     for sweep in sweeps:
         max_real, max_abs = growth(params, sweep.length, sweep.rate, params.membrane_prestress)
-        rows.append({
-            "length_m": sweep.length,
-            "rate_m_s": sweep.rate,
-            "status": sweep.status,
-            "critical_prestress_pa": sweep.critical_prestress,
-            "critical_tension_n_m": (None if sweep.critical_prestress is None
-                                     else sweep.critical_prestress * params.membrane_thickness),
-            "monotone": sweep.monotone,
-            "max_real_at_sail_prestress_1_s": max_real,
-            "max_abs_at_sail_prestress_1_s": max_abs,
-        })
+        rows.append(
+            {
+                "length_m": sweep.length,
+                "rate_m_s": sweep.rate,
+                "status": sweep.status,
+                "critical_prestress_pa": sweep.critical_prestress,
+                "critical_tension_n_m": (
+                    None
+                    if sweep.critical_prestress is None
+                    else sweep.critical_prestress * params.membrane_thickness
+                ),
+                "monotone": sweep.monotone,
+                "max_real_at_sail_prestress_1_s": max_real,
+                "max_abs_at_sail_prestress_1_s": max_abs,
+            }
+        )
     return rows
 
 
@@ -114,55 +152,87 @@ def _stability(args) -> int:
 
     total = len(lengths) * len(args.rates) * points
     with tqdm(total=total, unit="pt", disable=None, leave=False, file=sys.stderr) as bar:
-        sweeps = stability_sweep(params, lengths, args.rates, prestresses, jobs=args.jobs,
-                                 progress=bar.update)
+        sweeps = stability_sweep(
+            params, lengths, args.rates, prestresses, jobs=args.jobs, progress=bar.update
+        )
     rows = _critical_rows(sweeps, params)
 
-    print("Frozen-length stability (seed Eq. 3): constant rate, all booms alike; "
-          "the prestress is varied")
+    print(
+        "Frozen-length stability (seed Eq. 3): constant rate, all booms alike; "
+        "the prestress is varied"
+    )
     print(describe_parameters(params))
-    print(f"  grid: {points} prestresses {low:g}..{high:g} Pa (log-spaced) x "
-          f"{len(args.rates)} rates x {len(lengths)} length(s) = {total} points")
+    print(
+        f"  grid: {points} prestresses {low:g}..{high:g} Pa (log-spaced) x "
+        f"{len(args.rates)} rates x {len(lengths)} length(s) = {total} points"
+    )
     print(f"  unstable when max Re(lambda) > {INSTABILITY_RTOL:g} max |lambda|")
     print()
     sail = f"sigma = {params.membrane_prestress:g} Pa"
-    print(f"  {'L [m]':>7}{'rate [m/s]':>12}  {'critical prestress [Pa]':<32}"
-          f"max Re at {sail} [1/s]")
+    print(
+        f"  {'L [m]':>7}{'rate [m/s]':>12}  {'critical prestress [Pa]':<32}max Re at {sail} [1/s]"
+    )
     for row, sweep in zip(rows, sweeps, strict=True):
         rate = f"{row['rate_m_s']:+.3g}" if row["rate_m_s"] else "0"
-        print(f"  {row['length_m']:7.4g}{rate:>12}  {_describe(sweep):<32}"
-              f"{row['max_real_at_sail_prestress_1_s']:+.3e}")
+        print(
+            f"  {row['length_m']:7.4g}{rate:>12}  {_describe(sweep):<32}"
+            f"{row['max_real_at_sail_prestress_1_s']:+.3e}"
+        )
     print()
     print("  critical prestress: the frozen system is unstable below it and stable above it;")
-    print("  retraction (rate < 0) turns the Md term into negative damping: unstable at any "
-          "prestress.")
+    print(
+        "  retraction (rate < 0) turns the Md term into negative damping: unstable at any "
+        "prestress."
+    )
 
     written = []
     if args.csv:
         write_csv_rows(args.csv, rows)
         written.append(args.csv)
     if args.grid_csv:
-        write_csv_rows(args.grid_csv, [
-            {"length_m": s.length, "rate_m_s": s.rate, "prestress_pa": float(p),
-             "max_real_1_s": float(r), "max_abs_1_s": float(a), "unstable": bool(u)}
-            for s in sweeps
-            for p, r, a, u in zip(s.prestress, s.max_real, s.max_abs, s.unstable, strict=True)])
+        write_csv_rows(
+            args.grid_csv,
+            [
+                {
+                    "length_m": s.length,
+                    "rate_m_s": s.rate,
+                    "prestress_pa": float(p),
+                    "max_real_1_s": float(r),
+                    "max_abs_1_s": float(a),
+                    "unstable": bool(u),
+                }
+                for s in sweeps
+                for p, r, a, u in zip(s.prestress, s.max_real, s.max_abs, s.unstable, strict=True)
+            ],
+        )
         written.append(args.grid_csv)
     if args.figures:
         from sail_ros.plots.stability import loci_figure, max_real_figure
 
-        written.append(max_real_figure(sweeps, args.figures / "stability.png",
-                                       params.membrane_prestress))
+        written.append(
+            max_real_figure(sweeps, args.figures / "stability.png", params.membrane_prestress)
+        )
         deploying = [r for r in args.rates if r > 0]
-        rate = args.loci_rate if args.loci_rate is not None else (
-            max(deploying) if deploying else max(args.rates, key=abs))
+        rate = (
+            args.loci_rate
+            if args.loci_rate is not None
+            else (max(deploying) if deploying else max(args.rates, key=abs))
+        )
         length = float(lengths[0])
-        critical = next((s.critical_prestress for s in sweeps
-                         if s.length == length and s.rate == rate and s.status == CRITICAL),
-                        None)
+        critical = next(
+            (
+                s.critical_prestress
+                for s in sweeps
+                if s.length == length and s.rate == rate and s.status == CRITICAL
+            ),
+            None,
+        )
         loci = eigenvalue_loci(params, length, rate, prestresses)
-        written.append(loci_figure(prestresses, loci, length, rate,
-                                   args.figures / "eigenvalue_loci.png", critical))
+        written.append(
+            loci_figure(
+                prestresses, loci, length, rate, args.figures / "eigenvalue_loci.png", critical
+            )
+        )
     print_written(written)
     return 0
 
