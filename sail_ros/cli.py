@@ -22,6 +22,8 @@ TOOLS = {
     "recorder": "sail_ros.nodes.recorder:main",
     "replay": "sail_ros.nodes.replay:main",
     "sim": "sail_ros.nodes.sim:main",
+    "send": "sail_ros.tools.send:main",
+    "watch": "sail_ros.tools.watch:main",
     "demo": "sail_ros.tools.main_job:main",
 }
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 import yaml
@@ -37,61 +38,103 @@ from sail_ros.model import SailParameters
 from sail_ros.model.sail_model import StateSample
 
 # -- names ------------------------------------------------------------------------------------
+# Relative, so a node's namespace (`--ros-args -r __ns:=/sat2`) moves them all;
+# /clock and /diagnostics are global, as ROS expects.
 
-BOOM_STATE = "/sail/boom_state"
-MODAL_STATE = "/sail/modal_state"
-TIP_DEFLECTION = "/sail/tip_deflection"
-SHAPE = "/sail/shape"
+BOOM_STATE = "sail/boom_state"
+MODAL_STATE = "sail/modal_state"
+TIP_DEFLECTION = "sail/tip_deflection"
+SHAPE = "sail/shape"
 DIAGNOSTICS = "/diagnostics"
 CLOCK = "/clock"
-BOOM_LENGTH_CMD = "/sail/boom_length_cmd"
-DEPLOY_CMD = "/sail/deploy_cmd"
-RESET_SERVICE = "/sail/reset"
-PAUSE_SERVICE = "/sail/pause"
+BOOM_LENGTH_CMD = "sail/boom_length_cmd"
+DEPLOY_CMD = "sail/deploy_cmd"
+COMMAND_STATUS = "sail/command_status"
+RESET_SERVICE = "sail/reset"
+PAUSE_SERVICE = "sail/pause"
+SIM_NODE = "sail_sim"
+
+
+def sail_namespaces(recorded_topics) -> list[str]:
+    """The namespaces ("/", "/sat2", ...) in which a log holds a sail's boom state."""
+    suffix = "/" + BOOM_STATE
+    return sorted(
+        (topic[: -len(suffix)] or "/") for topic in recorded_topics if topic.endswith(suffix)
+    )
+
+
+def moved(topic: str, source: str, target: str) -> str:
+    """`topic` of a sail recorded in namespace `source`, played in namespace `target`:
+    "/sat1/sail/boom_state" from "/sat1" to "/sat2" is "/sat2/sail/boom_state"; a topic
+    outside `source` (/clock, /diagnostics) stays as it is."""
+    prefix = source.rstrip("/") + "/"
+    if not topic.startswith(prefix):
+        return topic
+    return absolute(topic[len(prefix) :], target)
+
+
+def absolute(name: str, namespace: str = "/") -> str:
+    """`name` resolved in `namespace` ("/" or "/sat2"): "sail/boom_state" ->
+    "/sat2/sail/boom_state"; an absolute name stays as it is."""
+    if name.startswith("/"):
+        return name
+    return f"{namespace.rstrip('/')}/{name}"
+
 
 FRAME_ID = "sail"  # default body frame (model.md §1)
 BOOM_JOINTS = ("boom_a", "boom_b", "boom_c", "boom_d")
 TIP_JOINTS = tuple(f"{name}_tip" for name in BOOM_JOINTS)
-DIAGNOSTIC_NAME = "sail_sim: integrator"
-HARDWARE_ID = "sail_sim"
+HARDWARE_ID = SIM_NODE
+
+
+def integrator_status_name(node: str = SIM_NODE) -> str:
+    """The /diagnostics status name of the simulator node `node` (its fully qualified
+    name, or a name in the root namespace): "sail_sim: integrator",
+    "sat2/sail_sim: integrator"; /diagnostics is global, the name tells sails apart."""
+    return f"{node.lstrip('/')}: integrator"
+
+
+DIAGNOSTIC_NAME = integrator_status_name()
 
 # -- QoS --------------------------------------------------------------------------------------
-# Everything is reliable and volatile: a recorder or a slow subscriber gets
-# every sample (within the depth) and nothing is replayed to late joiners.
-# Reliable publishers also serve best-effort subscribers (RViz, /clock users).
+# Everything is reliable: a recorder or a slow subscriber gets every sample
+# (within the depth); reliable publishers also serve best-effort subscribers
+# (RViz, /clock users). The state is transient local: a subscriber that asks
+# for it (`sail-ros watch`) gets the latest samples at once, also while the
+# simulator is paused and publishes none; volatile subscribers get only new ones.
+# Commands and their answers are kept (transient local) so that neither is
+# lost to discovery order: see COMMAND_QOS.
 
-STATE_QOS = QoSProfile(  # boom_state, modal_state, tip_deflection
-    history=HistoryPolicy.KEEP_LAST,
-    depth=50,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
-SHAPE_QOS = QoSProfile(  # big messages, low rate: keep few
-    history=HistoryPolicy.KEEP_LAST,
-    depth=5,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
-DIAGNOSTICS_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=10,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
-CLOCK_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=10,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
-# Commands: volatile, so a command latched by its publisher is never re-run by
-# a simulator that starts later; reliable, so none is lost.
-COMMAND_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=10,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+
+def _reliable(depth: int, durability: DurabilityPolicy) -> QoSProfile:
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=durability,
+    )
+
+
+STATE_QOS = _reliable(
+    50, DurabilityPolicy.TRANSIENT_LOCAL
+)  # boom_state, modal_state, tip_deflection
+SHAPE_QOS = _reliable(5, DurabilityPolicy.VOLATILE)  # big messages, low rate: keep few
+DIAGNOSTICS_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
+CLOCK_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
+# Commands. Discovery is not symmetric in time: a publisher that sees the
+# simulator's subscription may publish before the simulator has seen the
+# publisher, and a volatile subscription drops what came before that moment.
+# So the simulator listens twice on each command topic: transient local
+# (LATCHED_COMMAND_QOS: from a transient-local publisher, as `sail-ros send`
+# uses, it gets the command whenever it matches) and volatile (COMMAND_QOS:
+# what `ros2 topic pub` and most publishers offer). A command that arrives on
+# both counts once; one published before the simulator started is ignored, so
+# a restarted simulator does not run old commands again.
+COMMAND_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
+LATCHED_COMMAND_QOS = _reliable(10, DurabilityPolicy.TRANSIENT_LOCAL)
+# The answer to every command; kept, so an answer published before its
+# sender's subscription matched still reaches it.
+COMMAND_STATUS_QOS = _reliable(50, DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -113,6 +156,12 @@ TOPICS = {
         Topic(SHAPE, MarkerArray, "visualization_msgs/msg/MarkerArray", SHAPE_QOS),
         Topic(BOOM_LENGTH_CMD, JointTrajectory, "trajectory_msgs/msg/JointTrajectory", COMMAND_QOS),
         Topic(DEPLOY_CMD, Float64, "std_msgs/msg/Float64", COMMAND_QOS),
+        Topic(
+            COMMAND_STATUS,
+            DiagnosticArray,
+            "diagnostic_msgs/msg/DiagnosticArray",
+            COMMAND_STATUS_QOS,
+        ),
         Topic(CLOCK, Clock, "rosgraph_msgs/msg/Clock", CLOCK_QOS),
         Topic(DIAGNOSTICS, DiagnosticArray, "diagnostic_msgs/msg/DiagnosticArray", DIAGNOSTICS_QOS),
     )
@@ -314,17 +363,23 @@ def _marker(header_stamp: Time, frame_id: str, ns: str, marker_id: int, kind: in
 LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": DiagnosticStatus.ERROR}
 
 
-def diagnostics(stamp_ns_: int, level: str, message: str, values: dict) -> DiagnosticArray:
-    """`/diagnostics`: one status `sail_sim: integrator` (hardware_id `sail_sim`).
+def diagnostics(
+    stamp_ns_: int, level: str, message: str, values: dict, node: str = SIM_NODE
+) -> DiagnosticArray:
+    """`/diagnostics`: one status `<node>: integrator` (`integrator_status_name`).
 
     Args:
         stamp_ns_: stamp [ns].
         level: "OK", "WARN" or "ERROR".
         message: one line saying why the level is what it is.
         values: key -> value, written with `str` (round floats before).
+        node: the simulator's fully qualified node name (also the hardware_id).
     """
     status = DiagnosticStatus(
-        level=LEVELS[level], name=DIAGNOSTIC_NAME, message=message, hardware_id=HARDWARE_ID
+        level=LEVELS[level],
+        name=integrator_status_name(node),
+        message=message,
+        hardware_id=node.lstrip("/"),
     )
     status.values = [KeyValue(key=key, value=str(value)) for key, value in values.items()]
     array = DiagnosticArray(status=[status])
@@ -332,9 +387,81 @@ def diagnostics(stamp_ns_: int, level: str, message: str, values: dict) -> Diagn
     return array
 
 
-def diagnostic_values(array: DiagnosticArray) -> dict[str, str]:
-    """The key/value pairs of the integrator status in `array` (empty if absent)."""
+def diagnostic_values(array: DiagnosticArray, node: str = SIM_NODE) -> dict[str, str]:
+    """The key/value pairs of the integrator status of simulator `node` (its fully
+    qualified name) in `array`; empty if absent."""
+    wanted = integrator_status_name(node)
     for status in array.status:
-        if status.name == DIAGNOSTIC_NAME:
+        if status.name == wanted:
             return {pair.key: pair.value for pair in status.values}
     return {}
+
+
+# -- answers to commands ------------------------------------------------------------------------
+
+ACCEPTED, REJECTED, IGNORED = "accepted", "rejected", "ignored"
+_OUTCOME_LEVELS = {
+    ACCEPTED: DiagnosticStatus.OK,
+    REJECTED: DiagnosticStatus.ERROR,
+    IGNORED: DiagnosticStatus.WARN,
+}
+
+
+class CommandAnswer(NamedTuple):
+    """What the simulator did with one command (`sail/command_status`).
+
+    Attributes:
+        topic: the command topic, as the simulator resolved it.
+        outcome: "accepted", "rejected" or "ignored" (published before the
+            simulator started).
+        message: the plan ("deploy to 12 m: ...") or the reason.
+        source_timestamp_ns: when its publisher wrote it [ns, the publisher's clock].
+        sequence: the publisher's sequence number of the command.
+        values: further key/value pairs (t_start_s, t_end_s of an accepted motion).
+    """
+
+    topic: str
+    outcome: str
+    message: str
+    source_timestamp_ns: int
+    sequence: int
+    values: dict[str, str]
+
+
+def command_status(stamp_ns_: int, answer: CommandAnswer) -> DiagnosticArray:
+    """`sail/command_status`: one status per command; level OK (accepted), ERROR
+    (rejected) or WARN (ignored), name `sail_sim: <topic>`, the answer's fields
+    as values."""
+    status = DiagnosticStatus(
+        level=_OUTCOME_LEVELS[answer.outcome],
+        name=f"{SIM_NODE}: {answer.topic}",
+        message=answer.message,
+        hardware_id=SIM_NODE,
+    )
+    pairs = {
+        "topic": answer.topic,
+        "outcome": answer.outcome,
+        "source_timestamp_ns": str(answer.source_timestamp_ns),
+        "publication_sequence_number": str(answer.sequence),
+        **answer.values,
+    }
+    status.values = [KeyValue(key=key, value=str(value)) for key, value in pairs.items()]
+    array = DiagnosticArray(status=[status])
+    array.header.stamp = stamp(stamp_ns_)
+    return array
+
+
+def command_answer(array: DiagnosticArray) -> CommandAnswer | None:
+    """The answer in a `sail/command_status` message (None if it holds none)."""
+    for status in array.status:
+        pairs = {pair.key: pair.value for pair in status.values}
+        if "outcome" in pairs and "topic" in pairs:
+            return CommandAnswer(
+                topic=pairs.pop("topic"),
+                outcome=pairs.pop("outcome"),
+                message=status.message,
+                source_timestamp_ns=int(pairs.pop("source_timestamp_ns")),
+                sequence=int(pairs.pop("publication_sequence_number")),
+                values=pairs,
+            )
+    return None

@@ -6,6 +6,10 @@ export AMENT_PREFIX_PATH="$_sail_root/.venv${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_P
 export ROS_LOG_DIR="${ROS_LOG_DIR:-$_sail_root/.venv/ros_log}"
 export HOME="${HOME:-$_sail_root/.venv}"
 export MPLBACKEND="${MPLBACKEND:-Agg}"
+# DDS discovery stays on this machine unless asked otherwise (SUBNET: the local
+# network; ROS_STATIC_PEERS for given hosts): anyone who can reach the domain
+# can command the simulator.
+export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
 export PATH="$_sail_root/.venv/bin:$PATH"
 unset _sail_root
 # The model works on small dense matrices, where one BLAS thread is fastest;

@@ -137,7 +137,8 @@ def processes(tmp_path, ros_env):
                 for name, value in parameters.items()
                 for item in ("-p", f"{name}:={ros_value(value)}")
             ]
-        tool_process = Tool(tool, [*args, *ros_args], ros_env, tmp_path / f"{tool}.log")
+        log = tmp_path / f"{tool}_{len(started)}.log"
+        tool_process = Tool(tool, [*args, *ros_args], ros_env, log)
         started.append(tool_process)
         return tool_process
 

@@ -12,6 +12,7 @@ from conftest import DOMAIN_ID, spin_until
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 
@@ -23,7 +24,7 @@ from sail_ros.nodes.replay import Replay
 
 pytestmark = pytest.mark.node
 
-TOPIC = topics.BOOM_STATE
+TOPIC = topics.absolute(topics.BOOM_STATE)
 
 
 def state(i: int) -> JointState:
@@ -111,7 +112,7 @@ def test_replay_plays_in_process(ros_context, peer, tmp_path):
         for i, data in enumerate(sent):
             writer.write(TOPIC, data, 1_000_000_000 + i * 10_000_000)
     received = []
-    node.create_subscription(JointState, TOPIC, received.append, topics.STATE_QOS)
+    node.create_subscription(JointState, TOPIC, received.append, QoSProfile(depth=50))
     replay = Replay(
         [Parameter("bag", value=str(bag)), Parameter("wait_for_subscribers", value=1)],
         context=ros_context,
@@ -139,3 +140,29 @@ def test_replay_rejects_an_offset_past_the_end(ros_context, tmp_path):
             [Parameter("bag", value=str(bag)), Parameter("start_offset_s", value=5.0)],
             context=ros_context,
         )
+
+
+def test_replay_into_a_namespace_moves_the_sail_topics(ros_context, peer, tmp_path):
+    node, executor = peer
+    bag = tmp_path / "run.mcap"
+    with BagWriter(bag) as writer:
+        writer.add_topic(TOPIC, "sensor_msgs/msg/JointState")
+        for i in range(5):
+            writer.write(TOPIC, serialize_message(state(i)), 1_000_000_000 + i * 10_000_000)
+    received = []
+    node.create_subscription(JointState, "/sat9/sail/boom_state", received.append, 50)
+    replay = Replay(
+        [Parameter("bag", value=str(bag)), Parameter("wait_for_subscribers", value=1)],
+        context=ros_context,
+        namespace="/sat9",
+    )
+    stop, result = threading.Event(), []
+    player = threading.Thread(target=lambda: result.append(replay.play(stop)))
+    player.start()
+    try:
+        spin_until(executor, lambda: len(received) == 5, 10.0, "the moved topic")
+    finally:
+        stop.set()
+        player.join(10.0)
+    replay.destroy_node()
+    assert result == [0]

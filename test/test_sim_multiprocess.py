@@ -157,10 +157,17 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
     # the bag: every topic, every sample (no gap in the 0.02 s grid), the parameters
     reader = BagReader(bag)
     counts = {name: info.message_count for name, info in reader.topics().items()}
-    assert counts[topics.DEPLOY_CMD] == 1 and counts[topics.BOOM_LENGTH_CMD] == 1
-    assert counts[topics.SHAPE] > 0 and counts[topics.DIAGNOSTICS] > 0
+    assert (
+        counts[topics.absolute(topics.DEPLOY_CMD)] == 1
+        and counts[topics.absolute(topics.BOOM_LENGTH_CMD)] == 1
+    )
+    assert (
+        counts[topics.absolute(topics.SHAPE)] > 0
+        and counts[topics.absolute(topics.DIAGNOSTICS)] > 0
+    )
     recorded = [
-        deserialize_message(m.data, JointState) for m in reader.messages([topics.BOOM_STATE])
+        deserialize_message(m.data, JointState)
+        for m in reader.messages([topics.absolute(topics.BOOM_STATE)])
     ]
     t_bag, lengths_bag, _ = series(recorded, epoch)
     assert np.diff(t_bag) == pytest.approx(0.02, abs=1e-9)
@@ -320,7 +327,7 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     rows = [line for line in lines if line.lstrip().startswith("t = ")]
     assert [row.split()[2] for row in rows] == ["5.00", "10.00", "15.00"]
     assert all(float(row.rsplit("(", 1)[1].split()[0]) < 1e-9 for row in rows), rows
-    assert BagReader(output).topics()[topics.DEPLOY_CMD].message_count == 1
+    assert BagReader(output).topics()[topics.absolute(topics.DEPLOY_CMD)].message_count == 1
     # measured over >= 0.5 s windows: near the time scale, never a short window's 10x+
     (factor,) = [line for line in lines if "real-time factor: max" in line]
     largest, median = (float(word.strip(",")) for word in factor.split()[3:6:2])

@@ -96,10 +96,10 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
     counts = {name: info.message_count for name, info in bag.topics().items()}
     assert counts == {
         topics.CLOCK: 21,
-        topics.BOOM_STATE: 21,
-        topics.MODAL_STATE: 21,
-        topics.TIP_DEFLECTION: 21,
-        topics.SHAPE: 5,
+        topics.absolute(topics.BOOM_STATE): 21,
+        topics.absolute(topics.MODAL_STATE): 21,
+        topics.absolute(topics.TIP_DEFLECTION): 21,
+        topics.absolute(topics.SHAPE): 5,
     }
     metadata = dict(bag.metadata())
     parameters = metadata[PARAMETERS_METADATA]
@@ -112,13 +112,15 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
     np.testing.assert_allclose(config.initial_tip_deflection, [0.0, 0.05, 0.0, 0.0], atol=1e-12)
 
     model = SailModel(config.sail)
-    modal = [m for m in bag.messages([topics.MODAL_STATE])]
+    modal = [m for m in bag.messages([topics.absolute(topics.MODAL_STATE)])]
     # stamps, log times and publish times are simulation time since the Unix epoch
     assert [m.log_time_ns for m in modal] == [round(t * 1e8) for t in range(21)]
     last = deserialize_message(modal[-1].data, JointState)
     assert list(last.name) == model.coordinate_names
     assert last.header.stamp.sec == 2 and last.header.stamp.nanosec == 0
-    boom = deserialize_message(next(bag.messages([topics.BOOM_STATE])).data, JointState)
+    boom = deserialize_message(
+        next(bag.messages([topics.absolute(topics.BOOM_STATE)])).data, JointState
+    )
     assert list(boom.name) == list(topics.BOOM_JOINTS)
 
     with AnyReader([log]) as reader:  # a strict third-party reader takes every message

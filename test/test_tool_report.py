@@ -80,9 +80,9 @@ def _live_style_log(path, params, count=30):
     q = model.mode_state("c", 0.02)
     with BagWriter(path) as bag:
         for topic, kind in (
-            (topics.BOOM_STATE, "sensor_msgs/msg/JointState"),
-            (topics.MODAL_STATE, "sensor_msgs/msg/JointState"),
-            (topics.TIP_DEFLECTION, "sensor_msgs/msg/JointState"),
+            (topics.absolute(topics.BOOM_STATE), "sensor_msgs/msg/JointState"),
+            (topics.absolute(topics.MODAL_STATE), "sensor_msgs/msg/JointState"),
+            (topics.absolute(topics.TIP_DEFLECTION), "sensor_msgs/msg/JointState"),
             (topics.DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray"),
         ):
             bag.add_topic(topic, kind)
@@ -114,7 +114,7 @@ def _live_style_log(path, params, count=30):
                     )
                 )
             for topic, message in messages:
-                bag.write(topic, serialize_message(message), log_time_ns=stamp)
+                bag.write(topics.absolute(topic), serialize_message(message), log_time_ns=stamp)
 
 
 def test_report_of_a_live_style_log_with_diagnostics(tmp_path, capsys):

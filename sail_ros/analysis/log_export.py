@@ -124,7 +124,7 @@ def write_deployment_log(
         for name in LOGGED_TOPICS:
             if name != topics.SHAPE or shape_every:
                 topic = topics.TOPICS[name]
-                bag.add_topic(name, topic.type_name, [recorded_entry(topic.qos)])
+                bag.add_topic(topics.absolute(name), topic.type_name, [recorded_entry(topic.qos)])
         chunk_end = CHUNK_SECONDS
         for i, t in enumerate(run.t):
             if t >= chunk_end:
@@ -143,7 +143,7 @@ def write_deployment_log(
                 )
             for topic, message in messages:
                 bag.write(
-                    topic,
+                    topics.absolute(topic),
                     _cdr(message, topics.TOPICS[topic].type_name),
                     log_time_ns=stamp,
                     publish_time_ns=stamp,

@@ -98,35 +98,52 @@ def _joint_series(messages) -> JointSeries | None:
     )
 
 
-def read_log(path) -> LogSeries:
-    """Read the simulator topics and metadata of a log (ValueError if it is not one)."""
+def read_log(path, namespace: str | None = None) -> LogSeries:
+    """Read the simulator topics and metadata of a log (ValueError if it is not one).
+
+    Args:
+        path: MCAP file or bag folder.
+        namespace: the simulator's namespace ("/sat2"); None: the only one in the log.
+    """
     reader = BagReader(path)
+    found = topics.sail_namespaces(reader.topics())
+    if namespace is None:
+        if len(found) > 1:
+            raise ValueError(
+                f"'{path}' holds sails in the namespaces {', '.join(found)}: "
+                "say which with --namespace"
+            )
+        namespace = found[0] if found else "/"
+    namespace = "/" + namespace.strip("/")
+    state_topics = {topics.absolute(name, namespace): name for name in STATE_TOPICS}
+    sim_node = topics.absolute(topics.SIM_NODE, namespace)
     parameters, epoch_ns = None, None
     for name, record in reader.metadata():
         if name == topics.PARAMETERS_METADATA:
             parameters = dict(record)  # the last record wins (a split re-stores it)
         elif name == topics.SCENARIO_METADATA and "epoch_ns" in record:
             epoch_ns = int(record["epoch_ns"])
-    joints: dict[str, list] = {topic: [] for topic in STATE_TOPICS}
+    joints: dict[str, list] = {name: [] for name in STATE_TOPICS}
     diagnostics: list[DiagnosticArray] = []
     counts: dict[str, int] = {}
-    wanted = [*STATE_TOPICS, topics.DIAGNOSTICS]
+    wanted = [*state_topics, topics.DIAGNOSTICS]
     for message in reader.messages(topics=wanted):
         counts[message.topic] = counts.get(message.topic, 0) + 1
         if message.topic == topics.DIAGNOSTICS:
             diagnostics.append(deserialize_message(message.data, DiagnosticArray))
         else:
-            joints[message.topic].append(deserialize_message(message.data, JointState))
-    for topic in STATE_TOPICS:  # an incomplete file is read in file order
-        joints[topic].sort(key=lambda m: _stamp_ns(m.header))
-    series = {topic: _joint_series(joints[topic]) for topic in STATE_TOPICS}
+            name = state_topics[message.topic]
+            joints[name].append(deserialize_message(message.data, JointState))
+    for name in STATE_TOPICS:  # an incomplete file is read in file order
+        joints[name].sort(key=lambda m: _stamp_ns(m.header))
+    series = {name: _joint_series(joints[name]) for name in STATE_TOPICS}
     present = [s for s in series.values() if s is not None]
     if not present:
         raise ValueError(
-            f"'{path}' holds none of {', '.join(STATE_TOPICS)}: not a sail "
+            f"'{path}' holds none of {', '.join(state_topics)}: not a sail "
             "simulator log, or cut before its first state message"
         )
-    status = _diagnostics(diagnostics)
+    status = _diagnostics(diagnostics, sim_node)
     if epoch_ns is None and status is not None:
         epoch_ns = _epoch_from_diagnostics(*status)
     first = min(int(s.stamp_ns[0]) for s in present)
@@ -155,10 +172,10 @@ def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) ->
     return None
 
 
-def _diagnostics(arrays: list[DiagnosticArray]):
+def _diagnostics(arrays: list[DiagnosticArray], sim_node: str):
     stamps, values = [], []
     for array in arrays:
-        pairs = topics.diagnostic_values(array)
+        pairs = topics.diagnostic_values(array, sim_node)
         if pairs:
             stamps.append(_stamp_ns(array.header))
             values.append(pairs)

@@ -18,10 +18,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
-
-class ConfigError(ValueError):
-    """A parameter has a value a node cannot use; the message names it."""
-
+from sail_ros.ros_cli import ConfigError
 
 _SCALAR_TYPES = {
     bool: Parameter.Type.BOOL,

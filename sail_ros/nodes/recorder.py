@@ -38,11 +38,11 @@ from rclpy.parameter import parameter_value_to_python
 
 from sail_ros.bag import COMPRESSIONS, BagWriteError, BagWriter, qos
 from sail_ros.nodes.parameters import ConfigError, ParamSpec, declare, make_parser, overrides
-from sail_ros.nodes.ros_args import StopSignals, message_class, run_node
+from sail_ros.ros_cli import StopSignals, message_class, run_node
 from sail_ros.topics import PARAMETERS_METADATA, RECORDED_TOPICS, yaml_value
 
 NODE_NAME = "sail_recorder"
-GRAPH_PERIOD_S = 0.5  # how often new topics and the parameter node are looked for
+GRAPH_PERIOD_S = 0.1  # how often new topics are looked for (rosbag2 polls every 0.1 s too)
 PARAMETER_WAIT_WARNING_S = 5.0  # warn once if the parameter node is still absent
 SERVICE_TIMEOUT_S = 5.0  # a parameter request without answer is retried after this
 DRAIN_QUIET_S = 0.1  # at shutdown, stop taking messages once none came for this long
@@ -99,9 +99,10 @@ SPECS = [
     ),
     ParamSpec(
         "parameter_node",
-        "/sail_sim",
+        "sail_sim",
         "node whose parameters are stored in each file "
-        f"as metadata '{PARAMETERS_METADATA}'; empty: none",
+        f"as metadata '{PARAMETERS_METADATA}' (relative: in the recorder's namespace); "
+        "empty: none",
     ),
     ParamSpec(
         "qos_depth",
@@ -179,14 +180,20 @@ class Recorder(Node):
     Args:
         parameter_overrides: initial parameter values (besides --ros-args).
         context: the rclpy context (default: the global one).
+        namespace: the node's namespace (default: from --ros-args, else "/").
 
     Raises:
         ConfigError: a parameter has a value the recorder cannot use.
         BagWriteError: the bag cannot be created.
     """
 
-    def __init__(self, parameter_overrides=(), context=None):
-        super().__init__(NODE_NAME, context=context, parameter_overrides=list(parameter_overrides))
+    def __init__(self, parameter_overrides=(), context=None, namespace=None):
+        super().__init__(
+            NODE_NAME,
+            context=context,
+            namespace=namespace,
+            parameter_overrides=list(parameter_overrides),
+        )
         self.config = declare(self, SPECS)
         self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
         self._recording: dict[str, object] = {}

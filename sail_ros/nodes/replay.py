@@ -28,9 +28,10 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
+from sail_ros import topics
 from sail_ros.bag import BagReader, qos
 from sail_ros.nodes.parameters import ConfigError, ParamSpec, declare, make_parser, overrides
-from sail_ros.nodes.ros_args import message_class, run_node
+from sail_ros.ros_cli import message_class, run_node
 
 NODE_NAME = "sail_replay"
 ACK_POLL_S = 0.1  # s: how often the wait for acknowledgements looks at a stop
@@ -95,14 +96,20 @@ class Replay(Node):
     Args:
         parameter_overrides: initial parameter values (besides --ros-args).
         context: the rclpy context (default: the global one).
+        namespace: the node's namespace (default: from --ros-args, else "/").
 
     Raises:
         ConfigError: a parameter has a value the replay cannot use (no bag,
             nothing to play, an offset past the end).
     """
 
-    def __init__(self, parameter_overrides=(), context=None):
-        super().__init__(NODE_NAME, context=context, parameter_overrides=list(parameter_overrides))
+    def __init__(self, parameter_overrides=(), context=None, namespace=None):
+        super().__init__(
+            NODE_NAME,
+            context=context,
+            namespace=namespace,
+            parameter_overrides=list(parameter_overrides),
+        )
         self.config = declare(self, SPECS)
         if not self.config["bag"]:
             raise ConfigError("bag: no bag given (a file or folder, e.g. `sail-ros replay run1`)")
@@ -123,6 +130,7 @@ class Replay(Node):
         if self.config["clock"]:
             wanted = [topic for topic in wanted if topic != CLOCK_TOPIC]
         self._players = {}
+        self._names = self._played_names(recorded)
         for topic in sorted(set(wanted) & set(recorded)):
             info = recorded[topic]
             try:
@@ -133,7 +141,7 @@ class Replay(Node):
                 )
                 continue
             profile = qos.publisher_for(info.offered_qos_profiles, self.config["qos_depth"])
-            self._players[topic] = self.create_publisher(msg_class, topic, profile)
+            self._players[topic] = self.create_publisher(msg_class, self._names[topic], profile)
         if not self._players:
             raise ConfigError(
                 f"topics: nothing to play from '{self.config['bag']}' (it has: "
@@ -145,6 +153,21 @@ class Replay(Node):
         self._clock_publisher = None
         if self.config["clock"]:
             self._clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(depth=10))
+
+    def _played_names(self, recorded) -> dict[str, str]:
+        """Recorded topic -> the topic it is played on: as recorded, or, when this node
+        runs in a namespace, the recorded sail's topics moved into it (/clock and
+        /diagnostics stay global)."""
+        namespace = self.get_namespace()
+        if namespace == "/":
+            return {topic: topic for topic in recorded}
+        sails = topics.sail_namespaces(recorded)
+        if len(sails) != 1:
+            raise ConfigError(
+                f"bag: to play into namespace {namespace}, the bag must hold one sail; it "
+                f"holds {len(sails)} ({', '.join(sails) or 'none'})"
+            )
+        return {topic: topics.moved(topic, sails[0], namespace) for topic in recorded}
 
     def _count_messages(self, recorded: int) -> int:
         """The messages each pass plays: those from start_offset_s on (`recorded`: all).

@@ -46,11 +46,12 @@ from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import CommandError
 from sail_ros.nodes.diagnosis import Observations, diagnose
+from sail_ros.nodes.intake import DUPLICATE, STALE, CommandIntake
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.parameters import ConfigError, declare
-from sail_ros.nodes.ros_args import run_node
 from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
+from sail_ros.ros_cli import run_node
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
@@ -63,13 +64,19 @@ class SimNode(Node):
     Args:
         parameter_overrides: initial parameter values (besides --ros-args).
         context: the rclpy context (default: the global one).
+        namespace: the node's namespace (default: from --ros-args, else "/").
 
     Raises:
         ConfigError: a parameter has a value the simulator cannot use.
     """
 
-    def __init__(self, parameter_overrides=(), context=None):
-        super().__init__(NODE_NAME, context=context, parameter_overrides=list(parameter_overrides))
+    def __init__(self, parameter_overrides=(), context=None, namespace=None):
+        super().__init__(
+            NODE_NAME,
+            context=context,
+            namespace=namespace,
+            parameter_overrides=list(parameter_overrides),
+        )
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
         model = SailModel(config.sail)
@@ -82,7 +89,7 @@ class SimNode(Node):
         self.overruns = 0
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
 
-        published = [*topics.STATE_TOPICS, topics.SHAPE, topics.DIAGNOSTICS]
+        published = [*topics.STATE_TOPICS, topics.SHAPE, topics.DIAGNOSTICS, topics.COMMAND_STATUS]
         if config.time_scale != 1.0:
             published.append(topics.CLOCK)
         self._outputs = {
@@ -91,12 +98,13 @@ class SimNode(Node):
             )
             for name in published
         }
+        self.intake = CommandIntake(time.time_ns())
         for name, callback in (
             (topics.BOOM_LENGTH_CMD, self._on_trajectory),
             (topics.DEPLOY_CMD, self._on_deploy),
         ):
-            topic = topics.TOPICS[name]
-            self.create_subscription(topic.message_type, name, callback, topic.qos)
+            for qos in (topics.LATCHED_COMMAND_QOS, topics.COMMAND_QOS):
+                self.create_subscription(topics.TOPICS[name].message_type, name, callback, qos)
         self.create_service(Trigger, topics.RESET_SERVICE, self._on_reset)
         self.create_service(SetBool, topics.PAUSE_SERVICE, self._on_pause)
         self.add_on_set_parameters_callback(self._check_parameters)
@@ -198,22 +206,48 @@ class SimNode(Node):
 
     # -- commands and services ----------------------------------------------------------------
 
-    def _on_trajectory(self, message: JointTrajectory) -> None:
-        self._command(topics.BOOM_LENGTH_CMD, lambda: self.sim.follow(message, self.config.limits))
+    def _on_trajectory(self, message: JointTrajectory, info: dict) -> None:
+        self._command(
+            topics.BOOM_LENGTH_CMD, info, lambda: self.sim.follow(message, self.config.limits)
+        )
 
-    def _on_deploy(self, message: Float64) -> None:
+    def _on_deploy(self, message: Float64, info: dict) -> None:
         self._command(
             topics.DEPLOY_CMD,
+            info,
             lambda: self.sim.deploy(message.data, self.config.limits, self.config.deploy_duration),
         )
 
-    def _command(self, topic: str, run) -> None:
-        try:
-            plan = run()
-        except CommandError as error:
-            self.get_logger().warning(f"rejected {topic}: {error}")
+    def _command(self, name: str, info: dict, run) -> None:
+        """Act on a command once, and answer on sail/command_status."""
+        why_not = self.intake.admit(name, info)
+        if why_not == DUPLICATE:
             return
-        self.get_logger().info(f"{topic} accepted at t = {plan.t_start:.6f} s: {plan.summary}")
+        topic = self.resolve_topic_name(name)
+        values = {}
+        if why_not == STALE:
+            outcome = topics.IGNORED
+            text = "published before this simulator started; not run"
+            self.get_logger().warning(f"ignored {topic}: {text}")
+        else:
+            try:
+                plan = run()
+            except CommandError as error:
+                outcome, text = topics.REJECTED, str(error)
+                self.get_logger().warning(f"rejected {topic}: {error}")
+            else:
+                outcome, text = topics.ACCEPTED, plan.summary
+                values = {"t_start_s": f"{plan.t_start:.9f}", "t_end_s": f"{plan.t_end:.9f}"}
+                self.get_logger().info(f"{topic} accepted at t = {plan.t_start:.6f} s: {text}")
+        answer = topics.CommandAnswer(
+            topic=topic,
+            outcome=outcome,
+            message=text,
+            source_timestamp_ns=int(info.get("source_timestamp") or 0),
+            sequence=int(info.get("publication_sequence_number") or 0),
+            values=values,
+        )
+        self._outputs[topics.COMMAND_STATUS].publish(topics.command_status(self._stamp(), answer))
 
     def _on_reset(self, request, response):
         self.sim.reset(self.config)
@@ -324,7 +358,9 @@ class SimNode(Node):
             "mechanical_energy_J": float(f"{sim.energy():.6g}"),
         }
         stamp = self._stamp()
-        self._outputs[topics.DIAGNOSTICS].publish(topics.diagnostics(stamp, level, message, values))
+        self._outputs[topics.DIAGNOSTICS].publish(
+            topics.diagnostics(stamp, level, message, values, self.get_fully_qualified_name())
+        )
         if topics.CLOCK in self._outputs:  # fresh for late joiners, also while paused
             self._outputs[topics.CLOCK].publish(topics.clock(stamp))
         self._window = self._window_start()

@@ -22,16 +22,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.serialization import deserialize_message
-from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
@@ -39,6 +34,8 @@ from std_srvs.srv import SetBool, Trigger
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
+from sail_ros.tools.client import NoAnswerError, SimClient, init_context
+from sail_ros.tools.domains import DomainLease
 
 START, END, DURATION, TIP = 10.0, 15.0, 15.0, 0.1  # m, m, s, m (model.md §9)
 REPORT_TIMES = (5.0, 10.0, 15.0)  # s after the start of the deployment
@@ -46,42 +43,19 @@ SETTLE_S = 1.0  # s of simulation after the booms stop
 START_TIMEOUT_S = 60.0  # wall time for the processes to come up
 
 
-class Operator(Node):
-    """Commands, services and diagnostics of the running simulator."""
+class ProcessExitedError(RuntimeError):
+    """A process of the run ended before the run did."""
 
-    def __init__(self, context):
-        super().__init__("sail_demo", context=context)
-        self.spinner = SingleThreadedExecutor(context=context)
-        self.spinner.add_node(self)
-        self.status: dict[str, str] = {}
-        self.create_subscription(
-            DiagnosticArray, topics.DIAGNOSTICS, self._on_status, topics.DIAGNOSTICS_QOS
-        )
-        self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
-        self.reset = self.create_client(Trigger, topics.RESET_SERVICE)
-        self.pause = self.create_client(SetBool, topics.PAUSE_SERVICE)
 
-    def _on_status(self, message: DiagnosticArray) -> None:
-        self.status = topics.diagnostic_values(message)
+def exited(processes):
+    """A check for `SimClient.spin_until`: raise if one of `processes` has exited."""
 
-    def spin_until(self, condition, timeout: float, what: str, processes=()) -> None:
-        deadline = time.monotonic() + timeout
-        while not condition():
-            for name, process in processes:
-                if process.poll() is not None:
-                    raise RuntimeError(f"the {name} exited with code {process.returncode}")
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"timed out after {timeout:g} s waiting for {what}")
-            self.spinner.spin_once(timeout_sec=0.02)
+    def check() -> None:
+        for name, process in processes:
+            if process.poll() is not None:
+                raise ProcessExitedError(f"the {name} exited with code {process.returncode}")
 
-    def call(self, client, request, timeout: float = 10.0):
-        self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
-        future = client.call_async(request)
-        self.spin_until(future.done, timeout, f"an answer from {client.srv_name}")
-        return future.result()
-
-    def sim_time(self) -> float:
-        return float(self.status.get("sim_time_s", "nan"))
+    return check
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -92,8 +66,9 @@ def build_parser() -> argparse.ArgumentParser:
         "publishing /clock; --time-scale 1 runs it in real time. Above about 2x one "
         "integration step (0.01 s of simulation) is less wall time than a sail/shape "
         "message takes to build (~5 ms on a small machine), so some ticks come late "
-        "and count as overruns. Discovery is limited to this machine unless "
-        "ROS_AUTOMATIC_DISCOVERY_RANGE is set.",
+        "and count as overruns. The run uses a DDS domain that nothing else on this machine "
+        "uses (two demos at once stay apart); discovery stays on this machine unless "
+        "ROS_AUTOMATIC_DISCOVERY_RANGE says otherwise.",
     )
     parser.add_argument(
         "-o", "--output", type=Path, help="bag folder to create (default: out/demo_<UTC time>)"
@@ -119,7 +94,10 @@ def main(argv=None) -> int:
         print(f"error: {output} exists; give a new --output", file=sys.stderr)
         return 2
     output.parent.mkdir(parents=True, exist_ok=True)
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    lease = DomainLease()
+    domain = lease.__enter__()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     parameters = {
         "initial_lengths": f"[{START}]",
         "initial_tip_deflection": f"[{TIP},0.0,0.0,0.0]",
@@ -131,24 +109,30 @@ def main(argv=None) -> int:
         item for name, value in parameters.items() for item in ("-p", f"{name}:={value}")
     ]
     logs = output.parent / f"{output.name}.sim.log", output.parent / f"{output.name}.recorder.log"
-    print(f"starting the simulator and the recorder (logs: {logs[0]}, {logs[1]})", flush=True)
+    print(
+        f"starting the simulator and the recorder in DDS domain {domain}, a domain of this "
+        f"run alone (logs: {logs[0]}, {logs[1]})",
+        flush=True,
+    )
     with open(logs[0], "w") as sim_log, open(logs[1], "w") as recorder_log:
-        sim = subprocess.Popen(sim_command, stdout=sim_log, stderr=subprocess.STDOUT)
+        sim = subprocess.Popen(sim_command, stdout=sim_log, stderr=subprocess.STDOUT, env=env)
         recorder = subprocess.Popen(
             [sys.executable, "-m", "sail_ros.cli", "recorder", "-o", str(output)],
             stdout=recorder_log,
             stderr=subprocess.STDOUT,
+            env=env,
         )
     processes = [("simulator", sim), ("recorder", recorder)]
     try:
-        t_start = _run(processes, args.time_scale)
-    except RuntimeError as error:
+        t_start = _run(processes, args.time_scale, domain, lease)
+    except (RuntimeError, NoAnswerError) as error:
         print(f"error: {error}; see {logs[0]} and {logs[1]}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # the children got the SIGINT too and finish their files
         print(f"interrupted; the recording so far is in {output}", file=sys.stderr)
         return 130
     finally:
+        lease.__exit__()
         codes = {}
         for name, process in processes:  # the simulator first: the recorder takes its last
             if process.poll() is None:
@@ -166,50 +150,49 @@ def main(argv=None) -> int:
     return 0
 
 
-def _run(processes, time_scale: float) -> float:
+def _run(processes, time_scale: float, domain: int, lease: DomainLease) -> float:
     """Drive the deployment; returns its start (simulation time [s])."""
-    context = rclpy.Context()
-    # Ctrl-C raises KeyboardInterrupt here instead of shutting the context down
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-    operator = Operator(context)
+    context = init_context([], domain)
+    client = SimClient(context, "sail_demo", watch=True)
+    check = exited(processes)
+
+    def sim_time() -> float:
+        return float(client.latest.get("diagnostics_values", {}).get("sim_time_s", "nan"))
+
     try:
-        operator.spin_until(
+        client.spin_until(
+            # the recorder subscribes to the state, besides this client
             lambda: (
-                operator.status
-                and operator.count_subscribers(topics.BOOM_STATE) >= 1
-                and operator.deploy.get_subscription_count() >= 2
+                "diagnostics" in client.latest and client.count_subscribers(topics.BOOM_STATE) >= 2
             ),
             START_TIMEOUT_S,
-            "the simulator and the recorder",
-            processes,
+            "simulator and recorder",
+            check,
         )
-        operator.call(operator.pause, SetBool.Request(data=True))
-        operator.call(operator.reset, Trigger.Request())
-        operator.deploy.publish(Float64(data=END))
-        operator.spin_until(
-            lambda: operator.status.get("accepted_commands") == "1",
-            10.0,
-            "the deployment to be accepted",
-            processes,
-        )
-        t_start = float(operator.status["last_command_start_s"])
-        operator.call(operator.pause, SetBool.Request(data=False))
+        lease.__exit__()  # both joined the domain: another run may now pick its own
+        client.call(topics.PAUSE_SERVICE, SetBool.Request(data=True), 10.0)
+        client.call(topics.RESET_SERVICE, Trigger.Request(), 10.0)
+        answer = client.send(topics.DEPLOY_CMD, Float64(data=END), 10.0)
+        if answer.outcome != topics.ACCEPTED:
+            raise RuntimeError(f"the deployment was {answer.outcome}: {answer.message}")
+        t_start = float(answer.values["t_start_s"])
+        client.call(topics.PAUSE_SERVICE, SetBool.Request(data=False), 10.0)
         print(
             f"deploying 10 m -> 15 m in 15 s from t = {t_start:.2f} s (simulation time), "
             f"{time_scale:g}x real time",
             flush=True,
         )
         done = t_start + DURATION + SETTLE_S
-        operator.spin_until(
-            lambda: operator.sim_time() >= done,
+        client.spin_until(
+            lambda: sim_time() >= done,
             (DURATION + SETTLE_S) / time_scale + 30.0,
-            "the deployment",
-            processes,
+            "end of the deployment",
+            check,
         )
         return t_start
     finally:
-        operator.destroy_node()
-        rclpy.shutdown(context=context)
+        client.close()
+        context.try_shutdown()
 
 
 def summarise(output: Path, t_start: float) -> None:
@@ -241,7 +224,8 @@ def summarise(output: Path, t_start: float) -> None:
     )
 
     tips = [
-        deserialize_message(m.data, JointState) for m in reader.messages([topics.TIP_DEFLECTION])
+        deserialize_message(m.data, JointState)
+        for m in reader.messages([topics.absolute(topics.TIP_DEFLECTION)])
     ]
     t = np.array([(_stamp_ns(m) - epoch) * 1e-9 - t_start for m in tips])
     chosen = [int(np.argmin(np.abs(t - wanted))) for wanted in REPORT_TIMES]

@@ -69,6 +69,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="output folder (default: <log name>_report in the working directory)",
     )
+    parser.add_argument(
+        "--namespace",
+        help="the simulator's namespace in the log, e.g. /sat2 (needed only when the log "
+        "holds several sails)",
+    )
     add_sail_options(parser)  # used only when the log has no recorded parameters
     return parser
 
@@ -94,7 +99,7 @@ def _floats(texts) -> np.ndarray:
 def _report(args) -> int:
     if not args.log.exists():
         raise ValueError(f"log {str(args.log)!r} does not exist")
-    log = read_log(args.log)
+    log = read_log(args.log, args.namespace)
     out = args.out or Path(f"{args.log.stem if args.log.is_file() else args.log.name}_report")
     out.mkdir(parents=True, exist_ok=True)
     time_label = (

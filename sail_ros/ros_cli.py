@@ -1,7 +1,8 @@
-"""Running a node from a tool `main`: command line, stop signals, rclpy's lifetime, types.
+"""Running a ROS program from a tool `main`: command line, stop signals, rclpy's lifetime.
 
-ROS arguments (`--ros-args -p name:=value --params-file f.yaml ...`) work as
-usual; a tool's own options (`parameters.make_parser`) win over them.
+Shared by the nodes and by the tools that talk to them (`send`, `watch`).
+ROS arguments (`--ros-args -r __ns:=/sat2 -p name:=value --params-file f.yaml
+...`) work as usual; a tool's own options win over them.
 """
 
 from __future__ import annotations
@@ -17,7 +18,9 @@ from rclpy.logging import get_logger
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
-from sail_ros.nodes.parameters import ConfigError
+
+class ConfigError(ValueError):
+    """A parameter or option has a value the program cannot use; the message names it."""
 
 
 def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[str]):
@@ -29,8 +32,8 @@ def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[st
     ros_argv = [prog, *argv]
     try:
         own_args = remove_ros_args(ros_argv)[1:]
-    except _rclpy.RCLInvalidROSArgsError as error:
-        parser.error(f"invalid ROS arguments: {error}")
+    except (_rclpy.RCLInvalidROSArgsError, _rclpy.UnknownROSArgsError) as error:
+        parser.error(f"invalid ROS arguments: {error} (options of the tool go before --ros-args)")
     return parser.parse_args(own_args), ros_argv
 
 

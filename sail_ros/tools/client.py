@@ -1,0 +1,221 @@
+"""A client of a running simulator: commands with their answers, services, live state.
+
+`SimClient` is the node behind `sail-ros send`, `sail-ros watch` and the
+main job. It resolves every name in its own namespace, as the simulator does,
+so `--ros-args -r __ns:=/sat2` reaches the simulator started in /sat2.
+
+A command is published transient local (`topics.LATCHED_COMMAND_QOS`), so
+the simulator gets it even if it sees this publisher only after the message
+went out; its answer (`sail/command_status`) is kept by the simulator for the
+same reason. The answer to this client's command is the one whose source
+timestamp lies between the moments just before and just after the publish,
+with this publisher's sequence number.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool, Trigger
+
+from sail_ros import topics
+
+
+class NoAnswerError(RuntimeError):
+    """The simulator did not appear, or did not answer, in time; the message says which."""
+
+
+class SimClient(Node):
+    """Talks to the simulator node `sail_sim` of its own namespace.
+
+    Args:
+        context: an initialised rclpy context.
+        name: this node's name (made unique with the process id).
+        watch: also keep the latest state, diagnostics and command answers.
+    """
+
+    def __init__(self, context, name: str = "sail_client", watch: bool = False):
+        super().__init__(f"{name}_{os.getpid()}", context=context)
+        self.executor_ = SingleThreadedExecutor(context=context)
+        self.executor_.add_node(self)
+        self.sim_name = self.resolve_topic_name(topics.SIM_NODE)  # e.g. /sat2/sail_sim
+        self.answers: list[topics.CommandAnswer] = []
+        self.status_subscription = self.create_subscription(
+            DiagnosticArray, topics.COMMAND_STATUS, self._on_answer, topics.COMMAND_STATUS_QOS
+        )
+        self._command_publishers: dict[str, object] = {}
+        self._sent: dict[str, int] = {}  # messages published per command topic
+        self.latest: dict[str, object] = {}
+        self.received = 0  # state messages taken
+        if watch:
+            for name_ in (topics.BOOM_STATE, topics.TIP_DEFLECTION):
+                self.create_subscription(JointState, name_, self._keeper(name_), topics.STATE_QOS)
+            self.create_subscription(
+                DiagnosticArray, topics.DIAGNOSTICS, self._on_diagnostics, topics.DIAGNOSTICS_QOS
+            )
+
+    # -- spinning -------------------------------------------------------------------------
+
+    def spin_until(self, condition, timeout: float, what: str, check=None) -> None:
+        """Spin until `condition()`; NoAnswerError naming `what` after `timeout` [s].
+        `check()`, if given, is called on every turn and may raise to give up early."""
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if check is not None:
+                check()
+            if time.monotonic() > deadline:
+                raise NoAnswerError(f"no {what} within {timeout:g} s")
+            self.executor_.spin_once(timeout_sec=0.02)
+
+    def settle(self, quiet: float = 0.01, limit: float = 1.0) -> None:
+        """Take what is already on its way (a transient-local history comes as a burst):
+        spin until no state message arrived for `quiet` [s], at most `limit` [s]."""
+        deadline = time.monotonic() + limit
+        while time.monotonic() < deadline:
+            before = self.received
+            end = time.monotonic() + quiet
+            while time.monotonic() < end:
+                self.executor_.spin_once(timeout_sec=quiet / 4)
+            if self.received == before:
+                return
+
+    def close(self) -> None:
+        self.executor_.shutdown()
+        self.destroy_node()
+
+    # -- commands ---------------------------------------------------------------------------
+
+    def send(self, name: str, message, timeout: float) -> topics.CommandAnswer:
+        """Publish a command on topic `name` once the simulator listens, and return its
+        answer.
+
+        Raises:
+            NoAnswerError: no simulator subscribed within `timeout` [s], or no answer came.
+        """
+        publisher = self._command_publishers.get(name)
+        if publisher is None:
+            topic = topics.TOPICS[name]
+            publisher = self.create_publisher(topic.message_type, name, topics.LATCHED_COMMAND_QOS)
+            self._command_publishers[name] = publisher
+        resolved = self.resolve_topic_name(name)
+        self.spin_until(
+            lambda: (
+                publisher.get_subscription_count() >= 1
+                and self.status_subscription.get_publisher_count() >= 1
+            ),
+            timeout,
+            f"simulator listening on {resolved} (is `sail-ros sim` running in this namespace "
+            f"and ROS_DOMAIN_ID {os.environ.get('ROS_DOMAIN_ID', '0')}?)",
+        )
+        self._sent[name] = sequence = self._sent.get(name, 0) + 1  # DDS numbers from 1
+        before = time.time_ns()
+        publisher.publish(message)
+        after = time.time_ns()
+        found: list[topics.CommandAnswer] = []
+
+        def answered() -> bool:
+            found.extend(
+                answer
+                for answer in self.answers
+                if answer.topic == resolved
+                and answer.sequence == sequence
+                and before <= answer.source_timestamp_ns <= after
+            )
+            return bool(found)
+
+        self.spin_until(answered, timeout, f"answer from {self.sim_name} on {resolved}")
+        return found[0]
+
+    def call(self, service: str, request, timeout: float):
+        """Call a service of the simulator (`sail/pause`, `sail/reset`); its response.
+
+        Raises:
+            NoAnswerError: the service did not appear or answer within `timeout` [s].
+        """
+        kind = SetBool if service == topics.PAUSE_SERVICE else Trigger
+        client = self.create_client(kind, service)
+        try:
+            self.spin_until(
+                client.service_is_ready, timeout, f"service {self.resolve_service_name(service)}"
+            )
+            future = client.call_async(request)
+            self.spin_until(future.done, timeout, f"response from {client.srv_name}")
+            return future.result()
+        finally:
+            self.destroy_client(client)
+
+    def resolve_service_name(self, name: str) -> str:
+        return topics.absolute(name, self.get_namespace())
+
+    # -- watching ---------------------------------------------------------------------------
+
+    def _on_answer(self, array: DiagnosticArray) -> None:
+        answer = topics.command_answer(array)
+        if answer is not None:
+            self.answers.append(answer)
+            self.latest["answer"] = answer
+
+    def _keeper(self, name: str):
+        def keep(message: JointState) -> None:
+            self.latest[name] = message
+            self.received += 1
+
+        return keep
+
+    def _on_diagnostics(self, array: DiagnosticArray) -> None:
+        for status in array.status:
+            if status.name == topics.integrator_status_name(self.sim_name):
+                self.latest["diagnostics"] = status
+                self.latest["diagnostics_values"] = {p.key: p.value for p in status.values}
+
+
+def init_context(ros_argv: list[str], domain_id: int | None):
+    """An rclpy context for a client: ROS arguments, a domain, no signal handlers of its own
+    (the tool decides how Ctrl-C ends it)."""
+    from rclpy.signals import SignalHandlerOptions
+
+    context = rclpy.Context()
+    options = {} if domain_id is None else {"domain_id": domain_id}
+    rclpy.init(
+        args=ros_argv,
+        context=context,
+        signal_handler_options=SignalHandlerOptions.NO,
+        **options,
+    )
+    return context
+
+
+def run_client(prog: str, parser, argv, name: str, body, check=None, watch: bool = False) -> int:
+    """A client tool's `main`: parse `argv` (options, then `--ros-args ...`), check them
+    (`check(args)` returns an error text or None: exit 2), run `body(args, client)` with a
+    `SimClient` in the namespace and domain asked for, and turn a missing answer into
+    one line and exit 1. Returns the exit code."""
+    from sail_ros.ros_cli import parse_command_line
+
+    try:
+        args, ros_argv = parse_command_line(parser, prog, argv)
+    except SystemExit as exit_:
+        return exit_.code if isinstance(exit_.code, int) else 2
+    problem = check(args) if check is not None else None
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2
+    context = init_context(ros_argv, args.domain_id)
+    client = SimClient(context, name, watch=watch)
+    try:
+        return body(args, client)
+    except NoAnswerError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        client.close()
+        context.try_shutdown()

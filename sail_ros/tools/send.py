@@ -1,0 +1,145 @@
+"""`sail-ros send`: one command to the running simulator, and what it made of it.
+
+Waits until the simulator listens, sends the command, waits for its answer
+and prints it: the plan of an accepted command, the reason of a rejected one.
+Exit code 0 only when the command was accepted; 1 when it was rejected or no
+simulator answered within --timeout; 2 for a bad command line.
+
+    sail-ros send deploy 30
+    sail-ros send move --booms a c --point 20 20 25
+    sail-ros send move --booms b --point 10 12 --point 30 20
+    sail-ros send pause
+    sail-ros send resume
+    sail-ros send reset
+    sail-ros send deploy 15 --ros-args -r __ns:=/sat2
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from builtin_interfaces.msg import Duration
+from std_msgs.msg import Float64
+from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from sail_ros import topics
+from sail_ros.tools.client import SimClient, run_client
+
+BOOMS = "abcd"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="sail-ros send",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Examples:\n"
+        + __doc__.split("\n\n")[-1].rstrip()
+        + "\n\nThe simulator is the one in this program's namespace (--ros-args -r "
+        "__ns:=...) and DDS domain (--domain-id, else ROS_DOMAIN_ID). Limits on lengths, "
+        "rates and accelerations are the simulator's parameters (msg_docs/boom_length_cmd.md).",
+    )
+    parser.add_argument(
+        "--timeout", type=float, default=10.0, help="seconds to wait for the simulator (10)"
+    )
+    parser.add_argument(
+        "--domain-id", type=int, help="DDS domain of the simulator (default: ROS_DOMAIN_ID)"
+    )
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    deploy = commands.add_parser(
+        "deploy",
+        help="all booms to one length [m] (sail/deploy_cmd)",
+        description="All booms "
+        "to LENGTH metres, the fastest smooth motion within the simulator's limits.",
+    )
+    deploy.add_argument("length", type=float, metavar="LENGTH", help="target length [m]")
+    move = commands.add_parser(
+        "move",
+        help="named booms through waypoints (sail/boom_length_cmd)",
+        description="The named booms through waypoints, from their current length and rate; "
+        "the others carry on. Each --point is a time from now [s] followed by one length [m] "
+        "per named boom.",
+    )
+    move.add_argument(
+        "--booms", nargs="+", required=True, choices=list(BOOMS), help="booms to move (a b c d)"
+    )
+    move.add_argument(
+        "--point",
+        nargs="+",
+        type=float,
+        action="append",
+        required=True,
+        metavar="VALUE",
+        help="TIME LENGTH [LENGTH ...]: when [s from now] and where [m] (repeatable)",
+    )
+    commands.add_parser("pause", help="hold the simulation (sail/pause, true)")
+    commands.add_parser("resume", help="go on (sail/pause, false)")
+    commands.add_parser("reset", help="back to the initial state (sail/reset)")
+    return parser
+
+
+def trajectory(booms: list[str], points: list[list[float]]) -> JointTrajectory:
+    """A JointTrajectory for `booms` ("a" ...) through `points` ([time, lengths...])."""
+    message = JointTrajectory(joint_names=[f"boom_{boom}" for boom in booms])
+    for point in points:
+        seconds, *lengths = point
+        if len(lengths) != len(booms):
+            raise ValueError(
+                f"--point {' '.join(f'{v:g}' for v in point)}: needs a time and {len(booms)} "
+                f"length(s), one per boom of --booms {' '.join(booms)}"
+            )
+        if not (math.isfinite(seconds) and seconds > 0):
+            raise ValueError(f"--point: the time must be > 0 s from now, got {seconds:g}")
+        whole = math.floor(seconds)
+        message.points.append(
+            JointTrajectoryPoint(
+                positions=lengths,
+                time_from_start=Duration(sec=whole, nanosec=round((seconds - whole) * 1e9)),
+            )
+        )
+    return message
+
+
+def run(args, client: SimClient) -> int:
+    if args.command in ("deploy", "move"):
+        if args.command == "deploy":
+            name, message = topics.DEPLOY_CMD, Float64(data=args.length)
+        else:
+            name, message = topics.BOOM_LENGTH_CMD, trajectory(args.booms, args.point)
+        answer = client.send(name, message, args.timeout)
+        print(f"{answer.outcome}: {answer.message}")
+        if answer.outcome == topics.ACCEPTED:
+            start, end = (float(answer.values[k]) for k in ("t_start_s", "t_end_s"))
+            print(f"  from t = {start:.3f} s to {end:.3f} s (simulation time)")
+        return 0 if answer.outcome == topics.ACCEPTED else 1
+    if args.command == "reset":
+        response = client.call(topics.RESET_SERVICE, Trigger.Request(), args.timeout)
+    else:
+        request = SetBool.Request(data=args.command == "pause")
+        response = client.call(topics.PAUSE_SERVICE, request, args.timeout)
+    print(response.message)
+    return 0 if response.success else 1
+
+
+def check(args) -> str | None:
+    """Why the command line cannot be sent (None if it can)."""
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        return f"--timeout must be > 0 s, got {args.timeout:g}"
+    if args.command == "move":
+        try:
+            trajectory(args.booms, args.point)  # a bad point is a usage error, before ROS
+        except ValueError as error:
+            return str(error)
+    return None
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    return run_client("sail-ros send", build_parser(), argv, "sail_send", run, check)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,137 @@
+"""`sail-ros watch`: the running simulator at a glance, refreshed in place.
+
+Boom lengths and rates, tip deflections, state, simulation time, real-time
+factor, mechanical energy, the last command, rejections and the last answer,
+from the simulator's topics. `--once` prints one sample and exits; `--json`
+prints JSON (one object per refresh, one line each) for scripts. Ctrl-C stops.
+
+    sail-ros watch
+    sail-ros watch --once
+    sail-ros watch --once --json
+    sail-ros watch --ros-args -r __ns:=/sat2
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+
+from sail_ros import topics
+from sail_ros.tools.client import SimClient, run_client
+
+CLEAR = "\033[H\033[2J"  # cursor home, clear screen
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="sail-ros watch",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Examples:\n" + __doc__.split("\n\n")[-1].rstrip(),
+    )
+    parser.add_argument("--once", action="store_true", help="print one sample and exit")
+    parser.add_argument("--json", action="store_true", help="JSON instead of a table")
+    parser.add_argument("--rate", type=float, default=4.0, help="refreshes per second [Hz] (4)")
+    parser.add_argument(
+        "--timeout", type=float, default=10.0, help="seconds to wait for the simulator (10)"
+    )
+    parser.add_argument(
+        "--domain-id", type=int, help="DDS domain of the simulator (default: ROS_DOMAIN_ID)"
+    )
+    return parser
+
+
+def snapshot(client: SimClient) -> dict:
+    """What the client last heard, as plain data (SI units)."""
+    booms = client.latest[topics.BOOM_STATE]
+    tips = client.latest[topics.TIP_DEFLECTION]
+    status = client.latest["diagnostics"]
+    values = {pair.key: pair.value for pair in status.values}
+    answer = client.latest.get("answer")
+    return {
+        "simulator": client.sim_name,
+        "level": ("OK", "WARN", "ERROR", "STALE")[min(int.from_bytes(status.level), 3)],
+        "message": status.message,
+        "state": values.get("state", ""),
+        "sim_time_s": float(values.get("sim_time_s", "nan")),
+        "real_time_factor": float(values.get("real_time_factor", "nan")),
+        "mechanical_energy_J": float(values.get("mechanical_energy_J", "nan")),
+        "boom_length_m": dict(zip("abcd", map(float, booms.position), strict=True)),
+        "boom_rate_m_s": dict(zip("abcd", map(float, booms.velocity), strict=True)),
+        "tip_deflection_m": dict(zip("abcd", map(float, tips.position), strict=True)),
+        "accepted_commands": int(values.get("accepted_commands", "0")),
+        "rejected_commands": int(values.get("rejected_commands", "0")),
+        "last_command": values.get("last_command", ""),
+        "last_rejection": values.get("last_rejection", ""),
+        "last_answer": f"{answer.outcome}: {answer.message}" if answer else "",
+    }
+
+
+def table(view: dict) -> str:
+    """The snapshot as a few lines of text."""
+
+    def row(label, values, scale=1.0, digits=3):
+        return f"  {label:<22}" + "".join(f"{scale * values[b]:>12.{digits}f}" for b in "abcd")
+
+    return "\n".join(
+        [
+            f"{view['simulator']}  {view['state']}  t = {view['sim_time_s']:.2f} s  "
+            f"real-time factor {view['real_time_factor']:.3g}  "
+            f"E = {view['mechanical_energy_J']:.4g} J",
+            f"  {view['level']}: {view['message']}",
+            f"  {'':<22}" + "".join(f"{'boom ' + b:>12}" for b in "abcd"),
+            row("length [m]", view["boom_length_m"]),
+            row("rate [m/s]", view["boom_rate_m_s"], digits=4),
+            row("tip deflection [mm]", view["tip_deflection_m"], scale=1e3),
+            f"  commands: {view['accepted_commands']} accepted, "
+            f"{view['rejected_commands']} rejected",
+            f"  last command: {view['last_command'] or '-'}",
+            f"  last rejection: {view['last_rejection'] or '-'}",
+            f"  last answer: {view['last_answer'] or '-'}",
+        ]
+    )
+
+
+def check(args) -> str | None:
+    for name in ("rate", "timeout"):
+        value = getattr(args, name)
+        if not (math.isfinite(value) and value > 0):
+            return f"--{name} must be > 0, got {value:g}"
+    return None
+
+
+def run(args, client: SimClient) -> int:
+    wanted = (topics.BOOM_STATE, topics.TIP_DEFLECTION, "diagnostics")
+    client.spin_until(
+        lambda: all(key in client.latest for key in wanted),
+        args.timeout,
+        f"state and diagnostics from {client.sim_name} (is `sail-ros sim` running in this "
+        "namespace and domain?)",
+    )
+    client.settle()  # the newest of the kept samples, not the first to arrive
+    try:
+        while True:
+            view = snapshot(client)
+            text = json.dumps(view) if args.json else table(view)
+            if args.once:
+                print(text)
+                return 0
+            print(text if args.json else CLEAR + text, flush=True)
+            deadline = time.monotonic() + 1.0 / args.rate
+            while time.monotonic() < deadline:
+                client.executor_.spin_once(timeout_sec=max(0.0, deadline - time.monotonic()))
+    except KeyboardInterrupt:  # the way to stop watching
+        return 0
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser()
+    return run_client("sail-ros watch", parser, argv, "sail_watch", run, check, watch=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,223 @@
+"""Driving the simulator from a terminal, as processes over real DDS (loopback).
+
+`sail-ros send` and `sail-ros watch` against a running `sail-ros sim`;
+commands that must not vanish (a publisher that sends at once) and must not
+come back (a restarted simulator); two sails in two namespaces; two demos at
+once.
+"""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from conftest import spin_until
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from sail_ros import topics
+from sail_ros.bag import BagReader
+
+pytestmark = pytest.mark.multiprocess
+
+
+def tool(ros_env, *args, timeout=60.0) -> subprocess.CompletedProcess:
+    """Run `sail-ros <args>` to its end."""
+    return subprocess.run(
+        [sys.executable, "-m", "sail_ros.cli", *args],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def watch(ros_env, *ros_args) -> dict:
+    result = tool(ros_env, "watch", "--once", "--json", *ros_args)
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout)
+
+
+class Answers:
+    """The answers on sail/command_status, heard by a node of the operator's context."""
+
+    def __init__(self, operator):
+        self.received: list[topics.CommandAnswer] = []
+        operator.create_subscription(
+            DiagnosticArray,
+            topics.COMMAND_STATUS,
+            lambda array: self.received.append(topics.command_answer(array)),
+            topics.COMMAND_STATUS_QOS,
+        )
+
+
+def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
+    sim = processes("sim", parameters={"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
+    recorder = processes("recorder", "-o", str(tmp_path / "bag"))
+    first = watch(ros_env)  # waits for the simulator
+    assert first["boom_length_m"] == {"a": 10.0, "b": 10.0, "c": 10.0, "d": 10.0}
+    assert 0.0 < abs(first["tip_deflection_m"]["a"]) <= 0.1 + 1e-9  # it swings from 0.1 m
+
+    deployed = tool(ros_env, "send", "deploy", "12")
+    assert deployed.returncode == 0, deployed.stderr
+    assert deployed.stdout.startswith("accepted: deploy to 12 m")
+    refused = tool(ros_env, "send", "deploy", "500")
+    assert refused.returncode == 1
+    assert "rejected: target = 500 m is outside [min_length, max_length]" in refused.stdout
+    moved = tool(ros_env, "send", "move", "--booms", "a", "c", "--point", "10", "14", "13")
+    assert moved.returncode == 0, moved.stderr
+    assert "accepted: trajectory for boom_a, boom_c" in moved.stdout
+
+    view = watch(ros_env)
+    assert view["accepted_commands"] == 2 and view["rejected_commands"] == 1
+    assert view["last_rejection"].startswith("target = 500 m")
+    assert view["last_answer"].startswith("accepted: trajectory")
+    assert view["boom_length_m"]["b"] > 10.0  # the deployment moves them
+
+    assert tool(ros_env, "send", "pause").stdout.startswith("paused at t = ")
+    reset = tool(ros_env, "send", "reset")
+    assert reset.returncode == 0 and "reset to the initial state" in reset.stdout
+    paused = watch(ros_env)
+    assert paused["state"] == "paused" and paused["boom_length_m"]["a"] == 10.0
+    assert tool(ros_env, "send", "resume").stdout.startswith("resumed at t = ")
+    assert sim.stop(signal.SIGINT) == 0, sim.log()
+    assert recorder.stop(signal.SIGINT) == 0, recorder.log()
+
+    bag = BagReader(tmp_path / "bag")
+    answers = [
+        topics.command_answer(deserialize_message(m.data, DiagnosticArray))
+        for m in bag.messages(["/sail/command_status"])
+    ]
+    assert [a.outcome for a in answers] == ["accepted", "rejected", "accepted"]
+    report = tool(ros_env, "report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"))
+    assert report.returncode == 0, report.stderr
+
+
+def test_send_without_a_simulator_is_a_clear_error(ros_env):
+    started = time.monotonic()
+    result = tool(ros_env, "send", "--timeout", "2", "deploy", "12", "--ros-args", "-r",
+                  "__ns:=/nobody_here")  # fmt: skip
+    assert time.monotonic() - started < 15.0
+    assert result.returncode == 1
+    assert result.stderr.startswith("error: no simulator listening on /nobody_here/sail/deploy_cmd")
+    assert "Traceback" not in result.stderr
+    bad = tool(ros_env, "send", "move", "--booms", "a", "c", "--point", "5", "12")
+    assert bad.returncode == 2 and "needs a time and 2 length(s)" in bad.stderr
+
+
+def test_commands_from_publishers_that_send_at_once_all_arrive(processes, operator):
+    """Six trajectory commands, each from a fresh publisher that sends as soon as it
+    sees the simulator (the documented way: transient local) and then waits for its
+    acknowledgement: every one is answered."""
+    answers = Answers(operator)
+    processes("sim")
+    operator.wait_for_simulator()
+    for i in range(6):
+        node = Node(f"hand_written_{i}", context=operator.context)
+        publisher = node.create_publisher(
+            JointTrajectory, topics.BOOM_LENGTH_CMD, topics.LATCHED_COMMAND_QOS
+        )
+        spin_until(operator.spinner, lambda p=publisher: p.get_subscription_count() >= 1,
+                   10.0, "the simulator")  # fmt: skip
+        command = JointTrajectory(joint_names=["boom_b"])
+        command.points = [JointTrajectoryPoint(positions=[10.0 + 0.1 * (i + 1)])]
+        command.points[0].time_from_start.sec = 5
+        publisher.publish(command)
+        assert publisher.wait_for_all_acked(Duration(seconds=5.0))
+        node.destroy_node()
+    operator.spin_until(lambda: len(answers.received) >= 6, 10.0, "six answers")
+    assert [a.outcome for a in answers.received] == ["accepted"] * 6
+    assert all(a.topic == "/sail/boom_length_cmd" for a in answers.received)
+
+
+def test_a_started_simulator_does_not_run_commands_published_before(processes, operator):
+    """A transient-local publisher keeps its last command; a simulator started later
+    receives it, says it ignored it, and does not move."""
+    answers = Answers(operator)
+    publisher = operator.create_publisher(Float64, topics.DEPLOY_CMD, topics.LATCHED_COMMAND_QOS)
+    publisher.publish(Float64(data=20.0))
+    time.sleep(0.2)  # the command is older than the simulator
+    processes("sim")
+    operator.wait_for_simulator()
+    operator.spin_until(lambda: answers.received, 10.0, "the answer")
+    (answer,) = answers.received
+    assert answer.outcome == "ignored"
+    assert answer.message == "published before this simulator started; not run"
+    operator.spin_for(1.0)
+    last = operator.states[topics.BOOM_STATE][-1]
+    assert list(last.position) == [10.0] * 4
+    assert operator.status()["accepted_commands"] == "0"
+
+
+def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_path):
+    sat1 = processes("sim", "--ros-args", "-r", "__ns:=/sat1")
+    sat2 = processes("sim", "--ros-args", "-r", "__ns:=/sat2")
+    recorders = [
+        processes("recorder", "-o", str(tmp_path / ns), "--ros-args", "-r", f"__ns:=/{ns}")
+        for ns in ("sat1", "sat2")
+    ]
+    assert watch(ros_env, "--ros-args", "-r", "__ns:=/sat1")["simulator"] == "/sat1/sail_sim"
+    sent = tool(ros_env, "send", "deploy", "11", "--ros-args", "-r", "__ns:=/sat1")
+    assert sent.returncode == 0, sent.stderr
+    time.sleep(1.0)
+    moving = watch(ros_env, "--ros-args", "-r", "__ns:=/sat1")
+    resting = watch(ros_env, "--ros-args", "-r", "__ns:=/sat2")
+    assert moving["boom_length_m"]["a"] > 10.0 and moving["accepted_commands"] == 1
+    assert resting["boom_length_m"]["a"] == 10.0 and resting["accepted_commands"] == 0
+    for process in (sat1, sat2, *recorders):
+        assert process.stop(signal.SIGINT) == 0, process.log()
+
+    for ns, commands in (("sat1", 1), ("sat2", 0)):
+        bag = BagReader(tmp_path / ns)
+        names = set(bag.topics())
+        own = {name for name in names if name.startswith(f"/{ns}/")}
+        assert f"/{ns}/sail/boom_state" in own and f"/{ns}/sail/tip_deflection" in own
+        assert names - own <= {"/diagnostics", "/clock"}  # global by ROS convention
+        status = bag.topics().get(f"/{ns}/sail/command_status")
+        assert (status.message_count if status else 0) == commands  # answers are kept
+        parameters = dict(bag.metadata())[topics.PARAMETERS_METADATA]
+        assert "sail.n_boom_modes" in parameters  # the simulator of its namespace
+        report = tool(ros_env, "report", str(tmp_path / ns), "--out", str(tmp_path / f"r_{ns}"))
+        assert report.returncode == 0, report.stderr
+
+
+def test_two_demos_at_once_each_log_only_their_own_run(ros_env, tmp_path):
+    demos = [
+        subprocess.Popen(
+            [sys.executable, "-m", "sail_ros.cli", "demo", "-o", str(tmp_path / name)],
+            env=ros_env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        for name in ("one", "two")
+    ]
+    outputs = [demo.communicate(timeout=180)[0] for demo in demos]
+    for demo, output in zip(demos, outputs, strict=True):
+        assert demo.returncode == 0, output
+    domains = [int(output.split("DDS domain ")[1].split(",")[0]) for output in outputs]
+    assert domains[0] != domains[1]
+    for name in ("one", "two"):
+        bag = BagReader(tmp_path / name)
+        answers = bag.topics()["/sail/command_status"].message_count
+        assert answers == 1  # its own deployment, not the other's
+        stamps = np.array(
+            [
+                (lambda h: h.stamp.sec * 10**9 + h.stamp.nanosec)(
+                    deserialize_message(m.data, JointState).header
+                )
+                for m in bag.messages(["/sail/boom_state"])
+            ]
+        )
+        steps = np.diff(stamps)
+        # one simulator: a state every 20 ms of simulation time, except across the reset
+        assert np.count_nonzero(steps <= 0) <= 1
+        assert np.median(steps) == 20_000_000

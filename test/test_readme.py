@@ -1,0 +1,107 @@
+"""The README runs as written: every command block, in order, in a fresh copy of the tree.
+
+Blocks tagged `bash` run in one bash session (so `source scripts/env.sh` and
+background jobs carry over from block to block), `python` blocks with the
+environment's python at their place in the order. Not run: `bash ros` (needs
+a ROS installation with the `ros2` command), `bash suite` (the test suite
+itself) and untagged or `console` blocks (output). The copy holds exactly
+what a clone would (git's tracked and unignored files), shares the set-up
+`.venv`, and must be as clean afterwards: whatever the examples write is
+ignored by git.
+"""
+
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.multiprocess
+
+ROOT = Path(__file__).resolve().parents[1]
+SETUP_INPUTS = ("requirements.txt", "constraints.txt", "setup.py")  # as scripts/setup_env.sh
+FENCE = re.compile(r"^```([^\n`]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)
+
+
+def blocks(text: str) -> list[tuple[str, str]]:
+    """(info string, body) of every fenced block."""
+    return [(info.strip(), body) for info, body in FENCE.findall(text)]
+
+
+def fresh_copy(destination: Path) -> Path:
+    """The tree as a fresh clone of it would be, as a git repository of one commit."""
+    listed = subprocess.run(
+        ["git", "ls-files", "-co", "--exclude-standard", "-z"],
+        cwd=ROOT,
+        capture_output=True,
+        check=True,
+    ).stdout.split(b"\0")
+    for name in filter(None, (item.decode() for item in listed)):
+        source = ROOT / name
+        if source.is_file() and not source.is_symlink():
+            target = destination / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source, target)
+    (destination / ".venv").symlink_to(Path(sys.prefix))
+    git = ["git", "-c", "user.name=readme", "-c", "user.email=readme@localhost"]
+    for command in (["init", "-q"], ["add", "-A"], ["commit", "-q", "-m", "copy"]):
+        subprocess.run([*git, *command], cwd=destination, check=True, capture_output=True)
+    return destination
+
+
+def test_readme_blocks_are_recognised():
+    kinds = [info for info, _ in blocks((ROOT / "README.md").read_text())]
+    assert "bash" in kinds and "python" in kinds and "bash ros" in kinds
+    assert set(kinds) <= {"bash", "python", "bash ros", "bash suite", "console", ""}
+
+
+def environment_is_current(tree: Path) -> bool:
+    """True if the shared .venv was set up from these files (scripts/setup_env.sh's stamp),
+    so the README's set-up step in the copy installs nothing into it."""
+    text = b"".join((tree / name).read_bytes() for name in SETUP_INPUTS)
+    stamp = Path(sys.prefix) / ".installed"
+    return stamp.is_file() and stamp.read_text().strip() == hashlib.sha256(text).hexdigest()
+
+
+def test_readme_runs_top_to_bottom(tmp_path, ros_env):
+    tree = fresh_copy(tmp_path / "sail_ros")
+    assert environment_is_current(tree), "the environment is out of date: run scripts/test.sh"
+    script = ["set -euo pipefail"]
+    for index, (info, body) in enumerate(blocks((tree / "README.md").read_text())):
+        if info == "bash":
+            script += [f"echo '--- README block {index}'", body]
+        elif info == "python":
+            path = tmp_path / f"block_{index}.py"
+            path.write_text(body)
+            script += [f"echo '--- README block {index}'", f"{sys.executable} {path}"]
+    env = dict(ros_env, PYTHONPATH=str(tree))  # the copy's code, not the developer's
+    env.pop("AMENT_PREFIX_PATH", None)  # scripts/env.sh sets it
+    result = subprocess.run(
+        ["bash", "-c", "\n".join(script)],
+        cwd=tree,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    output = result.stdout + result.stderr
+    assert result.returncode == 0, output[-6000:]
+    assert "accepted: deploy to 12 m" in output
+    assert "rejected, as it should be" in output
+    assert "simulator and recorder stopped cleanly" in output  # scripts/main.sh
+    assert "lowest frequencies at full deployment" in output  # the Python example printed
+    assert (tree / "out" / "run1" / "metadata.yaml").is_file()
+    assert (tree / "out" / "run1_report").is_dir()
+    status = subprocess.run(
+        ["git", "status", "--porcelain", "--untracked-files=all"],
+        cwd=tree,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    assert status == "", f"the examples left files git does not ignore:\n{status}"
+    assert os.path.islink(tree / ".venv")
