@@ -34,7 +34,7 @@ from std_msgs.msg import ColorRGBA, Float64
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
 
-from sail_ros.model import SailParameters
+from sail_ros.model import SailParameters, yaml_values
 from sail_ros.model.sail_model import StateSample
 
 # -- names ------------------------------------------------------------------------------------
@@ -220,7 +220,7 @@ def sail_parameters_from_record(record: Mapping[str, str]) -> SailParameters | N
     for name, text in record.items():
         if name.startswith(SAIL_PREFIX):
             try:
-                values[name] = yaml.safe_load(text)
+                values[name] = yaml_values.load(text)
             except yaml.YAMLError:
                 raise ValueError(f"recorded parameter {name} = {text!r} is not YAML") from None
     if not values:

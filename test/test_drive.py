@@ -221,3 +221,24 @@ def test_two_demos_at_once_each_log_only_their_own_run(ros_env, tmp_path):
         # one simulator: a state every 20 ms of simulation time, except across the reset
         assert np.count_nonzero(steps <= 0) <= 1
         assert np.median(steps) == 20_000_000
+
+
+def test_a_publisher_that_behaves_like_ros2_topic_pub_once_reaches_the_simulator(
+    processes, operator
+):
+    """What Jazzy's `ros2 topic pub --once --qos-durability transient_local` does
+    (ros2cli 0.32): reliable, transient local, keep last 10; wait for one matching
+    subscription; publish once; stay 0.1 s; exit. Five times, five answers."""
+    answers = Answers(operator)
+    processes("sim")
+    operator.wait_for_simulator()
+    for i in range(5):
+        node = Node(f"ros2_topic_pub_{i}", context=operator.context)
+        publisher = node.create_publisher(Float64, topics.DEPLOY_CMD, topics.LATCHED_COMMAND_QOS)
+        spin_until(operator.spinner, lambda p=publisher: p.get_subscription_count() >= 1,
+                   10.0, "a matching subscription")  # fmt: skip
+        publisher.publish(Float64(data=10.5 + 0.5 * i))
+        time.sleep(0.1)  # --keep-alive 0.1
+        node.destroy_node()
+    operator.spin_until(lambda: len(answers.received) >= 5, 10.0, "five answers")
+    assert [a.outcome for a in answers.received] == ["accepted"] * 5

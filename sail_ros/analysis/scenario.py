@@ -40,7 +40,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointProfile
+from sail_ros.model import (
+    CycloidalProfile,
+    SailModel,
+    StaticProfile,
+    WaypointProfile,
+    yaml_values,
+)
 from sail_ros.model.profiles import BoomMotion
 
 BOOMS = ("a", "b", "c", "d")
@@ -99,9 +105,9 @@ def load_scenario(path) -> Scenario:
     """Read and validate a scenario YAML file (ValueError names the entry)."""
     path = Path(path)
     try:
-        document = yaml.safe_load(path.read_text())
+        document = yaml_values.load(path.read_text())
     except yaml.YAMLError as error:
-        raise ValueError(f"{path}: not valid YAML: {error}") from None
+        raise ValueError(f"{path}: not valid YAML: {yaml_values.describe(error)}") from None
     except OSError as error:
         raise ValueError(f"cannot read scenario {str(path)!r}: {error.strerror}") from None
     try:

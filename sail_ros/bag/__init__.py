@@ -29,7 +29,7 @@ from sail_ros.bag.metadata import (
     parse_qos_profiles,
     qos_profiles_yaml,
 )
-from sail_ros.bag.reader import BagMessage, BagReader, TopicInfo, bag_files
+from sail_ros.bag.reader import BagMessage, BagReader, DamagedBagError, TopicInfo, bag_files
 from sail_ros.bag.writer import BagWriter
 
 __all__ = [
@@ -38,6 +38,7 @@ __all__ = [
     "BagReader",
     "BagWriteError",
     "BagWriter",
+    "DamagedBagError",
     "DefinitionNotFoundError",
     "FileSummary",
     "MessageDefinition",

@@ -39,6 +39,10 @@ _RECORD_HEAD = struct.Struct("<BQ")  # opcode, length
 _log = logging.getLogger(__name__)
 
 
+class DamagedBagError(ValueError):
+    """A file's content does not decode (a bad CRC, a garbled chunk); the message names it."""
+
+
 class BagMessage(NamedTuple):
     """One recorded message; times in ns since the Unix epoch."""
 
@@ -178,9 +182,19 @@ class _McapFile:
             yield from self._recovered_messages(wanted)
             return
         with self.path.open("rb") as stream:
-            for schema, channel, message in SeekingReader(stream).iter_messages(
+            records = SeekingReader(stream, validate_crcs=True).iter_messages(
                 topics=wanted, log_time_order=True
-            ):
+            )
+            while True:
+                try:
+                    schema, channel, message = next(records)
+                except StopIteration:
+                    return
+                # a garbled chunk fails in the CRC check or in any decompressor
+                except Exception as error:
+                    raise DamagedBagError(
+                        f"'{self.path}' is damaged: {type(error).__name__}: {error}"
+                    ) from None
                 yield _bag_message(channel, schema, message)
 
     def _scanned(self) -> tuple[list[TopicInfo], list[tuple[str, dict]]]:

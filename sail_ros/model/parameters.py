@@ -13,6 +13,8 @@ from pathlib import Path
 
 import yaml
 
+import sail_ros.model.yaml_values as yaml_values
+
 
 @dataclasses.dataclass(frozen=True)
 class SailParameters:
@@ -108,8 +110,13 @@ class SailParameters:
 
         A ROS 2 params file (`<node>: ros__parameters: sail: {...}`) works too.
         """
-        with open(path) as stream:
-            document = yaml.safe_load(stream) or {}
+        try:
+            with open(path) as stream:
+                document = yaml_values.load(stream) or {}
+        except OSError as error:
+            raise ValueError(f"cannot read {str(path)!r}: {error.strerror}") from None
+        except yaml.YAMLError as error:
+            raise ValueError(f"{path}: not valid YAML: {yaml_values.describe(error)}") from None
         return cls.from_dict(_find_sail_section(document, Path(path)))
 
     def to_yaml(self, path) -> None:

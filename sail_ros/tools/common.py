@@ -9,7 +9,7 @@ from pathlib import Path
 
 import yaml
 
-from sail_ros.model import SailParameters
+from sail_ros.model import SailParameters, yaml_values
 
 
 def add_sail_options(parser: argparse.ArgumentParser) -> None:
@@ -37,7 +37,10 @@ def sail_parameters(args: argparse.Namespace) -> SailParameters:
         key, separator, text = item.partition("=")
         if not separator:
             raise ValueError(f"--set expects KEY=VALUE, got {item!r}")
-        changes[key.strip()] = yaml.safe_load(text)
+        try:
+            changes[key.strip()] = yaml_values.load(text)
+        except yaml.YAMLError:
+            raise ValueError(f"--set {key.strip()}: {text!r} is not a value") from None
     if changes:
         params = SailParameters.from_dict({**params.to_dict(), **changes})
     return params
@@ -64,16 +67,25 @@ def describe_parameters(params: SailParameters) -> str:
 
 
 def run(main_body, args) -> int:
-    """Run a tool body; a ValueError becomes a one-line error and exit code 2."""
+    """Run a tool body. A user's mistake becomes one line and exit code 2: a
+    ValueError (a bad value, file or option, named by the message), or an OSError
+    from a path given (a missing file, an unwritable folder)."""
     try:
         return main_body(args) or 0
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except OSError as error:
+        where = f" {str(error.filename)!r}" if error.filename else ""
+        print(f"error: cannot use{where}: {error.strerror or error}", file=sys.stderr)
+        return 2
 
 
 def write_csv_rows(path: Path, rows: list[dict]) -> None:
     """One CSV row per dict (the first dict's keys are the header); makes the folder."""
+    for folder in (path.parent, *path.parent.parents):
+        if folder.exists() and not folder.is_dir():
+            raise ValueError(f"cannot write '{path}': '{folder}' is a file, not a folder")
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as stream:
         writer = csv.DictWriter(stream, fieldnames=list(rows[0]))

@@ -250,8 +250,11 @@ def _modes(args) -> int:
     lengths = args.lengths or [params.full_boom_length]
     if len(lengths) not in (1, 4):
         raise ValueError(f"--lengths takes 1 or 4 values, got {len(lengths)}")
-    if args.count < 1:
-        raise ValueError(f"--count must be >= 1, got {args.count}")
+    coordinates = 4 * (params.n_boom_modes + params.n_membrane_modes)
+    if not 1 <= args.count <= coordinates:
+        raise ValueError(
+            f"--count must be in [1, {coordinates}] (the model's coordinates), got {args.count}"
+        )
     if args.shapes < 1:
         raise ValueError(f"--shapes must be >= 1, got {args.shapes}")
     if args.fem_csv and not args.fem:

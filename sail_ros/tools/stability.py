@@ -145,7 +145,9 @@ def _stability(args) -> int:
     low, high = args.prestress
     if not 0 < low < high:
         raise ValueError(f"--prestress needs 0 < MIN < MAX [Pa], got {low:g} {high:g}")
-    points = args.points or int(round(POINTS_PER_DECADE * np.log10(high / low))) + 1
+    points = args.points
+    if points is None:
+        points = int(round(POINTS_PER_DECADE * np.log10(high / low))) + 1
     if points < 2:
         raise ValueError(f"--points must be >= 2, got {points}")
     prestresses = np.logspace(np.log10(low), np.log10(high), points)

@@ -1,0 +1,104 @@
+"""Every tool answers a user's mistake with exit code 2 and one line naming it, no traceback."""
+
+import importlib
+import io
+import struct
+from contextlib import redirect_stderr, redirect_stdout
+
+import pytest
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import JointState
+
+from sail_ros.bag import BagReader, BagWriter, DamagedBagError
+from sail_ros.cli import TOOLS
+
+pytestmark = pytest.mark.model
+
+
+def run_tool(name: str, argv: list[str]) -> tuple[int, str, str]:
+    module_name, function_name = TOOLS[name].split(":")
+    main = getattr(importlib.import_module(module_name), function_name)
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        try:
+            code = main(argv)
+        except SystemExit as exit_:  # argparse
+            code = exit_.code
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Files a user might hand the tools by mistake."""
+    root = tmp_path_factory.mktemp("inputs")
+    (root / "broken.yaml").write_text("sail: [1, 2\n")
+    (root / "misspelt.yaml").write_text("sail:\n  max_rat: 2.0\n")
+    (root / "no_mcap").mkdir()
+    (root / "text.mcap").write_text("not an mcap file\n")
+    (root / "blocker").write_text("")  # a file where a folder is needed
+    bag = root / "crc.mcap"
+    with BagWriter(bag, compression="none", fsync=False) as writer:
+        writer.add_topic("/sail/boom_state", "sensor_msgs/msg/JointState")
+        for i in range(50):
+            writer.write("/sail/boom_state", serialize_message(JointState(name=["a"])), i)
+    data = bytearray(bag.read_bytes())
+    chunk = data.index(b"\x06", 8)  # the first chunk record (opcode 6)
+    crc_at = chunk + 1 + 8 + 8 + 8 + 8  # opcode, length, start, end, uncompressed size
+    struct.pack_into("<I", data, crc_at, struct.unpack_from("<I", data, crc_at)[0] ^ 0xFFFF)
+    bag.write_bytes(bytes(data))
+    return root
+
+
+BAD_INPUTS = [
+    ("modes", ["--config", "{root}/missing.yaml"], "cannot read '{root}/missing.yaml'"),
+    ("modes", ["--config", "{root}/broken.yaml"], "broken.yaml: not valid YAML"),
+    ("modes", ["--config", "{root}/misspelt.yaml"], "unknown sail parameter(s) 'max_rat'"),
+    ("modes", ["--set", "n_boom_modes=0"], "n_boom_modes must be an integer >= 1, got 0"),
+    ("modes", ["--set", "membrane_thickness"], "--set expects KEY=VALUE"),
+    ("modes", ["--set", "sail_side=[1,"], "--set sail_side: '[1,' is not a value"),
+    ("modes", ["--count", "100000"], "--count must be in [1, 40]"),
+    ("modes", ["--count", "0"], "--count must be in [1, 40]"),
+    ("modes", ["--csv", "{root}/blocker/f.csv"], "'{root}/blocker' is a file, not a folder"),
+    ("modes", ["--lengths", "abc"], "argument --lengths: invalid float value: 'abc'"),
+    ("stability", ["--points", "0"], "--points must be >= 2, got 0"),
+    ("stability", ["--prestress", "10", "1"], "--prestress needs 0 < MIN < MAX"),
+    ("deploy", ["--scenario", "{root}/missing.yaml"], "cannot read scenario"),
+    ("deploy", ["--every", "0"], "--every must be > 0"),
+    ("deploy", ["--set", "n_membrane_modes=-1"], "n_membrane_modes must be an integer >= 1"),
+    ("report", ["{root}/nothing_here"], "'{root}/nothing_here' does not exist"),
+    ("report", ["{root}/no_mcap"], "folder '{root}/no_mcap' has no .mcap file"),
+    ("report", ["{root}/text.mcap"], "is not an MCAP file"),
+    ("report", ["{root}/crc.mcap", "--out", "{root}/crc_report"], "crc.mcap' is damaged"),
+    ("send", ["move", "--booms", "a", "--point", "-1", "12"], "the time must be > 0 s"),
+    ("send", ["--timeout", "0", "reset"], "--timeout must be > 0 s, got 0"),
+    ("watch", ["--rate", "0"], "--rate must be > 0, got 0"),
+]
+
+
+@pytest.mark.parametrize(
+    ("tool", "argv", "culprit"),
+    BAD_INPUTS,
+    ids=[f"{tool}:{' '.join(argv)}" for tool, argv, _ in BAD_INPUTS],
+)
+def test_a_mistake_is_one_line_and_exit_code_2(files, tool, argv, culprit):
+    argv = [item.format(root=files) for item in argv]
+    code, _, err = run_tool(tool, argv)
+    assert code == 2, err
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert "error:" in last and culprit.format(root=files) in last, err
+
+
+def test_every_float_form_is_a_number(files):
+    code, out, err = run_tool("modes", ["--set", "membrane_thickness=3e-6", "--count", "3"])
+    assert code == 0, err
+    assert "film h, rho             3e-06 m" in out
+    (files / "exp.yaml").write_text("sail:\n  membrane_thickness: 3e-6\n  sail_side: 1E2\n")
+    code, out, err = run_tool("modes", ["--config", str(files / "exp.yaml"), "--count", "3"])
+    assert code == 0, err
+    assert "3e-06 m" in out and "sail side a             100 m" in out
+
+
+def test_a_damaged_chunk_is_named_by_the_reader(files):
+    with pytest.raises(DamagedBagError, match="crc.mcap' is damaged: .*[Cc]rc"):
+        list(BagReader(files / "crc.mcap").messages())
