@@ -8,19 +8,67 @@ ROS arguments (`--ros-args -r __ns:=/sat2 -p name:=value --params-file f.yaml
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import signal
 import threading
 
 import rclpy
+import yaml
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.logging import get_logger
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
+from sail_ros.model import yaml_values
+
 
 class ConfigError(ValueError):
     """A parameter or option has a value the program cannot use; the message names it."""
+
+
+def suggestion(name: str, known) -> str:
+    """The text " (did you mean 'x'?)" for the known name x closest to `name`, or ""."""
+    close = difflib.get_close_matches(name, sorted(known), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def check_params_files(ros_argv: list[str], node_name: str) -> None:
+    """Every `--params-file` must hold a section for `node_name` (or a wildcard): a
+    misspelt section (`sail_simm:`) would otherwise be skipped without a word.
+
+    Raises:
+        ConfigError: a file cannot be read, is not a params file, or has no section
+            for the node (the message names the sections and the closest one).
+    """
+    files = [ros_argv[i + 1] for i, item in enumerate(ros_argv[:-1]) if item == "--params-file"]
+    for path in files:
+        try:
+            with open(path) as stream:
+                document = yaml_values.load(stream)
+        except OSError as error:
+            raise ConfigError(f"--params-file {path}: {error.strerror}") from None
+        except yaml.YAMLError as error:
+            raise ConfigError(f"--params-file {path}: {yaml_values.describe(error)}") from None
+        if not isinstance(document, dict) or not all(
+            isinstance(body, dict) and "ros__parameters" in body for body in document.values()
+        ):
+            raise ConfigError(
+                f"--params-file {path}: expected '<node>: ros__parameters: ...' sections"
+            )
+        sections = list(document)
+        if not any(_section_applies(section, node_name) for section in sections):
+            close = difflib.get_close_matches(node_name, sections, n=1, cutoff=0.6)
+            hint = f"; did you mean {node_name!r} for {close[0]!r}?" if close else ""
+            raise ConfigError(
+                f"--params-file {path} has no section for node {node_name!r} (it has "
+                f"{', '.join(map(repr, sections))}{hint})"
+            )
+
+
+def _section_applies(section: str, node_name: str) -> bool:
+    last = section.rstrip("/").rsplit("/", 1)[-1]
+    return last in (node_name, "**", "*")
 
 
 def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[str]):
@@ -75,6 +123,11 @@ def run_node(name: str, parser: argparse.ArgumentParser, argv: list[str], body) 
         namespace, ros_argv = parse_command_line(parser, name, argv)
     except SystemExit as exit_:
         return exit_.code if isinstance(exit_.code, int) else 2
+    try:
+        check_params_files(ros_argv, name)
+    except ConfigError as error:
+        get_logger(name).error(str(error))
+        return 2
     with StopSignals() as stop:
         rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
         try:

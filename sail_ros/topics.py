@@ -169,8 +169,11 @@ TOPICS = {
 TOPIC_QOS = {name: topic.qos for name, topic in TOPICS.items()}
 # what the simulator publishes at every state sample (and /clock with them when it runs one)
 STATE_TOPICS = (BOOM_STATE, MODAL_STATE, TIP_DEFLECTION)
-# what a recorder of the simulator takes by default: everything in the table
-RECORDED_TOPICS = tuple(TOPICS)
+# ROS's record of every parameter change, with its time and node (rcl_interfaces/ParameterEvent)
+PARAMETER_EVENTS = "/parameter_events"
+# what a recorder of the simulator takes by default: everything in the table, and
+# the parameter changes
+RECORDED_TOPICS = (*TOPICS, PARAMETER_EVENTS)
 
 # -- metadata records ---------------------------------------------------------------------------
 

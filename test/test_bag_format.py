@@ -8,7 +8,6 @@ mcap_ros2 decoder), with rosbags and with `BagReader`, and decoded by rclpy.
 import array
 import shutil
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -419,10 +418,19 @@ def test_bad_arguments_name_the_field_and_value(tmp_path):
         BagReader(tmp_path / "text.mcap")
 
 
-def test_type_without_definition_gets_an_empty_schema(tmp_path):
-    with BagWriter(tmp_path / "x.mcap") as bag:
+def test_type_without_definition_is_refused_not_written_with_an_empty_schema(tmp_path):
+    bag = BagWriter(tmp_path / "x.mcap")
+    with pytest.raises(
+        DefinitionNotFoundError,
+        match=r"no custom_msgs/msg/Thing\.(msg|idl) under share/ of any prefix",
+    ):
         bag.add_topic("/custom", "custom_msgs/msg/Thing")
-        bag.write("/custom", b"\x00\x01\x00\x00", T0)
-    info = BagReader(tmp_path / "x.mcap").topics()["/custom"]
-    assert (info.type_name, info.type_hash) == ("custom_msgs/msg/Thing", "")
-    assert Path(bag.files[0]).exists()
+    bag.close()
+    assert BagReader(tmp_path / "x.mcap").topics() == {}
+
+
+def test_definitions_are_found_without_ament_prefix_path(monkeypatch):
+    monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
+    definition = message_definition("sensor_msgs/msg/JointState")
+    assert definition.encoding == "ros2msg" and "MSG: std_msgs/Header" in definition.text
+    assert type_hash("sensor_msgs/msg/JointState").startswith("RIHS01_")

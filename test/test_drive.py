@@ -180,7 +180,7 @@ def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_pa
         names = set(bag.topics())
         own = {name for name in names if name.startswith(f"/{ns}/")}
         assert f"/{ns}/sail/boom_state" in own and f"/{ns}/sail/tip_deflection" in own
-        assert names - own <= {"/diagnostics", "/clock"}  # global by ROS convention
+        assert names - own <= {"/diagnostics", "/clock", "/parameter_events"}  # global in ROS
         status = bag.topics().get(f"/{ns}/sail/command_status")
         assert (status.message_count if status else 0) == commands  # answers are kept
         parameters = dict(bag.metadata())[topics.PARAMETERS_METADATA]

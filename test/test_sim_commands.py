@@ -273,11 +273,37 @@ def test_rejected_command_leaves_the_state_alone(model, config):
     assert np.array_equal(sim.stepper.q, reference.stepper.q)
 
 
-def test_non_finite_state_stops_until_reset(config):
+def test_leaving_the_linear_range_warns_then_stops_before_anything_is_non_finite(config):
+    # twice the Euler load pi^2 EI / (4 L^2) = 148 N of the 10 m booms: they buckle slowly
     buckling = config_from_values(
-        {**DEFAULTS, "sail.boom_axial_load": 1e6, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]}
+        {**DEFAULTS, "sail.boom_axial_load": 300.0, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]}
     )
     sim = Simulation(SailModel(buckling.sail), buckling)
+    warned_at = None
+    while sim.step():
+        assert sim.steps < 1000, "the buckled booms should diverge within 10 s"
+        if sim.range_warning and warned_at is None:
+            warned_at = sim.steps
+            assert "tip deflection of boom a is " in sim.range_warning
+            assert sim.range_warning.endswith("beyond tip_warn_fraction 0.1")
+    assert warned_at is not None and warned_at < sim.steps  # WARN came first
+    assert sim.state == ERROR and "beyond tip_error_fraction 0.3: out of the linear range" in (
+        sim.error
+    )
+    tips = sim.model.tip_deflections(sim.stepper.q)
+    assert np.all(np.isfinite(sim.stepper.q)) and abs(tips[0]) / 10.0 < 1.0  # 0.3 < ... < 1
+
+
+def test_non_finite_state_stops_until_reset(config):
+    buckling = config_from_values(
+        {
+            **DEFAULTS,
+            "sail.boom_axial_load": 1e6,
+            "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0],
+        }
+    )
+    sim = Simulation(SailModel(buckling.sail), buckling)
+    sim.range_limits = (math.inf, math.inf)  # no range check: let it blow up
     while sim.step():
         assert sim.steps < 1000, "the buckled booms should diverge within 10 s"
     assert sim.state == ERROR and "non-finite" in sim.error

@@ -8,7 +8,8 @@ Types that only ship an `.idl` file get the same layout with `IDL:` headers
 and schema encoding `ros2idl`.
 
 Interface files are found under `<prefix>/share/<pkg>/<msg|srv|action>/` for
-each prefix of the AMENT_PREFIX_PATH environment variable, as ament does.
+each prefix of the AMENT_PREFIX_PATH environment variable, as ament does, and
+then in this Python environment's and this package's own prefixes.
 Nothing here needs rclpy.
 """
 
@@ -18,6 +19,7 @@ import functools
 import json
 import os
 import re
+import sys
 from pathlib import Path
 from typing import NamedTuple
 
@@ -80,9 +82,21 @@ def full_type_name(type_name: str) -> str:
 
 
 def ament_prefixes() -> tuple[Path, ...]:
-    """The install prefixes listed in AMENT_PREFIX_PATH, in search order."""
+    """The install prefixes to search, in order: those of AMENT_PREFIX_PATH, then this
+    Python environment's own prefix (where the PyPI ROS packages put share/), then
+    the prefix this package is installed in. So definitions are found even when
+    AMENT_PREFIX_PATH was not set up."""
     value = os.environ.get("AMENT_PREFIX_PATH", "")
-    return tuple(Path(entry) for entry in value.split(os.pathsep) if entry)
+    prefixes = [Path(entry) for entry in value.split(os.pathsep) if entry]
+    prefixes += [Path(sys.prefix), _own_prefix()]
+    return tuple(dict.fromkeys(prefixes))
+
+
+def _own_prefix() -> Path:
+    """<prefix> of <prefix>/lib/pythonX.Y/site-packages/sail_ros/bag/definitions.py (in
+    a source tree, which has no such prefix, the environment's)."""
+    parents = Path(__file__).resolve().parents
+    return parents[5] if len(parents) > 5 else Path(sys.prefix)
 
 
 def find_interface_file(type_name: str, extension: str) -> Path:
@@ -116,10 +130,10 @@ def _find_interface_file(type_name: str, extension: str, prefixes: tuple[Path, .
         candidate = prefix / "share" / package / namespace / f"{name}{extension}"
         if candidate.is_file():
             return candidate
-    searched = os.pathsep.join(str(prefix) for prefix in prefixes) or "(AMENT_PREFIX_PATH is empty)"
+    searched = os.pathsep.join(str(prefix) for prefix in prefixes)
     raise DefinitionNotFoundError(
-        f"no {package}/{namespace}/{name}{extension} under share/ of any prefix in "
-        f"AMENT_PREFIX_PATH: {searched}"
+        f"no {package}/{namespace}/{name}{extension} under share/ of any prefix "
+        f"(AMENT_PREFIX_PATH, this environment, this package): {searched}"
     )
 
 

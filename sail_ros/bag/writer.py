@@ -24,7 +24,7 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
-from sail_ros.bag.definitions import DefinitionNotFoundError, message_definition, type_hash
+from sail_ros.bag.definitions import message_definition, type_hash
 from sail_ros.bag.mcap_storage import COMPRESSIONS, BagWriteError, McapFile, guarded
 from sail_ros.bag.metadata import (
     FileSummary,
@@ -147,7 +147,7 @@ class BagWriter:
         Args:
             topic: absolute topic name, e.g. "/sail/boom_state".
             type_name: "pkg/msg/Type"; its definition is read from the installed
-                .msg files (a type without any gets an empty schema).
+                .msg files.
             offered_qos_profiles: the publishers' QoS, as rosbag2 QoS entries
                 (dicts, see `metadata.default_qos_profile`) or their YAML text;
                 None means one reliable volatile profile.
@@ -159,11 +159,9 @@ class BagWriter:
         if not topic.startswith("/"):
             raise ValueError(f"topic must be an absolute name starting with '/', got {topic!r}")
         if type_name not in self._schemas:
-            try:
-                definition = message_definition(type_name)
-                self._schemas[type_name] = (definition.encoding, definition.text)
-            except DefinitionNotFoundError:
-                self._schemas[type_name] = ("", "")  # MCAP's "no schema available"
+            # no empty schema: no reader can decode a channel without its definition
+            definition = message_definition(type_name)  # DefinitionNotFoundError names it
+            self._schemas[type_name] = (definition.encoding, definition.text)
         self._topics[topic] = TopicMetadata(
             name=topic,
             type_name=type_name,

@@ -2,9 +2,9 @@
 
 `diagnose` decides what /diagnostics says; the node only gathers the counts
 of the window since its last status (`Observations`) and publishes the
-answer. The worst finding wins: a stopped integration (ERROR), then
-overruns, a real-time factor below the time scale, rejected commands
-(WARN); otherwise OK with the state.
+answer. The worst finding wins: a stopped integration (ERROR), then a motion
+leaving the linear model's range, overruns, a real-time factor below the
+time scale, rejected commands (WARN); otherwise OK with the state.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ class Observations(NamedTuple):
         rtf_measured: a complete real-time factor measurement exists.
         real_time_factor: that measurement [-].
         time_scale: the simulation seconds per wall second asked for [-].
+        range_warning: why the motion is leaving the linear model's range ("" if not).
     """
 
     state: str
@@ -40,12 +41,15 @@ class Observations(NamedTuple):
     rtf_measured: bool
     real_time_factor: float
     time_scale: float
+    range_warning: str = ""
 
 
 def diagnose(seen: Observations) -> tuple[str, str]:
     """`(level, message)`: level "OK", "WARN" or "ERROR", and one line saying why."""
     if seen.error:
         return "ERROR", f"integration stopped: {seen.error}; call sail/reset"
+    if seen.range_warning:
+        return "WARN", f"leaving the linear range: {seen.range_warning}"
     if seen.overruns:
         return "WARN", (
             f"{seen.overruns} overrun(s) in the last {seen.window_s:.3g} s: the integration "

@@ -14,11 +14,16 @@ import argparse
 import dataclasses
 import math
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
 from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
-from sail_ros.ros_cli import ConfigError
+from sail_ros.ros_cli import ConfigError, suggestion
 
 _SCALAR_TYPES = {
     bool: Parameter.Type.BOOL,
@@ -147,10 +152,13 @@ class ParamSpec:
 
 
 def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
-    """Declare `specs` on `node`, check their values and return them (lists as lists).
+    """Declare `specs` on `node`, check their values and return them (lists as lists);
+    from then on the node refuses, by name, any change of a parameter it lacks (create
+    it with `allow_undeclared_parameters=True` so that rclpy lets it answer).
 
     Raises:
-        ConfigError: a value has the wrong type, is out of range or not a choice.
+        ConfigError: a value has the wrong type, is out of range or not a choice, or
+            a parameter was given that the node does not have.
     """
     values = {}
     for spec in specs:
@@ -164,6 +172,8 @@ def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
         value = list(value) if spec.is_list else value
         spec.check(value)
         values[spec.name] = value
+    reject_unknown(node)
+    refuse_unknown_changes(node)
     return values
 
 
@@ -216,3 +226,39 @@ def overrides(namespace: argparse.Namespace, specs: list[ParamSpec]) -> list[Par
         if value is not None:
             chosen.append(Parameter(spec.name, spec.kind, value))
     return chosen
+
+
+# -- strictness: no parameter goes unnoticed ------------------------------------------------
+
+
+def reject_unknown(node) -> None:
+    """Stop a node given a parameter it does not have (from `-p`, a params file or
+    the constructor): a misspelt name would otherwise be ignored without a word.
+
+    Call after every parameter is declared. Raises ConfigError naming each unknown
+    parameter, with the closest known name.
+    """
+    given = node._parameter_overrides  # rclpy keeps what it was given here
+    unknown = sorted(name for name in given if not node.has_parameter(name))
+    if unknown:
+        known = list(node._parameters)
+        raise ConfigError(
+            f"unknown parameter(s) of {node.get_name()}: "
+            + ", ".join(f"{name!r}{suggestion(name, known)}" for name in unknown)
+        )
+
+
+def refuse_unknown_changes(node) -> None:
+    """Refuse, naming it, a run-time change of a parameter the node does not have (the
+    node must allow undeclared parameters, or rclpy refuses without the name)."""
+
+    def check(parameters) -> SetParametersResult:
+        for parameter in parameters:
+            if not node.has_parameter(parameter.name):
+                reason = f"unknown parameter {parameter.name!r}" + suggestion(
+                    parameter.name, list(node._parameters)
+                )
+                return SetParametersResult(successful=False, reason=reason)
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(check)

@@ -36,7 +36,14 @@ from rclpy.logging import get_logger
 from rclpy.node import Node
 from rclpy.parameter import parameter_value_to_python
 
-from sail_ros.bag import COMPRESSIONS, BagWriteError, BagWriter, qos
+from sail_ros.bag import (
+    COMPRESSIONS,
+    BagWriteError,
+    BagWriter,
+    DefinitionNotFoundError,
+    message_definition,
+    qos,
+)
 from sail_ros.nodes.parameters import ConfigError, ParamSpec, declare, make_parser, overrides
 from sail_ros.ros_cli import StopSignals, message_class, run_node
 from sail_ros.topics import PARAMETERS_METADATA, RECORDED_TOPICS, yaml_value
@@ -193,6 +200,7 @@ class Recorder(Node):
             context=context,
             namespace=namespace,
             parameter_overrides=list(parameter_overrides),
+            allow_undeclared_parameters=True,  # to refuse an unknown one by its name
         )
         self.config = declare(self, SPECS)
         self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
@@ -354,6 +362,12 @@ class Recorder(Node):
             msg_class = message_class(type_name)
         except (ImportError, ValueError) as error:
             logger.warning(f"not recording {topic}: type {type_name} is not installed ({error})")
+            self._ignored.add(topic)
+            return
+        try:  # a channel without its definition is one no reader can decode
+            message_definition(type_name)
+        except (DefinitionNotFoundError, ValueError) as error:
+            logger.error(f"not recording {topic}: no message definition of {type_name} ({error})")
             self._ignored.add(topic)
             return
         offered = [p.qos_profile for p in publishers]

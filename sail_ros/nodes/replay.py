@@ -109,6 +109,7 @@ class Replay(Node):
             context=context,
             namespace=namespace,
             parameter_overrides=list(parameter_overrides),
+            allow_undeclared_parameters=True,  # to refuse an unknown one by its name
         )
         self.config = declare(self, SPECS)
         if not self.config["bag"]:

@@ -76,6 +76,7 @@ class SimNode(Node):
             context=context,
             namespace=namespace,
             parameter_overrides=list(parameter_overrides),
+            allow_undeclared_parameters=True,  # to refuse an unknown one by its name
         )
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
@@ -142,13 +143,21 @@ class SimNode(Node):
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, parameters) -> None:
+        """Post-set: use the new values, and say so (the recorder keeps the change too,
+        from /parameter_events)."""
         self._values.update({p.name: p.value for p in parameters})
         self.config = config_from_values(self._values)
         self._use_config()
+        for parameter in parameters:
+            self.get_logger().info(
+                f"parameter {parameter.name} set to {parameter.value!r} at t = {self.sim.t:.6f} s"
+            )
 
     def _use_config(self) -> None:
-        """Publication intervals, tick period and diagnostics timer from `self.config`."""
+        """Publication intervals, tick period, range limits and diagnostics timer from
+        `self.config`."""
         config = self.config
+        self.sim.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
         self._every_state = config.steps_between(config.state_rate_hz)
         self._every_shape = config.steps_between(config.shape_rate_hz)
         self.pacer.tick_steps = self._every_state
@@ -178,9 +187,13 @@ class SimNode(Node):
             )
         limit = due + 1e-9 * sim.step_size  # round-off must not cost a step
         while sim.t + sim.step_size <= limit and time.monotonic() < deadline:
+            warned = sim.range_warning
             if not sim.step():
                 self._stop_on_error()
                 return
+            if sim.range_warning and not warned:  # say it now, not at the next status
+                self.get_logger().warning(f"leaving the linear range: {sim.range_warning}")
+                self._publish_diagnostics()
             steps = sim.steps - self._sampled_from
             if steps % self._every_state == 0:
                 self._publish_state()
@@ -337,6 +350,7 @@ class SimNode(Node):
                 rtf_measured=bool(rtf.current),
                 real_time_factor=rtf.value,
                 time_scale=config.time_scale,
+                range_warning=sim.range_warning,
             )
         )
         values = {

@@ -164,6 +164,25 @@ SPECS = [
         1,
         50,
     ),
+    ParamSpec(
+        "tip_warn_fraction",
+        0.1,
+        "WARN once a boom-tip deflection exceeds this fraction of its boom's length [-]: "
+        "the linear (small-deflection) model is leaving its range",
+        False,
+        1e-6,
+        10.0,
+    ),
+    ParamSpec(
+        "tip_error_fraction",
+        0.3,
+        "stop the integration with ERROR once a boom-tip deflection exceeds this fraction "
+        "of its boom's length [-] (the results mean nothing beyond; sail/reset recovers); "
+        "above tip_warn_fraction",
+        False,
+        1e-6,
+        10.0,
+    ),
 ]
 SPEC_BY_NAME = {spec.name: spec for spec in SPECS}
 DEFAULTS = {spec.name: spec.default for spec in SPECS}
@@ -185,6 +204,8 @@ class SimConfig:
     time_scale: float
     frame_id: str
     shape_divisions: int
+    tip_warn_fraction: float  # [-] of the boom length
+    tip_error_fraction: float  # [-] of the boom length
 
     @property
     def as_fast_as_possible(self) -> bool:
@@ -231,6 +252,11 @@ def config_from_values(values: dict) -> SimConfig:
             f"initial_lengths {lengths.tolist()} m must lie in [min_length, "
             f"max_length] = [{limits.min_length:g}, {limits.max_length:g}] m"
         )
+    if not values["tip_warn_fraction"] < values["tip_error_fraction"]:
+        raise ConfigError(
+            f"tip_warn_fraction ({values['tip_warn_fraction']:g}) must be below "
+            f"tip_error_fraction ({values['tip_error_fraction']:g})"
+        )
     step = float(values["integration_step"])
     for name in ("state_rate_hz", "shape_rate_hz"):
         if values[name] * step > 1.0 + 1e-9:
@@ -253,6 +279,8 @@ def config_from_values(values: dict) -> SimConfig:
         time_scale=float(values["time_scale"]),
         frame_id=str(values["frame_id"]),
         shape_divisions=int(values["shape_divisions"]),
+        tip_warn_fraction=float(values["tip_warn_fraction"]),
+        tip_error_fraction=float(values["tip_error_fraction"]),
     )
 
 

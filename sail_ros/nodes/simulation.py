@@ -60,6 +60,8 @@ class Simulation:
     def __init__(self, model: SailModel, config: SimConfig):
         self.model = model
         self.step_size = config.integration_step
+        self.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
+        self.range_warning = ""  # why the motion nears the end of the linear range
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
         self.stepper = model.stepper(
             self.motion,
@@ -121,6 +123,26 @@ class Simulation:
             return False
         self.step_times.add(time.perf_counter() - started)
         self.steps += 1
+        return self._within_range()
+
+    def _within_range(self) -> bool:
+        """Check the tip deflections against the linear range (`range_limits`, fractions
+        of each boom's length): set `range_warning` past the first, stop with `error`
+        past the second, before anything non-finite goes out."""
+        warn, stop = self.range_limits
+        lengths = self.stepper.boom_motion()[0]
+        fractions = np.abs(self.model.tip_deflections(self.stepper.q)) / lengths
+        k = int(np.argmax(fractions))
+        reason = (
+            f"tip deflection of boom {'abcd'[k]} is {fractions[k]:.3g} of its length "
+            f"({fractions[k] * lengths[k]:.4g} m of {lengths[k]:.4g} m)"
+        )
+        if fractions[k] > stop:
+            self.error = f"{reason}, beyond tip_error_fraction {stop:g}: out of the linear range"
+            return False
+        self.range_warning = (
+            f"{reason}, beyond tip_warn_fraction {warn:g}" if fractions[k] > warn else ""
+        )
         return True
 
     def reset(self, config: SimConfig) -> None:
@@ -134,6 +156,8 @@ class Simulation:
             profile=self.motion,
         )
         self.error = None
+        self.range_warning = ""
+        self.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
 
     # -- commands ---------------------------------------------------------------------------
 

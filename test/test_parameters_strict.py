@@ -1,0 +1,100 @@
+"""No parameter goes unnoticed: unknown names stop a node at start, and are refused by name
+at run time; accepted changes are logged and reach /parameter_events."""
+
+import subprocess
+import sys
+
+import pytest
+from conftest import spin_until
+from rcl_interfaces.msg import Parameter as ParameterMessage
+from rcl_interfaces.msg import ParameterEvent, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from sail_ros.nodes.parameters import ConfigError
+from sail_ros.nodes.recorder import Recorder
+from sail_ros.nodes.replay import Replay
+from sail_ros.nodes.sim import SimNode
+
+pytestmark = pytest.mark.node
+
+
+@pytest.mark.parametrize(
+    ("node_class", "override", "message"),
+    [
+        (SimNode, Parameter("max_rat", value=2.0), "'max_rat' (did you mean 'max_rate'?)"),
+        (SimNode, Parameter("sail.n_boom_mode", value=3), "(did you mean 'sail.n_boom_modes'?)"),
+        (Recorder, Parameter("compresion", value="lz4"), "(did you mean 'compression'?)"),
+        (Replay, Parameter("rates", value=2.0), "'rates' (did you mean 'rate'?)"),
+    ],
+    ids=["sim", "sim-sail", "recorder", "replay"],
+)
+def test_an_unknown_parameter_stops_the_node(ros_context, tmp_path, node_class, override, message):
+    overrides = [override]
+    if node_class is Recorder:
+        overrides.append(Parameter("output", value=str(tmp_path / "bag")))
+    with pytest.raises(ConfigError, match="unknown parameter") as raised:
+        node_class(overrides, context=ros_context)
+    assert message in str(raised.value)
+    assert not (tmp_path / "bag").exists()  # the recorder made nothing
+
+
+def set_parameter(client_node, executor, name, value) -> tuple[bool, str]:
+    client = client_node.create_client(SetParameters, "/sail_sim/set_parameters")
+    spin_until(executor, client.service_is_ready, 10.0, "the parameter service")
+    parameter = ParameterMessage(
+        name=name, value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
+    )
+    future = client.call_async(SetParameters.Request(parameters=[parameter]))
+    spin_until(executor, future.done, 10.0, "the answer")
+    (result,) = future.result().results
+    return result.successful, result.reason
+
+
+def test_run_time_changes_are_refused_by_name_or_published(ros_context):
+    from rclpy.executors import SingleThreadedExecutor
+
+    sim = SimNode(context=ros_context)
+    client = Node("strict_client", context=ros_context)
+    events = []
+    client.create_subscription(ParameterEvent, "/parameter_events", events.append, 100)
+    executor = SingleThreadedExecutor(context=ros_context)
+    for node in (sim, client):
+        executor.add_node(node)
+    try:
+        ok, reason = set_parameter(client, executor, "max_rat", 2.0)
+        assert not ok and reason == "unknown parameter 'max_rat' (did you mean 'max_rate'?)"
+        assert not sim.has_parameter("max_rat")
+        ok, reason = set_parameter(client, executor, "max_rate", 2.0)
+        assert ok, reason
+        assert sim.config.limits.max_rate == 2.0
+        spin_until(
+            executor,
+            lambda: any(
+                e.node == "/sail_sim" and [p.name for p in e.changed_parameters] == ["max_rate"]
+                for e in events
+            ),
+            5.0,
+            "the parameter event",
+        )
+    finally:
+        executor.shutdown()
+        sim.destroy_node()
+        client.destroy_node()
+
+
+def test_a_params_file_without_a_section_for_the_node_stops_it(tmp_path, ros_env):
+    params = tmp_path / "sim.yaml"
+    params.write_text("sail_simm:\n  ros__parameters:\n    max_rate: 2.0\n")
+    result = subprocess.run(
+        [sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args", "--params-file", str(params)],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    assert f"--params-file {params} has no section for node 'sail_sim' (it has 'sail_simm'; " \
+        "did you mean 'sail_sim' for 'sail_simm'?)" in result.stderr  # fmt: skip
+    assert "Traceback" not in result.stderr
