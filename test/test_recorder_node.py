@@ -5,6 +5,7 @@ contexts of this process, so they talk over DDS as separate processes would.
 """
 
 import threading
+import time
 
 import pytest
 import rclpy
@@ -166,3 +167,49 @@ def test_replay_into_a_namespace_moves_the_sail_topics(ros_context, peer, tmp_pa
         player.join(10.0)
     replay.destroy_node()
     assert result == [0]
+
+
+def test_a_slow_disk_drops_counted_messages_and_memory_stays_bounded(
+    ros_context, peer, tmp_path, monkeypatch
+):
+    """Writing takes 20 ms a message, 300 messages come at once, 20 may wait: the
+    excess is dropped, and every message is either in the bag or counted."""
+    original = BagWriter.write
+
+    def slow_write(self, topic, *args, **kwargs):
+        time.sleep(0.02)
+        return original(self, topic, *args, **kwargs)
+
+    monkeypatch.setattr(BagWriter, "write", slow_write)
+    node, executor = peer
+    publisher = node.create_publisher(JointState, TOPIC, QoSProfile(depth=1000))
+    recorder = Recorder(
+        [
+            Parameter("output", value=str(tmp_path / "bag")),
+            Parameter("topics", value=[TOPIC]),
+            Parameter("parameter_node", value=""),
+            Parameter("queue_messages", value=20),
+            Parameter("qos_depth", value=1000),
+        ],
+        context=ros_context,
+    )
+    stop, result = Stop(), []
+    runner = threading.Thread(target=lambda: result.append(recorder.run(stop)))
+    runner.start()
+    try:
+        spin_until(executor, lambda: publisher.get_subscription_count() >= 1, 10.0, "the recorder")
+        spin_until(executor, lambda: recorder.count_publishers(TOPIC) >= 1, 10.0, "its view")
+        for i in range(300):
+            publisher.publish(state(i))
+        assert publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
+        time.sleep(0.5)
+    finally:
+        stop.event.set()
+        runner.join(60.0)
+    recorder.destroy_node()
+    assert result == [0]
+    bag = BagReader(tmp_path / "bag")
+    written = sum(1 for _ in bag.messages())
+    dropped = dict(bag.metadata())["sail_recorder_dropped"]
+    assert int(dropped[TOPIC]) > 0
+    assert written + int(dropped[TOPIC]) == 300

@@ -2,6 +2,7 @@
 grid-stepping core, pacing, the parameter table and the message builders.
 No ROS runtime."""
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -510,3 +511,18 @@ def test_shape_markers_draw_the_deflected_membrane_and_the_booms(model):
     assert (tip_a.x, tip_a.y, tip_a.z) == pytest.approx((10.0, 0.0, 0.1))
     assert booms[3].points[-1].y == pytest.approx(-13.0)
     assert all(m.pose.orientation.w == 1.0 for m in markers)
+
+
+def test_a_trajectory_longer_than_max_trajectory_points_is_rejected_whole(config):
+    sim = Simulation(SailModel(config.sail), config)
+    limits = dataclasses.replace(config.limits, max_points=3)
+    command = JointTrajectory(joint_names=["boom_a"])
+    for i in range(4):
+        point = JointTrajectoryPoint(positions=[10.0 + 0.01 * (i + 1)])
+        point.time_from_start.sec = i + 1
+        command.points.append(point)
+    with pytest.raises(CommandError, match="4 points, more than max_trajectory_points = 3"):
+        sim.follow(command, limits)
+    assert sim.rejected == 1
+    command.points.pop()
+    assert sim.follow(command, limits).booms == (0,)

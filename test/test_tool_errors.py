@@ -102,3 +102,10 @@ def test_every_float_form_is_a_number(files):
 def test_a_damaged_chunk_is_named_by_the_reader(files):
     with pytest.raises(DamagedBagError, match="crc.mcap' is damaged: .*[Cc]rc"):
         list(BagReader(files / "crc.mcap").messages())
+
+
+def test_mode_counts_that_would_not_fit_are_refused_before_allocating():
+    code, _, err = run_tool("modes", ["--set", "n_boom_modes=400"])
+    assert code == 2 and "Traceback" not in err
+    assert err.startswith("error: n_boom_modes = 400, n_membrane_modes = 6 need about ")
+    assert "GiB to build their integrals" in err and len(err.strip().splitlines()) == 1

@@ -45,6 +45,42 @@ def default_quadrature_order(n_boom_modes: int, n_membrane_modes: int) -> int:
     return int(2.0 * max(beta_max, np.pi * m_max)) + 40
 
 
+def integral_bytes(n_boom_modes: int, n_membrane_modes: int, order: int) -> int:
+    """Peak memory [bytes] of building the quadrant integrals: every basis function and
+    derivative at every one of the `order^2` points of the triangle rule (the vector
+    functions S, S_xi, S_eta, R_a, R_b of size 2 n_B + n_M, the triangle modes and
+    their gradients, the cantilever values), 8 bytes each."""
+    rows = 5 * (2 * n_boom_modes + n_membrane_modes) + 3 * n_membrane_modes + 6 * n_boom_modes
+    return 8 * rows * order * order
+
+
+def available_memory_bytes() -> int | None:
+    """Memory the machine can still give [bytes] (Linux MemAvailable), or None."""
+    try:
+        with open("/proc/meminfo") as stream:
+            for line in stream:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None
+
+
+def check_affordable(n_boom_modes: int, n_membrane_modes: int, order: int) -> None:
+    """Refuse, before allocating anything, mode counts whose integrals would not fit.
+
+    Raises:
+        ValueError: naming the mode counts, the estimate and what is available.
+    """
+    need, have = integral_bytes(n_boom_modes, n_membrane_modes, order), available_memory_bytes()
+    if have is not None and need > 0.8 * have:
+        raise ValueError(
+            f"n_boom_modes = {n_boom_modes}, n_membrane_modes = {n_membrane_modes} need about "
+            f"{need / 2**30:.3g} GiB to build their integrals ({order} x {order} quadrature "
+            f"points); this machine has {have / 2**30:.3g} GiB available"
+        )
+
+
 def gauss_unit_interval(order: int) -> tuple[np.ndarray, np.ndarray]:
     """Gauss-Legendre points and weights on [0, 1]."""
     x, w = leggauss(order)

@@ -23,6 +23,7 @@ from sail_ros.model.assembly import (
 from sail_ros.model.basis import cantilever_roots
 from sail_ros.model.integrals import (
     boom_integrals,
+    check_affordable,
     default_quadrature_order,
     quadrant_integrals,
 )
@@ -64,6 +65,7 @@ class SailModel:
         self.layout = Layout(nb, nm)
         self.n = self.layout.n
         order = quadrature_order or default_quadrature_order(nb, nm)
+        check_affordable(nb, nm, order)
         self.boom_integrals = boom_integrals(nb, order)
         self.quadrant_integrals = quadrant_integrals(nb, nm, order)
         self.assembler = SystemAssembler(

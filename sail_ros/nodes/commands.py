@@ -57,12 +57,15 @@ class Limits:
         min_length, max_length: allowed boom lengths [m].
         max_rate: largest |extension rate| [m/s].
         max_acceleration: largest |extension acceleration| [m/s^2].
+        max_points: most points a trajectory may have (the work per command is
+            bounded: planning checks the whole spline).
     """
 
     min_length: float
     max_length: float
     max_rate: float
     max_acceleration: float
+    max_points: int = 1000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,6 +111,11 @@ def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
     repeated = sorted({name for name in names if names.count(name) > 1})
     if repeated:
         raise CommandError(f"joint name(s) {', '.join(map(repr, repeated))} given more than once")
+    if len(trajectory.points) > limits.max_points:
+        raise CommandError(
+            f"{len(trajectory.points)} points, more than max_trajectory_points = "
+            f"{limits.max_points}"
+        )
     points = list(trajectory.points)
     if not points:
         raise CommandError("no points")

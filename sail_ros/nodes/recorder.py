@@ -49,6 +49,7 @@ from sail_ros.ros_cli import StopSignals, message_class, run_node
 from sail_ros.topics import PARAMETERS_METADATA, RECORDED_TOPICS, yaml_value
 
 NODE_NAME = "sail_recorder"
+DROPPED_METADATA = "sail_recorder_dropped"  # topic -> messages dropped for a slow disk
 GRAPH_PERIOD_S = 0.1  # how often new topics are looked for (rosbag2 polls every 0.1 s too)
 PARAMETER_WAIT_WARNING_S = 5.0  # warn once if the parameter node is still absent
 SERVICE_TIMEOUT_S = 5.0  # a parameter request without answer is retried after this
@@ -112,6 +113,15 @@ SPECS = [
         "empty: none",
     ),
     ParamSpec(
+        "queue_messages",
+        10000,
+        "messages that may wait for the writer [messages]; beyond, when the disk is slower "
+        f"than the traffic, messages are dropped, counted per topic and stored as metadata "
+        f"'{DROPPED_METADATA}' (bounded memory)",
+        minimum=10,
+        maximum=10_000_000,
+    ),
+    ParamSpec(
         "qos_depth",
         100,
         "history depth of each subscription [messages]: how many "
@@ -135,16 +145,20 @@ def is_hidden(topic: str) -> bool:
 class _BagThread:
     """Owns the BagWriter in a thread of its own; calls arrive through a queue.
 
-    Writing (compression, fsync) then never delays taking messages from DDS.
+    Writing (compression, fsync) then never delays taking messages from DDS. The
+    queue is bounded: when the disk is slower than the traffic, a message that
+    finds it full is dropped and counted per topic (`dropped`), so memory stays
+    bounded; calls other than messages always wait for a place.
     """
 
     _STOP = object()
 
-    def __init__(self, writer: BagWriter):
+    def __init__(self, writer: BagWriter, max_messages: int):
         self.writer = writer
         self.failed = threading.Event()
         self.error: Exception | None = None  # a BagWriteError unless something is broken
-        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self.dropped: dict[str, int] = {}
+        self._queue: queue.Queue = queue.Queue(maxsize=max_messages)
         self._thread = threading.Thread(target=self._run, name="bag_writer", daemon=True)
         self._thread.start()
 
@@ -152,10 +166,25 @@ class _BagThread:
         """Run `method(*args)` (a BagWriter method) in the writer thread, in order."""
         self._queue.put((method, args))
 
+    def submit_message(self, topic: str, *args) -> bool:
+        """Queue `writer.write(topic, *args)`; False (and counted) if the queue is full."""
+        try:
+            self._queue.put_nowait((self.writer.write, (topic, *args)))
+        except queue.Full:
+            self.dropped[topic] = self.dropped.get(topic, 0) + 1
+            return False
+        return True
+
     def close(self) -> None:
-        """Write what was submitted, finish the files and end the thread."""
+        """Write what was submitted and the drop counts, finish the files, end the thread."""
+        if self.dropped:
+            self.submit(self._store_dropped)
         self._queue.put(self._STOP)
         self._thread.join()
+
+    def _store_dropped(self) -> None:
+        counts = {topic: str(count) for topic, count in sorted(self.dropped.items())}
+        self.writer.add_metadata(DROPPED_METADATA, counts)
 
     def _run(self) -> None:
         writer = self.writer
@@ -232,7 +261,7 @@ class Recorder(Node):
             )
         except ValueError as error:
             raise ConfigError(str(error)) from None
-        self.bag = _BagThread(writer)
+        self.bag = _BagThread(writer, self.config["queue_messages"])
         try:
             self._poll_timer = self.create_timer(GRAPH_PERIOD_S, self._poll)
             self.get_logger().info(f"recording into '{writer.path}'")
@@ -323,6 +352,11 @@ class Recorder(Node):
             logger.info(f"{sum(counts.values())} messages in {where}")
         for topic, count in sorted(counts.items()):
             logger.info(f"  {topic}: {count} messages")
+        for topic, count in sorted(self.bag.dropped.items()):
+            logger.warning(
+                f"  {topic}: {count} messages dropped (the disk was too slow; "
+                f"counts in metadata '{DROPPED_METADATA}')"
+            )
         return 1 if self.bag.error is not None or error is not None else 0
 
     # -- topics -----------------------------------------------------------------------------
@@ -397,7 +431,13 @@ class Recorder(Node):
         log_time = info.get("received_timestamp") or time.time_ns()
         publish_time = info.get("source_timestamp") or log_time
         sequence = (info.get("publication_sequence_number") or 0) & 0xFFFFFFFF
-        self.bag.submit(self.bag.writer.write, topic, data, log_time, publish_time, sequence)
+        if not self.bag.submit_message(topic, data, log_time, publish_time, sequence):
+            self.get_logger().warning(
+                f"the disk is slower than the traffic: dropping messages of {topic} "
+                f"({sum(self.bag.dropped.values())} so far; queue_messages = "
+                f"{self.config['queue_messages']})",
+                throttle_duration_sec=5.0,
+            )
         self._received += 1
 
     # -- simulator parameters ---------------------------------------------------------------

@@ -80,7 +80,10 @@ class SimNode(Node):
         )
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
-        model = SailModel(config.sail)
+        try:
+            model = SailModel(config.sail)
+        except ValueError as error:  # mode counts whose integrals would not fit
+            raise ConfigError(f"sail.n_boom_modes, sail.n_membrane_modes: {error}") from None
         self.sim = Simulation(model, config)
         self.surface = SailSurface(model, config.shape_divisions)
         self.coordinate_names = model.coordinate_names

@@ -165,6 +165,15 @@ SPECS = [
         50,
     ),
     ParamSpec(
+        "max_trajectory_points",
+        1000,
+        "most points a sail/boom_length_cmd may hold [-]; a longer one is rejected whole "
+        "(planning it would hold up the integration)",
+        False,
+        1,
+        100000,
+    ),
+    ParamSpec(
         "tip_warn_fraction",
         0.1,
         "WARN once a boom-tip deflection exceeds this fraction of its boom's length [-]: "
@@ -240,6 +249,7 @@ def config_from_values(values: dict) -> SimConfig:
         float(values["max_length"]),
         float(values["max_rate"]),
         float(values["max_acceleration"]),
+        int(values["max_trajectory_points"]),
     )
     if not limits.min_length < limits.max_length:
         raise ConfigError(
