@@ -339,6 +339,9 @@ def test_pacer_follows_the_steady_clock_without_drift():
     assert pacer.tick_period == pytest.approx(0.01)  # 2 steps of 0.01 s at 2x
     pacer.tick_steps = 1
     assert pacer.tick_period == 0.005  # the floor
+    pacer.tick_steps = 1000  # a state sample every 10 s of simulation
+    assert pacer.tick_period == 0.05  # the ceiling: the integration is never starved
+    pacer.tick_steps = 2
     pacer.run_from(0.0)
     clock.now += 1.25
     assert pacer.due() == pytest.approx(2.5)

@@ -204,6 +204,21 @@ def test_real_time_factor_is_not_taken_over_short_windows(ros):
         assert float(status["real_time_factor"]) == pytest.approx(2.0, rel=0.1), status
 
 
+def test_a_slow_state_rate_does_not_slow_the_integration(ros):
+    """A state sample every 10 s of simulation: the simulation still keeps up with the
+    clock, and the real-time factor says 1, not 0."""
+    sim, client, spin_until = ros(state_rate_hz=0.1, shape_rate_hz=0.0, diagnostics_rate_hz=4.0)
+    started, wall = sim.sim.t, time.monotonic()
+    spin_until(
+        lambda: float(client.diagnostics[-1]["real_time_factor_window_s"]) > 0,
+        5.0,
+        "a measurement",
+    )
+    spin_until(lambda: time.monotonic() > wall + 2.0, 5.0, "two seconds")
+    assert sim.sim.t - started == pytest.approx(time.monotonic() - wall, abs=0.3)
+    assert float(client.diagnostics[-1]["real_time_factor"]) == pytest.approx(1.0, rel=0.1)
+
+
 def test_command_times_read_minus_one_when_there_is_none(ros):
     sim, client, spin_until = ros(diagnostics_rate_hz=20.0)
     status = client.diagnostics[-1]

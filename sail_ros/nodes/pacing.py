@@ -24,6 +24,9 @@ import math
 import time
 
 MIN_TICK_PERIOD_S = 0.005  # wall time between ticks at least this: executor overhead
+# ... and at most this, whatever the publication rates: a tick's work stays within
+# its budget, so a slow state rate never starves the integration
+MAX_TICK_PERIOD_S = 0.05
 PACED_BUDGET_S = 0.05  # wall time a paced tick may integrate before yielding
 AFAP_BUDGET_S = 0.02  # ... and an as-fast-as-possible tick
 
@@ -54,11 +57,12 @@ class Pacer:
 
     @property
     def tick_period(self) -> float:
-        """Wall time between ticks [s]: `tick_steps` steps, at least MIN_TICK_PERIOD_S;
-        0 (every spin of the executor) as fast as possible."""
+        """Wall time between ticks [s]: `tick_steps` steps, within [MIN_TICK_PERIOD_S,
+        MAX_TICK_PERIOD_S]; 0 (every spin of the executor) as fast as possible."""
         if not self.paced:
             return 0.0
-        return max(self.tick_steps * self.step / self.time_scale, MIN_TICK_PERIOD_S)
+        period = self.tick_steps * self.step / self.time_scale
+        return min(max(period, MIN_TICK_PERIOD_S), MAX_TICK_PERIOD_S)
 
     def run_from(self, t: float) -> None:
         """Start (again) at simulation time `t` [s], now."""
