@@ -19,6 +19,7 @@ TOOLS = {
     "deploy": "sail_ros.tools.deploy:main",
     "stability": "sail_ros.tools.stability:main",
     "report": "sail_ros.tools.report:main",
+    "bag": "sail_ros.tools.bag:main",
     "recorder": "sail_ros.nodes.recorder:main",
     "replay": "sail_ros.nodes.replay:main",
     "sim": "sail_ros.nodes.sim:main",

@@ -120,8 +120,9 @@ class Replay(Node):
             raise ConfigError(f"bag: {error}") from None
         for path in self.reader.incomplete_files:
             self.get_logger().warning(
-                f"'{path}' has no summary (recording interrupted): "
-                "playing it up to its last complete chunk"
+                f"'{path}' has no summary (recording interrupted): playing it up to its "
+                f"last complete chunk (`sail-ros bag recover {self.config['bag']}` writes a "
+                "complete copy that every reader opens)"
             )
         recorded = self.reader.topics()
         wanted = self.config["topics"] or list(recorded)

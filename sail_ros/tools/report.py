@@ -110,7 +110,8 @@ def _report(args) -> int:
     if log.incomplete:
         print(
             f"  incomplete (cut short): {', '.join(str(p) for p in log.incomplete)}; "
-            "read up to the last complete record"
+            f"read up to the last complete record (`sail-ros bag recover {args.log}` writes a "
+            "complete copy that every reader opens)"
         )
     for topic, count in sorted(log.topic_counts.items()):
         print(f"  {topic}: {count} messages")

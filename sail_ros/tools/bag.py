@@ -1,0 +1,85 @@
+"""`sail-ros bag recover PATH`: a complete copy of a log cut short (a kill, a full disk).
+
+A file the recorder could not finish has no summary and no metadata.yaml:
+rosbags and mcap's default reader refuse it. `recover` reads every complete
+record of it (as `sail_ros.bag.BagReader` does: up to the last complete
+chunk) and writes them, with their topics, QoS, type hashes and metadata
+records, into a new rosbag2 folder with a summary and a metadata.yaml, the
+role of `ros2 bag reindex` and `mcap recover`. The original stays as it is.
+
+    sail-ros bag recover out/run1
+    sail-ros bag recover out/run1/run1_0.mcap -o out/run1_fixed
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from sail_ros.bag import BagReader, BagWriter
+from sail_ros.cli import PHYSICS_DOC
+from sail_ros.tools.common import run
+
+OWN_RECORDS = ("rosbag2",)  # written anew by the writer
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="sail-ros bag",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Examples:\n" + __doc__.split("\n\n")[-1].rstrip() + "\n\n" + PHYSICS_DOC,
+    )
+    verbs = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
+    recover = verbs.add_parser("recover", help="a complete copy of a log cut short")
+    recover.add_argument("path", type=Path, help="bag folder or .mcap file")
+    recover.add_argument(
+        "-o", "--output", type=Path, help="new bag folder (default: <path>_recovered)"
+    )
+    return parser
+
+
+def recover(source: Path, output: Path) -> tuple[int, list[Path]]:
+    """Copy every complete message and metadata record of `source` into the new bag
+    folder `output`; returns (messages, the files that were incomplete)."""
+    reader = BagReader(source)
+    count = 0
+    with BagWriter(output) as writer:
+        for topic, info in sorted(reader.topics().items()):
+            writer.add_topic(
+                topic, info.type_name, info.offered_qos_profiles, info.type_hash or None
+            )
+        for name, record in reader.metadata():
+            if name not in OWN_RECORDS:
+                writer.add_metadata(name, record)
+        for message in reader.messages():
+            writer.write(message.topic, message.data, message.log_time_ns, message.publish_time_ns)
+            count += 1
+    return count, reader.incomplete_files
+
+
+def _bag(args) -> int:
+    if not args.path.exists():
+        raise ValueError(f"'{args.path}' does not exist")
+    name = args.path.stem if args.path.is_file() else args.path.name
+    output = args.output or args.path.parent / f"{name}_recovered"
+    if output.exists():
+        raise ValueError(f"--output '{output}' exists; give a new folder")
+    count, incomplete = recover(args.path, output)
+    state = (
+        f"{len(incomplete)} incomplete file(s) read up to their last complete chunk"
+        if incomplete
+        else "no file was incomplete"
+    )
+    print(f"recovered {count} messages into {output} ({state})")
+    return 0
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
+    return run(_bag, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
