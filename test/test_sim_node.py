@@ -167,8 +167,11 @@ def test_pause_resume_and_reset(ros):
     assert sim.sim.t < held + 1.0
 
     assert not np.allclose(sim.sim.stepper.q, sim.sim.model.initial_coordinates([0, 0.05, 0, 0]))
+    # paused, so that no tick moves the state between the reset and this check
+    assert call(spin_until, client.pause, SetBool.Request(data=True)).success
     answer = call(spin_until, client.reset, Trigger.Request())
     assert answer.success and "reset to the initial state" in answer.message
+    assert answer.message.endswith("(paused)")
     assert sim.sim.stepper.q == pytest.approx(
         sim.sim.model.initial_coordinates([0, 0.05, 0, 0]), abs=1e-15
     )
