@@ -56,27 +56,37 @@ class Stop:
         self.received = "test"
 
 
-def test_recorder_records_in_process(ros_context, peer, tmp_path):
-    node, executor = peer
-    publisher = node.create_publisher(JointState, TOPIC, topics.STATE_QOS)
-    recorder = Recorder(
-        [
-            Parameter("output", value=str(tmp_path / "bag")),
-            Parameter("topics", value=[TOPIC]),
-            Parameter("parameter_node", value=""),
-            Parameter("max_chunk_duration_s", value=0.1),
-        ],
-        context=ros_context,
-    )
+def start_recording(context, executor, publisher, tmp_path, **parameters):
+    """A recorder of TOPIC into tmp_path/bag, running in a thread, matched both ways
+    with `publisher`; returns (recorder, its Stop, the list its exit code goes to,
+    the thread)."""
+    overrides = [
+        Parameter("output", value=str(tmp_path / "bag")),
+        Parameter("topics", value=[TOPIC]),
+        Parameter("parameter_node", value=""),
+    ] + [Parameter(name, value=value) for name, value in parameters.items()]
+    recorder = Recorder(overrides, context=context)
     stop, result = Stop(), []
     runner = threading.Thread(target=lambda: result.append(recorder.run(stop)))
     runner.start()
     try:
-        spin_until(executor, lambda: publisher.get_subscription_count() >= 1, 10.0, "the recorder")
+        spin_until(executor, lambda: publisher.get_subscription_count() >= 1, 10.0, "recorder")
         # both ends matched: the recorder's graph shows the publisher too
-        spin_until(
-            executor, lambda: recorder.count_publishers(TOPIC) >= 1, 10.0, "the recorder's view"
-        )
+        spin_until(executor, lambda: recorder.count_publishers(TOPIC) >= 1, 10.0, "its view")
+    except BaseException:
+        stop.event.set()
+        runner.join(10.0)
+        raise
+    return recorder, stop, result, runner
+
+
+def test_recorder_records_in_process(ros_context, peer, tmp_path):
+    node, executor = peer
+    publisher = node.create_publisher(JointState, TOPIC, topics.STATE_QOS)
+    recorder, stop, result, runner = start_recording(
+        ros_context, executor, publisher, tmp_path, max_chunk_duration_s=0.1
+    )
+    try:
         sent = [state(i) for i in range(30)]
         for message in sent:
             publisher.publish(message)
@@ -183,22 +193,10 @@ def test_a_slow_disk_drops_counted_messages_and_memory_stays_bounded(
     monkeypatch.setattr(BagWriter, "write", slow_write)
     node, executor = peer
     publisher = node.create_publisher(JointState, TOPIC, QoSProfile(depth=1000))
-    recorder = Recorder(
-        [
-            Parameter("output", value=str(tmp_path / "bag")),
-            Parameter("topics", value=[TOPIC]),
-            Parameter("parameter_node", value=""),
-            Parameter("queue_messages", value=20),
-            Parameter("qos_depth", value=1000),
-        ],
-        context=ros_context,
+    recorder, stop, result, runner = start_recording(
+        ros_context, executor, publisher, tmp_path, queue_messages=20, qos_depth=1000
     )
-    stop, result = Stop(), []
-    runner = threading.Thread(target=lambda: result.append(recorder.run(stop)))
-    runner.start()
     try:
-        spin_until(executor, lambda: publisher.get_subscription_count() >= 1, 10.0, "the recorder")
-        spin_until(executor, lambda: recorder.count_publishers(TOPIC) >= 1, 10.0, "its view")
         for i in range(300):
             publisher.publish(state(i))
         assert publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))

@@ -102,8 +102,9 @@ class SailModel:
 
     # matrices ----------------------------------------------------------------
     def evaluate(self, outputs, lengths, rates=0.0, accelerations=0.0) -> np.ndarray:
-        """Matrices named by `outputs` (see `assembly`), stacked (len(outputs), n, n)."""
-        return self.assembler.evaluate(
+        """Matrices named by `outputs` (see `assembly`), stacked (len(outputs), n, n);
+        lengths, rates and accelerations are checked (`per_boom`)."""
+        return self.assemble(
             outputs,
             per_boom(lengths, "lengths", positive=True),
             per_boom(rates, "rates"),
@@ -163,6 +164,11 @@ class SailModel:
         eig = np.linalg.eigvals(self.state_matrix(lengths, rates, 0.0))
         return eig[np.lexsort((eig.real, eig.imag))]
 
+    def assemble(self, outputs, lengths, rates, accelerations) -> np.ndarray:
+        """`evaluate` without the checks, for arrays of 4 already checked (the stepper's
+        hot path; `stepper.LinearSystem`)."""
+        return self.assembler.evaluate(outputs, lengths, rates, accelerations)
+
     def resolved_frequency(self, lengths) -> float:
         """The highest angular frequency [rad/s] a time step must resolve at these
         lengths: the first cantilever frequency of the shortest bare boom,
@@ -181,20 +187,8 @@ class SailModel:
     def simulate(
         self, profile, t_end: float, q0=None, qd0=None, t_eval=None, progress=None, **options
     ):
-        """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`
-        (`integrate.simulate`); returns `(t, q, qd)`: times (k,), coordinates
-        (k, n), velocities (k, n).
-
-        Args:
-            profile: callable `t -> (lengths, rates, accelerations)` (see `profiles`).
-            t_end: final time [s], > 0.
-            q0: initial coordinates [m] (default 0).
-            qd0: initial velocities [m/s] (default 0).
-            t_eval: increasing output times in [0, t_end]; default a uniform
-                grid with the stepper's `max_step` spacing (0.2 s).
-            progress: optional callable `progress(t)` after each output time.
-            options: `max_step` [s], `resolved_frequency` [rad/s].
-        """
+        """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`; returns
+        `(t, q, qd)`. The arguments are those of `integrate.simulate`."""
         return simulate(
             self, profile, t_end, q0=q0, qd0=qd0, t_eval=t_eval, progress=progress, **options
         )

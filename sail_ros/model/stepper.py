@@ -53,9 +53,10 @@ class LinearSystem(Protocol):
 
     n: int  # generalised coordinates
 
-    def evaluate(self, outputs, lengths, rates, accelerations) -> np.ndarray:
+    def assemble(self, outputs, lengths, rates, accelerations) -> np.ndarray:
         """The matrices named by `outputs` (`assembly` names), stacked (k, n, n), at
-        boom lengths [m], rates [m/s] and accelerations [m/s^2] (4 values each)."""
+        boom lengths [m], rates [m/s] and accelerations [m/s^2]: arrays of 4 values
+        the stepper has already checked (a step must not check them again)."""
 
     def resolved_frequency(self, lengths) -> float:
         """The highest angular frequency [rad/s] a step must resolve at `lengths`."""
@@ -198,7 +199,7 @@ class SailStepper:
         """Mechanical energy `1/2 qd^T M qd + 1/2 q^T K q` [J] now."""
         lengths, _, _ = self._motion(self._t)
         zero = np.zeros(4)
-        M, K = self.system.evaluate((MASS, STIFFNESS), lengths, zero, zero)
+        M, K = self.system.assemble((MASS, STIFFNESS), lengths, zero, zero)
         qd = self.qd
         return 0.5 * float(qd @ M @ qd) + 0.5 * float(self._q @ K @ self._q)
 
@@ -264,14 +265,14 @@ class SailStepper:
 
     def _mass_gyro(self, t):
         lengths, rates, accelerations = self._motion(t)
-        M, G = self.system.evaluate((MASS, GYROSCOPIC), lengths, rates, accelerations)
+        M, G = self.system.assemble((MASS, GYROSCOPIC), lengths, rates, accelerations)
         return M, G
 
     def _moving_step(self, lengths, rates, accelerations, h):
         """x1 = R(h B) x0 with R the (4,4) Padé approximant of exp, by partial fractions:
         R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x], and
         (hB - z)^-1 x = -(1/z) (I - tau B)^-1 x with tau = h / z."""
-        mats = self.system.evaluate(_STEP_MATRICES, lengths, rates, accelerations)
+        mats = self.system.assemble(_STEP_MATRICES, lengths, rates, accelerations)
         M, skew, K, G = mats
         q0, p0 = self._q, self._p
         taus = h / _PADE_POLES
@@ -310,7 +311,7 @@ class SailStepper:
         lam < 0, a buckled mode).
         """
         zero = np.zeros(4)
-        M, K = self.system.evaluate((MASS, STIFFNESS), lengths, zero, zero)
+        M, K = self.system.assemble((MASS, STIFFNESS), lengths, zero, zero)
         lam, V = scipy.linalg.eigh(K, M)
         root = np.sqrt(np.abs(lam))
         c = np.where(lam >= 0, np.cos(root * h), np.cosh(root * h))

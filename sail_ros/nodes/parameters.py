@@ -151,6 +151,18 @@ class ParamSpec:
                 raise ConfigError(f"{self.name} = {item!r} is outside [{low:g}, {high:g}]")
 
 
+def node_options(parameter_overrides=(), context=None, namespace=None) -> dict:
+    """The keyword arguments of rclpy's `Node` for a node of this package: its overrides,
+    context and namespace, and undeclared parameters allowed so that `declare` can
+    refuse an unknown one by its name."""
+    return {
+        "context": context,
+        "namespace": namespace,
+        "parameter_overrides": list(parameter_overrides),
+        "allow_undeclared_parameters": True,
+    }
+
+
 def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
     """Declare `specs` on `node`, check their values and return them (lists as lists);
     from then on the node refuses, by name, any change of a parameter it lacks (create

@@ -44,7 +44,14 @@ from sail_ros.bag import (
     message_definition,
     qos,
 )
-from sail_ros.nodes.parameters import ConfigError, ParamSpec, declare, make_parser, overrides
+from sail_ros.nodes.parameters import (
+    ConfigError,
+    ParamSpec,
+    declare,
+    make_parser,
+    node_options,
+    overrides,
+)
 from sail_ros.ros_cli import StopSignals, message_class, run_node
 from sail_ros.topics import PARAMETERS_METADATA, RECORDED_TOPICS, yaml_value
 
@@ -224,13 +231,7 @@ class Recorder(Node):
     """
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None):
-        super().__init__(
-            NODE_NAME,
-            context=context,
-            namespace=namespace,
-            parameter_overrides=list(parameter_overrides),
-            allow_undeclared_parameters=True,  # to refuse an unknown one by its name
-        )
+        super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
         self.config = declare(self, SPECS)
         self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
         self._recording: dict[str, object] = {}

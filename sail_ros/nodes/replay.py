@@ -30,7 +30,14 @@ from rosgraph_msgs.msg import Clock
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, qos
-from sail_ros.nodes.parameters import ConfigError, ParamSpec, declare, make_parser, overrides
+from sail_ros.nodes.parameters import (
+    ConfigError,
+    ParamSpec,
+    declare,
+    make_parser,
+    node_options,
+    overrides,
+)
 from sail_ros.ros_cli import message_class, run_node
 
 NODE_NAME = "sail_replay"
@@ -104,13 +111,7 @@ class Replay(Node):
     """
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None):
-        super().__init__(
-            NODE_NAME,
-            context=context,
-            namespace=namespace,
-            parameter_overrides=list(parameter_overrides),
-            allow_undeclared_parameters=True,  # to refuse an unknown one by its name
-        )
+        super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
         self.config = declare(self, SPECS)
         if not self.config["bag"]:
             raise ConfigError("bag: no bag given (a file or folder, e.g. `sail-ros replay run1`)")

@@ -48,7 +48,7 @@ from sail_ros.nodes.commands import CommandError
 from sail_ros.nodes.diagnosis import Observations, diagnose
 from sail_ros.nodes.intake import DUPLICATE, STALE, CommandIntake
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
-from sail_ros.nodes.parameters import ConfigError, declare
+from sail_ros.nodes.parameters import ConfigError, declare, node_options
 from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
 from sail_ros.ros_cli import run_node
@@ -71,13 +71,7 @@ class SimNode(Node):
     """
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None):
-        super().__init__(
-            NODE_NAME,
-            context=context,
-            namespace=namespace,
-            parameter_overrides=list(parameter_overrides),
-            allow_undeclared_parameters=True,  # to refuse an unknown one by its name
-        )
+        super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
         try:
