@@ -132,6 +132,14 @@ CLOCK_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
 # a restarted simulator does not run old commands again.
 COMMAND_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
 LATCHED_COMMAND_QOS = _reliable(10, DurabilityPolicy.TRANSIENT_LOCAL)
+# The simulator's two subscriptions keep more: DDS holds a burst until the
+# simulator's reception thread moves it into its own, counted queue
+# (`max_queued_commands`); only more than this many at once, faster than that
+# thread takes them, could be overwritten unseen.
+COMMAND_INTAKE_DEPTH = 1000
+COMMAND_INTAKE_QOS = tuple(
+    _reliable(COMMAND_INTAKE_DEPTH, qos.durability) for qos in (LATCHED_COMMAND_QOS, COMMAND_QOS)
+)
 # The answer to every command; kept, so an answer published before its
 # sender's subscription matched still reaches it.
 COMMAND_STATUS_QOS = _reliable(50, DurabilityPolicy.TRANSIENT_LOCAL)

@@ -12,6 +12,7 @@ CALM = Observations(
     window_s=1.0,
     overruns=0,
     rejected=0,
+    dropped=0,
     last_rejection="",
     paced=True,
     rtf_measured=True,
@@ -29,9 +30,10 @@ CALM = Observations(
         ({"overruns": 3, "window_s": 2.0}, "WARN", "3 overrun(s) in the last 2 s"),
         ({"real_time_factor": 0.5}, "WARN", "real-time factor 0.5, below time_scale 1"),
         ({"rejected": 2, "last_rejection": "fast"}, "WARN", "rejected 2 command(s); last: fast"),
+        ({"dropped": 4, "rejected": 1}, "WARN", "dropped 4 command(s)"),
         ({"state": "error", "error": "nan", "overruns": 1}, "ERROR", "integration stopped: nan"),
     ],
-    ids=["ok", "measuring", "paused", "overruns", "slow", "rejected", "error-wins"],
+    ids=["ok", "measuring", "paused", "overruns", "slow", "rejected", "dropped", "error-wins"],
 )
 def test_level_and_message(changes, level, message):
     got_level, got_message = diagnose(CALM._replace(**changes))

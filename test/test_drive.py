@@ -18,6 +18,7 @@ from conftest import spin_until
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
@@ -136,6 +137,31 @@ def test_commands_from_publishers_that_send_at_once_all_arrive(processes, operat
     operator.spin_until(lambda: len(answers.received) >= 6, 10.0, "six answers")
     assert [a.outcome for a in answers.received] == ["accepted"] * 6
     assert all(a.topic == "/sail/boom_length_cmd" for a in answers.received)
+
+
+def test_a_burst_beyond_the_command_queue_is_answered_and_counted(processes, operator):
+    """30 commands at once into a queue of 2 while the simulator integrates as fast as
+    it can (its thread busy in 50 ms ticks): each command gets exactly one answer,
+    those dropped say so, and /diagnostics counts exactly those."""
+    answers = Answers(operator)
+    processes("sim", parameters={"time_scale": 0.0, "max_queued_commands": 2})
+    operator.wait_for_simulator()
+    # reliable, volatile, keeping all 30 until acknowledged
+    publisher = operator.create_publisher(Float64, topics.DEPLOY_CMD, QoSProfile(depth=100))
+    spin_until(operator.spinner, lambda: publisher.get_subscription_count() >= 1, 10.0,
+               "the simulator")  # fmt: skip
+    for k in range(30):
+        publisher.publish(Float64(data=11.0 + 0.1 * k))
+    assert publisher.wait_for_all_acked(Duration(seconds=10.0))
+    operator.spin_until(lambda: len(answers.received) >= 30, 20.0, "30 answers")
+    operator.spin_for(0.5)
+    assert sorted(a.sequence for a in answers.received) == list(range(1, 31))
+    dropped = [a for a in answers.received if a.outcome == "ignored"]
+    assert dropped and all(a.message.startswith("dropped: 2 commands were") for a in dropped)
+    assert {a.outcome for a in answers.received} == {"accepted", "ignored"}
+    status = operator.wait_for_status(lambda s: True, 5.0, "a status")
+    assert int(status["dropped_commands"]) == len(dropped)
+    assert int(status["accepted_commands"]) == 30 - len(dropped)
 
 
 def test_a_started_simulator_does_not_run_commands_published_before(processes, operator):

@@ -16,6 +16,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 import rclpy
 import yaml
@@ -74,6 +75,7 @@ def publish_main(argv) -> int:
     parser.add_argument("--count", type=int, required=True)
     parser.add_argument("--rate", type=float, required=True)
     parser.add_argument("--subscribers", type=int, required=True)
+    parser.add_argument("--prefix", default="", help="in front of every stream's topic")
     args = parser.parse_args(argv)
     rclpy.init()
     node = Node("sail_sim")
@@ -83,7 +85,9 @@ def publish_main(argv) -> int:
     executor.add_node(node)
     latched = node.create_publisher(Float64, LATCHED_TOPIC, LATCHED_QOS)
     latched.publish(Float64(data=0.25))  # before anyone listens: only durability delivers it
-    publishers = {topic: node.create_publisher(cls, topic, 10) for topic, cls in STREAMS.items()}
+    publishers = {
+        topic: node.create_publisher(cls, args.prefix + topic, 10) for topic, cls in STREAMS.items()
+    }
     while min(p.get_subscription_count() for p in publishers.values()) < args.subscribers:
         executor.spin_once(timeout_sec=0.01)
     sys.stdin.readline()
@@ -157,8 +161,8 @@ class Listener(Node):
             assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
             self.spinner.spin_once(timeout_sec=0.02)
 
-    def publisher_counts(self) -> dict[str, int]:
-        return {t: len(self.get_publishers_info_by_topic(t)) for t in STREAMS}
+    def publisher_counts(self, prefix="") -> dict[str, int]:
+        return {t: len(self.get_publishers_info_by_topic(prefix + t)) for t in STREAMS}
 
 
 def start(args, env, **kwargs) -> subprocess.Popen:
@@ -176,7 +180,7 @@ def start_tool(tool, args, env) -> subprocess.Popen:
     return start(["-m", "sail_ros.cli", tool, *args], env)
 
 
-def start_publisher(env, count, rate, subscribers) -> subprocess.Popen:
+def start_publisher(env, count, rate, subscribers, prefix="") -> subprocess.Popen:
     return start(
         [
             __file__,
@@ -187,6 +191,8 @@ def start_publisher(env, count, rate, subscribers) -> subprocess.Popen:
             str(rate),
             "--subscribers",
             str(subscribers),
+            "--prefix",
+            prefix,
         ],
         env,
         stdin=subprocess.PIPE,
@@ -203,10 +209,10 @@ def finish(process: subprocess.Popen, timeout: float = 20.0) -> tuple[int, str, 
     return process.returncode, out, err
 
 
-def go(listener: Listener, publisher: subprocess.Popen) -> None:
+def go(listener: Listener, publisher: subprocess.Popen, prefix="") -> None:
     """Let the publisher start once this process sees it (both ends matched)."""
     listener.spin_until(
-        lambda: min(listener.publisher_counts().values()) >= 1, 20.0, "the publisher"
+        lambda: min(listener.publisher_counts(prefix).values()) >= 1, 20.0, "the publisher"
     )
     publisher.stdin.write("go\n")
     publisher.stdin.flush()
@@ -411,6 +417,92 @@ def test_sigkill_leaves_the_bag_readable_up_to_its_last_chunk(ros_env, listener,
     assert [decoded("/sail/boom_state", d) for d in kept] == [
         decoded("/sail/boom_state", d) for d in received
     ]
+
+
+KILL_TRIALS = 20
+KILL_PREFIX = "/kill_trials"
+CHUNK_S = 0.2  # the recorder's --max-chunk-duration-s in the kill trials
+CLOSE_MARGIN_S = 0.3  # writing and closing a due chunk, at worst, on this machine
+
+
+def test_sigkill_at_random_times_loses_only_the_open_chunk(ros_env, listener, tmp_path):
+    """20 recorders, each killed (SIGKILL) at a random moment of a 100 Hz stream, then
+    `sail-ros bag recover`: rosbags and mcap's default reader open every recovered log;
+    each holds an unbroken run of the live stream, equal message by message, up to
+    messages received at most one chunk (plus its closing) before the kill."""
+    from mcap.reader import make_reader
+
+    from sail_ros.tools import bag as bag_tool
+
+    rng = np.random.default_rng(20261201)
+    streams = [KILL_PREFIX + topic for topic in STREAMS]  # no other test publishes there
+    state_topic = streams[0]
+    for topic, cls in zip(streams, STREAMS.values(), strict=True):
+        listener.listen(topic, cls, QoSProfile(depth=1000))
+    publisher = start_publisher(
+        ros_env, count=100_000, rate=100.0, subscribers=1, prefix=KILL_PREFIX
+    )
+    table = []
+    try:
+        go(listener, publisher, KILL_PREFIX)
+        for trial in range(KILL_TRIALS):
+            folder = tmp_path / f"trial_{trial}"
+            listener.clear()
+            recorder = start_tool(
+                "recorder",
+                ["-o", str(folder), "--topics", *streams, "--max-chunk-duration-s", str(CHUNK_S)],
+                ros_env,
+            )
+            listener.spin_until(lambda f=folder: recorded(f), 30.0, "the first chunk on disk")
+            run_s = float(rng.uniform(0.3, 2.5))
+            until = time.monotonic() + run_s
+            listener.spin_until(lambda u=until: time.monotonic() > u, run_s + 5.0, "the run")
+            recorder.send_signal(signal.SIGKILL)
+            killed_at = time.time()
+            _, log = recorder.communicate(timeout=10.0)  # its standard error
+            listener.spin_until(lambda: True, 1.0, "the last live messages")
+            live = {
+                decoded("/sail/boom_state", data).header.stamp.sec: (received, data)
+                for received, data in listener.received[state_topic]
+            }
+
+            assert bag_tool.main(["recover", str(folder)]) == 0
+            recovered = tmp_path / f"trial_{trial}_recovered"
+            with AnyReader([recovered]) as reader:  # rosbags
+                rosbags_count = sum(1 for _ in reader.messages())
+            mcap_count = 0
+            for file in sorted(recovered.glob("*.mcap")):
+                with file.open("rb") as stream:  # mcap's default reader, summary and all
+                    mcap_count += sum(1 for _ in make_reader(stream).iter_messages())
+            kept = [m.data for m in BagReader(recovered).messages([state_topic])]
+            assert rosbags_count == mcap_count == sum(1 for _ in BagReader(recovered).messages())
+
+            indices = [decoded("/sail/boom_state", data).header.stamp.sec for data in kept]
+            assert indices, trial  # its first chunk was on disk before the kill
+            assert indices == list(range(indices[0], indices[-1] + 1)), trial
+            for index, data in zip(indices, kept, strict=True):
+                assert decoded("/sail/boom_state", data) == decoded(
+                    "/sail/boom_state", live[index][1]
+                ), (trial, index)
+            lost = [i for i in live if i > indices[-1]]
+            lost_before = [i for i in lost if live[i][0] < killed_at - CHUNK_S - CLOSE_MARGIN_S]
+            assert not lost_before, (trial, run_s, len(kept), len(lost), log)
+            table.append((trial, run_s, len(kept), sum(1 for i in lost if live[i][0] < killed_at)))
+    finally:
+        publisher.kill()
+        finish(publisher)
+        listener.clear()
+    print("\ntrial  run [s]  boom_state kept  received live before the kill, not kept")
+    for trial, run_s, kept_count, lost_count in table:
+        print(f"{trial:5d}  {run_s:7.2f}  {kept_count:15d}  {lost_count:5d}")
+
+
+def recorded(folder: Path) -> bool:
+    """Whether a (live) recording in `folder` holds a complete chunk."""
+    try:
+        return any(True for _ in BagReader(folder).messages())
+    except (OSError, ValueError):  # not created yet, or its header not yet written
+        return False
 
 
 def test_full_disk_is_a_clear_error_and_keeps_what_was_written(ros_env, listener, tmp_path):

@@ -18,6 +18,7 @@ from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointP
 from sail_ros.model.profiles import BoomMotion
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import BoomState, CommandError, Limits, plan_deploy, plan_trajectory
+from sail_ros.nodes.intake import CommandQueue
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.sim_params import DEFAULTS, SPECS, ConfigError, config_from_values
 from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation
@@ -430,7 +431,14 @@ def test_every_parameter_is_described_with_unit_and_range():
             assert descriptor.floating_point_range or descriptor.integer_range
         assert descriptor.read_only == (
             spec.name.startswith("sail.")
-            or spec.name in {"integration_step", "time_scale", "frame_id", "shape_divisions"}
+            or spec.name
+            in {
+                "integration_step",
+                "time_scale",
+                "frame_id",
+                "shape_divisions",
+                "max_queued_commands",
+            }
         )
 
 
@@ -458,6 +466,34 @@ def test_every_parameter_is_described_with_unit_and_range():
 def test_bad_configuration_names_the_parameter(change, reason):
     with pytest.raises(ConfigError, match=reason):
         config_from_values(change)
+
+
+def test_a_min_length_whose_booms_would_need_too_many_substeps_is_refused():
+    """omega_1 = beta_1^2 sqrt(EI / rho_B) / L^2 (beta_1 = 1.8751), one sub-step per
+    1.5 rad: 5 mm would need 2.3e7 sub-steps per simulated second; the refusal
+    names the shortest length within max_substep_rate, whatever the step."""
+    omega_1m = 1.875104068711961**2 * math.sqrt(6000.0 / 0.1)  # [rad/s at 1 m]
+    needed = omega_1m / 0.005**2 / 1.5
+    shortest = math.ceil(math.sqrt(omega_1m / (1.5 * 3200.0)) * 1e3) / 1e3
+    for step in (0.01, 0.1):
+        with pytest.raises(ConfigError) as refused:
+            config_from_values(
+                {"min_length": 0.005, "initial_lengths": [1.0], "integration_step": step}
+            )
+        assert str(refused.value) == (
+            f"min_length = 0.005 m would need {needed:.4g} sub-steps per second of "
+            f"simulation, more than max_substep_rate = 3200: the shortest affordable "
+            f"min_length here is {shortest:g} m"
+        )
+    config_from_values({"min_length": shortest})
+    config_from_values({"min_length": 0.05, "max_substep_rate": needed / 99.0})
+
+
+def test_the_command_queue_is_bounded_and_counts_what_it_drops():
+    queue = CommandQueue(capacity=3)
+    assert [queue.offer(k) for k in range(5)] == [True, True, True, False, False]
+    assert queue.dropped == 2 and queue.take() == [0, 1, 2] and queue.take() == []
+    assert queue.offer(5) and queue.take() == [5] and queue.dropped == 2
 
 
 def test_publication_intervals_round_to_whole_steps():

@@ -46,6 +46,15 @@ class StateSample(NamedTuple):
     tip_rates: np.ndarray
 
 
+def cantilever_frequency(params: SailParameters, length: float) -> float:
+    """First bending frequency [rad/s] of a bare boom of `length` [m] clamped at the
+    hub: `beta_1^2 sqrt(EI / rho_B) / L^2` (it grows like 1/L^2 as the boom shortens)."""
+    constant = float(cantilever_roots(1)[0] ** 2) * np.sqrt(
+        params.boom_bending_stiffness / params.boom_linear_density
+    )
+    return constant / float(length) ** 2
+
+
 class SailModel:
     """Modal model of the four-boom, four-quadrant sail.
 
@@ -80,10 +89,7 @@ class SailModel:
                 membrane_tension=self.params.membrane_tension,
             ),
         )
-        # omega_1 L^2 = beta_1^2 sqrt(EI / rho_B) of a bare cantilever [m^2/s]
-        self._cantilever_constant = float(cantilever_roots(1)[0] ** 2) * np.sqrt(
-            self.params.boom_bending_stiffness / self.params.boom_linear_density
-        )
+        self._cantilever_constant = cantilever_frequency(self.params, 1.0)  # [rad/s at 1 m]
         self._tip_rows = self._tip_matrix()
 
     # layout ------------------------------------------------------------------

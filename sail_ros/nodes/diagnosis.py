@@ -4,7 +4,7 @@
 of the window since its last status (`Observations`) and publishes the
 answer. The worst finding wins: a stopped integration (ERROR), then a motion
 leaving the linear model's range, overruns, a real-time factor below the
-time scale, rejected commands (WARN); otherwise OK with the state.
+time scale, dropped or rejected commands (WARN); otherwise OK with the state.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ class Observations(NamedTuple):
         window_s: length of the window [s of wall time].
         overruns: ticks that came late in the window.
         rejected: commands rejected in the window.
+        dropped: commands dropped in the window (the command queue was full).
         last_rejection: the reason of the last rejection.
         paced: the run follows the clock (not as fast as possible).
         rtf_measured: a complete real-time factor measurement exists.
@@ -36,6 +37,7 @@ class Observations(NamedTuple):
     window_s: float
     overruns: int
     rejected: int
+    dropped: int
     last_rejection: str
     paced: bool
     rtf_measured: bool
@@ -64,6 +66,10 @@ def diagnose(seen: Observations) -> tuple[str, str]:
     ):
         return "WARN", (
             f"real-time factor {seen.real_time_factor:.3g}, below time_scale {seen.time_scale:g}"
+        )
+    if seen.dropped:
+        return "WARN", (
+            f"dropped {seen.dropped} command(s): more arrived at once than max_queued_commands"
         )
     if seen.rejected:
         return "WARN", f"rejected {seen.rejected} command(s); last: {seen.last_rejection}"

@@ -1,4 +1,4 @@
-"""Which arriving commands the simulator acts on: each once, none from before it started.
+"""Which arriving commands the simulator acts on, and the queue they wait in.
 
 The simulator listens on each command topic twice (transient local and
 volatile, see `topics.COMMAND_QOS`), so a command from a transient-local
@@ -6,11 +6,16 @@ publisher may arrive on both subscriptions; and a transient-local publisher
 that outlives a simulator hands its last commands to the next one. Both are
 told apart by what DDS says of each sample: the publisher's source timestamp
 and sequence number.
+
+Commands are taken from DDS on their own executor thread, so a long tick
+cannot make DDS overwrite them, and wait in a bounded `CommandQueue` for the
+simulator's thread; one that finds the queue full is dropped and counted.
 """
 
 from __future__ import annotations
 
 import collections
+import threading
 
 DUPLICATE, STALE = "duplicate", "stale"
 
@@ -48,3 +53,34 @@ class CommandIntake:
         if source and source < self.started_ns:
             return STALE
         return None
+
+
+class CommandQueue:
+    """Commands waiting for the simulator's thread: at most `capacity`, thread-safe.
+
+    Args:
+        capacity: most commands waiting at once; one more is refused (`offer`)
+            and counted in `dropped`.
+    """
+
+    def __init__(self, capacity: int):
+        self.capacity = int(capacity)
+        self.dropped = 0
+        self._items: collections.deque = collections.deque()
+        self._lock = threading.Lock()
+
+    def offer(self, item) -> bool:
+        """Queue `item`; False (and one more `dropped`) if the queue is full."""
+        with self._lock:
+            if len(self._items) >= self.capacity:
+                self.dropped += 1
+                return False
+            self._items.append(item)
+            return True
+
+    def take(self) -> list:
+        """Everything waiting, oldest first; the queue is empty afterwards."""
+        with self._lock:
+            items = list(self._items)
+            self._items.clear()
+            return items

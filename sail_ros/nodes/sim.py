@@ -29,6 +29,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import argparse
 import math
 import sys
+import threading
 import time
 
 from rcl_interfaces.msg import SetParametersResult
@@ -36,9 +37,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
-from trajectory_msgs.msg import JointTrajectory
 
 from sail_ros import topics
 from sail_ros.cli import PHYSICS_DOC
@@ -46,7 +45,7 @@ from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import CommandError
 from sail_ros.nodes.diagnosis import Observations, diagnose
-from sail_ros.nodes.intake import DUPLICATE, STALE, CommandIntake
+from sail_ros.nodes.intake import DUPLICATE, STALE, CommandIntake, CommandQueue
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.parameters import ConfigError, declare, node_options
 from sail_ros.nodes.sim_params import SPECS, config_from_values
@@ -96,13 +95,28 @@ class SimNode(Node):
             )
             for name in published
         }
+        # Commands are taken from DDS by a node of their own on its own thread, so a
+        # long tick cannot let DDS overwrite them, into a bounded, counted queue that
+        # this node's thread empties (`_run_commands`).
         self.intake = CommandIntake(time.time_ns())
-        for name, callback in (
-            (topics.BOOM_LENGTH_CMD, self._on_trajectory),
-            (topics.DEPLOY_CMD, self._on_deploy),
-        ):
-            for qos in (topics.LATCHED_COMMAND_QOS, topics.COMMAND_QOS):
-                self.create_subscription(topics.TOPICS[name].message_type, name, callback, qos)
+        self.queue = CommandQueue(config.max_queued_commands)
+        self._commands_waiting = self.create_guard_condition(self._run_commands)
+        self._reception = Node(
+            f"{NODE_NAME}_commands", context=self.context, namespace=self.get_namespace()
+        )
+        for name in (topics.BOOM_LENGTH_CMD, topics.DEPLOY_CMD):
+            for qos in topics.COMMAND_INTAKE_QOS:
+                self._reception.create_subscription(
+                    topics.TOPICS[name].message_type,
+                    name,
+                    lambda message, info, name=name: self._receive(name, message, info),
+                    qos,
+                )
+        self._reception_stop = threading.Event()
+        self._reception_thread = threading.Thread(
+            target=self._spin_reception, name="sail_sim commands", daemon=True
+        )
+        self._reception_thread.start()
         self.create_service(Trigger, topics.RESET_SERVICE, self._on_reset)
         self.create_service(SetBool, topics.PAUSE_SERVICE, self._on_pause)
         self.add_on_set_parameters_callback(self._check_parameters)
@@ -216,23 +230,40 @@ class SimNode(Node):
 
     # -- commands and services ----------------------------------------------------------------
 
-    def _on_trajectory(self, message: JointTrajectory, info: dict) -> None:
-        self._command(
-            topics.BOOM_LENGTH_CMD, info, lambda: self.sim.follow(message, self.config.limits)
-        )
+    def _spin_reception(self) -> None:
+        executor = SingleThreadedExecutor(context=self.context)
+        executor.add_node(self._reception)
+        try:
+            while not self._reception_stop.is_set() and self.context.ok():
+                executor.spin_once(timeout_sec=0.05)
+        except ExternalShutdownException:
+            pass
+        finally:
+            executor.remove_node(self._reception)
+            executor.shutdown()
 
-    def _on_deploy(self, message: Float64, info: dict) -> None:
-        self._command(
-            topics.DEPLOY_CMD,
-            info,
-            lambda: self.sim.deploy(message.data, self.config.limits, self.config.deploy_duration),
-        )
-
-    def _command(self, name: str, info: dict, run) -> None:
-        """Act on a command once, and answer on sail/command_status."""
+    def _receive(self, name: str, message, info: dict) -> None:
+        """Reception thread: queue a command once; answer at once if it cannot wait."""
         why_not = self.intake.admit(name, info)
         if why_not == DUPLICATE:
             return
+        if self.queue.offer((name, message, info, why_not)):
+            self._commands_waiting.trigger()
+            return
+        text = (
+            f"dropped: {self.queue.capacity} commands were already waiting "
+            "(max_queued_commands); not run"
+        )
+        self.get_logger().warning(f"{self.resolve_topic_name(name)} {text}")
+        self._answer(name, info, topics.IGNORED, text, {})
+
+    def _run_commands(self) -> None:
+        """Simulator thread: act on the waiting commands in their order of arrival."""
+        for name, message, info, why_not in self.queue.take():
+            self._command(name, message, info, why_not)
+
+    def _command(self, name: str, message, info: dict, why_not: str | None) -> None:
+        """Act on a command, and answer on sail/command_status."""
         topic = self.resolve_topic_name(name)
         values = {}
         if why_not == STALE:
@@ -240,8 +271,12 @@ class SimNode(Node):
             text = "published before this simulator started; not run"
             self.get_logger().warning(f"ignored {topic}: {text}")
         else:
+            limits = self.config.limits
             try:
-                plan = run()
+                if name == topics.DEPLOY_CMD:
+                    plan = self.sim.deploy(message.data, limits, self.config.deploy_duration)
+                else:
+                    plan = self.sim.follow(message, limits)
             except CommandError as error:
                 outcome, text = topics.REJECTED, str(error)
                 self.get_logger().warning(f"rejected {topic}: {error}")
@@ -249,8 +284,11 @@ class SimNode(Node):
                 outcome, text = topics.ACCEPTED, plan.summary
                 values = {"t_start_s": f"{plan.t_start:.9f}", "t_end_s": f"{plan.t_end:.9f}"}
                 self.get_logger().info(f"{topic} accepted at t = {plan.t_start:.6f} s: {text}")
+        self._answer(name, info, outcome, text, values)
+
+    def _answer(self, name: str, info: dict, outcome: str, text: str, values: dict) -> None:
         answer = topics.CommandAnswer(
-            topic=topic,
+            topic=self.resolve_topic_name(name),
             outcome=outcome,
             message=text,
             source_timestamp_ns=int(info.get("source_timestamp") or 0),
@@ -323,7 +361,12 @@ class SimNode(Node):
         )
 
     def _window_start(self) -> dict:
-        return {"wall": time.monotonic(), "overruns": self.overruns, "rejected": self.sim.rejected}
+        return {
+            "wall": time.monotonic(),
+            "overruns": self.overruns,
+            "rejected": self.sim.rejected,
+            "dropped": self.queue.dropped,
+        }
 
     def _publish_diagnostics(self) -> None:
         """The integrator's status: counts over the window since the last message, and
@@ -342,6 +385,7 @@ class SimNode(Node):
                 window_s=span,
                 overruns=overruns,
                 rejected=rejected,
+                dropped=self.queue.dropped - window["dropped"],
                 last_rejection=sim.last_rejection,
                 paced=self.pacer.paced,
                 rtf_measured=bool(rtf.current),
@@ -362,6 +406,7 @@ class SimNode(Node):
             "overruns": self.overruns,
             "accepted_commands": sim.accepted,
             "rejected_commands": sim.rejected,
+            "dropped_commands": self.queue.dropped,
             "last_command": sim.last_command,
             "last_command_start_s": _time_or_none(sim.last_command_start),
             "last_rejection": sim.last_rejection,
@@ -379,10 +424,21 @@ class SimNode(Node):
     def close(self) -> None:
         """Stop integrating and give subscribers time to acknowledge what was published."""
         self._tick_timer.cancel()
+        self._stop_reception()
         deadline = time.monotonic() + ACK_TIMEOUT_S
         for publisher in self._outputs.values():
             remaining = max(0.0, deadline - time.monotonic())
             publisher.wait_for_all_acked(Duration(nanoseconds=int(remaining * 1e9)))
+
+    def _stop_reception(self) -> None:
+        self._reception_stop.set()
+        if self._reception_thread.is_alive():
+            self._reception_thread.join()
+
+    def destroy_node(self) -> None:
+        self._stop_reception()
+        self._reception.destroy_node()
+        super().destroy_node()
 
 
 def _time_or_none(t: float) -> float:

@@ -12,11 +12,14 @@ defaults.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
 from sail_ros.model import SailParameters
 from sail_ros.model.layout import per_boom
+from sail_ros.model.sail_model import cantilever_frequency
+from sail_ros.model.stepper import PHASE_PER_STEP
 from sail_ros.nodes.commands import Limits
 from sail_ros.nodes.parameters import ConfigError, ParamSpec
 from sail_ros.topics import SAIL_PREFIX, sail_parameters_from_flat
@@ -174,6 +177,26 @@ SPECS = [
         100000,
     ),
     ParamSpec(
+        "max_substep_rate",
+        3200.0,
+        "most sub-steps per second of simulation the shortest allowed boom may need "
+        "[1/s]: a boom's first bending frequency, which the sub-steps resolve, grows like "
+        "1/L^2, so this bounds min_length from below (a sub-step costs ~0.1 ms at the "
+        "default mode counts, ~0.4 ms at n_B = n_M = 10)",
+        False,
+        1.0,
+        1e7,
+    ),
+    ParamSpec(
+        "max_queued_commands",
+        100,
+        "most commands waiting for the simulator at once [-]; one more is dropped, "
+        "answered as ignored on sail/command_status and counted in /diagnostics",
+        True,
+        1,
+        10000,
+    ),
+    ParamSpec(
         "tip_warn_fraction",
         0.1,
         "WARN once a boom-tip deflection exceeds this fraction of its boom's length [-]: "
@@ -213,6 +236,7 @@ class SimConfig:
     time_scale: float
     frame_id: str
     shape_divisions: int
+    max_queued_commands: int
     tip_warn_fraction: float  # [-] of the boom length
     tip_error_fraction: float  # [-] of the boom length
 
@@ -256,6 +280,7 @@ def config_from_values(values: dict) -> SimConfig:
             f"min_length ({limits.min_length:g} m) must be below max_length "
             f"({limits.max_length:g} m)"
         )
+    _check_affordable(sail, limits.min_length, float(values["max_substep_rate"]))
     lengths = _per_boom(values["initial_lengths"], "initial_lengths")
     if np.any(lengths < limits.min_length) or np.any(lengths > limits.max_length):
         raise ConfigError(
@@ -289,9 +314,24 @@ def config_from_values(values: dict) -> SimConfig:
         time_scale=float(values["time_scale"]),
         frame_id=str(values["frame_id"]),
         shape_divisions=int(values["shape_divisions"]),
+        max_queued_commands=int(values["max_queued_commands"]),
         tip_warn_fraction=float(values["tip_warn_fraction"]),
         tip_error_fraction=float(values["tip_error_fraction"]),
     )
+
+
+def _check_affordable(sail: SailParameters, min_length: float, most: float) -> None:
+    """Refuse a min_length whose booms would need more than `most` sub-steps per second
+    of simulation (each resolves the shortest boom's first bending frequency to
+    `PHASE_PER_STEP` rad), whatever the integration step."""
+    needed = cantilever_frequency(sail, min_length) / PHASE_PER_STEP
+    if needed > most:
+        shortest = min_length * math.sqrt(needed / most)  # the rate goes like 1/L^2
+        raise ConfigError(
+            f"min_length = {min_length:g} m would need {needed:.4g} sub-steps per second "
+            f"of simulation, more than max_substep_rate = {most:g}: the shortest "
+            f"affordable min_length here is {math.ceil(shortest * 1e3) / 1e3:g} m"
+        )
 
 
 def _per_boom(values, name: str) -> np.ndarray:
