@@ -8,6 +8,11 @@ the peak resident memory, and the accuracy of the boom-tip deflections at 5,
 (4th-order commutator-free Magnus with exact exponentials on seed Eq. 3,
 step 0.05 s; itself converged to < 1e-5 of the peak).
 
+Each size runs twice: the seed's deployment, and the same deployment loaded
+and damped (model.md §11: Rayleigh alpha 0.02 1/s, beta 2e-4 s, 2 mPa on
+quadrants ab and cd, 0.05 N at the tip of boom b from 5 s to 10 s); its
+accuracy is checked in test_loads_damping, its real-time factor here.
+
     python benchmarks/model_benchmark.py [--sizes 4,6 10,10 20,20] [--repeat 5]
 """
 
@@ -20,7 +25,9 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
-def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int, reference: bool) -> dict:
+def measure(
+    n_boom_modes: int, n_membrane_modes: int, repeat: int, reference: bool, loaded: bool
+) -> dict:
     os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     import resource
     import time
@@ -30,9 +37,17 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int, reference: bo
 
     from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 
+    damping = {"mass_damping": 0.02, "stiffness_damping": 2e-4} if loaded else {}
     started = time.perf_counter()
-    model = SailModel(SailParameters(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes))
+    model = SailModel(
+        SailParameters(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes, **damping)
+    )
     build = time.perf_counter() - started
+
+    def inputs(t):  # switches on the output times 5 and 10 s: steps land on them
+        force = 0.05 if 5.0 <= t < 10.0 else 0.0
+        return np.array([2e-3, 0.0, 2e-3, 0.0, 0.0, force, 0.0, 0.0])
+
     profile = CycloidalProfile(10.0, 15.0, 15.0)
     q0 = model.mode_state("a", 0.1)
     t_out = [5.0, 10.0, 15.0]
@@ -40,7 +55,7 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int, reference: bo
     walls = []
     for _ in range(repeat):
         started = time.perf_counter()
-        stepper = model.stepper(profile, q0=q0)
+        stepper = model.stepper(profile, q0=q0, inputs=inputs if loaded else None)
         tips = []
         for t in t_out:
             stepper.advance(t)
@@ -54,7 +69,7 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int, reference: bo
         "steps": stepper.steps_taken,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }
-    if reference:
+    if reference and not loaded:
         c = (0.5 - np.sqrt(3) / 6, 0.5 + np.sqrt(3) / 6)
         w = (0.25 + np.sqrt(3) / 6, 0.25 - np.sqrt(3) / 6)
         x, h, t, exact = np.concatenate([np.zeros(model.n), q0]), 0.05, 0.0, []
@@ -80,19 +95,21 @@ def main() -> None:
     args = parser.parse_args()
     context = multiprocessing.get_context("spawn")
     print(
-        f"{'n_B,n_M':>8}{'dofs':>6}{'build [s]':>11}{'steps':>7}{'wall [s]':>10}"
+        f"{'n_B,n_M':>8}{'case':>8}{'dofs':>6}{'build [s]':>11}{'steps':>7}{'wall [s]':>10}"
         f"{'RTF':>8}{'peak RSS [MB]':>15}{'tip error [% of peak]':>23}"
     )
     for size in args.sizes:
         nb, nm = (int(v) for v in size.split(","))
-        with context.Pool(1) as pool:
-            r = pool.apply(measure, (nb, nm, args.repeat, not args.no_reference))
-        error = f"{r['error_pct']:.4f}" if "error_pct" in r else "-"
-        print(
-            f"{size:>8}{r['n']:>6}{r['build_s']:>11.3f}{r['steps']:>7}{r['wall_s']:>10.4f}"
-            f"{15.0 / r['wall_s']:>8.0f}{r['peak_rss_mb']:>15.0f}{error:>23}",
-            flush=True,
-        )
+        for loaded in (False, True):
+            with context.Pool(1) as pool:
+                r = pool.apply(measure, (nb, nm, args.repeat, not args.no_reference, loaded))
+            error = f"{r['error_pct']:.4f}" if "error_pct" in r else "-"
+            print(
+                f"{size:>8}{'loaded' if loaded else 'seed':>8}{r['n']:>6}{r['build_s']:>11.3f}"
+                f"{r['steps']:>7}{r['wall_s']:>10.4f}"
+                f"{15.0 / r['wall_s']:>8.0f}{r['peak_rss_mb']:>15.0f}{error:>23}",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

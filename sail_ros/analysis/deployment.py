@@ -15,6 +15,7 @@ import numpy as np
 from sail_ros.analysis.scenario import Scenario
 from sail_ros.model import SailModel
 from sail_ros.model.sail_model import StateSample
+from sail_ros.model.stepper import DEFAULT_MAX_STEP
 
 
 @dataclasses.dataclass(frozen=True)
@@ -87,7 +88,7 @@ def output_times(duration: float, rate_hz: float, extra=()) -> np.ndarray:
 
 
 def run_deployment(
-    model: SailModel, scenario: Scenario, t_eval, max_step: float = 0.2, progress=None
+    model: SailModel, scenario: Scenario, t_eval, max_step: float = DEFAULT_MAX_STEP, progress=None
 ) -> DeploymentRun:
     """Integrate the scenario and sample it at `t_eval` [s].
 

@@ -6,12 +6,14 @@ constants) times one constant reference integral (`integrals.py`), added
 into one or more of the system matrices:
 
     MASS                 M
-    DAMPING              C = Md + G - G^T          (Eq. 2)
+    DAMPING              C = Md + G - G^T + C_d    (Eq. 2, model.md §12)
+    STRUCTURAL_DAMPING   C_d = alpha M + beta K    (Rayleigh, model.md §12)
     STIFFNESS_EQ         K_eq = Gd + K - N         (Eq. 2)
     STIFFNESS            K, the elastic part (bending, axial load, tension)
     GYROSCOPIC           G                         (canonical form)
     GYROSCOPIC_SKEW      G - G^T                   (canonical form)
     STIFFNESS_CANONICAL  K - N                     (canonical form)
+    CANONICAL_DAMPING    G - G^T + C_d             (canonical form)
 
 `BOOM_TERMS` and `QUADRANT_TERMS` below are the whole physics of the
 assembly, one entry per term of model.md §5; adding a term is adding an
@@ -37,6 +39,8 @@ from sail_ros.model.layout import QUADRANTS, Layout
 
 MASS = "M"
 DAMPING = "C"
+STRUCTURAL_DAMPING = "C_d"
+CANONICAL_DAMPING = "G - G^T + C_d"
 STIFFNESS_EQ = "K_eq"
 STIFFNESS = "K"
 GYROSCOPIC = "G"
@@ -50,6 +54,8 @@ ALL_OUTPUTS = (
     GYROSCOPIC,
     GYROSCOPIC_SKEW,
     STIFFNESS_CANONICAL,
+    STRUCTURAL_DAMPING,
+    CANONICAL_DAMPING,
 )
 
 
@@ -61,6 +67,8 @@ class Constants(NamedTuple):
     boom_axial_load: float  # P [N]
     membrane_areal_density: float  # rho_M [kg/m^2]
     membrane_tension: float  # N0 [N/m]
+    mass_damping: float = 0.0  # Rayleigh alpha [1/s]
+    stiffness_damping: float = 0.0  # Rayleigh beta [s]
 
 
 class BoomKinematics(NamedTuple):
@@ -105,7 +113,10 @@ class Term:
         return self.integral, self.skew
 
 
-# Boom k (n_B x n_B), model.md §5: M_B, Md_B, G_B, Gd_B, N_B, K_B.
+# Rayleigh damping enters every matrix that holds the damping
+_RAYLEIGH = (DAMPING, STRUCTURAL_DAMPING, CANONICAL_DAMPING)
+
+# Boom k (n_B x n_B), model.md §5: M_B, Md_B, G_B, Gd_B, N_B, K_B; §12: C_d.
 BOOM_TERMS = (
     Term("mass M_B", "psi_psi", lambda b, c: c.boom_linear_density * b.L, (MASS,)),
     Term("mass rate Md_B", "psi_psi", lambda b, c: c.boom_linear_density * b.Ld, (DAMPING,)),
@@ -113,7 +124,7 @@ BOOM_TERMS = (
         "transport G_B - G_B^T",
         "psi_r",
         lambda b, c: c.boom_linear_density * b.Ld,
-        (DAMPING, GYROSCOPIC_SKEW),
+        (DAMPING, GYROSCOPIC_SKEW, CANONICAL_DAMPING),
         skew=True,
     ),
     Term("transport G_B", "psi_r", lambda b, c: c.boom_linear_density * b.Ld, (GYROSCOPIC,)),
@@ -138,9 +149,28 @@ BOOM_TERMS = (
         lambda b, c: -c.boom_axial_load / b.L,
         (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
     ),
+    # Rayleigh damping alpha M_B + beta K_B (model.md §12)
+    Term(
+        "mass damping alpha M_B",
+        "psi_psi",
+        lambda b, c: c.mass_damping * c.boom_linear_density * b.L,
+        _RAYLEIGH,
+    ),
+    Term(
+        "stiffness damping beta K_B (bending)",
+        "d2_d2",
+        lambda b, c: c.stiffness_damping * c.boom_bending_stiffness / b.L**3,
+        _RAYLEIGH,
+    ),
+    Term(
+        "stiffness damping beta K_B (axial load)",
+        "d1_d1",
+        lambda b, c: -c.stiffness_damping * c.boom_axial_load / b.L,
+        _RAYLEIGH,
+    ),
 )
 
-# Quadrant Q_ab (n~ x n~), model.md §5: M_M, Md_M, G_M, Gd_M, N_M, K_M.
+# Quadrant Q_ab (n~ x n~), model.md §5: M_M, Md_M, G_M, Gd_M, N_M, K_M; §12: C_d.
 QUADRANT_TERMS = (
     Term("mass M_M", "s_s", lambda q, c: c.membrane_areal_density * q.La * q.Lb, (MASS,)),
     Term(
@@ -153,14 +183,14 @@ QUADRANT_TERMS = (
         "transport G_M - G_M^T (first boom)",
         "s_ra",
         lambda q, c: c.membrane_areal_density * q.Lb * q.Lda,
-        (DAMPING, GYROSCOPIC_SKEW),
+        (DAMPING, GYROSCOPIC_SKEW, CANONICAL_DAMPING),
         skew=True,
     ),
     Term(
         "transport G_M - G_M^T (second boom)",
         "s_rb",
         lambda q, c: c.membrane_areal_density * q.La * q.Ldb,
-        (DAMPING, GYROSCOPIC_SKEW),
+        (DAMPING, GYROSCOPIC_SKEW, CANONICAL_DAMPING),
         skew=True,
     ),
     Term(
@@ -216,6 +246,25 @@ QUADRANT_TERMS = (
         "seta_seta",
         lambda q, c: c.membrane_tension * q.La / q.Lb,
         (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
+    ),
+    # Rayleigh damping alpha M_M + beta K_M (model.md §12)
+    Term(
+        "mass damping alpha M_M",
+        "s_s",
+        lambda q, c: c.mass_damping * c.membrane_areal_density * q.La * q.Lb,
+        _RAYLEIGH,
+    ),
+    Term(
+        "stiffness damping beta K_M (along the first boom)",
+        "sxi_sxi",
+        lambda q, c: c.stiffness_damping * c.membrane_tension * q.Lb / q.La,
+        _RAYLEIGH,
+    ),
+    Term(
+        "stiffness damping beta K_M (along the second boom)",
+        "seta_seta",
+        lambda q, c: c.stiffness_damping * c.membrane_tension * q.La / q.Lb,
+        _RAYLEIGH,
     ),
 )
 

@@ -113,6 +113,7 @@ class BoomIntegrals:
     d2_d2: np.ndarray  # <psi'' psi''^T> (= diag beta^4)
     d1_d1: np.ndarray  # <psi' psi'^T>
     tip: np.ndarray  # psi(1), the tip values (+-2)
+    root_curvature: np.ndarray  # psi''(0) (= 2 beta^2)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,6 +128,7 @@ class QuadrantIntegrals:
     rb_rb: np.ndarray  # <R_b R_b^T>
     sxi_sxi: np.ndarray  # <S_xi S_xi^T>
     seta_seta: np.ndarray  # <S_eta S_eta^T>
+    s_mean: np.ndarray  # <S> (n~,): the work of a uniform pressure
 
 
 def _freeze(obj):
@@ -150,6 +152,7 @@ def boom_integrals(n_boom_modes: int, order: int) -> BoomIntegrals:
             d2_d2=_gram(d2, d2, w),
             d1_d1=_gram(d1, d1, w),
             tip=cantilever_modes(n_boom_modes, [1.0])[:, 0].copy(),
+            root_curvature=cantilever_modes(n_boom_modes, [0.0], 2)[:, 0].copy(),
         )
     )
 
@@ -175,5 +178,6 @@ def quadrant_integrals(n_boom_modes: int, n_membrane_modes: int, order: int) -> 
             rb_rb=_gram(rb, rb, w),
             sxi_sxi=_gram(s_xi, s_xi, w),
             seta_seta=_gram(s_eta, s_eta, w),
+            s_mean=s @ w,
         )
     )

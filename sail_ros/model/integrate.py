@@ -26,9 +26,10 @@ def simulate(
         q0: initial coordinates [m] (default 0).
         qd0: initial velocities [m/s] (default 0).
         t_eval: increasing output times in [0, t_end]; default a uniform
-            grid with the stepper's `max_step` spacing (0.2 s).
+            grid with the stepper's `max_step` spacing (default 0.05 s).
         progress: optional callable `progress(t)` after each output time.
-        options: `SailStepper` options, `max_step` [s], `resolved_frequency` [rad/s].
+        options: `SailStepper` options, `max_step` [s], `resolved_frequency` [rad/s],
+            `inputs` (callable `t -> u`).
 
     Returns:
         `(t, q, qd)`: times (k,), coordinates (k, n), velocities (k, n).

@@ -30,6 +30,9 @@ class SailParameters:
         boom_axial_load: axial compression `P` on each boom [N] (>= 0).
         n_boom_modes: cantilever modes per boom `n_B` (>= 1).
         n_membrane_modes: clamped-triangle modes per quadrant `n_M` (>= 1).
+        mass_damping: Rayleigh `alpha` [1/s] of `C_d = alpha M + beta K` (>= 0).
+        stiffness_damping: Rayleigh `beta` [s] (>= 0); a mode of frequency omega
+            then has the damping ratio `alpha / (2 omega) + beta omega / 2`.
     """
 
     sail_side: float = 100.0
@@ -41,6 +44,8 @@ class SailParameters:
     boom_axial_load: float = 0.0
     n_boom_modes: int = 4
     n_membrane_modes: int = 6
+    mass_damping: float = 0.0
+    stiffness_damping: float = 0.0
 
     # fields that must be > 0; the others must be >= 0 (mode counts >= 1)
     _POSITIVE = ("sail_side", "boom_bending_stiffness", "boom_linear_density")

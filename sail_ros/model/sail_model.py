@@ -1,8 +1,10 @@
 """The whole sail: four booms and four membrane quadrants (seed Eq. 2 and 3).
 
-    M qdd + (Md + G - G^T) qd + (Gd + K - N) q = 0
+    M qdd + (Md + G - G^T + C_d) qd + (Gd + K - N) q = B_u(L) u
 
-with `q = [p_a, p_b, p_c, p_d, q_ab, q_bc, q_cd, q_da]` (model.md §6).
+with `q = [p_a, p_b, p_c, p_d, q_ab, q_bc, q_cd, q_da]` (model.md §6), the
+Rayleigh damping `C_d` and the inputs `u` (pressures and tip forces, `loads`)
+of model.md §12; with both zero it is the seed's equation.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from sail_ros.model.assembly import (
     MASS,
     STIFFNESS,
     STIFFNESS_EQ,
+    STRUCTURAL_DAMPING,
     Constants,
     SystemAssembler,
 )
@@ -28,7 +31,8 @@ from sail_ros.model.integrals import (
     quadrant_integrals,
 )
 from sail_ros.model.integrate import simulate
-from sail_ros.model.layout import BOOMS, Layout, per_boom
+from sail_ros.model.layout import BOOMS, QUADRANTS, Layout, per_boom
+from sail_ros.model.loads import N_INPUTS, input_function, inputs
 from sail_ros.model.parameters import SailParameters
 from sail_ros.model.stepper import SailStepper
 
@@ -87,10 +91,14 @@ class SailModel:
                 boom_axial_load=self.params.boom_axial_load,
                 membrane_areal_density=self.params.membrane_areal_density,
                 membrane_tension=self.params.membrane_tension,
+                mass_damping=self.params.mass_damping,
+                stiffness_damping=self.params.stiffness_damping,
             ),
         )
         self._cantilever_constant = cantilever_frequency(self.params, 1.0)  # [rad/s at 1 m]
-        self._tip_rows = self._tip_matrix()
+        self._tip_rows = self._boom_rows(self.boom_integrals.tip)
+        self._curvature_rows = self._boom_rows(self.boom_integrals.root_curvature)
+        self._unit_inputs = self._unit_input_matrix()
 
     # layout ------------------------------------------------------------------
     def boom_slice(self, boom: str) -> slice:
@@ -118,9 +126,10 @@ class SailModel:
         )
 
     def matrices(self, lengths, rates=0.0, accelerations=0.0):
-        """`M, C, K` of `M qdd + C qd + K q = 0` (seed Eq. 2).
+        """`M, C, K` of `M qdd + C qd + K q = Q` (seed Eq. 2, model.md §12).
 
-        `C = Md + G - G^T` and `K = Gd + K_elastic - N` (model.md §4).
+        `C = Md + G - G^T + C_d` (with the Rayleigh damping `C_d`) and
+        `K = Gd + K_elastic - N` (model.md §4).
 
         Args:
             lengths: boom lengths [m], a scalar (all booms) or 4 values (a, b, c, d).
@@ -170,6 +179,99 @@ class SailModel:
         eig = np.linalg.eigvals(self.state_matrix(lengths, rates, 0.0))
         return eig[np.lexsort((eig.real, eig.imag))]
 
+    def structural_damping(self, lengths) -> np.ndarray:
+        """The Rayleigh damping `C_d = alpha M + beta K` [N s/m] at these lengths."""
+        return self.evaluate((STRUCTURAL_DAMPING,), lengths)[0]
+
+    # loads and outputs (model.md §12) -------------------------------------------
+    def _unit_input_matrix(self) -> np.ndarray:
+        """`B_u` with every quadrant's `L_a L_b` factor left out (n, 8)."""
+        matrix = np.zeros((self.n, N_INPUTS))
+        for j, quadrant in enumerate(QUADRANTS):
+            matrix[self.layout.quadrant_slots(quadrant), j] += self.quadrant_integrals.s_mean
+        for k in range(4):
+            matrix[self.layout.boom_slots(k), 4 + k] = self.boom_integrals.tip
+        return matrix
+
+    def input_matrix(self, lengths) -> np.ndarray:
+        """`B_u` (n, 8): generalised forces per unit input, `Q = B_u u`, inputs in the
+        order of `loads.INPUT_NAMES` (4 pressures [Pa], then 4 tip forces [N]).
+
+        A pressure `p` on `Q_ab` does the virtual work `p L_a L_b <S>`, so it loads
+        that quadrant's membrane modes and its two booms; a tip force `F` on boom
+        k does `F psi(1)` on `p_k`."""
+        return self.assemble_inputs(per_boom(lengths, "lengths", positive=True))
+
+    def assemble_inputs(self, lengths) -> np.ndarray:
+        """`input_matrix` for 4 already checked lengths (the stepper's hot path)."""
+        first = [q.first for q in QUADRANTS]
+        second = [q.second for q in QUADRANTS]
+        scale = np.concatenate([lengths[first] * lengths[second], np.ones(4)])
+        return self._unit_inputs * scale
+
+    def load_vector(self, lengths, pressures=0.0, tip_forces=0.0) -> np.ndarray:
+        """Generalised forces `Q` (n,) [N] of the given pressures [Pa] (a scalar or 4
+        values, quadrants ab, bc, cd, da) and tip forces [N] (booms a..d)."""
+        return self.input_matrix(lengths) @ inputs(pressures, tip_forces)
+
+    def static_deflection(self, lengths, pressures=0.0, tip_forces=0.0) -> np.ndarray:
+        """Coordinates `q = K^-1 Q` of the sail at rest under constant loads.
+
+        Raises:
+            ValueError: the sail is buckled or neutrally stable (K not positive
+                definite): it has no static answer.
+        """
+        M, K = self.mass_and_stiffness(lengths)
+        Q = self.load_vector(lengths, pressures, tip_forces)
+        try:
+            return scipy.linalg.cho_solve(scipy.linalg.cho_factor(K), Q)
+        except np.linalg.LinAlgError:
+            raise ValueError(
+                "the stiffness is not positive definite at these lengths (an axial "
+                "load at or above buckling): no static deflection"
+            ) from None
+
+    def root_moments(self, q, lengths) -> np.ndarray:
+        """Root bending moments `EI u_k''(0) = (EI / L_k^2) psi''(0)^T p_k` [N m] of
+        booms a..d: (4,) for one state, (k, 4) for a series (`lengths` then 4 values
+        or (k, 4)). Converges more slowly with n_B than the tip deflection."""
+        q = np.asarray(q, dtype=float)
+        lengths = np.asarray(lengths, dtype=float)
+        if lengths.ndim <= 1:
+            lengths = per_boom(lengths, "lengths", positive=True)
+        elif lengths.shape != q.shape[:-1] + (4,):
+            raise ValueError(
+                f"lengths must be a scalar, 4 values or one row of 4 per state, "
+                f"got shape {lengths.shape}"
+            )
+        if q.shape[-1] != self.n:
+            raise ValueError(f"q must have {self.n} values per state, got shape {q.shape}")
+        return self.params.boom_bending_stiffness * (q @ self._curvature_rows.T) / lengths**2
+
+    def state_space(self, lengths, rates=0.0):
+        """The linear plant `xd = A x + B u`, `y = C x + D u` at frozen lengths [m]
+        and constant rates [m/s] (accelerations 0), `x = [q; qd]` (model.md §12).
+
+        Inputs `u`: `loads.INPUT_NAMES`; outputs `y`: `loads.OUTPUT_NAMES` (4 tip
+        deflections [m], 4 root moments [N m]); `D = 0`.
+        """
+        lengths = per_boom(lengths, "lengths", positive=True)
+        M, C, K = self.matrices(lengths, rates, 0.0)
+        n = self.n
+        factor = scipy.linalg.cho_factor(M)
+        A = np.zeros((2 * n, 2 * n))
+        A[:n, n:] = np.eye(n)
+        A[n:, :n] = -scipy.linalg.cho_solve(factor, K)
+        A[n:, n:] = -scipy.linalg.cho_solve(factor, C)
+        B = np.zeros((2 * n, N_INPUTS))
+        B[n:] = scipy.linalg.cho_solve(factor, self.input_matrix(lengths))
+        C_out = np.zeros((8, 2 * n))
+        C_out[:4, :n] = self._tip_rows
+        C_out[4:, :n] = (
+            self.params.boom_bending_stiffness * self._curvature_rows / lengths[:, None] ** 2
+        )
+        return A, B, C_out, np.zeros((8, N_INPUTS))
+
     def assemble(self, outputs, lengths, rates, accelerations) -> np.ndarray:
         """`evaluate` without the checks, for arrays of 4 already checked (the stepper's
         hot path; `stepper.LinearSystem`)."""
@@ -186,24 +288,45 @@ class SailModel:
     def stepper(self, profile, q0=None, qd0=None, t0: float = 0.0, **options) -> SailStepper:
         """A `SailStepper` holding this model's state (see `stepper.py`).
 
-        `options`: `max_step` [s], `resolved_frequency` [rad/s].
+        `options`: `max_step` [s], `resolved_frequency` [rad/s], `inputs` (a
+        callable `t -> u`, see `loads`).
         """
         return SailStepper(self, profile, q0=q0, qd0=qd0, t0=t0, **options)
 
     def simulate(
-        self, profile, t_end: float, q0=None, qd0=None, t_eval=None, progress=None, **options
+        self,
+        profile,
+        t_end: float,
+        q0=None,
+        qd0=None,
+        t_eval=None,
+        loads=None,
+        progress=None,
+        **options,
     ):
         """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`; returns
-        `(t, q, qd)`. The arguments are those of `integrate.simulate`."""
+        `(t, q, qd)`. `loads`: None, a constant pair `(pressures, tip_forces)` or a
+        callable `t -> (pressures, tip_forces)` (sampled at each step's midpoint; a
+        load step lands on a step boundary when its time is one of `t_eval`). The
+        other arguments are those of `integrate.simulate`."""
         return simulate(
-            self, profile, t_end, q0=q0, qd0=qd0, t_eval=t_eval, progress=progress, **options
+            self,
+            profile,
+            t_end,
+            q0=q0,
+            qd0=qd0,
+            t_eval=t_eval,
+            progress=progress,
+            inputs=input_function(loads),
+            **options,
         )
 
     # derived quantities --------------------------------------------------------
-    def _tip_matrix(self) -> np.ndarray:
+    def _boom_rows(self, values) -> np.ndarray:
+        """(4, n): row k holds `values` (one per mode) at boom k's coordinates."""
         rows = np.zeros((4, self.n))
         for k in range(4):
-            rows[k, self.layout.boom_slots(k)] = self.boom_integrals.tip
+            rows[k, self.layout.boom_slots(k)] = values
         return rows
 
     def tip_deflections(self, q) -> np.ndarray:

@@ -7,19 +7,28 @@ kinetic energy `T = 1/2 qd^T M qd + qd^T G q + 1/2 q^T N q` the momentum is
     qd = M^-1 (p - G q)
     pd = G^T M^-1 (p - G q) - (K - N) q,        x = [q; p],  xd = B(t) x,
 
-in which `Md` and `Gd` no longer appear. Each step applies the exponential
-midpoint rule `x1 = exp(h B(t + h/2)) x0` (second-order Magnus):
+in which `Md` and `Gd` no longer appear. Damping `C_d` and the generalised
+forces `Q = B_u u` of the inputs (model.md §12) add `- C_d qd + Q` to `pd`:
+`xd = B x + f`, `f = [0; Q]`. Each step applies the exponential midpoint rule
+`x1 = exp(h B) x0 + h phi_1(h B) f`, `B` and `f` taken at `t + h/2`
+(second-order Magnus; `phi_1(z) = (e^z - 1) / z`; inputs held over the step):
 
 * While the booms move, `exp` is replaced by its (4, 4) diagonal Padé
   approximant, split into partial fractions; each conjugate pole pair costs
-  one complex `n x n` solve with the matrix `M + tau (G - G^T) + tau^2 (K - N)`.
-  `B` is Hamiltonian, so the step is symplectic; high modes keep unit
-  amplification (stable, energy-neutral) and only lag in phase.
+  one complex `n x n` solve with the matrix
+  `M + tau (G - G^T + C_d) + tau^2 (K - N)`; the same partial fractions give
+  `phi_1` for free (the force only changes the right-hand side). Undamped, `B`
+  is Hamiltonian and the step symplectic; high modes keep unit amplification
+  (stable, energy-neutral) and only lag in phase; damped, none grows (the
+  approximant is A-stable).
 * While the booms stand still, the step is the exact propagator built from
   the eigenvectors of `(K, M)` and cached, so energy is conserved to
-  round-off and a step is one matrix-vector product.
+  round-off and a step is one matrix-vector product. Rayleigh damping is
+  classical (`V^T C_d V` diagonal), so each mode is a damped oscillator with
+  its own exact 2 x 2 propagator; a load held over the step moves the
+  equilibrium to `K^-1 Q`, about which the same propagator acts.
 
-Accuracy is set by the step: `h <= max_step` and `h * omega_r <= 1.5` where
+Accuracy is set by the step: `h <= max_step` (default 0.05 s) and `h * omega_r <= 1.5` where
 `omega_r` (`resolved_frequency`) is by default the system's own bound at the
 current lengths (for the sail: the first cantilever frequency of the shortest
 bare boom, an upper bound of the dominant boom-bending frequency); modes up
@@ -39,11 +48,12 @@ import numpy as np
 import scipy.linalg
 
 from sail_ros.model.assembly import (
+    CANONICAL_DAMPING,
     GYROSCOPIC,
-    GYROSCOPIC_SKEW,
     MASS,
     STIFFNESS,
     STIFFNESS_CANONICAL,
+    STRUCTURAL_DAMPING,
 )
 from sail_ros.model.layout import per_boom
 
@@ -60,6 +70,10 @@ class LinearSystem(Protocol):
 
     def resolved_frequency(self, lengths) -> float:
         """The highest angular frequency [rad/s] a step must resolve at `lengths`."""
+
+    def assemble_inputs(self, lengths) -> np.ndarray:
+        """`B_u` (n, number of inputs): generalised forces per unit input at `lengths`
+        (4 checked values)."""
 
 
 class IntegrationError(RuntimeError):
@@ -87,8 +101,13 @@ PADE_ORDER = 4
 _PADE_CONSTANT, _PADE_POLES, _PADE_RESIDUES = _diagonal_pade_partial_fractions(PADE_ORDER)
 _PADE_WEIGHTS = -_PADE_RESIDUES / _PADE_POLES  # r_k (hB - z_k)^-1 = -(r_k / z_k) (I - tau_k B)^-1
 # matrices one moving step needs, in this order
-_STEP_MATRICES = (MASS, GYROSCOPIC_SKEW, STIFFNESS_CANONICAL, GYROSCOPIC)
+_STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
 PHASE_PER_STEP = 1.5  # rad: omega_r * h, keeps the (4,4) Padé phase error ~1e-6 per step
+# Root moments weigh boom mode i by beta_i^2, so they need the higher boom modes a
+# load step excites: 0.05 s keeps them within 0.01 % of peak on the loaded, damped
+# reference deployment (test_loads_damping), where 0.2 s left them at 1 % (the tips
+# at 0.13 %).
+DEFAULT_MAX_STEP = 0.05
 
 
 class SailStepper:
@@ -105,6 +124,8 @@ class SailStepper:
         resolved_frequency: highest angular frequency [rad/s] to integrate
             accurately; None follows `system.resolved_frequency` at the
             current lengths.
+        inputs: callable `t -> u` (the system's inputs, e.g. `loads.INPUT_NAMES`),
+            or None for none. May be replaced between steps.
     """
 
     def __init__(
@@ -114,8 +135,9 @@ class SailStepper:
         q0=None,
         qd0=None,
         t0: float = 0.0,
-        max_step: float = 0.2,
+        max_step: float = DEFAULT_MAX_STEP,
         resolved_frequency: float | None = None,
+        inputs=None,
     ):
         if not (math.isfinite(max_step) and max_step > 0):
             raise ValueError(f"max_step must be finite and > 0, got {max_step!r}")
@@ -131,6 +153,7 @@ class SailStepper:
         self._static_cache: dict = {}
         self._profile = profile
         self._motion_cache = (math.nan, None)  # (t, motion at t) of the current profile
+        self.inputs = inputs
         self.steps_taken = 0
         self.reset(q0, qd0, t0)
 
@@ -220,11 +243,12 @@ class SailStepper:
         t_mid = self._t + 0.5 * h
         lengths, rates, accelerations = self._motion(t_mid)
         is_static = getattr(self._profile, "is_static", None)
+        force = self._force(t_mid, lengths)
         with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported below
             if is_static is not None and is_static(self._t, self._t + h):
-                q, p = self._static_step(lengths, h)
+                q, p = self._static_step(lengths, h, force)
             else:
-                q, p = self._moving_step(lengths, rates, accelerations, h)
+                q, p = self._moving_step(lengths, rates, accelerations, h, force)
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p))):
             raise IntegrationError(f"state became non-finite at t = {self._t + h:.6g} s")
         self._q, self._p = q, p
@@ -263,26 +287,42 @@ class SailStepper:
         self._motion_cache = (t, motion)
         return motion
 
+    def _force(self, t, lengths) -> np.ndarray | None:
+        """Generalised forces `B_u u(t)` [N] at `lengths`; None when there are none."""
+        if self.inputs is None:
+            return None
+        u = np.asarray(self.inputs(t), dtype=float)
+        if u.ndim != 1 or not np.all(np.isfinite(u)):
+            raise ValueError(f"inputs at t = {t:.6g} s must be finite values, got {u!r}")
+        if not u.any():
+            return None
+        return self.system.assemble_inputs(lengths) @ u
+
     def _mass_gyro(self, t):
         lengths, rates, accelerations = self._motion(t)
         M, G = self.system.assemble((MASS, GYROSCOPIC), lengths, rates, accelerations)
         return M, G
 
-    def _moving_step(self, lengths, rates, accelerations, h):
-        """x1 = R(h B) x0 with R the (4,4) Padé approximant of exp, by partial fractions:
-        R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x], and
-        (hB - z)^-1 x = -(1/z) (I - tau B)^-1 x with tau = h / z."""
+    def _moving_step(self, lengths, rates, accelerations, h, force):
+        """x1 = R(h B) x0 + h phi_R(h B) f with R the (4,4) Padé approximant of exp and
+        phi_R(z) = (R(z) - 1) / z, by partial fractions:
+        R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x],
+        h phi_R(hB) f = sum_k 2 Re[(h r_k / z_k) (hB - z_k)^-1 f], and
+        (hB - z)^-1 x = -(1/z) (I - tau B)^-1 x with tau = h / z; so
+        x1 = c0 x0 + sum_k 2 Re[w_k (I - tau_k B)^-1 (x0 + tau_k f)], w_k = -r_k / z_k."""
         mats = self.system.assemble(_STEP_MATRICES, lengths, rates, accelerations)
-        M, skew, K, G = mats
+        M, damping, K, G = mats
         q0, p0 = self._q, self._p
         taus = h / _PADE_POLES
-        # (I - tau B) y = x  <=>  [M + tau (G - G^T) + tau^2 K] u = x_p - (G + tau K) x_q,
+        # (I - tau B) y = x  <=>  [M + tau (G - G^T + C_d) + tau^2 K] u = x_p - (G + tau K) x_q,
         # y_q = x_q + tau u,  y_p = M u + G y_q
         powers = np.stack([np.ones_like(taus), taus, taus**2], axis=1)
         flat = mats[:3].reshape(3, -1)
         systems = (powers.real @ flat + 1j * (powers.imag @ flat)).reshape(taus.size, *M.shape)
         Gq, Kq = G @ q0, K @ q0
         rhs = (p0 - Gq)[None, :] - taus[:, None] * Kq[None, :]
+        if force is not None:  # x_p = p0 + tau f_p
+            rhs = rhs + taus[:, None] * force[None, :]
         u = np.linalg.solve(systems, rhs[:, :, None])[:, :, 0]
         yq = q0[None, :] + taus[:, None] * u
         yp = u @ M + yq @ G.T  # M is symmetric
@@ -290,41 +330,60 @@ class SailStepper:
         p1 = _PADE_CONSTANT * p0 + 2.0 * (_PADE_WEIGHTS @ yp).real
         return q1, p1
 
-    def _static_step(self, lengths, h):
+    def _static_step(self, lengths, h, force):
         key = (lengths.tobytes(), h)
-        propagator = self._static_cache.get(key)
-        if propagator is None:
+        cached = self._static_cache.get(key)
+        if cached is None:
             if len(self._static_cache) >= 16:
                 self._static_cache.clear()
-            propagator = self._exact_propagator(lengths, h)
-            self._static_cache[key] = propagator
-        x = propagator @ np.concatenate([self._q, self._p])
+            cached = self._exact_propagator(lengths, h)
+            self._static_cache[key] = cached
+        propagator, V, lam = cached
+        x = np.concatenate([self._q, self._p])
         n = self.system.n
+        if force is None:
+            x = propagator @ x
+        else:  # about the equilibrium q_s = K^-1 Q (p_s = 0: nothing moves there)
+            shift = np.zeros(2 * n)
+            shift[:n] = V @ ((V.T @ force) / lam)
+            x = shift + propagator @ (x - shift)
         return x[:n], x[n:]
 
-    def _exact_propagator(self, lengths, h) -> np.ndarray:
-        """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M).
+    def _exact_propagator(self, lengths, h):
+        """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M), with the
+        mode matrix `V` and eigenvalues `lam` (omega^2).
 
-        With V^T M V = I and K V = M V diag(lam): eta = V^T M q, etad = V^T p,
+        With V^T M V = I and K V = M V diag(lam): eta = V^T M q, etad = V^T p. Undamped,
         eta(h) = c eta + s etad, etad(h) = -lam s eta + c etad, where
         c = cos(sqrt(lam) h), s = sin(sqrt(lam) h) / sqrt(lam) (cosh/sinh for
-        lam < 0, a buckled mode).
+        lam < 0, a buckled mode). Damped (`V^T C_d V = diag(d)`), each mode's
+        2 x 2 propagator is exp(h [[0, 1], [-lam, -d]]).
         """
         zero = np.zeros(4)
-        M, K = self.system.assemble((MASS, STIFFNESS), lengths, zero, zero)
+        M, K, C_d = self.system.assemble((MASS, STIFFNESS, STRUCTURAL_DAMPING), lengths, zero, zero)
         lam, V = scipy.linalg.eigh(K, M)
-        root = np.sqrt(np.abs(lam))
-        c = np.where(lam >= 0, np.cos(root * h), np.cosh(root * h))
-        s = np.where(
-            lam >= 0,
-            h * np.sinc(root * h / np.pi),
-            np.sinh(root * h) / np.where(root > 0, root, 1.0),
-        )
+        d = np.einsum("ij,ik,kj->j", V, C_d, V)  # diag(V^T C_d V): classical damping
+        if np.any(d):
+            generator = np.zeros((lam.size, 2, 2))
+            generator[:, 0, 1] = 1.0
+            generator[:, 1, 0] = -lam
+            generator[:, 1, 1] = -d
+            E = scipy.linalg.expm(h * generator)
+            c, s, sd, cd = E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1]
+        else:
+            root = np.sqrt(np.abs(lam))
+            c = np.where(lam >= 0, np.cos(root * h), np.cosh(root * h))
+            s = np.where(
+                lam >= 0,
+                h * np.sinc(root * h / np.pi),
+                np.sinh(root * h) / np.where(root > 0, root, 1.0),
+            )
+            sd, cd = -lam * s, c
         VtM = V.T @ M  # eta = VtM q; q = V eta; p = VtM^T etad
         n = self.system.n
         P = np.empty((2 * n, 2 * n))
         P[:n, :n] = (V * c) @ VtM
         P[:n, n:] = (V * s) @ V.T
-        P[n:, :n] = -(VtM.T * (lam * s)) @ VtM
-        P[n:, n:] = (VtM.T * c) @ V.T
-        return P
+        P[n:, :n] = (VtM.T * sd) @ VtM
+        P[n:, n:] = (VtM.T * cd) @ V.T
+        return P, V, lam

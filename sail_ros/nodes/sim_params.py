@@ -40,6 +40,19 @@ _SAIL_SPECS = [
     ("boom_axial_load", "axial compression P the membrane puts on each boom [N]", 0.0, 1e12),
     ("n_boom_modes", "cantilever modes per boom n_B [-]", 1, 30),
     ("n_membrane_modes", "clamped-triangle modes per quadrant n_M [-]", 1, 100),
+    (
+        "mass_damping",
+        "Rayleigh alpha of the damping C_d = alpha M + beta K [1/s]",
+        0.0,
+        1e6,
+    ),
+    (
+        "stiffness_damping",
+        "Rayleigh beta of the damping C_d = alpha M + beta K [s]; a mode of frequency "
+        "omega has the damping ratio alpha / (2 omega) + beta omega / 2",
+        0.0,
+        1e6,
+    ),
 ]
 
 SPECS = [
