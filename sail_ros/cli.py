@@ -18,6 +18,8 @@ TOOLS = {
     "modes": "sail_ros.tools.modes:main",
     "deploy": "sail_ros.tools.deploy:main",
     "stability": "sail_ros.tools.stability:main",
+    "plant": "sail_ros.tools.plant:main",
+    "montecarlo": "sail_ros.tools.montecarlo:main",
     "report": "sail_ros.tools.report:main",
     "bag": "sail_ros.tools.bag:main",
     "recorder": "sail_ros.nodes.recorder:main",

@@ -44,11 +44,14 @@ from sail_ros.model.sail_model import StateSample
 BOOM_STATE = "sail/boom_state"
 MODAL_STATE = "sail/modal_state"
 TIP_DEFLECTION = "sail/tip_deflection"
+ROOT_MOMENT = "sail/root_moment"
 SHAPE = "sail/shape"
 DIAGNOSTICS = "/diagnostics"
 CLOCK = "/clock"
 BOOM_LENGTH_CMD = "sail/boom_length_cmd"
 DEPLOY_CMD = "sail/deploy_cmd"
+PRESSURE_CMD = "sail/pressure_cmd"
+TIP_FORCE_CMD = "sail/tip_force_cmd"
 COMMAND_STATUS = "sail/command_status"
 RESET_SERVICE = "sail/reset"
 PAUSE_SERVICE = "sail/pause"
@@ -84,6 +87,10 @@ def absolute(name: str, namespace: str = "/") -> str:
 FRAME_ID = "sail"  # default body frame (model.md §1)
 BOOM_JOINTS = ("boom_a", "boom_b", "boom_c", "boom_d")
 TIP_JOINTS = tuple(f"{name}_tip" for name in BOOM_JOINTS)
+ROOT_JOINTS = tuple(f"{name}_root" for name in BOOM_JOINTS)
+QUADRANT_SURFACES = ("quadrant_ab", "quadrant_bc", "quadrant_cd", "quadrant_da")
+# the load commands: which names each takes (JointState.name, its value in .effort)
+LOAD_NAMES = {PRESSURE_CMD: QUADRANT_SURFACES, TIP_FORCE_CMD: BOOM_JOINTS}
 HARDWARE_ID = SIM_NODE
 
 
@@ -161,9 +168,12 @@ TOPICS = {
         Topic(BOOM_STATE, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
         Topic(MODAL_STATE, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
         Topic(TIP_DEFLECTION, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
+        Topic(ROOT_MOMENT, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
         Topic(SHAPE, MarkerArray, "visualization_msgs/msg/MarkerArray", SHAPE_QOS),
         Topic(BOOM_LENGTH_CMD, JointTrajectory, "trajectory_msgs/msg/JointTrajectory", COMMAND_QOS),
         Topic(DEPLOY_CMD, Float64, "std_msgs/msg/Float64", COMMAND_QOS),
+        Topic(PRESSURE_CMD, JointState, "sensor_msgs/msg/JointState", COMMAND_QOS),
+        Topic(TIP_FORCE_CMD, JointState, "sensor_msgs/msg/JointState", COMMAND_QOS),
         Topic(
             COMMAND_STATUS,
             DiagnosticArray,
@@ -176,7 +186,9 @@ TOPICS = {
 }
 TOPIC_QOS = {name: topic.qos for name, topic in TOPICS.items()}
 # what the simulator publishes at every state sample (and /clock with them when it runs one)
-STATE_TOPICS = (BOOM_STATE, MODAL_STATE, TIP_DEFLECTION)
+STATE_TOPICS = (BOOM_STATE, MODAL_STATE, TIP_DEFLECTION, ROOT_MOMENT)
+# what the simulator takes commands on
+COMMAND_TOPICS = (BOOM_LENGTH_CMD, DEPLOY_CMD, PRESSURE_CMD, TIP_FORCE_CMD)
 # ROS's record of every parameter change, with its time and node (rcl_interfaces/ParameterEvent)
 PARAMETER_EVENTS = "/parameter_events"
 # what a recorder of the simulator takes by default: everything in the table, and
@@ -282,6 +294,23 @@ def tip_deflection(stamp_ns_: int, tips, tip_rates, frame_id: str = FRAME_ID) ->
     return _joint_state(stamp_ns_, frame_id, TIP_JOINTS, tips, tip_rates)
 
 
+def root_moment(stamp_ns_: int, moments, frame_id: str = FRAME_ID) -> JointState:
+    """`/sail/root_moment`: root bending moment `EI u''(0)` [N m] of each boom, in
+    `effort` (positive when the boom bends towards +z of `frame_id`)."""
+    message = JointState(name=list(ROOT_JOINTS))
+    message.header.stamp = stamp(stamp_ns_)
+    message.header.frame_id = frame_id
+    message.effort = np.asarray(moments, dtype=float)
+    return message
+
+
+def load_command(topic: str, values: Mapping[str, float]) -> JointState:
+    """A `sail/pressure_cmd` (quadrant -> Pa) or `sail/tip_force_cmd` (boom -> N)."""
+    message = JointState(name=list(values))
+    message.effort = [float(v) for v in values.values()]
+    return message
+
+
 def clock(stamp_ns_: int) -> Clock:
     """`/clock`: the simulation time, for nodes with use_sim_time."""
     return Clock(clock=stamp(stamp_ns_))
@@ -295,12 +324,14 @@ def state_messages(
     with_clock: bool = False,
 ) -> list[tuple[str, object]]:
     """`(topic, message)` of every state topic at one sample, in publishing order:
-    /clock first (if `with_clock`), then boom state, modal state, tip deflections."""
+    /clock first (if `with_clock`), then boom state, modal state, tip deflections,
+    root moments."""
     messages = [(CLOCK, clock(stamp_ns_))] if with_clock else []
     messages += [
         (BOOM_STATE, boom_state(stamp_ns_, sample.lengths, sample.rates, frame_id)),
         (MODAL_STATE, modal_state(stamp_ns_, coordinate_names, sample.q, sample.qd, frame_id)),
         (TIP_DEFLECTION, tip_deflection(stamp_ns_, sample.tips, sample.tip_rates, frame_id)),
+        (ROOT_MOMENT, root_moment(stamp_ns_, sample.root_moments, frame_id)),
     ]
     return messages
 

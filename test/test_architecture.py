@@ -100,7 +100,14 @@ ROSDEP_KEYS = {
     "tqdm": "python3-tqdm",
     "rosbags": "python3-rosbags-pip",
 }
-PIP_ONLY = {"mcap": "mcap", "skfem": "scikit-fem"}
+PIP_ONLY = {
+    "mcap": "mcap",
+    "skfem": "scikit-fem",
+    "dask": "dask",
+    "distributed": "distributed",
+    "pyarrow": "pyarrow",
+    "bokeh": "bokeh",
+}
 
 
 def third_party_imports() -> set[str]:

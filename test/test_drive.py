@@ -102,6 +102,43 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
     assert report.returncode == 0, report.stderr
 
 
+def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_path):
+    """`send tip-force` and `send pressure` load a damped sail; a force beyond the limit
+    is rejected; the root moments, the load power and the dissipation are published
+    and recorded; a reset takes the loads off."""
+    processes("sim", parameters={"sail.mass_damping": 0.5, "sail.stiffness_damping": 1e-3})
+    recorder = processes("recorder", "-o", str(tmp_path / "bag"))
+    watch(ros_env)  # waits for the simulator
+    pushed = tool(ros_env, "send", "tip-force", "--booms", "b", "--values", "0.05")
+    assert pushed.returncode == 0, pushed.stderr
+    assert pushed.stdout.startswith("accepted: boom_b = 0.05 N (others held)")
+    too_much = tool(ros_env, "send", "tip-force", "--booms", "a", "--values", "5")
+    assert too_much.returncode == 1
+    assert "|boom_a| = 5 N exceeds max_tip_force = 1 N" in too_much.stdout
+    pressed = tool(ros_env, "send", "pressure", "--quadrants", "ab", "cd", "--values", "2e-3")
+    assert pressed.returncode == 0, pressed.stderr
+    bad = tool(ros_env, "send", "pressure", "--quadrants", "ab", "--values", "1", "2")
+    assert bad.returncode == 2 and "--values: one value, or one per name (1), got 2" in bad.stderr
+    time.sleep(2.0)
+    view = watch(ros_env)
+    assert view["root_moment_N_m"]["b"] > 0.0  # the force bends boom b towards +z
+    assert view["damping_dissipation_W"] >= 0.0 and view["load_power_W"] == view["load_power_W"]
+    assert view["accepted_commands"] == 2 and view["rejected_commands"] == 1
+    assert tool(ros_env, "send", "reset").returncode == 0
+    assert recorder.stop(signal.SIGINT) == 0, recorder.log()
+
+    bag = BagReader(tmp_path / "bag")
+    moments = [deserialize_message(m.data, JointState) for m in
+               bag.messages(["/sail/root_moment"])]  # fmt: skip
+    assert moments and list(moments[-1].name) == list(topics.ROOT_JOINTS)
+    assert max(m.effort[1] for m in moments) > 0.0
+    statuses = [
+        deserialize_message(m.data, DiagnosticArray) for m in bag.messages(["/diagnostics"])
+    ]
+    keys = {pair.key for array in statuses for pair in array.status[0].values}
+    assert {"load_power_W", "damping_dissipation_W"} <= keys
+
+
 def test_send_without_a_simulator_is_a_clear_error(ros_env):
     started = time.monotonic()
     result = tool(ros_env, "send", "--timeout", "2", "deploy", "12", "--ros-args", "-r",

@@ -15,6 +15,7 @@ from visualization_msgs.msg import Marker
 
 from sail_ros import topics
 from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointProfile
+from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import BoomState, CommandError, Limits, plan_deploy, plan_trajectory
@@ -250,6 +251,70 @@ def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
     )
     assert sim.stepper.q == pytest.approx(q[0], abs=1e-12)
     assert sim.sample().lengths == pytest.approx(profile(6.0)[0])
+
+
+def test_loads_are_held_from_the_next_step_and_match_simulate(model, config):
+    """A tip force and pressures commanded at t = 1 s, the solar pressure on top: the
+    offline model with the same loads switched at 1 s agrees to round-off; a reset
+    zeroes the commanded loads."""
+    solar = config_from_values({**DEFAULTS, "initial_tip_deflection": [0.1, 0, 0, 0],
+                                "solar_pressure": 9.08e-6})  # fmt: skip
+    sim = Simulation(model, solar)
+    for _ in range(100):
+        assert sim.step()
+    force = topics.load_command(topics.TIP_FORCE_CMD, {"boom_b": 0.05})
+    change = sim.load(topics.TIP_FORCE_CMD, force, solar.limits)
+    assert change.summary == "boom_b = 0.05 N (others held)"
+    pressure = topics.load_command(topics.PRESSURE_CMD, {"quadrant_ab": 2e-3, "quadrant_cd": 1e-3})
+    sim.load(topics.PRESSURE_CMD, pressure, solar.limits)
+    assert sim.inputs() == pytest.approx(
+        [2e-3 + 9.08e-6, 9.08e-6, 1e-3 + 9.08e-6, 9.08e-6, 0, 0.05, 0, 0]
+    )
+    while sim.steps < 400:
+        assert sim.step()
+    schedule = LoadSchedule([(0.0, 9.08e-6, 0.0), (1.0, np.array([2e-3, 0, 1e-3, 0]) + 9.08e-6,
+                                                   [0, 0.05, 0, 0])])  # fmt: skip
+    _, q, _ = model.simulate(
+        StaticProfile(10.0),
+        4.0,
+        model.initial_coordinates([0.1, 0, 0, 0]),
+        t_eval=[1.0, 4.0],
+        loads=schedule,
+        max_step=0.01,
+    )
+    assert sim.stepper.q == pytest.approx(q[-1], abs=1e-12)
+    assert sim.sample().root_moments == pytest.approx(model.root_moments(q[-1], 10.0))
+    load_power, dissipation = sim.powers()
+    assert dissipation == 0.0 and load_power != 0.0  # undamped, loaded
+    sim.reset(solar)
+    assert sim.inputs() == pytest.approx([9.08e-6] * 4 + [0.0] * 4)
+
+
+@pytest.mark.parametrize(
+    ("topic", "values", "reason"),
+    [
+        (topics.TIP_FORCE_CMD, {"boom_e": 0.1}, r"unknown name\(s\) 'boom_e'; names are boom_a"),
+        (topics.PRESSURE_CMD, {"boom_a": 0.1}, r"unknown name\(s\) 'boom_a'; names are quadr"),
+        (topics.TIP_FORCE_CMD, {"boom_a": math.nan}, "boom_a = nan N is not finite"),
+        (topics.TIP_FORCE_CMD, {"boom_a": -2.0}, r"\|boom_a\| = 2 N exceeds max_tip_force = 1 N"),
+        (topics.PRESSURE_CMD, {"quadrant_ab": 0.5}, "exceeds max_pressure = 0.01 Pa"),
+        (topics.PRESSURE_CMD, {}, "names nothing to load"),
+    ],
+    ids=str,
+)
+def test_bad_load_commands_are_rejected_whole(model, config, topic, values, reason):
+    sim = Simulation(model, config)
+    message = topics.load_command(topic, {"quadrant_ab": 1e-3} if topic == topics.PRESSURE_CMD
+                                  else {"boom_b": 0.5})  # fmt: skip
+    sim.load(topic, message, config.limits)
+    before = sim.inputs()
+    bad = topics.load_command(topic, {**values})
+    if topic == topics.TIP_FORCE_CMD and values:
+        bad.name.insert(0, "boom_c")  # a good value first: nothing of the command applies
+        bad.effort = [0.3, *bad.effort]
+    with pytest.raises(CommandError, match=reason):
+        sim.load(topic, bad, config.limits)
+    assert np.array_equal(sim.inputs(), before) and sim.rejected == 1
 
 
 def test_short_booms_get_sub_steps(model, config):

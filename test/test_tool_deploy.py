@@ -13,7 +13,7 @@ from test_tool_figures import assert_png
 from sail_ros import topics
 from sail_ros.analysis.scenario import load_scenario, reference_scenario
 from sail_ros.bag import BagReader
-from sail_ros.model import SailModel
+from sail_ros.model import SailModel, SailParameters
 from sail_ros.nodes.recorder import PARAMETERS_METADATA
 from sail_ros.nodes.sim_params import SPEC_BY_NAME, config_from_values
 from sail_ros.tools import deploy
@@ -99,6 +99,7 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
         topics.absolute(topics.BOOM_STATE): 21,
         topics.absolute(topics.MODAL_STATE): 21,
         topics.absolute(topics.TIP_DEFLECTION): 21,
+        topics.absolute(topics.ROOT_MOMENT): 21,
         topics.absolute(topics.SHAPE): 5,
     }
     metadata = dict(bag.metadata())
@@ -106,7 +107,7 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
     # the simulator's own names and value syntax: its validator accepts them
     assert set(parameters) <= set(SPEC_BY_NAME)
     config = config_from_values({name: yaml.safe_load(text) for name, text in parameters.items()})
-    assert (config.integration_step, config.state_rate_hz, config.shape_rate_hz) == (0.1, 10, 2)
+    assert (config.integration_step, config.state_rate_hz, config.shape_rate_hz) == (0.05, 10, 2)
     assert (config.sail.n_boom_modes, config.sail.n_membrane_modes) == (3, 3)
     np.testing.assert_allclose(config.initial_lengths, [10.0] * 4)
     np.testing.assert_allclose(config.initial_tip_deflection, [0.0, 0.05, 0.0, 0.0], atol=1e-12)
@@ -124,7 +125,7 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
     assert list(boom.name) == list(topics.BOOM_JOINTS)
 
     with AnyReader([log]) as reader:  # a strict third-party reader takes every message
-        assert sum(1 for _ in reader.messages()) == 89
+        assert sum(1 for _ in reader.messages()) == sum(counts.values())  # 110
 
     for name in ("deployment_snapshots", "tip_deflections", "boom_lengths"):
         assert_png(tmp_path / "fig" / f"{name}.png")
@@ -158,14 +159,70 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
             "scenario: {duration: -1.0, profile: {type: static, lengths: 5.0}}",
             "scenario.duration must be > 0, got -1.0",
         ),
+        (
+            "scenario: {duration: 5.0, profile: {type: static, lengths: 5.0}, "
+            "loads: [{at: 1.0, force: 1.0}]}",
+            "scenario.loads[0]: unknown key(s) 'force'",
+        ),
+        (
+            "scenario: {duration: 5.0, profile: {type: static, lengths: 5.0}, "
+            "loads: [{at: 2.0, tip_forces: 1.0}, {at: 1.0, tip_forces: 0.0}]}",
+            "times must be finite and increasing, got 1.0",
+        ),
+        (
+            "scenario: {duration: 5.0, profile: {type: static, lengths: 5.0}, "
+            "loads: [{at: 9.0, pressures: 1.0e-3}]}",
+            "scenario.loads[0].at = 9.0 s is outside [0, duration = 5 s]",
+        ),
+        (
+            "scenario: {duration: 5.0, profile: {type: static, lengths: 5.0}, "
+            "loads: [{at: 1.0, pressures: [1, 2]}]}",
+            "pressures must be a scalar or 4 values",
+        ),
     ],
-    ids=["type", "missing", "per-boom", "coordinate", "snapshot", "duration"],
+    ids=[
+        "type",
+        "missing",
+        "per-boom",
+        "coordinate",
+        "snapshot",
+        "duration",
+        "load-key",
+        "load-order",
+        "load-time",
+        "load-shape",
+    ],  # fmt: skip
 )
 def test_scenario_errors_name_the_entry(tmp_path, capsys, document, message):
     path = tmp_path / "bad.yaml"
     path.write_text(document)
     assert deploy.main(["--scenario", str(path)]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_a_loaded_damped_scenario_logs_root_moments_and_switches_on_step_boundaries(tmp_path):
+    """config/scenario_loaded.yaml: the log holds the root moments at every state sample;
+    the load switches join the output grid (steps land on them), and the loads change
+    the root moments."""
+    from sail_ros.analysis.deployment import run_deployment
+    from sail_ros.analysis.scenario import scenario_from_dict
+
+    log = tmp_path / "loaded.mcap"
+    scenario_path = CONFIG / "scenario_loaded.yaml"
+    assert deploy.main(["--scenario", str(scenario_path), "--mcap", str(log), "--rate", "10"]) == 0
+    counts = {name: info.message_count for name, info in BagReader(log).topics().items()}
+    assert counts[topics.absolute(topics.ROOT_MOMENT)] == counts[topics.absolute(topics.BOOM_STATE)]
+
+    scenario = load_scenario(scenario_path)
+    model = SailModel(SailParameters(**scenario.sail))
+    loaded = run_deployment(model, scenario, [2.0, 5.0, 12.0])
+    assert {3.0, 7.0} <= set(loaded.t.tolist())  # the switches joined the grid
+    document = yaml.safe_load(scenario_path.read_text())
+    del document["scenario"]["loads"]
+    unloaded = run_deployment(model, scenario_from_dict(document), [2.0, 5.0, 12.0])
+    common = np.isin(loaded.t, unloaded.t)
+    assert np.abs(loaded.root_moments[common] - unloaded.root_moments).max() > 0.1  # N m
+    assert loaded.root_moments.shape == (len(loaded.t), 4)
 
 
 def test_reference_options_conflict_with_a_scenario(capsys):

@@ -72,6 +72,11 @@ BAD_INPUTS = [
     ("send", ["move", "--booms", "a", "--point", "-1", "12"], "the time must be > 0 s"),
     ("send", ["--timeout", "0", "reset"], "--timeout must be > 0 s, got 0"),
     ("watch", ["--rate", "0"], "--rate must be > 0, got 0"),
+    ("send", ["tip-force", "--booms", "e", "--values", "1"], "invalid choice: 'e'"),
+    ("send", ["pressure", "--quadrants", "ab", "cd", "--values", "1", "2", "3"], "--values: one"),
+    ("plant", ["--lengths", "1", "2"], "--lengths takes 1 or 4 values, got 2"),
+    ("plant", ["--set", "stiffness_damping=-.5"], "stiffness_damping must be >= 0"),
+    ("plant", ["--npz", "{root}/blocker/p.npz"], "{root}/blocker"),
 ]
 
 
@@ -97,6 +102,8 @@ def test_every_float_form_is_a_number(files):
     code, out, err = run_tool("modes", ["--config", str(files / "exp.yaml"), "--count", "3"])
     assert code == 0, err
     assert "3e-06 m" in out and "sail side a             100 m" in out
+    code, out, err = run_tool("modes", ["--set", "mass_damping=.5", "--count", "3"])
+    assert code == 0 and "alpha = 0.5 1/s" in out, err
 
 
 def test_a_damaged_chunk_is_named_by_the_reader(files):

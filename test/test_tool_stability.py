@@ -16,7 +16,7 @@ from sail_ros.analysis.stability import (
     prestress_sweep,
     stability_sweep,
 )
-from sail_ros.model import SailParameters
+from sail_ros.model import SailModel, SailParameters
 from sail_ros.tools import stability
 
 pytestmark = pytest.mark.model
@@ -41,7 +41,7 @@ def test_tool_finds_instability_in_retraction_and_none_at_rest(tmp_path, capsys)
                 "1e4",
                 "--points",
                 "9",
-                "--jobs",
+                "--workers",
                 "2",
                 "--csv",
                 str(critical),
@@ -99,10 +99,24 @@ def test_retraction_growth_tends_to_rate_over_length():
     assert max_real == pytest.approx(0.05 / L, rel=0.02)
 
 
-def test_serial_and_parallel_sweeps_agree():
+def test_the_prestress_scaling_equals_a_model_rebuilt_at_that_prestress():
+    params = PARAMS.replace(mass_damping=0.01, stiffness_damping=1e-3)
+    for prestress in (10.0, 3000.0):
+        rebuilt = SailModel(params.replace(membrane_prestress=prestress)).eigenvalues(L, 0.1)
+        scaled = frozen_eigenvalues(params, L, 0.1, prestress)
+        # by value: the order of a double eigenvalue's two copies is round-off
+        assert np.allclose(
+            np.sort_complex(scaled), np.sort_complex(rebuilt), atol=1e-11 * np.abs(rebuilt).max()
+        )
+
+
+def test_serial_and_dask_sweeps_agree():
+    from sail_ros.tools.cluster import dask_client
+
     grid = np.logspace(0, 3, 4)
-    serial = stability_sweep(PARAMS, [L, 20.0], [-0.1, 0.1], grid, jobs=1)
-    parallel = stability_sweep(PARAMS, [L, 20.0], [-0.1, 0.1], grid, jobs=2)
+    serial = stability_sweep(PARAMS, [L, 20.0], [-0.1, 0.1], grid)
+    with dask_client(workers=2) as client:
+        parallel = stability_sweep(PARAMS, [L, 20.0], [-0.1, 0.1], grid, client=client)
     for a, b in zip(serial, parallel, strict=True):
         assert (a.length, a.rate, a.status) == (b.length, b.rate, b.status)
         np.testing.assert_array_equal(a.max_real, b.max_real)
@@ -113,10 +127,10 @@ def test_serial_and_parallel_sweeps_agree():
     [
         (["--prestress", "10", "1"], "--prestress needs 0 < MIN < MAX [Pa], got 10 1"),
         (["--points", "1"], "--points must be >= 2, got 1"),
-        (["--jobs", "0", "--rates", "0.1"], "jobs must be >= 1, got 0"),
+        (["--workers", "0", "--rates", "0.1"], "--workers must be >= 1, got 0"),
         (["--lengths", "-5"], "lengths must be > 0 [m], got [-5.0]"),
     ],
-    ids=["range", "points", "jobs", "length"],
+    ids=["range", "points", "workers", "length"],
 )
 def test_errors_name_the_option_and_value(argv, message, capsys):
     assert stability.main(argv) == 2

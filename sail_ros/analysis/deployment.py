@@ -28,6 +28,7 @@ class DeploymentRun:
         q, qd: generalised coordinates [m] and velocities [m/s], (k, n).
         tips, tip_rates: boom-tip deflections [m] and their rates [m/s], (k, 4).
         wall_seconds: wall time of the integration [s].
+        root_moments: root bending moments [N m] of booms a..d, (k, 4).
     """
 
     t: np.ndarray
@@ -38,6 +39,7 @@ class DeploymentRun:
     tips: np.ndarray
     tip_rates: np.ndarray
     wall_seconds: float
+    root_moments: np.ndarray
 
     @property
     def real_time_factor(self) -> float:
@@ -55,6 +57,7 @@ class DeploymentRun:
             qd=self.qd[mask],
             tips=self.tips[mask],
             tip_rates=self.tip_rates[mask],
+            root_moments=self.root_moments[mask],
         )
 
     def sample(self, i: int) -> StateSample:
@@ -67,6 +70,7 @@ class DeploymentRun:
             self.qd[i],
             self.tips[i],
             self.tip_rates[i],
+            self.root_moments[i],
         )
 
     def index_of(self, t: float) -> int:
@@ -90,7 +94,8 @@ def output_times(duration: float, rate_hz: float, extra=()) -> np.ndarray:
 def run_deployment(
     model: SailModel, scenario: Scenario, t_eval, max_step: float = DEFAULT_MAX_STEP, progress=None
 ) -> DeploymentRun:
-    """Integrate the scenario and sample it at `t_eval` [s].
+    """Integrate the scenario and sample it at `t_eval` [s] (and at its load switches,
+    which thereby fall on step boundaries).
 
     Args:
         model: the sail model (its parameters should include `scenario.sail`).
@@ -100,6 +105,9 @@ def run_deployment(
         progress: optional callable `progress(t)` after each output time.
     """
     q0, qd0 = scenario.initial_state(model)
+    if scenario.loads is not None:
+        switches = [t for t in scenario.loads.switch_times if 0.0 < t < scenario.duration]
+        t_eval = np.union1d(np.asarray(t_eval, dtype=float), switches)
     started = time.perf_counter()
     t, q, qd = model.simulate(
         scenario.profile,
@@ -107,6 +115,7 @@ def run_deployment(
         q0,
         qd0,
         t_eval=t_eval,
+        loads=scenario.loads,
         progress=progress,
         max_step=max_step,
     )
@@ -115,5 +124,13 @@ def run_deployment(
     lengths = np.array([m[0] for m in motion], dtype=float)
     rates = np.array([m[1] for m in motion], dtype=float)
     return DeploymentRun(
-        t, lengths, rates, q, qd, model.tip_deflections(q), model.tip_deflections(qd), wall
+        t,
+        lengths,
+        rates,
+        q,
+        qd,
+        model.tip_deflections(q),
+        model.tip_deflections(qd),
+        wall,
+        model.root_moments(q, lengths),
     )

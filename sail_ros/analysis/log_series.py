@@ -27,17 +27,19 @@ from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.model import SailParameters
 
-STATE_TOPICS = (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.MODAL_STATE)
+STATE_TOPICS = (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.MODAL_STATE, topics.ROOT_MOMENT)
 
 
 @dataclasses.dataclass(frozen=True)
 class JointSeries:
-    """One JointState topic: stamps [ns] (k,), joint names, position and velocity (k, j)."""
+    """One JointState topic: stamps [ns] (k,), joint names, position, velocity and
+    effort (k, j; (k, 0) where the topic leaves one empty)."""
 
     stamp_ns: np.ndarray
     names: list[str]
     position: np.ndarray
     velocity: np.ndarray
+    effort: np.ndarray
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,7 +53,7 @@ class LogSeries:
         parameters: the `sail_sim_parameters` record (name -> YAML text), or None.
         origin_ns: stamp [ns] of t = 0; `simulation_time` says whether that is
             the run's epoch (t is simulation time) or the first sample.
-        boom, tips, modal: the state topics (None when absent).
+        boom, tips, modal, moments: the state topics (None when absent).
         diagnostics: stamps [ns] (k,) and the integrator status values per
             key as text lists, or None when the log has no /diagnostics.
     """
@@ -65,6 +67,7 @@ class LogSeries:
     boom: JointSeries | None
     tips: JointSeries | None
     modal: JointSeries | None
+    moments: JointSeries | None
     diagnostics: tuple[np.ndarray, dict[str, list[str]]] | None
 
     def seconds(self, stamp_ns) -> np.ndarray:
@@ -90,11 +93,19 @@ def _joint_series(messages) -> JointSeries | None:
         return None
     names = list(messages[0].name)
     kept = [m for m in messages if list(m.name) == names]  # a reset may not rename joints
+
+    def field(name):
+        rows = [getattr(m, name) for m in kept]
+        width = len(names) if all(len(row) == len(names) for row in rows) else 0
+        values = [row if width else [] for row in rows]
+        return np.array(values, dtype=float).reshape(len(kept), width)
+
     return JointSeries(
         np.array([_stamp_ns(m.header) for m in kept], dtype=np.int64),
         names,
-        np.array([m.position for m in kept], dtype=float).reshape(len(kept), len(names)),
-        np.array([m.velocity for m in kept], dtype=float).reshape(len(kept), len(names)),
+        field("position"),
+        field("velocity"),
+        field("effort"),
     )
 
 
@@ -157,6 +168,7 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
         boom=series[topics.BOOM_STATE],
         tips=series[topics.TIP_DEFLECTION],
         modal=series[topics.MODAL_STATE],
+        moments=series[topics.ROOT_MOMENT],
         diagnostics=status,
     )
 

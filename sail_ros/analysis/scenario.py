@@ -17,8 +17,13 @@ A scenario file (see config/scenario_reference.yaml) holds::
         q0: {boom_a_mode_2: 0.01}    # coordinate name -> value, or a list of n values
         qd0: [...]                   # velocities, same forms
       snapshots: [0.0, 3.0, 6.0]     # figure times [s] (optional)
+      loads:                         # optional: piecewise constant, held until changed
+        - {at: 0.0, pressures: [2.0e-3, 0.0, 1.0e-3, 0.0]}   # Pa on ab, bc, cd, da
+        - {at: 3.0, tip_forces: [0.0, 0.05, 0.0, 0.0]}       # N at the tips of a..d
+        - {at: 7.0, tip_forces: 0.0}                         # one value: all four
     sail:                            # optional: overrides of the sail parameters
       membrane_prestress: 5000.0
+      mass_damping: 0.02             # Rayleigh alpha [1/s]; stiffness_damping: beta [s]
 
 Profile types (`sail_ros.model.profiles`):
 
@@ -27,7 +32,11 @@ Profile types (`sail_ros.model.profiles`):
   optional `start_rates`, `end_rates` [m/s];
 - `static`: `lengths` [m].
 
-The initial state adds up: every `mode_state` entry, then `q0`. Errors name
+Any profile may add `stop_at` [m] (one or 4 values): a jam, the boom stops
+dead where it first reaches that length and holds.
+
+The initial state adds up: every `mode_state` entry, then `q0`. Load steps
+land on integration step boundaries (their times join the output grid). Errors name
 the offending entry by its path, e.g. `scenario.profile.start`.
 """
 
@@ -38,7 +47,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from sail_ros.model import (
     CycloidalProfile,
@@ -47,7 +55,8 @@ from sail_ros.model import (
     WaypointProfile,
     yaml_values,
 )
-from sail_ros.model.profiles import BoomMotion
+from sail_ros.model.loads import LoadSchedule
+from sail_ros.model.profiles import BoomMotion, JammedProfile
 
 BOOMS = ("a", "b", "c", "d")
 PROFILE_KEYS = {
@@ -79,6 +88,7 @@ class Scenario:
         profile: the boom motion, `t -> (lengths, rates, accelerations)`.
         initial: the `initial` mapping as given (applied by `initial_state`).
         snapshots: figure times [s] within [0, duration].
+        loads: the load schedule (`LoadSchedule`), None for an unloaded run.
         sail: overrides of `SailParameters` fields.
         document: the whole scenario as plain data (for logs).
     """
@@ -90,6 +100,7 @@ class Scenario:
     snapshots: tuple[float, ...]
     sail: dict
     document: dict
+    loads: LoadSchedule | None = None
 
     def initial_state(self, model: SailModel) -> tuple[np.ndarray, np.ndarray]:
         """`(q0, qd0)` for `model` (coordinates [m], velocities [m/s])."""
@@ -104,12 +115,7 @@ class Scenario:
 def load_scenario(path) -> Scenario:
     """Read and validate a scenario YAML file (ValueError names the entry)."""
     path = Path(path)
-    try:
-        document = yaml_values.load(path.read_text())
-    except yaml.YAMLError as error:
-        raise ValueError(f"{path}: not valid YAML: {yaml_values.describe(error)}") from None
-    except OSError as error:
-        raise ValueError(f"cannot read scenario {str(path)!r}: {error.strerror}") from None
+    document = yaml_values.load_file(path, "scenario")
     try:
         return scenario_from_dict(document)
     except ValueError as error:
@@ -127,7 +133,9 @@ def scenario_from_dict(document) -> Scenario:
         raise ValueError(f"expected a mapping with a 'scenario' section, got {document!r}")
     _known(document, {"scenario", "sail"}, "top level")
     body = document["scenario"]
-    _known(body, {"description", "duration", "profile", "initial", "snapshots"}, "scenario")
+    _known(
+        body, {"description", "duration", "profile", "initial", "snapshots", "loads"}, "scenario"
+    )
     duration = _positive(body.get("duration"), "scenario.duration")
     profile = _motion(body.get("profile"), "scenario.profile")
     initial = body.get("initial") or {}
@@ -168,7 +176,31 @@ def scenario_from_dict(document) -> Scenario:
         tuple(float(t) for t in snapshots),
         dict(sail),
         document,
+        _loads(body.get("loads"), duration, "scenario.loads"),
     )
+
+
+def _loads(spec, duration: float, where: str) -> LoadSchedule | None:
+    if spec is None:
+        return None
+    if not isinstance(spec, list) or not spec:
+        raise ValueError(
+            f"{where} must be a list of steps {{at: s, pressures: Pa, tip_forces: N}}, got {spec!r}"
+        )
+    steps = []
+    for i, step in enumerate(spec):
+        here = f"{where}[{i}]"
+        if not isinstance(step, dict) or "at" not in step:
+            raise ValueError(f"{here} must be a mapping with 'at' [s], got {step!r}")
+        _known(step, {"at", "pressures", "tip_forces"}, here)
+        t = _finite(step["at"], f"{here}.at")
+        if not 0.0 <= t <= duration:
+            raise ValueError(f"{here}.at = {t!r} s is outside [0, duration = {duration:g} s]")
+        steps.append((t, step.get("pressures"), step.get("tip_forces")))
+    try:
+        return LoadSchedule(steps)
+    except ValueError as error:
+        raise ValueError(f"{where}: {error}") from None
 
 
 def _motion(spec, where: str):
@@ -197,14 +229,18 @@ def _profile(spec, where: str):
     missing = sorted(required - set(spec))
     if missing:
         raise ValueError(f"{where} ({kind}) needs {', '.join(missing)}")
-    _known(spec, required | optional | {"type"}, where)
-    arguments = {key: value for key, value in spec.items() if key != "type"}
+    _known(spec, required | optional | {"type", "stop_at"}, where)
+    arguments = {key: value for key, value in spec.items() if key not in ("type", "stop_at")}
     try:
         if kind == "cycloidal":
-            return CycloidalProfile(**arguments)
-        if kind == "waypoints":
-            return WaypointProfile(**arguments)
-        return StaticProfile(**arguments)
+            profile = CycloidalProfile(**arguments)
+        elif kind == "waypoints":
+            profile = WaypointProfile(**arguments)
+        else:
+            profile = StaticProfile(**arguments)
+        if "stop_at" in spec:
+            profile = JammedProfile(profile, spec["stop_at"])
+        return profile
     except (TypeError, ValueError) as error:
         raise ValueError(f"{where}: {error}") from None
 

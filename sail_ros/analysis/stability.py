@@ -30,13 +30,14 @@ max |lambda|).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
+import scipy.linalg
 
+from sail_ros.analysis.execution import run_cases
 from sail_ros.model import SailModel, SailParameters
 
 INSTABILITY_RTOL = 1e-9
@@ -47,13 +48,50 @@ UNSTABLE = "unstable"  # unstable at every prestress of the grid
 CRITICAL = "critical"  # unstable below the critical prestress, stable above it
 
 
+class FrozenSystem:
+    """Eq. 3 at one length and rate for any prestress, without rebuilding the model.
+
+    The prestress enters only through the membrane tension `N0 = sigma h`, and
+    linearly (the tension stiffness, and its share of the Rayleigh damping), so
+    `C(sigma) = C_0 + sigma C_1` and `K_eq(sigma) = K_0 + sigma K_1` with the
+    matrices of two models, at 0 and 1 Pa, computed once."""
+
+    def __init__(self, params: SailParameters, length: float, rate: float):
+        slack = SailModel(params.replace(membrane_prestress=0.0))
+        unit = SailModel(params.replace(membrane_prestress=1.0))
+        M, C0, K0 = slack.matrices(length, rate, 0.0)
+        _, C1, K1 = unit.matrices(length, rate, 0.0)
+        factor = scipy.linalg.cho_factor(M)
+        self._MC0 = scipy.linalg.cho_solve(factor, C0)
+        self._MC1 = scipy.linalg.cho_solve(factor, C1) - self._MC0
+        self._MK0 = scipy.linalg.cho_solve(factor, K0)
+        self._MK1 = scipy.linalg.cho_solve(factor, K1) - self._MK0
+        self.n = slack.n
+
+    def eigenvalues(self, prestress: float) -> np.ndarray:
+        """Eigenvalues [1/s] of `A = [-M^-1 C, -M^-1 K_eq; I, 0]` at `prestress` [Pa],
+        sorted as `SailModel.eigenvalues` sorts them."""
+        n = self.n
+        A = np.zeros((2 * n, 2 * n))
+        A[:n, :n] = -(self._MC0 + prestress * self._MC1)
+        A[:n, n:] = -(self._MK0 + prestress * self._MK1)
+        A[n:, :n] = np.eye(n)
+        eig = np.linalg.eigvals(A)
+        return eig[np.lexsort((eig.real, eig.imag))]
+
+
+@functools.lru_cache(maxsize=64)
+def frozen_system(params: SailParameters, length: float, rate: float) -> FrozenSystem:
+    """The `FrozenSystem` at `length` [m] and `rate` [m/s], cached per process."""
+    return FrozenSystem(params, float(length), float(rate))
+
+
 def frozen_eigenvalues(
     params: SailParameters, length: float, rate: float, prestress: float
 ) -> np.ndarray:
     """Eigenvalues [1/s] of Eq. 3 at boom length `length` [m] (all booms),
     constant rate `rate` [m/s] and membrane prestress `prestress` [Pa]."""
-    model = SailModel(params.replace(membrane_prestress=prestress))
-    return model.eigenvalues(length, rate)
+    return frozen_system(params, length, rate).eigenvalues(prestress)
 
 
 def growth(params, length, rate, prestress) -> tuple[float, float]:
@@ -156,21 +194,24 @@ def stability_sweep(
     lengths: Sequence[float],
     rates: Sequence[float],
     prestresses: Sequence[float],
-    jobs: int | None = None,
+    client=None,
     progress: Callable[[int], None] | None = None,
 ) -> list[PrestressSweep]:
-    """`prestress_sweep` for every (length, rate), in parallel processes.
+    """`prestress_sweep` for every (length, rate), one case each on Dask.
 
     Args:
         params: the sail (its own prestress is replaced along the grid).
         lengths: boom lengths [m].
         rates: extension rates [m/s].
         prestresses: membrane prestress grid [Pa], ascending, > 0.
-        jobs: worker processes; None uses every local core, 1 runs here.
+        client: a `dask.distributed.Client` (see `execution.run_cases`); None runs here.
         progress: called with the number of grid points just finished.
 
     Returns:
         one sweep per (length, rate), lengths outer, in the order given.
+
+    Raises:
+        KeyboardInterrupt: when interrupted (the unfinished cases are cancelled).
     """
     prestresses = np.asarray(prestresses, dtype=float)
     if (
@@ -187,29 +228,30 @@ def stability_sweep(
             raise ValueError(f"{name} must be one or more finite values, got {list(values)!r}")
     if np.any(np.asarray(lengths) <= 0):
         raise ValueError(f"lengths must be > 0 [m], got {list(lengths)!r}")
-    if jobs is None:
-        jobs = os.cpu_count() or 1
-    if jobs < 1:
-        raise ValueError(f"jobs must be >= 1, got {jobs!r}")
     tasks = [
         (params.to_dict(), float(length), float(rate), prestresses)
         for length in lengths
         for rate in rates
     ]
-    results: list[PrestressSweep | None] = [None] * len(tasks)
-    if jobs == 1 or len(tasks) == 1:
-        for index, task in enumerate(tasks):
-            results[index] = _sweep_task(task)
-            if progress is not None:
-                progress(prestresses.size)
-        return results
-    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks))) as pool:
-        futures = {pool.submit(_sweep_task, task): index for index, task in enumerate(tasks)}
-        for future in as_completed(futures):
-            results[futures[future]] = future.result()
-            if progress is not None:
-                progress(prestresses.size)
-    return results
+    outcome = run_cases(
+        _sweep_task,
+        tasks,
+        client,
+        progress=None if progress is None else (lambda done: progress(done * prestresses.size)),
+    )
+    if outcome.interrupted:
+        raise KeyboardInterrupt
+    return outcome.results
+
+
+def critical_curves(sweeps: Sequence[PrestressSweep]) -> dict[float, list[tuple[float, float]]]:
+    """Per length [m]: (rate [m/s], critical prestress [Pa]) where the sweep has one."""
+    curves: dict[float, list[tuple[float, float]]] = {}
+    for sweep in sweeps:
+        curves.setdefault(sweep.length, [])
+        if sweep.status == CRITICAL:
+            curves[sweep.length].append((sweep.rate, sweep.critical_prestress))
+    return {length: sorted(points) for length, points in curves.items()}
 
 
 def eigenvalue_loci(

@@ -74,3 +74,35 @@ def input_function(loads):
         ) from None
     constant = inputs(pressures, tip_forces)
     return lambda t: constant
+
+
+class LoadSchedule:
+    """Piecewise-constant loads: each step sets pressures and/or tip forces from its
+    time on, the others held; zero before the first.
+
+    Args:
+        steps: `(t, pressures, tip_forces)` with `t` [s] increasing; `pressures`
+            or `tip_forces` None keeps the previous values.
+
+    Called with `t` it returns `(pressures, tip_forces)` (4 values each), so it is
+    a `loads` of `SailModel.simulate`; `switch_times` are where the loads change
+    (put them among the output times so that steps land on them).
+    """
+
+    def __init__(self, steps):
+        self.switch_times: list[float] = []
+        self._values: list[tuple[np.ndarray, np.ndarray]] = []
+        pressures, forces = np.zeros(4), np.zeros(4)
+        for i, (t, new_pressures, new_forces) in enumerate(steps):
+            if not np.isfinite(t) or (self.switch_times and t <= self.switch_times[-1]):
+                raise ValueError(f"load step {i}: times must be finite and increasing, got {t!r}")
+            if new_pressures is not None:
+                pressures = _four(new_pressures, f"load step {i}: pressures", "ab, bc, cd, da")
+            if new_forces is not None:
+                forces = _four(new_forces, f"load step {i}: tip_forces", "booms a, b, c, d")
+            self.switch_times.append(float(t))
+            self._values.append((pressures, forces))
+
+    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        index = int(np.searchsorted(self.switch_times, t, side="right")) - 1
+        return self._values[index] if index >= 0 else (np.zeros(4), np.zeros(4))

@@ -181,6 +181,57 @@ class WaypointProfile:
         )
 
 
+class JammedProfile:
+    """A profile whose booms jam: each stops dead where it first reaches its
+    `stop_lengths` [m] (a length it never reaches: no jam), then holds.
+
+    Args:
+        profile: the motion without the jam (a profile with `t_end`).
+        stop_lengths: where each boom stops [m] (scalar or 4 values).
+    """
+
+    def __init__(self, profile, stop_lengths):
+        self.profile = profile
+        self.stop_lengths = per_boom(stop_lengths, "stop_lengths", positive=True)
+        end = float(getattr(profile, "t_end", math.inf))
+        if not math.isfinite(end):
+            raise ValueError("a jam needs a profile that ends (t_end)")
+        self.jam_times = np.array([self._reached(k, end) for k in range(4)])
+
+    def _reached(self, k: int, end: float) -> float:
+        """First time [s] boom k reaches its stop length (inf if never), to 1e-12 s."""
+        start_length = self.profile(-1e9)[0][k]
+        target = self.stop_lengths[k]
+        grid = np.linspace(-1e-9, end, 2001)
+        lengths = np.array([self.profile(t)[0][k] for t in grid])
+        crossed = np.flatnonzero((lengths - target) * np.sign(target - start_length) >= 0)
+        if target == start_length:
+            return -math.inf
+        if crossed.size == 0:
+            return math.inf
+        low, high = grid[max(crossed[0] - 1, 0)], grid[crossed[0]]
+        for _ in range(60):
+            middle = 0.5 * (low + high)
+            beyond = (self.profile(middle)[0][k] - target) * np.sign(target - start_length) >= 0
+            low, high = (low, middle) if beyond else (middle, high)
+        return high
+
+    @property
+    def t_end(self) -> float:
+        return float(min(np.max(self.jam_times), self.profile.t_end))
+
+    def __call__(self, t):
+        lengths, rates, accelerations = (np.array(v, dtype=float) for v in self.profile(t))
+        jammed = t >= self.jam_times
+        lengths[jammed] = self.stop_lengths[jammed]
+        rates[jammed] = 0.0
+        accelerations[jammed] = 0.0
+        return lengths, rates, accelerations
+
+    def is_static(self, t0, t1) -> bool:
+        return bool(np.all(t0 >= self.jam_times)) or self.profile.is_static(t0, t1)
+
+
 class BoomMotion:
     """Booms a..d, each following its own 4-boom profile (only its column is used).
 

@@ -39,7 +39,8 @@ from sail_ros.model.stepper import SailStepper
 
 class StateSample(NamedTuple):
     """The state at time `t` [s]: boom lengths [m] and rates [m/s], coordinates q [m]
-    and velocities qd [m/s], tip deflections [m] and their rates [m/s]."""
+    and velocities qd [m/s], tip deflections [m] and their rates [m/s], root bending
+    moments [N m]."""
 
     t: float
     lengths: np.ndarray
@@ -48,6 +49,7 @@ class StateSample(NamedTuple):
     qd: np.ndarray
     tips: np.ndarray
     tip_rates: np.ndarray
+    root_moments: np.ndarray
 
 
 def cantilever_frequency(params: SailParameters, length: float) -> float:
@@ -337,9 +339,11 @@ class SailModel:
         return np.asarray(q) @ self._tip_rows.T
 
     def sample(self, t: float, lengths, rates, q, qd) -> StateSample:
-        """The state at `t` [s] with its tip deflections and their rates."""
+        """The state at `t` [s] with its tip deflections, their rates and the root
+        moments."""
         tips, tip_rates = self.tip_deflections(q), self.tip_deflections(qd)
-        return StateSample(t, lengths, rates, q, qd, tips, tip_rates)
+        moments = self.root_moments(q, lengths)
+        return StateSample(t, lengths, rates, q, qd, tips, tip_rates, moments)
 
     def mode_state(self, boom: str = "a", tip_deflection: float = 0.1) -> np.ndarray:
         """Coordinates with boom `boom` bent in its first cantilever mode, all else 0.

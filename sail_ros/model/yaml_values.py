@@ -8,17 +8,19 @@ rest is PyYAML's safe loader.
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import yaml
 
 
 class SafeLoader(yaml.SafeLoader):
-    """PyYAML's safe loader, with YAML 1.2 floats (`1e3`, `3E-6`, `-2.5e+4`)."""
+    """PyYAML's safe loader, with YAML 1.2 floats (`1e3`, `3E-6`, `-2.5e+4`, `-.5`)."""
 
 
 SafeLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$"),
+    # an exponent, or a dot with digits on one side; never a plain integer
+    re.compile(r"^[-+]?(?:(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+|\.\d+|\d+\.\d*)$"),
     list("-+0123456789."),
 )
 
@@ -26,6 +28,17 @@ SafeLoader.add_implicit_resolver(
 def load(text_or_stream):
     """`yaml.safe_load` with YAML 1.2 floats."""
     return yaml.load(text_or_stream, Loader=SafeLoader)  # noqa: S506 (a SafeLoader)
+
+
+def load_file(path, what: str):
+    """The YAML document in `path`; ValueError naming the file (`what`: e.g. "scenario")
+    when it cannot be read or is not YAML."""
+    try:
+        return load(Path(path).read_text())
+    except yaml.YAMLError as error:
+        raise ValueError(f"{path}: not valid YAML: {describe(error)}") from None
+    except OSError as error:
+        raise ValueError(f"cannot read {what} {str(path)!r}: {error.strerror}") from None
 
 
 def describe(error: yaml.YAMLError) -> str:

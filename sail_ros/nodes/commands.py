@@ -59,6 +59,8 @@ class Limits:
         max_acceleration: largest |extension acceleration| [m/s^2].
         max_points: most points a trajectory may have (the work per command is
             bounded: planning checks the whole spline).
+        max_pressure: largest |pressure| on a quadrant [Pa].
+        max_tip_force: largest |force| at a boom tip [N].
     """
 
     min_length: float
@@ -66,6 +68,8 @@ class Limits:
     max_rate: float
     max_acceleration: float
     max_points: int = 1000
+    max_pressure: float = 0.01
+    max_tip_force: float = 1.0
 
 
 @dataclasses.dataclass(frozen=True)

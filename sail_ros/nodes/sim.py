@@ -32,6 +32,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
@@ -104,7 +105,7 @@ class SimNode(Node):
         self._reception = Node(
             f"{NODE_NAME}_commands", context=self.context, namespace=self.get_namespace()
         )
-        for name in (topics.BOOM_LENGTH_CMD, topics.DEPLOY_CMD):
+        for name in topics.COMMAND_TOPICS:
             for qos in topics.COMMAND_INTAKE_QOS:
                 self._reception.create_subscription(
                     topics.TOPICS[name].message_type,
@@ -169,6 +170,8 @@ class SimNode(Node):
         `self.config`."""
         config = self.config
         self.sim.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
+        if config.solar_pressure != self.sim.solar_pressure:
+            self.sim.set_solar_pressure(config.solar_pressure)
         self._every_state = config.steps_between(config.state_rate_hz)
         self._every_shape = config.steps_between(config.shape_rate_hz)
         self.pacer.tick_steps = self._every_state
@@ -273,17 +276,22 @@ class SimNode(Node):
         else:
             limits = self.config.limits
             try:
-                if name == topics.DEPLOY_CMD:
-                    plan = self.sim.deploy(message.data, limits, self.config.deploy_duration)
+                if name in topics.LOAD_NAMES:
+                    change = self.sim.load(name, message, limits)
+                    text, values = change.summary, {"t_start_s": f"{self.sim.t:.9f}"}
                 else:
-                    plan = self.sim.follow(message, limits)
+                    if name == topics.DEPLOY_CMD:
+                        plan = self.sim.deploy(message.data, limits, self.config.deploy_duration)
+                    else:
+                        plan = self.sim.follow(message, limits)
+                    text = plan.summary
+                    values = {"t_start_s": f"{plan.t_start:.9f}", "t_end_s": f"{plan.t_end:.9f}"}
             except CommandError as error:
                 outcome, text = topics.REJECTED, str(error)
                 self.get_logger().warning(f"rejected {topic}: {error}")
             else:
-                outcome, text = topics.ACCEPTED, plan.summary
-                values = {"t_start_s": f"{plan.t_start:.9f}", "t_end_s": f"{plan.t_end:.9f}"}
-                self.get_logger().info(f"{topic} accepted at t = {plan.t_start:.6f} s: {text}")
+                outcome = topics.ACCEPTED
+                self.get_logger().info(f"{topic} accepted at t = {self.sim.t:.6f} s: {text}")
         self._answer(name, info, outcome, text, values)
 
     def _answer(self, name: str, info: dict, outcome: str, text: str, values: dict) -> None:
@@ -378,6 +386,8 @@ class SimNode(Node):
         steps, mean, largest = sim.step_times.take()
         overruns = self.overruns - window["overruns"]
         rejected = sim.rejected - window["rejected"]
+        with np.errstate(over="ignore", invalid="ignore"):  # inf or nan once blown up
+            load_power, dissipation = sim.powers()
         level, message = diagnose(
             Observations(
                 state=sim.state,
@@ -412,6 +422,8 @@ class SimNode(Node):
             "last_rejection": sim.last_rejection,
             "motion_end_s": _time_or_none(sim.motion.t_end),
             "mechanical_energy_J": float(f"{sim.energy():.6g}"),
+            "load_power_W": float(f"{load_power:.6g}"),
+            "damping_dissipation_W": float(f"{dissipation:.6g}"),
         }
         stamp = self._stamp()
         self._outputs[topics.DIAGNOSTICS].publish(

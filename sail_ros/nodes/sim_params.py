@@ -190,6 +190,33 @@ SPECS = [
         100000,
     ),
     ParamSpec(
+        "max_pressure",
+        0.01,
+        "largest |pressure| a sail/pressure_cmd may set on a quadrant [Pa] (solar "
+        "radiation pressure at 1 AU is at most 9.1e-6 Pa); also bounds solar_pressure",
+        False,
+        0.0,
+        1e3,
+    ),
+    ParamSpec(
+        "max_tip_force",
+        1.0,
+        "largest |force| a sail/tip_force_cmd may set at a boom tip [N]",
+        False,
+        0.0,
+        1e4,
+    ),
+    ParamSpec(
+        "solar_pressure",
+        0.0,
+        "uniform pressure on every quadrant, on top of sail/pressure_cmd [Pa], +z of the "
+        "sail frame (an ideal reflector facing the sun at 1 AU: 2 x 1361 W/m^2 / c = "
+        "9.08e-6 Pa); within +-max_pressure; applies from the next step",
+        False,
+        -1e3,
+        1e3,
+    ),
+    ParamSpec(
         "max_substep_rate",
         3200.0,
         "most sub-steps per second of simulation the shortest allowed boom may need "
@@ -250,6 +277,7 @@ class SimConfig:
     frame_id: str
     shape_divisions: int
     max_queued_commands: int
+    solar_pressure: float  # Pa
     tip_warn_fraction: float  # [-] of the boom length
     tip_error_fraction: float  # [-] of the boom length
 
@@ -287,7 +315,14 @@ def config_from_values(values: dict) -> SimConfig:
         float(values["max_rate"]),
         float(values["max_acceleration"]),
         int(values["max_trajectory_points"]),
+        float(values["max_pressure"]),
+        float(values["max_tip_force"]),
     )
+    if abs(values["solar_pressure"]) > limits.max_pressure:
+        raise ConfigError(
+            f"|solar_pressure| = {abs(values['solar_pressure']):g} Pa exceeds max_pressure = "
+            f"{limits.max_pressure:g} Pa"
+        )
     if not limits.min_length < limits.max_length:
         raise ConfigError(
             f"min_length ({limits.min_length:g} m) must be below max_length "
@@ -328,6 +363,7 @@ def config_from_values(values: dict) -> SimConfig:
         frame_id=str(values["frame_id"]),
         shape_divisions=int(values["shape_divisions"]),
         max_queued_commands=int(values["max_queued_commands"]),
+        solar_pressure=float(values["solar_pressure"]),
         tip_warn_fraction=float(values["tip_warn_fraction"]),
         tip_error_fraction=float(values["tip_error_fraction"]),
     )

@@ -26,7 +26,9 @@ from sail_ros.nodes.commands import (
     plan_deploy,
     plan_trajectory,
 )
+from sail_ros.nodes.load_commands import plan_load
 from sail_ros.nodes.sim_params import SimConfig
+from sail_ros.topics import PRESSURE_CMD
 
 RUNNING, PAUSED, ERROR = "running", "paused", "error"
 
@@ -68,6 +70,10 @@ class Simulation:
             q0=model.initial_coordinates(config.initial_tip_deflection),
             max_step=self.step_size,
         )
+        self.solar_pressure = config.solar_pressure  # [Pa] on every quadrant, on top
+        self.pressures = np.zeros(4)  # commanded, per quadrant ab, bc, cd, da [Pa]
+        self.tip_forces = np.zeros(4)  # commanded, per boom a..d [N]
+        self._use_loads()
         self.steps = 0  # grid steps taken since start
         self.paused = False
         self.error: str | None = None
@@ -101,6 +107,23 @@ class Simulation:
         """Mechanical energy [J] (model.md §7); inf or nan once the state has blown up."""
         with np.errstate(over="ignore", invalid="ignore"):
             return self.stepper.energy()
+
+    def inputs(self) -> np.ndarray:
+        """The model's inputs now (8,): pressures [Pa] (commanded + solar), tip forces [N]."""
+        return np.concatenate([self.pressures + self.solar_pressure, self.tip_forces])
+
+    def _use_loads(self) -> None:
+        """Hand the loads to the stepper: held constant from the next step on (so a change
+        lands on a step boundary)."""
+        u = self.inputs()
+        self.stepper.inputs = (lambda t: u) if u.any() else None
+
+    def powers(self) -> tuple[float, float]:
+        """`(load power qd^T Q, damping dissipation qd^T C_d qd)` [W] now."""
+        lengths = self.stepper.boom_motion()[0]
+        qd = self.stepper.qd
+        load = float(qd @ (self.model.input_matrix(lengths) @ self.inputs()))
+        return load, float(qd @ self.model.structural_damping(lengths) @ qd)
 
     def substeps(self) -> int:
         """Equal sub-steps the next grid step needs (`SailStepper.step_limit`)."""
@@ -158,6 +181,13 @@ class Simulation:
         self.error = None
         self.range_warning = ""
         self.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
+        self.pressures, self.tip_forces = np.zeros(4), np.zeros(4)
+        self._use_loads()
+
+    def set_solar_pressure(self, pressure: float) -> None:
+        """The uniform pressure [Pa] on every quadrant, on top of the commanded ones."""
+        self.solar_pressure = float(pressure)
+        self._use_loads()
 
     # -- commands ---------------------------------------------------------------------------
 
@@ -177,6 +207,38 @@ class Simulation:
             CommandError: why (counted in `rejected`); the motion is unchanged.
         """
         return self._command(lambda now: plan_trajectory(trajectory, now, limits))
+
+    def load(self, topic: str, message, limits: Limits):
+        """Apply a `sail/pressure_cmd` or `sail/tip_force_cmd` (see `load_commands`) from
+        the next step on; returns the `LoadChange`.
+
+        Raises:
+            CommandError: why (counted in `rejected`); the loads are unchanged.
+        """
+        pressure = topic == PRESSURE_CMD
+        try:
+            if self.error:
+                raise CommandError(
+                    "the integration stopped on a non-finite state; call sail/reset first"
+                )
+            change = plan_load(
+                topic,
+                message,
+                self.pressures if pressure else self.tip_forces,
+                limits.max_pressure if pressure else limits.max_tip_force,
+            )
+        except CommandError as error:
+            self.rejected += 1
+            self.last_rejection = str(error)
+            raise
+        if pressure:
+            self.pressures = change.values
+        else:
+            self.tip_forces = change.values
+        self._use_loads()
+        self.accepted += 1
+        self.last_command, self.last_command_start = change.summary, self.t
+        return change
 
     def _command(self, make_plan) -> Plan:
         try:

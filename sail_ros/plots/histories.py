@@ -38,6 +38,27 @@ def tip_deflections_figure(t, tips, path, title: str = "", time_label: str = TIM
 
 
 @styled
+def root_moments_figure(t, moments, path, title: str = "", time_label: str = TIME_LABEL,
+                        n_boom_modes: int | None = None):  # fmt: skip
+    """Root bending moments [N m] of booms a..d against time [s]; moments (k, 4). The
+    moment series converges slowly with n_B, so the title states it when known."""
+    fig, ax = figure(6.4, 3.4)
+    moments = np.asarray(moments)
+    for group in equal_groups(moments):
+        colour = BOOM_COLOURS[BOOMS[group[0]]]
+        ax.plot(t, moments[:, group[0]], color=colour, lw=1.2, label=_boom_label(group))
+    ax.set_xlabel(time_label)
+    ax.set_ylabel("root bending moment [N m]")
+    modes = f" (n_B = {n_boom_modes})" if n_boom_modes else ""
+    ax.set_title(_title(f"Boom root moments{modes}", title))
+    ax.legend(ncols=4, loc="upper right", frameon=False)
+    ax.margins(x=0)
+    _headroom(ax)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+@styled
 def boom_lengths_figure(t, lengths, rates, path, title: str = "", time_label: str = TIME_LABEL):
     """Boom lengths [m] and extension rates [m/s] of booms a..d against time [s];
     lengths and rates (k, 4). Booms that move alike share one line."""

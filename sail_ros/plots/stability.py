@@ -112,6 +112,62 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
 
 
 @styled
+def map_figure(sweeps, path, sail_prestress: float | None = None):
+    """Stable and unstable regions over rate x prestress, one panel per length, with
+    the critical prestress curve (deployment) and the sail's prestress."""
+    from sail_ros.analysis.stability import critical_curves
+
+    lengths = sorted({s.length for s in sweeps})
+    rates = sorted({s.rate for s in sweeps})
+    columns = min(len(lengths), 3)
+    rows = math.ceil(len(lengths) / columns)
+    fig, axes = figure(
+        3.4 * columns + 0.8, 3.2 * rows + 0.8, nrows=rows, ncols=columns, squeeze=False,
+        sharey=True,
+    )  # fmt: skip
+    curves = critical_curves(sweeps)
+    for ax, length in zip(axes.flat, lengths, strict=False):
+        here = {s.rate: s for s in sweeps if s.length == length}
+        prestress = next(iter(here.values())).prestress
+        unstable = np.array([here[r].unstable for r in rates], dtype=float).T
+        ax.pcolormesh(
+            np.arange(len(rates) + 1) - 0.5,
+            np.concatenate(
+                [prestress[:1] / 1.2, np.sqrt(prestress[1:] * prestress[:-1]), prestress[-1:] * 1.2]
+            ),  # fmt: skip
+            unstable,
+            cmap=matplotlib.colors.ListedColormap(["#cfe8cf", "#f3c2c2"]),
+            vmin=0,
+            vmax=1,
+            shading="flat",
+        )
+        points = curves.get(length, [])
+        if points:
+            ax.plot([rates.index(r) for r, _ in points], [c for _, c in points], "k-o", ms=3,
+                    lw=1.2, label="critical prestress")  # fmt: skip
+        if sail_prestress is not None:
+            ax.axhline(sail_prestress, color="0.3", lw=1.0, ls="--", label="sail")
+        ax.set_yscale("log")
+        ax.set_xticks(range(len(rates)), [f"{r:g}" for r in rates], rotation=60)
+        ax.set_title(f"L = {length:.4g} m")
+        ax.set_xlabel("extension rate [m/s]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("membrane prestress $\\sigma$ [Pa]")
+    for ax in axes.flat[len(lengths) :]:
+        ax.set_visible(False)
+    handles = [
+        matplotlib.patches.Patch(color="#cfe8cf", label="stable"),
+        matplotlib.patches.Patch(color="#f3c2c2", label="unstable"),
+        Line2D([], [], color="k", marker="o", ms=3, label="critical prestress"),
+        Line2D([], [], color="0.3", ls="--", label="sail's prestress"),
+    ]
+    fig.legend(handles=handles, loc="lower center", ncols=4, frameon=False)
+    fig.suptitle("Stability map (seed Eq. 3, frozen length, constant rate)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    return save(fig, path)
+
+
+@styled
 def loci_figure(
     prestresses, eigenvalues, length: float, rate: float, path, critical: float | None = None
 ):

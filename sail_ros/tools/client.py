@@ -55,7 +55,7 @@ class SimClient(Node):
         self.latest: dict[str, object] = {}
         self.received = 0  # state messages taken
         if watch:
-            for name_ in (topics.BOOM_STATE, topics.TIP_DEFLECTION):
+            for name_ in (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT):
                 self.create_subscription(JointState, name_, self._keeper(name_), topics.STATE_QOS)
             self.create_subscription(
                 DiagnosticArray, topics.DIAGNOSTICS, self._on_diagnostics, topics.DIAGNOSTICS_QOS

@@ -62,6 +62,8 @@ def describe_parameters(params: SailParameters) -> str:
             f"  boom axial load P       {params.boom_axial_load:g} N",
             f"  modes n_B, n_M          {params.n_boom_modes}, {params.n_membrane_modes} "
             f"({4 * params.n_boom_modes + 4 * params.n_membrane_modes} coordinates)",
+            f"  Rayleigh damping        alpha = {params.mass_damping:g} 1/s, "
+            f"beta = {params.stiffness_damping:g} s",
         ]
     )
 

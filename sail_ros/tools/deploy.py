@@ -26,6 +26,7 @@ from sail_ros.analysis.deployment import output_times, run_deployment
 from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
 from sail_ros.cli import PHYSICS_DOC
 from sail_ros.model import SailModel, SailParameters
+from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.tools.common import (
     add_sail_options,
     describe_parameters,
@@ -64,7 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--every", type=float, default=1.0, help="output interval for the table [s] (1)"
     )
-    parser.add_argument("--max-step", type=float, default=0.2, help="largest integration step [s]")
+    parser.add_argument(
+        "--max-step", type=float, default=DEFAULT_MAX_STEP, help="largest integration step [s]"
+    )
     parser.add_argument(
         "--summary",
         action="store_true",

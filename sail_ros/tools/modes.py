@@ -47,10 +47,22 @@ FEM_COMPARED = 6  # frequencies compared, as in the seed's Tab. 2
 AGREEMENT_PERCENT = 1.0
 
 
-def frequency_table(omega: np.ndarray, count: int) -> str:
-    """Rows `mode(s)  omega [rad/s]  f [Hz]  period [s]  multiplicity` for the first
-    `count` frequencies (whole groups)."""
+def damping_ratios(params, omega: np.ndarray) -> np.ndarray | None:
+    """Rayleigh damping ratios `alpha / (2 omega) + beta omega / 2` of the modes at
+    rest (model.md §12); None for an undamped sail."""
+    alpha, beta = params.mass_damping, params.stiffness_damping
+    if alpha == 0.0 and beta == 0.0:
+        return None
+    with np.errstate(divide="ignore"):
+        return alpha / (2.0 * np.abs(omega)) + beta * np.abs(omega) / 2.0
+
+
+def frequency_table(omega: np.ndarray, count: int, zeta: np.ndarray | None = None) -> str:
+    """Rows `mode(s)  omega [rad/s]  f [Hz]  period [s]  multiplicity` (and the damping
+    ratio when `zeta` is given) for the first `count` frequencies (whole groups)."""
     lines = [f"  {'mode':<8}{'omega [rad/s]':>15}{'f [Hz]':>12}{'period [s]':>12}  multiplicity"]
+    if zeta is not None:
+        lines[0] += f"{'zeta':>10}"
     for first, multiplicity in group_multiplicities(omega):
         if first >= count:
             break
@@ -58,14 +70,17 @@ def frequency_table(omega: np.ndarray, count: int) -> str:
         value = omega[first]
         period = f"{2 * np.pi / value:12.2f}" if value > 0 else f"{'divergent':>12}"
         hertz = value / (2 * np.pi)
-        lines.append(f"  {label:<8}{value:15.5f}{hertz:12.6f}{period}  {multiplicity}")
+        line = f"  {label:<8}{value:15.5f}{hertz:12.6f}{period}  {multiplicity:<12}"
+        if zeta is not None:
+            line += f"{zeta[first]:10.4g}"
+        lines.append(line.rstrip())
     return "\n".join(lines)
 
 
-def frequency_rows(omega: np.ndarray, count: int) -> list[dict]:
+def frequency_rows(omega: np.ndarray, count: int, zeta: np.ndarray | None = None) -> list[dict]:
     """One record per frequency (the first `count`, whole groups): mode number,
     omega [rad/s], f [Hz], period [s] (None if divergent), distinct-frequency
-    group and its multiplicity."""
+    group and its multiplicity, and the damping ratio when `zeta` is given."""
     rows = []
     for group, (first, multiplicity) in enumerate(group_multiplicities(omega), start=1):
         if first >= count:
@@ -80,6 +95,7 @@ def frequency_rows(omega: np.ndarray, count: int) -> list[dict]:
                     "period_s": 2 * np.pi / value if value > 0 else None,
                     "group": group,
                     "multiplicity": multiplicity,
+                    **({"damping_ratio": float(zeta[index])} if zeta is not None else {}),
                 }
             )
     return rows
@@ -268,7 +284,8 @@ def _modes(args) -> int:
     print(f"Natural frequencies of the sail, boom lengths {shown} m, at rest")
     print(describe_parameters(params))
     print()
-    print(frequency_table(omega, args.count))
+    zeta = damping_ratios(params, omega)
+    print(frequency_table(omega, args.count, zeta))
 
     check = None
     if args.fem:
@@ -284,7 +301,7 @@ def _modes(args) -> int:
         print(cross_check_table(check))
 
     written = []
-    rows = frequency_rows(omega, args.count)
+    rows = frequency_rows(omega, args.count, zeta)
     if args.csv:
         write_csv_rows(args.csv, rows)
         written.append(args.csv)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import sys
 from pathlib import Path
 
@@ -35,6 +36,7 @@ from sail_ros.plots.histories import (
     boom_lengths_figure,
     energies_figure,
     real_time_factor_figure,
+    root_moments_figure,
     tip_deflections_figure,
 )
 from sail_ros.tools.common import (
@@ -132,6 +134,23 @@ def _report(args) -> int:
                 time_label=time_label,
             )
         )
+    if log.moments is not None and log.moments.effort.size:
+        t = log.seconds(log.moments.stamp_ns)
+        params = _recorded_parameters(log)
+        print(
+            f"  root moments: peak |M| {np.abs(log.moments.effort).max():.4g} N m"
+            + (f" (n_B = {params.n_boom_modes})" if params else "")
+        )
+        written.append(
+            root_moments_figure(
+                t,
+                log.moments.effort,
+                out / "root_moments.png",
+                title=args.log.name,
+                time_label=time_label,
+                n_boom_modes=params.n_boom_modes if params else None,
+            )
+        )
     if log.boom is not None:
         t = log.seconds(log.boom.stamp_ns)
         print(f"  boom lengths: {log.boom.position.min():.3f} .. {log.boom.position.max():.3f} m")
@@ -152,11 +171,19 @@ def _report(args) -> int:
     return 0
 
 
+def _recorded_parameters(log):
+    """The log's sail parameters, or None when it has none or they do not parse."""
+    try:
+        return log.sail_parameters()
+    except ValueError:
+        return None
+
+
 def _write_states(log, path: Path) -> Path:
-    """One row per stamp of boom_state and tip_deflection (empty where one is missing)."""
-    stamps = np.union1d(
-        log.boom.stamp_ns if log.boom else [], log.tips.stamp_ns if log.tips else []
-    ).astype(np.int64)
+    """One row per stamp of boom_state, tip_deflection and root_moment (empty where one
+    is missing)."""
+    present = [s.stamp_ns for s in (log.boom, log.tips, log.moments) if s is not None]
+    stamps = functools.reduce(np.union1d, present, np.array([], dtype=np.int64)).astype(np.int64)
     header = ["t_s", "stamp_ns"]
     columns = [log.seconds(stamps), stamps]
     for series, names in (
@@ -169,6 +196,11 @@ def _write_states(log, path: Path) -> Path:
             rows = np.searchsorted(stamps, series.stamp_ns)
             block[rows] = np.hstack([series.position, series.velocity])
         columns += list(block.T)
+    header += [f"{boom}_root_moment_N_m" for boom in BOOMS]
+    block = np.full((stamps.size, 4), np.nan)
+    if log.moments is not None and log.moments.effort.size:
+        block[np.searchsorted(stamps, log.moments.stamp_ns)] = log.moments.effort
+    columns += list(block.T)
     return _write_csv(path, header, columns)
 
 

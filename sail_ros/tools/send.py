@@ -8,6 +8,9 @@ simulator answered within --timeout; 2 for a bad command line.
     sail-ros send deploy 30
     sail-ros send move --booms a c --point 20 20 25
     sail-ros send move --booms b --point 10 12 --point 30 20
+    sail-ros send pressure --quadrants ab cd --values 2e-3 1e-3
+    sail-ros send tip-force --booms b --values 0.05
+    sail-ros send tip-force --booms a b c d --values 0
     sail-ros send pause
     sail-ros send resume
     sail-ros send reset
@@ -29,6 +32,21 @@ from sail_ros import topics
 from sail_ros.tools.client import SimClient, run_client
 
 BOOMS = "abcd"
+QUADRANTS = ("ab", "bc", "cd", "da")
+
+
+def load_command(args) -> tuple[str, object]:
+    """`(topic, message)` of a `pressure` or `tip-force` command line."""
+    if args.command == "pressure":
+        topic, names = topics.PRESSURE_CMD, [f"quadrant_{q}" for q in args.quadrants]
+    else:
+        topic, names = topics.TIP_FORCE_CMD, [f"boom_{b}" for b in args.booms]
+    values = args.values
+    if len(values) == 1 and len(names) > 1:
+        values = values * len(names)
+    if len(values) != len(names):
+        raise ValueError(f"--values: one value, or one per name ({len(names)}), got {len(values)}")
+    return topic, topics.load_command(topic, dict(zip(names, values, strict=True)))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -75,6 +93,24 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="VALUE",
         help="TIME LENGTH [LENGTH ...]: when [s from now] and where [m] (repeatable)",
     )
+    pressure = commands.add_parser(
+        "pressure",
+        help="uniform pressure [Pa] on named quadrants (sail/pressure_cmd)",
+        description="Set the pressure [Pa, +z] on the named quadrants from the next step on; "
+        "the others keep theirs. Limit: the simulator's max_pressure.",
+    )
+    pressure.add_argument(
+        "--quadrants", nargs="+", required=True, choices=list(QUADRANTS), help="ab bc cd da"
+    )
+    pressure.add_argument("--values", nargs="+", type=float, required=True, help="Pa, one each")
+    force = commands.add_parser(
+        "tip-force",
+        help="force [N] at the tips of named booms (sail/tip_force_cmd)",
+        description="Set the force [N, +z] at the tips of the named booms from the next step "
+        "on; the others keep theirs. Limit: the simulator's max_tip_force.",
+    )
+    force.add_argument("--booms", nargs="+", required=True, choices=list(BOOMS), help="a b c d")
+    force.add_argument("--values", nargs="+", type=float, required=True, help="N, one each")
     commands.add_parser("pause", help="hold the simulation (sail/pause, true)")
     commands.add_parser("resume", help="go on (sail/pause, false)")
     commands.add_parser("reset", help="back to the initial state (sail/reset)")
@@ -115,6 +151,10 @@ def run(args, client: SimClient) -> int:
             start, end = (float(answer.values[k]) for k in ("t_start_s", "t_end_s"))
             print(f"  from t = {start:.3f} s to {end:.3f} s (simulation time)")
         return 0 if answer.outcome == topics.ACCEPTED else 1
+    if args.command in ("pressure", "tip-force"):
+        answer = client.send(*load_command(args), args.timeout)
+        print(f"{answer.outcome}: {answer.message}")
+        return 0 if answer.outcome == topics.ACCEPTED else 1
     if args.command == "reset":
         response = client.call(topics.RESET_SERVICE, Trigger.Request(), args.timeout)
     else:
@@ -128,11 +168,13 @@ def check(args) -> str | None:
     """Why the command line cannot be sent (None if it can)."""
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         return f"--timeout must be > 0 s, got {args.timeout:g}"
-    if args.command == "move":
-        try:
-            trajectory(args.booms, args.point)  # a bad point is a usage error, before ROS
-        except ValueError as error:
-            return str(error)
+    try:  # a bad point or value count is a usage error, before ROS
+        if args.command == "move":
+            trajectory(args.booms, args.point)
+        if args.command in ("pressure", "tip-force"):
+            load_command(args)
+    except ValueError as error:
+        return str(error)
     return None
 
 

@@ -3,12 +3,15 @@
 For every boom length and extension rate (deployment > 0, retraction < 0),
 the largest real part of the seed's Eq. 3 eigenvalues over a log-spaced
 prestress grid, and the critical prestress below which the frozen system is
-unstable (bracketed on the grid, then bisected). The grid runs in parallel
-processes; see `sail_ros.analysis.stability` for the physics and the
-numerical instability threshold.
+unstable (bracketed on the grid, then bisected), and per length the critical
+prestress against the rate. Each (length, rate) is one case on Dask: a local
+cluster by default, an existing one with --scheduler. See
+`sail_ros.analysis.stability` for the physics and the numerical instability
+threshold.
 
     sail-ros stability
     sail-ros stability --lengths 10 35 70.71 --rates -0.1 0.1 1 --figures out/ --csv out/crit.csv
+    sail-ros stability --lengths 20 40 70.71 --scheduler tcp://10.0.0.5:8786
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from sail_ros.analysis.stability import (
     stability_sweep,
 )
 from sail_ros.cli import PHYSICS_DOC
+from sail_ros.tools.cluster import add_cluster_options, dask_client
 from sail_ros.tools.common import (
     add_sail_options,
     describe_parameters,
@@ -77,7 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
     grid.add_argument(
         "--points", type=int, help=f"prestress grid points (default {POINTS_PER_DECADE} per decade)"
     )
-    grid.add_argument("--jobs", type=int, help="worker processes (default: all cores)")
+    add_cluster_options(parser)
     output = parser.add_argument_group("output")
     output.add_argument(
         "--csv",
@@ -153,9 +157,12 @@ def _stability(args) -> int:
     prestresses = np.logspace(np.log10(low), np.log10(high), points)
 
     total = len(lengths) * len(args.rates) * points
-    with tqdm(total=total, unit="pt", disable=None, leave=False, file=sys.stderr) as bar:
+    if np.any(np.asarray(lengths) <= 0):  # before starting a cluster
+        raise ValueError(f"lengths must be > 0 [m], got {list(lengths)!r}")
+    bar = tqdm(total=total, unit="pt", disable=None, leave=False, file=sys.stderr)
+    with dask_client(args.scheduler, args.workers) as client, bar:
         sweeps = stability_sweep(
-            params, lengths, args.rates, prestresses, jobs=args.jobs, progress=bar.update
+            params, lengths, args.rates, prestresses, client=client, progress=bar.update
         )
     rows = _critical_rows(sweeps, params)
 
@@ -209,10 +216,13 @@ def _stability(args) -> int:
         )
         written.append(args.grid_csv)
     if args.figures:
-        from sail_ros.plots.stability import loci_figure, max_real_figure
+        from sail_ros.plots.stability import loci_figure, map_figure, max_real_figure
 
         written.append(
             max_real_figure(sweeps, args.figures / "stability.png", params.membrane_prestress)
+        )
+        written.append(
+            map_figure(sweeps, args.figures / "stability_map.png", params.membrane_prestress)
         )
         deploying = [r for r in args.rates if r > 0]
         rate = (

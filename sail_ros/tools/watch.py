@@ -51,6 +51,7 @@ def snapshot(client: SimClient) -> dict:
     status = client.latest["diagnostics"]
     values = {pair.key: pair.value for pair in status.values}
     answer = client.latest.get("answer")
+    moments = client.latest.get(topics.ROOT_MOMENT)
     return {
         "simulator": client.sim_name,
         "level": ("OK", "WARN", "ERROR", "STALE")[min(int.from_bytes(status.level), 3)],
@@ -62,6 +63,11 @@ def snapshot(client: SimClient) -> dict:
         "boom_length_m": dict(zip("abcd", map(float, booms.position), strict=True)),
         "boom_rate_m_s": dict(zip("abcd", map(float, booms.velocity), strict=True)),
         "tip_deflection_m": dict(zip("abcd", map(float, tips.position), strict=True)),
+        "root_moment_N_m": dict(
+            zip("abcd", map(float, moments.effort if moments else [math.nan] * 4), strict=True)
+        ),
+        "load_power_W": float(values.get("load_power_W", "nan")),
+        "damping_dissipation_W": float(values.get("damping_dissipation_W", "nan")),
         "accepted_commands": int(values.get("accepted_commands", "0")),
         "rejected_commands": int(values.get("rejected_commands", "0")),
         "last_command": values.get("last_command", ""),
@@ -86,6 +92,9 @@ def table(view: dict) -> str:
             row("length [m]", view["boom_length_m"]),
             row("rate [m/s]", view["boom_rate_m_s"], digits=4),
             row("tip deflection [mm]", view["tip_deflection_m"], scale=1e3),
+            row("root moment [N m]", view["root_moment_N_m"], digits=4),
+            f"  load power {view['load_power_W']:.4g} W, damping dissipation "
+            f"{view['damping_dissipation_W']:.4g} W",
             f"  commands: {view['accepted_commands']} accepted, "
             f"{view['rejected_commands']} rejected",
             f"  last command: {view['last_command'] or '-'}",

@@ -1,0 +1,95 @@
+"""Benchmark of Monte Carlo studies on Dask: 1000 samples of the reference deployment.
+
+Prints, on this machine: the wall time of the study on a local cluster of 1 and
+of 2 worker processes (one thread each) and the speed-up; the time of one sample
+called directly; Dask's overhead per case (an empty case through the cluster,
+and the study's wall time per sample beyond the direct cost); and the cluster
+size (workers like these) that a 100 000-sample study needs to finish in ten
+minutes.
+
+    python benchmarks/montecarlo_dask.py [--samples 1000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+STUDY = {
+    "study": {
+        "description": "benchmark: the reference deployment, scattered",
+        "samples": 1000,
+        "seed": 1,
+        "output_rate_hz": 10.0,
+        "scenario": {
+            "scenario": {
+                "duration": 15.0,
+                "profile": {"type": "cycloidal", "start": 10.0, "end": 15.0, "duration": 15.0},
+                "initial": {"mode_state": {"a": 0.1}},
+            }
+        },
+        "dispersions": {
+            "boom_bending_stiffness": {"distribution": "normal", "mean": 6000.0, "std": 300.0},
+            "membrane_prestress": {"distribution": "lognormal", "median": 6890.0, "sigma": 0.2},
+            "initial_tip_deflection.a": {"distribution": "uniform", "low": 0.05, "high": 0.15},
+            "rate.b": {"distribution": "normal", "mean": 1.0, "std": 0.05},
+        },
+    }
+}
+
+
+def empty(case):
+    return case
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=1000)
+    args = parser.parse_args()
+
+    from sail_ros.analysis.execution import run_cases
+    from sail_ros.analysis.montecarlo import run_sample, study_from_dict
+    from sail_ros.model import SailParameters
+    from sail_ros.tools.cluster import dask_client
+
+    study = study_from_dict({"study": {**STUDY["study"], "samples": args.samples}})
+    base = SailParameters().to_dict()
+    cases = [(study, i, base) for i in range(args.samples)]
+
+    run_sample(cases[0])  # integrals built and cached, as in a warm worker
+    started = time.perf_counter()
+    for case in cases[:20]:
+        row = run_sample(case)
+        assert not row["error"], row["error"]
+    direct = (time.perf_counter() - started) / 20
+
+    walls = {}
+    for workers in (1, 2):
+        with dask_client(workers=workers) as client:
+            client.run(run_sample, cases[0])  # warm every worker: integrals built once each
+            started = time.perf_counter()
+            outcome = run_cases(run_sample, cases, client)
+            walls[workers] = time.perf_counter() - started
+            assert not any(r["error"] for r in outcome.results)
+            if workers == 2:
+                started = time.perf_counter()
+                run_cases(empty, list(range(2000)), client)
+                empty_per_case = (time.perf_counter() - started) / 2000
+
+    per_sample_1 = walls[1] / args.samples
+    print(f"samples                      {args.samples} (reference deployment, n_B, n_M = 4, 6)")
+    print(f"one sample, called directly  {1e3 * direct:.1f} ms")
+    print(f"1 worker                     {walls[1]:.1f} s  ({1e3 * per_sample_1:.1f} ms/sample)")
+    print(f"2 workers                    {walls[2]:.1f} s  (speed-up {walls[1] / walls[2]:.2f}x)")
+    print(f"Dask overhead per case       {1e3 * (per_sample_1 - direct):.2f} ms in the study "
+          f"(1 worker), {1e3 * empty_per_case:.2f} ms for an empty case (2 workers)")  # fmt: skip
+    needed = 100_000 * per_sample_1 / 600.0
+    print(f"100 000 samples in 10 min    about {needed:.0f} workers like these "
+          f"({100_000 * per_sample_1 / 3600:.1f} worker-hours)")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

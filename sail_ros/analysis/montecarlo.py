@@ -1,0 +1,386 @@
+"""Monte Carlo deployments: a base scenario, dispersed inputs, one run per sample.
+
+A study file (see config/study_reference.yaml)::
+
+    study:
+      description: free text
+      samples: 200
+      seed: 7
+      scenario: scenario_reference.yaml   # a file (relative to the study file) or a mapping
+      output_rate_hz: 10                  # samples of each run [Hz]
+      dispersions:                        # any subset; keys below
+        boom_bending_stiffness: {distribution: normal, mean: 6000.0, std: 300.0}
+        membrane_prestress: {distribution: lognormal, median: 6890.0, sigma: 0.2}
+        initial_tip_deflection.a: {distribution: uniform, low: 0.05, high: 0.15}
+        rate.b: {distribution: normal, mean: 1.0, std: 0.05}
+      jam: {probability: 0.1, fraction: {distribution: uniform, low: 0.2, high: 0.9}}
+
+Keys: a float field of `SailParameters`; `initial_tip_deflection.<boom>` [m]
+(the boom bent in its first mode); `rate.<boom>`, a factor on that boom's
+deployment rate (its cycloidal profile runs in duration / factor). `jam`: with
+`probability`, one boom (drawn uniformly) stops dead at `fraction` of its
+travel. Distributions: `normal` (mean, std), `uniform` (low, high),
+`lognormal` (median, sigma of the log).
+
+Every sample's inputs come from its own generator, seeded by (study seed,
+sample index), so a sample gives the same numbers wherever and in whatever
+order it runs. A sample is written out as an ordinary scenario file
+(`sample_scenario`): `sail-ros deploy` reruns it to the same numbers.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+
+from sail_ros.analysis.deployment import output_times, run_deployment
+from sail_ros.analysis.scenario import BOOMS, scenario_from_dict
+from sail_ros.model import SailModel, SailParameters, yaml_values
+
+DISTRIBUTIONS = {
+    "normal": ("mean", "std"),
+    "uniform": ("low", "high"),
+    "lognormal": ("median", "sigma"),
+}
+STUDY_KEYS = {
+    "description", "samples", "seed", "scenario", "output_rate_hz", "dispersions", "jam",
+}  # fmt: skip
+FLOAT_FIELDS = tuple(
+    name
+    for name in SailParameters.field_names()
+    if name not in ("n_boom_modes", "n_membrane_modes")
+)
+OUTPUTS = (
+    *(f"peak_tip_{b}_m" for b in BOOMS),
+    *(f"peak_tip_{b}_time_s" for b in BOOMS),
+    *(f"peak_root_moment_{b}_N_m" for b in BOOMS),
+    "peak_tip_m",
+    "final_energy_J",
+    "stability_margin_1_s",
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Distribution:
+    """A scalar distribution: normal (a = mean, b = std), uniform (a = low, b = high)
+    or lognormal (a = median, b = sigma of the log)."""
+
+    kind: str
+    a: float
+    b: float
+
+    def draw(self, rng: np.random.Generator) -> float:
+        if self.kind == "normal":
+            return float(rng.normal(self.a, self.b))
+        if self.kind == "uniform":
+            return float(rng.uniform(self.a, self.b))
+        return float(self.a * math.exp(rng.normal(0.0, self.b)))
+
+
+@dataclasses.dataclass(frozen=True)
+class Study:
+    """A validated study (see the module docstring)."""
+
+    description: str
+    samples: int
+    seed: int
+    scenario: dict  # the base scenario document
+    output_rate_hz: float
+    dispersions: dict[str, Distribution]  # key -> distribution, in sorted key order
+    jam_probability: float
+    jam_fraction: Distribution | None
+
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        jam = ("jam_boom", "jam_fraction") if self.jam_fraction is not None else ()
+        return (*self.dispersions, *jam)
+
+
+def load_study(path) -> Study:
+    """Read and validate a study file (ValueError naming the key)."""
+    path = Path(path)
+    document = yaml_values.load_file(path, "study")
+    try:
+        return study_from_dict(document, path.parent)
+    except ValueError as error:
+        raise ValueError(f"{path}: {error}") from None
+
+
+def study_from_dict(document, folder: Path = Path(".")) -> Study:
+    if not isinstance(document, dict) or set(document) != {"study"}:
+        raise ValueError("expected a mapping with one section 'study'")
+    body = document["study"]
+    if not isinstance(body, dict):
+        raise ValueError(f"study must be a mapping, got {body!r}")
+    unknown = sorted(set(body) - STUDY_KEYS)
+    if unknown:
+        raise ValueError(f"study: unknown key(s) {', '.join(map(repr, unknown))}")
+    samples = body.get("samples")
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise ValueError(f"study.samples must be an integer >= 1, got {samples!r}")
+    seed = body.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"study.seed must be an integer >= 0, got {seed!r}")
+    rate = body.get("output_rate_hz", 10.0)
+    if not isinstance(rate, (int, float)) or not math.isfinite(rate) or rate <= 0:
+        raise ValueError(f"study.output_rate_hz must be > 0, got {rate!r}")
+    scenario = _scenario_document(body.get("scenario"), folder)
+    dispersions = body.get("dispersions") or {}
+    if not isinstance(dispersions, dict):
+        raise ValueError(f"study.dispersions must be a mapping, got {dispersions!r}")
+    checked = {}
+    for key in sorted(dispersions):
+        _check_key(key, scenario)
+        checked[key] = _distribution(dispersions[key], f"study.dispersions.{key}")
+    probability, fraction = 0.0, None
+    jam = body.get("jam")
+    if jam is not None:
+        if not isinstance(jam, dict) or set(jam) - {"probability", "fraction"}:
+            raise ValueError(f"study.jam takes probability and fraction, got {jam!r}")
+        probability = jam.get("probability")
+        if not isinstance(probability, (int, float)) or not 0.0 <= probability <= 1.0:
+            raise ValueError(f"study.jam.probability must be in [0, 1], got {probability!r}")
+        fraction = _distribution(jam.get("fraction"), "study.jam.fraction")
+        _cycloidal_booms(scenario, "study.jam")
+    study = Study(
+        str(body.get("description", "")),
+        samples,
+        seed,
+        scenario,
+        float(rate),
+        checked,
+        float(probability),
+        fraction,
+    )
+    sample_scenario(study, 0)  # the base scenario with the first draw must be valid
+    return study
+
+
+def _scenario_document(spec, folder: Path) -> dict:
+    if isinstance(spec, str):
+        path = folder / spec
+        try:
+            document = yaml_values.load(path.read_text())
+        except OSError as error:
+            raise ValueError(
+                f"study.scenario: cannot read {str(path)!r}: {error.strerror}"
+            ) from None
+    elif isinstance(spec, dict):
+        document = spec
+    else:
+        raise ValueError(f"study.scenario must be a scenario file or mapping, got {spec!r}")
+    try:
+        scenario_from_dict(document)
+    except ValueError as error:
+        raise ValueError(f"study.scenario: {error}") from None
+    return copy.deepcopy(document)
+
+
+def _check_key(key: str, scenario: dict) -> None:
+    head, _, boom = key.partition(".")
+    if not boom and key in FLOAT_FIELDS:
+        return
+    if head in ("initial_tip_deflection", "rate") and boom in BOOMS:
+        if head == "rate":
+            _cycloidal_booms(scenario, f"study.dispersions.{key}")
+        return
+    raise ValueError(
+        f"study.dispersions: unknown key {key!r}; keys are SailParameters fields "
+        f"({', '.join(FLOAT_FIELDS)}), initial_tip_deflection.<boom>, rate.<boom> "
+        "(boom a, b, c or d)"
+    )
+
+
+def _cycloidal_booms(scenario: dict, where: str) -> None:
+    profile = scenario["scenario"]["profile"]
+    specs = [profile] if "type" in profile else [profile[b] for b in BOOMS]
+    if any(spec.get("type") != "cycloidal" for spec in specs):
+        raise ValueError(f"{where} needs a cycloidal base profile (one, or one per boom)")
+
+
+def _distribution(spec, where: str) -> Distribution:
+    if not isinstance(spec, dict) or spec.get("distribution") not in DISTRIBUTIONS:
+        raise ValueError(
+            f"{where} must be a mapping with distribution: {' | '.join(DISTRIBUTIONS)}, "
+            f"got {spec!r}"
+        )
+    kind = spec["distribution"]
+    names = DISTRIBUTIONS[kind]
+    if set(spec) != {"distribution", *names}:
+        raise ValueError(f"{where}: a {kind} distribution takes {', '.join(names)}, got {spec!r}")
+    a, b = spec[names[0]], spec[names[1]]
+    for name, value in zip(names, (a, b), strict=True):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise ValueError(f"{where}.{name} must be a finite number, got {value!r}")
+    if kind == "normal" and b < 0 or kind == "lognormal" and (a <= 0 or b < 0):
+        raise ValueError(
+            f"{where}: impossible {kind} distribution {names[0]} = {a}, {names[1]} = {b}"
+        )
+    if kind == "uniform" and not a <= b:
+        raise ValueError(f"{where}: uniform needs low <= high, got {a} > {b}")
+    return Distribution(kind, float(a), float(b))
+
+
+def sample_inputs(study: Study, index: int) -> dict[str, float]:
+    """The inputs of sample `index`: from the generator seeded (study seed, index),
+    drawn in a fixed order (dispersions by key, then the jam)."""
+    rng = np.random.default_rng([study.seed, index])
+    values = {key: distribution.draw(rng) for key, distribution in study.dispersions.items()}
+    if study.jam_fraction is not None:
+        jammed = rng.random() < study.jam_probability
+        boom = int(rng.integers(4))
+        fraction = study.jam_fraction.draw(rng)
+        values["jam_boom"] = float(boom) if jammed else -1.0
+        values["jam_fraction"] = fraction if jammed else math.nan
+    return values
+
+
+def sample_scenario(study: Study, index: int, inputs: dict | None = None) -> dict:
+    """Sample `index` as an ordinary scenario document (what `sail-ros deploy` runs)."""
+    inputs = sample_inputs(study, index) if inputs is None else inputs
+    document = copy.deepcopy(study.scenario)
+    body = document["scenario"]
+    sail = dict(document.get("sail") or {})
+    body["description"] = f"{body.get('description', '')} | study sample {index}".strip(" |")
+    profile = body["profile"]
+    per_boom = any(key.startswith("rate.") for key in inputs) or inputs.get("jam_boom", -1) >= 0
+    if per_boom and "type" in profile:
+        profile = {b: copy.deepcopy(profile) for b in BOOMS}
+        body["profile"] = profile
+    for key, value in inputs.items():
+        head, _, boom = key.partition(".")
+        if key in FLOAT_FIELDS:
+            sail[key] = value
+        elif head == "initial_tip_deflection":
+            initial = body.setdefault("initial", {}) or {}
+            body["initial"] = initial
+            modes = dict(initial.get("mode_state") or {})
+            modes[boom] = value
+            initial["mode_state"] = modes
+        elif head == "rate":
+            if not value > 0:
+                raise ValueError(f"rate.{boom} = {value:g}: a deployment rate factor must be > 0")
+            spec = profile[boom]
+            spec["duration"] = float(spec["duration"]) / value
+            if "t0" in spec:
+                spec["t0"] = float(spec["t0"]) / value
+    boom_index = int(inputs.get("jam_boom", -1.0))
+    if boom_index >= 0:
+        spec = profile[BOOMS[boom_index]]
+        start, end = (np.asarray(spec[k], dtype=float) for k in ("start", "end"))
+        start, end = np.broadcast_to(start, 4)[boom_index], np.broadcast_to(end, 4)[boom_index]
+        spec["stop_at"] = float(start + inputs["jam_fraction"] * (end - start))
+    if sail:
+        document["sail"] = sail
+    return document
+
+
+def run_sample(case) -> dict:
+    """One sample, as a row: its index, inputs and outputs, or its error (never raises).
+
+    `case` = (study, index, base sail parameters as a dict)."""
+    study, index, base_sail = case
+    row: dict = {"sample": index}
+    try:
+        inputs = sample_inputs(study, index)
+        row.update(inputs)
+        document = sample_scenario(study, index, inputs)
+        scenario = scenario_from_dict(document)
+        params = SailParameters.from_dict({**base_sail, **scenario.sail})
+        model = SailModel(params)
+        t_eval = output_times(scenario.duration, study.output_rate_hz)
+        run = run_deployment(model, scenario, t_eval)
+        with np.errstate(over="ignore", invalid="ignore"):
+            peaks = np.abs(run.tips).max(axis=0)
+            moments = np.abs(run.root_moments).max(axis=0)
+            energy = model.energy(run.q[-1], run.qd[-1], run.lengths[-1])
+            margin = float(model.eigenvalues(run.lengths[-1], run.rates[-1]).real.max())
+        if not (np.all(np.isfinite(peaks)) and math.isfinite(energy)):
+            raise ValueError("the state became non-finite")
+        when = run.t[np.abs(run.tips).argmax(axis=0)]
+        for k, boom in enumerate(BOOMS):
+            row[f"peak_tip_{boom}_m"] = float(peaks[k])
+            row[f"peak_tip_{boom}_time_s"] = float(when[k])
+            row[f"peak_root_moment_{boom}_N_m"] = float(moments[k])
+        row["peak_tip_m"] = float(peaks.max())
+        row["final_energy_J"] = float(energy)
+        row["stability_margin_1_s"] = margin
+        row["error"] = ""
+        row["_tips"] = run.tips.astype(np.float32)  # for the envelopes, not the CSV
+        row["_t"] = run.t
+    except Exception as error:  # a sample that fails is a row, not a crashed study
+        row["error"] = f"{type(error).__name__}: {error}".replace("\n", " ")
+    return row
+
+
+@dataclasses.dataclass(frozen=True)
+class Summary:
+    """What a study found, over the samples that ran.
+
+    Attributes:
+        succeeded, failed: sample counts.
+        percentiles: output -> (5 %, 50 %, 95 %).
+        influence: (input, Spearman rank correlation with peak_tip_m), strongest first.
+        worst: sample indices with the largest peak_tip_m, worst first (up to five).
+    """
+
+    succeeded: int
+    failed: int
+    percentiles: dict[str, tuple[float, float, float]]
+    influence: list[tuple[str, float]]
+    worst: list[int]
+
+
+def summarize(study: Study, rows: list[dict], worst: int = 5) -> Summary:
+    import scipy.stats
+
+    good = [row for row in rows if row is not None and not row.get("error")]
+    failed = sum(1 for row in rows if row is not None and row.get("error"))
+    percentiles = {}
+    for name in OUTPUTS:
+        values = np.array([row[name] for row in good], dtype=float)
+        if values.size:
+            low, middle, high = np.percentile(values, [5, 50, 95])
+            percentiles[name] = (float(low), float(middle), float(high))
+    peak = np.array([row["peak_tip_m"] for row in good], dtype=float)
+    influence = []
+    for name in study.input_names:
+        values = np.array([row[name] for row in good], dtype=float)
+        finite = np.isfinite(values)
+        if finite.sum() < 3 or np.ptp(values[finite]) == 0 or np.ptp(peak[finite]) == 0:
+            continue
+        rho = scipy.stats.spearmanr(values[finite], peak[finite]).statistic
+        influence.append((name, float(rho)))
+    influence.sort(key=lambda item: -abs(item[1]))
+    order = np.argsort(-peak, kind="stable")[:worst]
+    return Summary(len(good), failed, percentiles, influence, [good[i]["sample"] for i in order])
+
+
+def csv_columns(study: Study) -> list[str]:
+    return ["sample", *study.input_names, *OUTPUTS, "error"]
+
+
+def csv_text(study: Study, rows: list[dict]) -> str:
+    """The rows as CSV, floats in full (repr), samples in index order."""
+    columns = csv_columns(study)
+    lines = [",".join(columns)]
+    for row in sorted((r for r in rows if r is not None), key=lambda r: r["sample"]):
+        cells = []
+        for name in columns:
+            value = row.get(name, "")
+            if isinstance(value, float):
+                cells.append(repr(value))
+            elif name == "error":
+                cells.append('"' + str(value).replace('"', "'") + '"' if value else "")
+            else:
+                cells.append(str(value))
+        lines.append(",".join(cells))
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,104 @@
+"""The sail as a linear plant at frozen boom lengths and rates (model.md §12).
+
+`linear_plant` wraps `SailModel.state_space` with the names of its inputs,
+outputs and states; `poles` lists its modes (frequency, damping ratio) and
+`frequency_response` evaluates `C (jw I - A)^-1 B + D` on a frequency grid.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from sail_ros.model import SailModel
+from sail_ros.model.layout import per_boom
+from sail_ros.model.loads import INPUT_NAMES, INPUT_UNITS, OUTPUT_NAMES, OUTPUT_UNITS
+
+
+@dataclasses.dataclass(frozen=True)
+class LinearPlant:
+    """`xd = A x + B u`, `y = C x + D u` with `x = [q; qd]` (SI units).
+
+    Attributes:
+        A, B, C, D: the matrices.
+        lengths: boom lengths [m] (4,); rates: extension rates [m/s] (4,).
+        input_names, output_names, state_names: one name per column / row / state.
+        input_units, output_units: their units.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    lengths: np.ndarray
+    rates: np.ndarray
+    input_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+    state_names: tuple[str, ...]
+    input_units: tuple[str, ...] = INPUT_UNITS
+    output_units: tuple[str, ...] = OUTPUT_UNITS
+
+    def arrays(self) -> dict:
+        """Everything as arrays (for `.npz` and MATLAB `.mat`)."""
+        return {
+            "A": self.A,
+            "B": self.B,
+            "C": self.C,
+            "D": self.D,
+            "lengths_m": self.lengths,
+            "rates_m_s": self.rates,
+            "input_names": np.array(self.input_names),
+            "input_units": np.array(self.input_units),
+            "output_names": np.array(self.output_names),
+            "output_units": np.array(self.output_units),
+            "state_names": np.array(self.state_names),
+        }
+
+
+def linear_plant(model: SailModel, lengths, rates=0.0) -> LinearPlant:
+    """The plant at `lengths` [m] and constant `rates` [m/s] (scalars or 4 values)."""
+    lengths = per_boom(lengths, "lengths", positive=True)
+    rates = per_boom(rates, "rates")
+    A, B, C, D = model.state_space(lengths, rates)
+    names = model.coordinate_names
+    states = tuple(names) + tuple(f"d/dt {name}" for name in names)
+    return LinearPlant(A, B, C, D, lengths, rates, INPUT_NAMES, OUTPUT_NAMES, states)
+
+
+@dataclasses.dataclass(frozen=True)
+class Pole:
+    """One mode of the plant: a pole `s`, its natural frequency |s| [rad/s] and
+    damping ratio `-Re(s) / |s|` (negative: the mode grows)."""
+
+    s: complex
+    omega: float
+    zeta: float
+
+    @property
+    def hertz(self) -> float:
+        return self.omega / (2.0 * np.pi)
+
+
+def poles(plant: LinearPlant) -> list[Pole]:
+    """One pole per oscillatory pair (Im s >= 0) and every real pole, by frequency."""
+    eigenvalues = np.linalg.eigvals(plant.A)
+    kept = eigenvalues[eigenvalues.imag >= -1e-12 * np.maximum(1.0, np.abs(eigenvalues))]
+    result = []
+    for s in kept:
+        omega = float(abs(s))
+        zeta = float(-s.real / omega) if omega > 0 else 0.0
+        result.append(Pole(complex(s), omega, zeta))
+    return sorted(result, key=lambda pole: (pole.omega, pole.zeta))
+
+
+def frequency_response(plant: LinearPlant, omega) -> np.ndarray:
+    """`G(j w) = C (j w I - A)^-1 B + D` at angular frequencies `omega` [rad/s]:
+    shape (len(omega), outputs, inputs)."""
+    omega = np.asarray(omega, dtype=float)
+    n = plant.A.shape[0]
+    identity = np.eye(n)
+    response = np.empty((omega.size, plant.C.shape[0], plant.B.shape[1]), dtype=complex)
+    for k, w in enumerate(omega):
+        response[k] = plant.C @ np.linalg.solve(1j * w * identity - plant.A, plant.B) + plant.D
+    return response

@@ -1,0 +1,61 @@
+"""Figures of a Monte Carlo study: tip envelopes, peak histograms, the most
+influential input against the peak."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sail_ros.plots.common import BOOM_COLOURS, figure, save, styled
+
+BOOMS = "abcd"
+
+
+@styled
+def envelopes_figure(t, tips, path, title: str = ""):
+    """Median and 5-95 % band of each boom's tip deflection [mm] against time [s];
+    `tips` (samples, k, 4) on the common times `t`."""
+    fig, axes = figure(8.0, 5.0, nrows=2, ncols=2, sharex=True)
+    tips = 1e3 * np.asarray(tips)
+    for k, (ax, boom) in enumerate(zip(axes.ravel(), BOOMS, strict=True)):
+        low, middle, high = np.percentile(tips[:, :, k], [5, 50, 95], axis=0)
+        colour = BOOM_COLOURS[boom]
+        ax.fill_between(t, low, high, color=colour, alpha=0.25, lw=0, label="5-95 %")
+        ax.plot(t, middle, color=colour, lw=1.2, label="median")
+        ax.set_title(f"boom {boom}")
+        ax.set_ylabel("tip deflection [mm]")
+        ax.margins(x=0)
+    for ax in axes[1]:
+        ax.set_xlabel("t [s]")
+    axes[0, 0].legend(loc="upper right", frameon=False)
+    fig.suptitle(
+        f"Tip-deflection envelopes over {tips.shape[0]} samples" + (f"\n{title}" if title else "")
+    )
+    fig.tight_layout()
+    return save(fig, path)
+
+
+@styled
+def peaks_figure(peaks, path, title: str = ""):
+    """Histograms of each boom's peak |tip deflection| [mm]; `peaks` (samples, 4)."""
+    fig, axes = figure(8.0, 4.6, nrows=2, ncols=2)
+    peaks = 1e3 * np.asarray(peaks)
+    for k, (ax, boom) in enumerate(zip(axes.ravel(), BOOMS, strict=True)):
+        ax.hist(peaks[:, k], bins=30, color=BOOM_COLOURS[boom], alpha=0.8)
+        ax.set_title(f"boom {boom}")
+        ax.set_xlabel("peak |tip deflection| [mm]")
+        ax.set_ylabel("samples")
+    fig.suptitle("Peak tip deflections" + (f"\n{title}" if title else ""))
+    fig.tight_layout()
+    return save(fig, path)
+
+
+@styled
+def influence_figure(values, peaks, name: str, rho: float, path):
+    """The most influential input against the peak |tip deflection| [mm]."""
+    fig, ax = figure(6.0, 4.0)
+    ax.scatter(values, 1e3 * np.asarray(peaks), s=8, alpha=0.6, color="tab:blue")
+    ax.set_xlabel(name)
+    ax.set_ylabel("peak |tip deflection|, all booms [mm]")
+    ax.set_title(f"Most influential input: {name} (Spearman rho = {rho:+.3f})")
+    fig.tight_layout()
+    return save(fig, path)

@@ -1,0 +1,78 @@
+"""The Dask client of a study: a local cluster for the run, or an existing scheduler.
+
+    with dask_client(scheduler=None, workers=None) as client: ...
+
+Default: a `LocalCluster` started for the run, one worker process per core
+and one thread each (one BLAS thread too: the model's matrices are small and
+several threads per process only compete). `scheduler="tcp://host:8786"`
+uses a cluster started with the standard `dask scheduler` and `dask worker`
+commands; its workers must have sail_ros installed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import sys
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None):
+    """A connected `dask.distributed.Client`; the local cluster ends with the block."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by local workers
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        if workers is not None:
+            raise ValueError("--workers sizes a local cluster; it cannot go with --scheduler")
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as error:
+            raise ValueError(f"--scheduler {scheduler}: cannot connect ({error})") from None
+        print(f"Dask scheduler {scheduler}: {len(client.scheduler_info()['workers'])} worker(s)",
+              file=sys.stderr)  # fmt: skip
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    count = workers if workers is not None else (os.cpu_count() or 1)
+    if count < 1:
+        raise ValueError(f"--workers must be >= 1, got {count}")
+    with (
+        LocalCluster(
+            n_workers=count,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",  # a free port: never a clash with another cluster
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        where = f"; dashboard {client.dashboard_link}" if _has_dashboard() else ""
+        print(f"Dask local cluster: {count} worker process(es), 1 thread each{where}",
+              file=sys.stderr)  # fmt: skip
+        yield client
+
+
+def _has_dashboard() -> bool:
+    """Dask serves a dashboard only with bokeh installed."""
+    try:
+        import bokeh  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def add_cluster_options(parser) -> None:
+    group = parser.add_argument_group("execution (Dask)")
+    group.add_argument(
+        "--workers", type=int, help="worker processes of the local cluster (default: one per core)"
+    )
+    group.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="use an existing Dask cluster, e.g. tcp://10.0.0.5:8786 "
+        "(started with dask scheduler / dask worker)",
+    )

@@ -1,0 +1,155 @@
+"""`sail-ros plant`: the sail as a linear plant at given boom lengths and rates.
+
+Prints the poles (natural frequency [rad/s, Hz], damping ratio), writes the
+matrices `A, B, C, D` of `xd = A x + B u`, `y = C x + D u` (`x = [q; qd]`;
+inputs: 4 quadrant pressures [Pa], 4 tip forces [N]; outputs: 4 tip
+deflections [m], 4 root moments [N m]) with their names to `.npz` and
+MATLAB `.mat`, and a Bode figure of each tip force to its own boom's tip
+deflection and root moment. The matrices load into python-control as
+`control.ss(A, B, C, D)`.
+
+    sail-ros plant --lengths 30
+    sail-ros plant --lengths 20 22 20 22 --rates 0.1 --set mass_damping=0.02
+    sail-ros plant --lengths 30 --npz out/plant.npz --mat out/plant.mat --figure out/bode.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from sail_ros.analysis.plant import frequency_response, linear_plant, poles
+from sail_ros.cli import PHYSICS_DOC
+from sail_ros.model import SailModel
+from sail_ros.tools.common import (
+    add_sail_options,
+    describe_parameters,
+    print_written,
+    run,
+    sail_parameters,
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="sail-ros plant",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=__doc__.split("\n\n", 1)[1] + "\n" + PHYSICS_DOC,
+    )
+    add_sail_options(parser)
+    parser.add_argument(
+        "--lengths",
+        type=float,
+        nargs="+",
+        metavar="L",
+        help="boom lengths [m]: one for all booms or four (a b c d); default: fully deployed",
+    )
+    parser.add_argument(
+        "--rates",
+        type=float,
+        nargs="+",
+        default=[0.0],
+        metavar="LD",
+        help="constant extension rates [m/s], one or four (default 0)",
+    )
+    parser.add_argument("--count", type=int, default=12, help="poles to list (default 12)")
+    output = parser.add_argument_group("output")
+    output.add_argument("--npz", type=Path, metavar="FILE", help="write the plant as .npz")
+    output.add_argument("--mat", type=Path, metavar="FILE", help="write the plant as MATLAB .mat")
+    output.add_argument("--figure", type=Path, metavar="PNG", help="write the Bode figure")
+    output.add_argument(
+        "--band",
+        type=float,
+        nargs=2,
+        metavar=("F_MIN", "F_MAX"),
+        help="Bode frequency band [Hz] (default: a decade below the first pole to a decade "
+        "above the listed ones)",
+    )
+    return parser
+
+
+def _per_boom_option(values, name):
+    if len(values) not in (1, 4):
+        raise ValueError(f"{name} takes 1 or 4 values, got {len(values)}")
+    return values[0] if len(values) == 1 else values
+
+
+def _plant(args) -> int:
+    params = sail_parameters(args)
+    lengths = _per_boom_option(args.lengths or [params.full_boom_length], "--lengths")
+    rates = _per_boom_option(args.rates, "--rates")
+    model = SailModel(params)
+    if not 1 <= args.count <= 2 * model.n:
+        raise ValueError(f"--count must be in [1, {2 * model.n}], got {args.count}")
+    if args.band is not None and not 0 < args.band[0] < args.band[1]:
+        raise ValueError(f"--band needs 0 < F_MIN < F_MAX [Hz], got {args.band}")
+    plant = linear_plant(model, lengths, rates)
+    listed = poles(plant)[: args.count]
+    print(
+        f"Linear plant of the sail: lengths {', '.join(f'{v:.4g}' for v in plant.lengths)} m, "
+        f"rates {', '.join(f'{v:.4g}' for v in plant.rates)} m/s; {len(plant.state_names)} "
+        "states, 8 inputs, 8 outputs"
+    )
+    print(describe_parameters(params))
+    print()
+    print(f"  {'pole':>5}{'Re s [1/s]':>14}{'Im s [rad/s]':>14}{'omega [rad/s]':>15}"
+          f"{'f [Hz]':>12}{'zeta':>12}")  # fmt: skip
+    for i, pole in enumerate(listed, start=1):
+        # round-off of an undamped plant reads as 0, not as +-1e-16
+        tiny = abs(pole.s.real) < 1e-12 * max(pole.omega, 1.0)
+        real, zeta = (0.0, 0.0) if tiny else (pole.s.real, pole.zeta)
+        print(
+            f"  {i:>5}{real:>14.5g}{pole.s.imag:>14.6g}{pole.omega:>15.6g}"
+            f"{pole.hertz:>12.5g}{zeta:>12.4g}"
+        )
+    unstable = [p for p in poles(plant) if p.s.real > 1e-9 * max(p.omega, 1.0)]
+    if unstable:
+        print(f"  {len(unstable)} pole(s) with a positive real part: the frozen plant is unstable")
+
+    written = []
+    if args.npz:
+        args.npz.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(args.npz, **plant.arrays())
+        written.append(args.npz)
+    if args.mat:
+        import scipy.io
+
+        args.mat.parent.mkdir(parents=True, exist_ok=True)
+        arrays = plant.arrays()
+        for key in ("input_names", "input_units", "output_names", "output_units", "state_names"):
+            arrays[key] = np.array(arrays[key], dtype=object)  # MATLAB cell arrays of text
+        scipy.io.savemat(args.mat, arrays)
+        written.append(args.mat)
+    if args.figure:
+        from sail_ros.plots.plant import bode_figure  # matplotlib only when drawing
+
+        if args.band:
+            low, high = args.band
+        else:
+            oscillating = [p.hertz for p in listed if p.omega > 0]
+            low = 0.1 * min(oscillating, default=0.01)
+            high = 10.0 * max(oscillating, default=1.0)
+        omega = 2 * np.pi * np.geomspace(low, high, 600)
+        title = (
+            f"lengths {', '.join(f'{v:.4g}' for v in plant.lengths)} m, n_B = "
+            f"{params.n_boom_modes}, n_M = {params.n_membrane_modes}, alpha = "
+            f"{params.mass_damping:g} 1/s, beta = {params.stiffness_damping:g} s"
+        )
+        written.append(
+            bode_figure(omega, frequency_response(plant, omega), plant, args.figure, title)
+        )
+    print_written(written)
+    return 0
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
+    return run(_plant, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,200 @@
+"""Studies on real Dask clusters: a local one (1 and 2 workers) and an external one
+(`dask scheduler` and two `dask worker` processes on loopback), the same CSV byte
+for byte from all three; a failing sample is a row; the worst samples rerun."""
+
+import csv
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+
+from sail_ros import topics
+from sail_ros.analysis.montecarlo import load_study, sample_inputs
+from sail_ros.bag import BagReader
+from sail_ros.tools import deploy, montecarlo
+
+pytestmark = pytest.mark.multiprocess
+
+STUDY = {
+    "study": {
+        "description": "short test study",
+        "samples": 10,
+        "seed": 11,
+        "output_rate_hz": 10.0,
+        "scenario": {
+            "scenario": {
+                "duration": 3.0,
+                "profile": {"type": "cycloidal", "start": 10.0, "end": 11.0, "duration": 3.0},
+                "initial": {"mode_state": {"a": 0.1}},
+                "snapshots": [0.0, 3.0],
+            },
+            "sail": {"n_boom_modes": 2, "n_membrane_modes": 2},
+        },
+        "dispersions": {
+            "boom_bending_stiffness": {"distribution": "normal", "mean": 6000.0, "std": 600.0},
+            "initial_tip_deflection.b": {"distribution": "uniform", "low": -0.1, "high": 0.1},
+            "rate.c": {"distribution": "lognormal", "median": 1.0, "sigma": 0.1},
+            # below zero now and then: those samples fail, as rows
+            "membrane_thickness": {"distribution": "normal", "mean": 2.5e-6, "std": 2.5e-6},
+        },
+        "jam": {
+            "probability": 0.5,
+            "fraction": {"distribution": "uniform", "low": 0.2, "high": 0.8},
+        },
+    }
+}
+
+
+@pytest.fixture(scope="module")
+def study_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("study") / "study.yaml"
+    path.write_text(yaml.safe_dump(STUDY))
+    return path
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.fixture
+def external_cluster(ros_env):
+    """`dask scheduler` and two `dask worker` processes on loopback; their address."""
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**ros_env, "OPENBLAS_NUM_THREADS": "1"}
+    dask = [str(Path(sys.executable).parent / "dask")]  # the environment's dask command
+    processes = [
+        subprocess.Popen(
+            [*dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
+    for _ in range(2):
+        processes.append(
+            subprocess.Popen(
+                [
+                    *dask,
+                    "worker",
+                    address,
+                    "--nthreads",
+                    "1",
+                    "--nworkers",
+                    "1",
+                    "--no-dashboard",
+                ],  # fmt: skip
+                env=env,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
+        )
+    from dask.distributed import Client
+
+    deadline = time.monotonic() + 60.0
+    while True:
+        try:
+            with Client(address, timeout="2s") as client:
+                if len(client.scheduler_info()["workers"]) == 2:
+                    break
+        except (OSError, TimeoutError):
+            pass
+        assert time.monotonic() < deadline, "the external cluster did not come up"
+        time.sleep(0.5)
+    yield address
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        try:
+            process.wait(15)
+        except subprocess.TimeoutExpired:
+            process.kill()
+
+
+def test_the_same_study_gives_the_same_csv_on_any_cluster(
+    study_file, tmp_path, external_cluster, capsys
+):
+    outputs = {}
+    for name, options in (
+        ("one", ["--workers", "1"]),
+        ("two", ["--workers", "2"]),
+        ("external", ["--scheduler", external_cluster]),
+    ):
+        out = tmp_path / name
+        code = montecarlo.main([str(study_file), "--out", str(out), "--no-figures", *options])
+        assert code == 0, capsys.readouterr().err
+        outputs[name] = (out / "samples.csv").read_bytes()
+    assert outputs["one"] == outputs["two"] == outputs["external"]
+
+    rows = list(csv.DictReader((tmp_path / "one" / "samples.csv").open()))
+    assert [int(r["sample"]) for r in rows] == list(range(10))
+    failed = [r for r in rows if r["error"]]
+    assert failed and all("membrane_thickness must be >= 0" in r["error"] for r in failed)
+    study = load_study(study_file)
+    for row in failed:  # the sample that failed did draw a negative thickness
+        assert sample_inputs(study, int(row["sample"]))["membrane_thickness"] < 0
+    ran = [r for r in rows if not r["error"]]
+    assert len(ran) >= 3 and all(float(r["peak_tip_m"]) > 0 for r in ran)
+    jammed = [r for r in ran if float(r["jam_boom"]) >= 0]
+    assert jammed  # half the samples jam a boom
+    assert (tmp_path / "one" / "samples.parquet").is_file()
+
+
+def test_worst_samples_rerun_to_the_same_numbers(study_file, tmp_path, capsys):
+    out = tmp_path / "study"
+    assert montecarlo.main([str(study_file), "--out", str(out), "--workers", "2"]) == 0
+    printed = capsys.readouterr().out
+    assert "inputs by |Spearman rank correlation| with peak_tip_m" in printed
+    rows = {int(r["sample"]): r for r in csv.DictReader((out / "samples.csv").open())}
+    worst = sorted((out / "worst").glob("worst_*.yaml"))
+    assert 1 <= len(worst) <= 5
+    for path in worst[:2]:
+        index = int(path.stem.split("_")[-1])
+        log = tmp_path / f"rerun_{index}.mcap"
+        assert deploy.main(["--scenario", str(path), "--mcap", str(log), "--rate", "10"]) == 0
+        tips = np.array(
+            [
+                deserialize_message(m.data, JointState).position
+                for m in BagReader(log).messages([topics.absolute(topics.TIP_DEFLECTION)])
+            ]
+        )
+        for k, boom in enumerate("abcd"):
+            assert np.abs(tips[:, k]).max() == pytest.approx(
+                float(rows[index][f"peak_tip_{boom}_m"]), rel=1e-9
+            )
+    for name in ("envelopes", "peaks", "influence"):
+        assert (out / f"{name}.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"dispersions": {"no_such_field": {"distribution": "normal", "mean": 1, "std": 1}}},
+         "unknown key 'no_such_field'"),
+        ({"dispersions": {"sail_side": {"distribution": "normal", "mean": 1, "std": -1}}},
+         "impossible normal distribution"),
+        ({"dispersions": {"sail_side": {"distribution": "beta", "a": 1, "b": 1}}},
+         "distribution: normal | uniform | lognormal"),
+        ({"jam": {"probability": 1.5, "fraction": {"distribution": "uniform", "low": 0,
+                                                    "high": 1}}}, "jam.probability must be in"),
+        ({"samples": 0}, "study.samples must be an integer >= 1"),
+        ({"extra": 1}, "study: unknown key(s) 'extra'"),
+    ],
+    ids=["key", "negative-std", "distribution", "probability", "samples", "study-key"],
+)  # fmt: skip
+def test_bad_studies_name_the_key(tmp_path, capsys, change, message):
+    document = {"study": {**STUDY["study"], **change}}
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(document))
+    assert montecarlo.main([str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err

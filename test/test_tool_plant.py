@@ -1,0 +1,90 @@
+"""`sail-ros plant`: poles, matrices to .npz and .mat with names, a Bode figure; the
+matrices load into python-control with the same poles."""
+
+import control
+import numpy as np
+import pytest
+import scipy.io
+
+from sail_ros.analysis.plant import frequency_response, linear_plant, poles
+from sail_ros.model import SailModel, SailParameters
+from sail_ros.model.loads import INPUT_NAMES, OUTPUT_NAMES
+from sail_ros.tools.plant import main
+
+pytestmark = pytest.mark.model
+
+DAMPED = ["--set", "mass_damping=0.02", "--set", "stiffness_damping=1e-3"]
+
+
+def test_plant_writes_matrices_that_python_control_loads_with_equal_poles(tmp_path, capsys):
+    npz, mat, png = tmp_path / "p.npz", tmp_path / "p.mat", tmp_path / "bode.png"
+    code = main(["--lengths", "20", "22", "20", "22", "--rates", "0.05", *DAMPED,
+                 "--npz", str(npz), "--mat", str(mat), "--figure", str(png)])  # fmt: skip
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "80 states, 8 inputs, 8 outputs" in out and f"wrote {png}" in out
+
+    saved = np.load(npz)
+    assert list(saved["input_names"]) == list(INPUT_NAMES)
+    assert list(saved["output_names"]) == list(OUTPUT_NAMES)
+    assert saved["state_names"][0] == "boom_a_mode_1" and len(saved["state_names"]) == 80
+    matlab = scipy.io.loadmat(mat)
+    assert [str(v[0]) for v in matlab["input_names"].ravel()] == list(INPUT_NAMES)
+    assert np.array_equal(matlab["A"], saved["A"]) and np.array_equal(matlab["B"], saved["B"])
+
+    system = control.ss(matlab["A"], matlab["B"], matlab["C"], matlab["D"])
+    ours = np.linalg.eigvals(saved["A"])
+    theirs = system.poles()
+    key = lambda s: (round(s.imag, 6), round(s.real, 9))  # noqa: E731
+    assert np.allclose(sorted(ours, key=key), sorted(theirs, key=key), rtol=1e-9, atol=1e-12)
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_poles_carry_the_rayleigh_damping_ratio_and_the_response_its_dc_gain():
+    params = SailParameters(mass_damping=0.02, stiffness_damping=1e-3)
+    model = SailModel(params)
+    plant = linear_plant(model, 25.0)
+    listed = poles(plant)
+    omega = model.natural_frequencies(25.0)
+    assert [p.omega for p in listed[:8]] == pytest.approx(omega[:8], rel=1e-9)
+    assert [p.zeta for p in listed[:8]] == pytest.approx(0.01 / omega[:8] + 5e-4 * omega[:8])
+    static = model.static_deflection(25.0, tip_forces=[0.0, 1.0, 0.0, 0.0])
+    response = frequency_response(plant, [1e-9])[0]
+    column = list(INPUT_NAMES).index("tip_force_b")
+    assert response[list(OUTPUT_NAMES).index("tip_deflection_b"), column].real == pytest.approx(
+        model.tip_deflections(static)[1], rel=1e-6
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--lengths", "1", "2"], "--lengths takes 1 or 4 values, got 2"),
+        (["--rates", "0", "0", "0"], "--rates takes 1 or 4 values, got 3"),
+        (["--lengths", "-3"], "lengths must be > 0"),
+        (["--count", "0"], "--count must be in [1, 80]"),
+        (["--band", "2", "1"], "--band needs 0 < F_MIN < F_MAX"),
+        (["--set", "mass_damping=-1"], "mass_damping must be >= 0"),
+    ],
+    ids=str,
+)
+def test_bad_options_are_one_line_and_exit_2(args, message, capsys):
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and err.count("\n") == 1
+
+
+def test_modes_reports_the_damping_ratio_when_damping_is_set(tmp_path, capsys):
+    from sail_ros.tools.modes import main as modes
+
+    csv = tmp_path / "modes.csv"
+    damping = ["--set", "mass_damping=0.01", "--set", "stiffness_damping=0.01"]
+    assert modes(["--count", "4", *damping, "--csv", str(csv)]) == 0
+    assert "zeta" in capsys.readouterr().out
+    rows = [line.split(",") for line in csv.read_text().splitlines()]
+    header, first = rows[0], rows[1]
+    omega = float(first[header.index("omega_rad_s")])
+    assert float(first[header.index("damping_ratio")]) == pytest.approx(
+        0.01 / (2 * omega) + 0.01 * omega / 2, rel=1e-12
+    )
+    assert modes(["--count", "4"]) == 0 and "zeta" not in capsys.readouterr().out
