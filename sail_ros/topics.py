@@ -376,14 +376,19 @@ def shape(stamp_ns_: int, vertices, triangles, boom_lines, frame_id: str = FRAME
         MIN_COLOUR_RANGE); markers `booms`/0..3: LINE_STRIPs of booms a..d.
     """
     header_stamp = stamp(stamp_ns_)
-    corners = np.asarray(vertices, dtype=float)[np.asarray(triangles).ravel()]
+    vertices = np.asarray(vertices, dtype=float)
+    corners = np.asarray(triangles).ravel().tolist()
     membrane = _marker(header_stamp, frame_id, "membrane", 0, Marker.TRIANGLE_LIST)
     membrane.scale.x = membrane.scale.y = membrane.scale.z = 1.0
     membrane.color = ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0)
-    membrane.points = [Point(x=x, y=y, z=z) for x, y, z in corners.tolist()]
-    heights = corners[:, 2]
-    scale = max(float(np.max(np.abs(heights), initial=0.0)), MIN_COLOUR_RANGE)
-    membrane.colors = height_colours(heights, scale)
+    # one Point and one colour per mesh vertex, shared by the triangles that meet
+    # there: a vertex is in about five corners, and building the objects is the cost
+    points = [Point(x=x, y=y, z=z) for x, y, z in vertices.tolist()]
+    membrane.points = [points[i] for i in corners]
+    heights = vertices[:, 2]
+    scale = max(float(np.max(np.abs(heights[corners]), initial=0.0)), MIN_COLOUR_RANGE)
+    colours = height_colours(heights, scale)
+    membrane.colors = [colours[i] for i in corners]
     markers = [membrane]
     for k, line in enumerate(np.asarray(boom_lines, dtype=float)):
         boom = _marker(header_stamp, frame_id, "booms", k, Marker.LINE_STRIP)

@@ -2,6 +2,7 @@
 grid-stepping core, pacing, the parameter table and the message builders.
 No ROS runtime."""
 
+import copy
 import dataclasses
 import math
 from pathlib import Path
@@ -10,8 +11,10 @@ import numpy as np
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
+from geometry_msgs.msg import Point
+from rclpy.serialization import deserialize_message, serialize_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros import topics
 from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointProfile
@@ -615,6 +618,25 @@ def test_shape_markers_draw_the_deflected_membrane_and_the_booms(model):
     assert (tip_a.x, tip_a.y, tip_a.z) == pytest.approx((10.0, 0.0, 0.1))
     assert booms[3].points[-1].y == pytest.approx(-13.0)
     assert all(m.pose.orientation.w == 1.0 for m in markers)
+
+
+def test_shared_vertex_points_serialise_as_one_point_per_corner(model):
+    """The membrane marker shares one Point per vertex among its corners: what rclpy's
+    serialiser writes decodes to the message built with one Point per corner (bytes
+    are not compared: the CDR alignment padding is not initialised)."""
+    surface = SailSurface(model, 6)
+    q = model.initial_coordinates([0.1, -0.02, 0.03, -0.05])
+    lengths = [10.0, 11.0, 12.0, 13.0]
+    vertices, triangles = surface.vertices(q, lengths), surface.triangles
+    message = topics.shape(5, vertices, triangles, surface.boom_lines(q, lengths))
+    corners = vertices[triangles.ravel()]
+    scale = max(np.abs(corners[:, 2]).max(), topics.MIN_COLOUR_RANGE)
+    expected = copy.deepcopy(message)
+    expected.markers[0].points = [Point(x=x, y=y, z=z) for x, y, z in corners.tolist()]
+    expected.markers[0].colors = topics.height_colours(corners[:, 2], scale)
+    decoded = deserialize_message(serialize_message(message), MarkerArray)
+    assert decoded == expected
+    assert [p.z for p in decoded.markers[0].points] == corners[:, 2].tolist()
 
 
 def test_a_trajectory_longer_than_max_trajectory_points_is_rejected_whole(config):

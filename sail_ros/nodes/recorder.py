@@ -444,8 +444,14 @@ class Recorder(Node):
     # -- simulator parameters ---------------------------------------------------------------
 
     def _on_new_file(self, path) -> None:
-        """A split (writer thread): the new file gets the parameters too."""
+        """A split (writer thread): the new file gets the parameters at once, the last
+        values fetched (a fetch takes two service round trips, and under load a short
+        file could end before its answer); then they are fetched again, and stored
+        again only if they changed."""
         if self._parameter_node:
+            values = self._sim_parameters
+            if values is not None:
+                self.bag.writer.add_metadata(PARAMETERS_METADATA, values)
             self._refetch.set()
             self._refetch_guard.trigger()
 
@@ -462,14 +468,11 @@ class Recorder(Node):
             return
         if not (self._list_client.service_is_ready() and self._get_client.service_is_ready()):
             if self._refetch.is_set() and self._sim_parameters is not None:
-                # a split while the node is gone: the new file gets the last values it had
+                # a split while the node is gone: the new file has the values fetched before
                 self._refetch.clear()
                 self.get_logger().warning(
                     f"'{self._parameter_node}' is gone; the new file "
-                    "gets the parameters fetched before"
-                )
-                self.bag.submit(
-                    self.bag.writer.add_metadata, PARAMETERS_METADATA, self._sim_parameters
+                    "holds the parameters fetched before"
                 )
             elif (
                 not self._warned_absent
@@ -501,6 +504,8 @@ class Recorder(Node):
             if python_value is not None:  # NOT_SET
                 values[name] = yaml_value(python_value)
         first = self._sim_parameters is None
+        if values == self._sim_parameters:
+            return  # the current file holds them already (`_on_new_file`)
         self._sim_parameters = values
         self.bag.submit(self.bag.writer.add_metadata, PARAMETERS_METADATA, values)
         if first:
