@@ -54,6 +54,8 @@ class BagWriter:
         fsync: fsync each closed chunk so a power cut loses at most one chunk.
         on_new_file: called with the path of each file after the first, right
             after it is opened (a split); e.g. to write metadata into it.
+        may_split: a split that is due waits while this returns False (e.g. until
+            the file holds a record every file must have); None: never waits.
         ros_distro: recorded in the rosbag2 metadata.
         overwrite: replace an existing `.mcap` file (folder mode never overwrites).
 
@@ -73,6 +75,7 @@ class BagWriter:
         max_file_duration_s: float = 0.0,
         fsync: bool = True,
         on_new_file: Callable[[Path], None] | None = None,
+        may_split: Callable[[], bool] | None = None,
         ros_distro: str = "jazzy",
         overwrite: bool = False,
     ):
@@ -99,6 +102,7 @@ class BagWriter:
         self._max_file_duration_ns = round(max_file_duration_s * 1e9)
         self._fsync = fsync
         self._on_new_file = on_new_file
+        self._may_split = may_split
         self._ros_distro = ros_distro
         self._overwrite = overwrite
 
@@ -307,7 +311,7 @@ class BagWriter:
             and log_time_ns - file.start_time_ns >= self._max_file_duration_ns
         )
         too_big = self._max_file_size and self._attempt(file.size) >= self._max_file_size
-        if too_long or too_big:
+        if (too_long or too_big) and (self._may_split is None or self._may_split()):
             self._finish_file()
             self._open_file()
             if self._on_new_file is not None:

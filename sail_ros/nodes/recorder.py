@@ -259,6 +259,7 @@ class Recorder(Node):
                 max_file_size_bytes=self.config["max_file_size_bytes"],
                 max_file_duration_s=self.config["max_file_duration_s"],
                 on_new_file=self._on_new_file,
+                may_split=self._may_split,
             )
         except ValueError as error:
             raise ConfigError(str(error)) from None
@@ -442,6 +443,15 @@ class Recorder(Node):
         self._received += 1
 
     # -- simulator parameters ---------------------------------------------------------------
+
+    def _may_split(self) -> bool:
+        """A file ends only once it holds the parameters (writer thread): a split waits
+        for the first fetch, unless the node has not appeared for a while."""
+        return (
+            not self._parameter_node
+            or self._sim_parameters is not None
+            or time.monotonic() - self._started > PARAMETER_WAIT_WARNING_S
+        )
 
     def _on_new_file(self, path) -> None:
         """A split (writer thread): the new file gets the parameters at once, the last
