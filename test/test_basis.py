@@ -1,4 +1,5 @@
-"""Basis functions against their defining equations (model.md §2)."""
+"""Basis functions against their defining equations (model.md §2), and the quadrant
+integrals against a plain sum over the quadrature points."""
 
 import numpy as np
 import pytest
@@ -11,7 +12,12 @@ from sail_ros.model.basis import (
     triangle_mode_indices,
     triangle_modes,
 )
-from sail_ros.model.integrals import collapsed_gauss_triangle, gauss_unit_interval
+from sail_ros.model.integrals import (
+    collapsed_gauss_triangle,
+    default_quadrature_order,
+    gauss_unit_interval,
+    quadrant_integrals,
+)
 
 pytestmark = pytest.mark.model
 
@@ -104,3 +110,37 @@ def test_triangle_gradients_match_finite_differences():
         phi_eta,
         atol=1e-6,
     )
+
+
+@pytest.mark.parametrize(("n_boom_modes", "n_membrane_modes"), [(1, 1), (3, 7), (7, 2), (12, 12)])
+def test_quadrant_integrals_equal_sums_over_every_point_of_the_rule(n_boom_modes, n_membrane_modes):
+    """The row-by-row, block-by-block build against the plain sum over all points:
+    `<f g^T> = sum_q w_q f(x_q) g(x_q)^T` with every vector function evaluated in full."""
+    order = default_quadrature_order(n_boom_modes, n_membrane_modes)
+    xi, eta, w = collapsed_gauss_triangle(order)
+    zero = np.zeros((n_boom_modes, xi.size))
+    phi, phi_xi, phi_eta = triangle_modes(n_membrane_modes, xi, eta)
+    s = np.vstack([cantilever_modes(n_boom_modes, xi), cantilever_modes(n_boom_modes, eta), phi])
+    s_xi = np.vstack([cantilever_modes(n_boom_modes, xi, 1), zero, phi_xi])
+    s_eta = np.vstack([zero, cantilever_modes(n_boom_modes, eta, 1), phi_eta])
+    ra, rb = (1.0 - xi) * s_xi, (1.0 - eta) * s_eta
+
+    def gram(f, g):
+        return (f * w) @ g.T
+
+    expected = {
+        "s_s": gram(s, s),
+        "s_ra": gram(s, ra),
+        "s_rb": gram(s, rb),
+        "ra_ra": gram(ra, ra),
+        "ra_rb": gram(ra, rb) + gram(rb, ra),
+        "rb_rb": gram(rb, rb),
+        "sxi_sxi": gram(s_xi, s_xi),
+        "seta_seta": gram(s_eta, s_eta),
+        "s_mean": s @ w,
+    }
+    built = quadrant_integrals.__wrapped__(n_boom_modes, n_membrane_modes, order)
+    for name, value in expected.items():
+        assert np.allclose(getattr(built, name), value, rtol=0, atol=1e-12 * np.abs(value).max()), (
+            name
+        )

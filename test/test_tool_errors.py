@@ -112,7 +112,7 @@ def test_a_damaged_chunk_is_named_by_the_reader(files):
 
 
 def test_mode_counts_that_would_not_fit_are_refused_before_allocating():
-    code, _, err = run_tool("modes", ["--set", "n_boom_modes=400"])
+    code, _, err = run_tool("modes", ["--set", "n_boom_modes=4000"])  # about 81 GiB
     assert code == 2 and "Traceback" not in err
-    assert err.startswith("error: n_boom_modes = 400, n_membrane_modes = 6 need about ")
+    assert err.startswith("error: n_boom_modes = 4000, n_membrane_modes = 6 need about ")
     assert "GiB to build their integrals" in err and len(err.strip().splitlines()) == 1

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -38,10 +39,30 @@ def cantilever_roots(n: int) -> np.ndarray:
     return roots
 
 
+def _cantilever_parts(n: int, xi) -> tuple[np.ndarray, ...]:
+    """Every transcendental of `cantilever_modes` at points `xi` (any shape).
+
+    Returns `(b, s, c, e^(-bx), cos(bx), sin(bx), e^(b(x-1)), e^(-b(x+1)))`, the
+    per-mode constants of shape `(n, 1, ...)`, the rest `(n, *xi.shape)`.
+    `e^(-b(x+1)) = e^(-bx) e^(-b)` needs no exponential of its own (for large `b`
+    it underflows to 0, harmlessly: every term stays of order one or below).
+    """
+    xi = np.asarray(xi, dtype=float)
+    b = cantilever_roots(n).reshape((n,) + (1,) * xi.ndim)
+    eb = np.exp(-b)
+    d = 1.0 - eb**2 + 2.0 * np.sin(b) * eb
+    s = (1.0 + eb**2 + 2.0 * np.cos(b) * eb) / d
+    c = (np.sin(b) - np.cos(b) - eb) / d
+    bx = b * xi
+    e_bx = np.exp(-bx)
+    grow = np.exp(b * (xi - 1.0))  # e^(b(x-1)) <= 1 on [0, 1]
+    return b, s, c, e_bx, np.cos(bx), np.sin(bx), grow, e_bx * eb
+
+
 def cantilever_modes(n: int, xi, derivative: int = 0) -> np.ndarray:
     """Cantilever eigenfunctions (or a derivative d^k/dxi^k) at points `xi`.
 
-    Returns an array of shape `(n, len(xi))`. The textbook form
+    Returns an array of shape `(n, *np.shape(xi))`. The textbook form
     `cosh(bx) - cos(bx) - s (sinh(bx) - sin(bx))`,
     `s = (cosh b + cos b) / (sinh b + sin b)`, subtracts numbers of size
     `e^b` and loses every digit beyond about the 8th mode. Writing
@@ -58,28 +79,86 @@ def cantilever_modes(n: int, xi, derivative: int = 0) -> np.ndarray:
     With this sign convention `psi_i(1) = 2 (-1)^(i+1)` and
     `int_0^1 psi_i^2 = 1` exactly (no numerical normalisation needed).
     """
-    xi = np.asarray(xi, dtype=float)
-    b = cantilever_roots(n)[:, None]
-    x = xi[None, :]
-    eb = np.exp(-b)
-    d = 1.0 - eb**2 + 2.0 * np.sin(b) * eb
-    s = (1.0 + eb**2 + 2.0 * np.cos(b) * eb) / d
-    c = (np.sin(b) - np.cos(b) - eb) / d
-    bx = b * x
-    grow = np.exp(b * (x - 1.0))  # e^(b(x-1)) <= 1 on [0, 1]
-    decay = np.exp(-b * (x + 1.0))
-    e_bx = np.exp(-bx)
-    k = derivative % 4
+    b, s, c, e_bx, cos_bx, sin_bx, grow, decay = _cantilever_parts(n, xi)
     # d/dx of [e^-bx, cos, sin, grow, decay] cycle with period 4 (2 for exps)
     sign_e = (-1.0) ** derivative
     trig = {
-        0: -np.cos(bx) + s * np.sin(bx),
-        1: np.sin(bx) + s * np.cos(bx),
-        2: np.cos(bx) - s * np.sin(bx),
-        3: -np.sin(bx) - s * np.cos(bx),
-    }[k]
+        0: -cos_bx + s * sin_bx,
+        1: sin_bx + s * cos_bx,
+        2: cos_bx - s * sin_bx,
+        3: -sin_bx - s * cos_bx,
+    }[derivative % 4]
     hyper = grow - decay if derivative % 2 == 0 else grow + decay
     return b**derivative * (sign_e * e_bx + trig + c * hyper)
+
+
+def cantilever_modes_and_slopes(n: int, xi) -> tuple[np.ndarray, np.ndarray]:
+    """`(psi, dpsi/dxi)` at points `xi`, as `cantilever_modes` with derivative 0 and 1
+    but sharing their transcendentals; each of shape `(n, *np.shape(xi))`."""
+    b, s, c, e_bx, cos_bx, sin_bx, grow, decay = _cantilever_parts(n, xi)
+    psi = e_bx + (-cos_bx + s * sin_bx) + c * (grow - decay)
+    slope = b * (-e_bx + (sin_bx + s * cos_bx) + c * (grow + decay))
+    return psi, slope
+
+
+def trig_table(j_max: int, x) -> np.ndarray:
+    """`sin(j pi x)` for `j = 0..j_max`, then `cos(j pi x)` for `j = 0..j_max`.
+
+    Shape `(2 (j_max + 1), *np.shape(x))`: row `j` is the sine, row
+    `j_max + 1 + j` the cosine (row `j_max + 1` is the constant 1).
+    """
+    x = np.asarray(x, dtype=float)
+    jx = (np.arange(j_max + 1) * np.pi).reshape((-1,) + (1,) * x.ndim) * x
+    return np.concatenate([np.sin(jx), np.cos(jx)])
+
+
+@dataclasses.dataclass(frozen=True)
+class SeparableSum:
+    """`n` functions `f_a(xi, eta) = sum_t coef[t, a] T[xi_row[t, a]](xi) T[eta_row[t, a]](eta)`.
+
+    `T` are the rows of `trig_table(j_max, .)`; the three arrays have shape `(2, n)`.
+    """
+
+    coef: np.ndarray
+    xi_row: np.ndarray
+    eta_row: np.ndarray
+
+    def __call__(self, table_xi: np.ndarray, table_eta: np.ndarray) -> np.ndarray:
+        """The functions at the points of two `trig_table`s, shape `(n, points)`."""
+        return sum(
+            self.coef[t][:, None] * table_xi[self.xi_row[t]] * table_eta[self.eta_row[t]]
+            for t in range(2)
+        )
+
+
+def triangle_mode_terms(n: int) -> tuple[int, SeparableSum, SeparableSum, SeparableSum]:
+    """The first `n` triangle modes and their gradients as sums of separable products.
+
+    Returns `(j_max, phi, dphi/dxi, dphi/deta)`, `j_max` the largest index of a
+    mode (the size of the `trig_table` they index). With `S_j = sin(j pi .)`,
+    `C_j = cos(j pi .)` and `sigma = (-1)^(m+n)`:
+
+        phi       = 2 S_m(xi) S_n(eta)      - 2 sigma S_n(xi) S_m(eta)
+        dphi/dxi  = 2 m pi C_m(xi) S_n(eta) - 2 sigma n pi C_n(xi) S_m(eta)
+        dphi/deta = 2 n pi S_m(xi) C_n(eta) - 2 sigma m pi S_n(xi) C_m(eta)
+    """
+    pairs = np.array(triangle_mode_indices(n))
+    m, k = pairs[:, 0], pairs[:, 1]
+    j_max = int(m.max())
+    cos = j_max + 1  # offset of the cosines in the table
+    sign = (-1.0) ** (m + k)
+    phi = SeparableSum(np.array([np.full(n, 2.0), -2.0 * sign]), np.array([m, k]), np.array([k, m]))
+    phi_xi = SeparableSum(
+        np.array([2.0 * (m * np.pi), -2.0 * (sign * (k * np.pi))]),
+        np.array([cos + m, cos + k]),
+        np.array([k, m]),
+    )
+    phi_eta = SeparableSum(
+        np.array([2.0 * (k * np.pi), -2.0 * (sign * (m * np.pi))]),
+        np.array([m, k]),
+        np.array([cos + k, cos + m]),
+    )
+    return j_max, phi, phi_xi, phi_eta
 
 
 def triangle_modes(n: int, xi, eta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -88,19 +167,12 @@ def triangle_modes(n: int, xi, eta) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     `phi_mn = 2 [sin(m pi xi) sin(n pi eta) - (-1)^(m+n) sin(n pi xi) sin(m pi eta)]`,
     zero on all three edges of `D`, `int_D phi^2 = 1`, Laplacian eigenvalue
     `pi^2 (m^2 + n^2)`. Returns `(phi, dphi/dxi, dphi/deta)`, each of shape
-    `(n, len(xi))`.
+    `(n, len(xi))`. Sines and cosines are evaluated once per distinct `j pi`
+    (`triangle_mode_terms`).
     """
-    pairs = np.array(triangle_mode_indices(n), dtype=float)
-    m = pairs[:, 0:1] * np.pi
-    k = pairs[:, 1:2] * np.pi
-    sign = (-1.0) ** (pairs[:, 0:1] + pairs[:, 1:2])
-    x = np.asarray(xi, dtype=float)[None, :]
-    y = np.asarray(eta, dtype=float)[None, :]
-    smx, cmx, skx, ckx = np.sin(m * x), np.cos(m * x), np.sin(k * x), np.cos(k * x)
-    smy, cmy, sky, cky = np.sin(m * y), np.cos(m * y), np.sin(k * y), np.cos(k * y)
-    phi = 2.0 * (smx * sky - sign * skx * smy)
-    phi_xi = 2.0 * (m * cmx * sky - sign * k * ckx * smy)
-    phi_eta = 2.0 * (k * smx * cky - sign * m * skx * cmy)
+    j_max, *functions = triangle_mode_terms(n)
+    table_xi, table_eta = trig_table(j_max, xi), trig_table(j_max, eta)
+    phi, phi_xi, phi_eta = (f(table_xi, table_eta) for f in functions)
     return phi, phi_xi, phi_eta
 
 

@@ -25,10 +25,13 @@ import numpy as np
 from numpy.polynomial.legendre import leggauss
 
 from sail_ros.model.basis import (
+    SeparableSum,
     cantilever_modes,
+    cantilever_modes_and_slopes,
     cantilever_roots,
     triangle_mode_indices,
-    triangle_modes,
+    triangle_mode_terms,
+    trig_table,
 )
 
 
@@ -45,13 +48,32 @@ def default_quadrature_order(n_boom_modes: int, n_membrane_modes: int) -> int:
     return int(2.0 * max(beta_max, np.pi * m_max)) + 40
 
 
+# Points per chunk of the triangle rule: small enough for a chunk's functions to stay in
+# cache, large enough for each product over it to be a sizeable BLAS call.
+_CHUNK_POINTS = 2048
+
+
+def _chunk_rows(order: int) -> int:
+    """Rows of the tensor rule (distinct `u`) per chunk of about `_CHUNK_POINTS` points."""
+    return max(1, _CHUNK_POINTS // order)
+
+
 def integral_bytes(n_boom_modes: int, n_membrane_modes: int, order: int) -> int:
-    """Peak memory [bytes] of building the quadrant integrals: every basis function and
-    derivative at every one of the `order^2` points of the triangle rule (the vector
-    functions S, S_xi, S_eta, R_a, R_b of size 2 n_B + n_M, the triangle modes and
-    their gradients, the cantilever values), 8 bytes each."""
-    rows = 5 * (2 * n_boom_modes + n_membrane_modes) + 3 * n_membrane_modes + 6 * n_boom_modes
-    return 8 * rows * order * order
+    """Peak working memory [bytes] of building the quadrant integrals, 8 bytes a number.
+
+    The row moments (3 powers of `1 - eta`, `order` rows, `n_Y x n_Z`), the functions of
+    one chunk of points with their weighted copies and temporaries (about 12 `n_Y` per
+    point), one gathered `order x n x n_M` moment tensor at a time (with its two
+    weighted factors) and the nine results `n~ x n~`; `n_Z = 2 (j_max + 1)` sines and
+    cosines, `n_Y = 2 n_B + n_Z` functions of `eta`, `n~ = 2 n_B + n_M`.
+    """
+    n_z = 2 * (max(m for m, _ in triangle_mode_indices(n_membrane_modes)) + 1)
+    n_y = 2 * n_boom_modes + n_z
+    moments = 3 * order * n_y * n_z
+    chunk = 12 * n_y * _chunk_rows(order) * order
+    gathered = 3 * order * max(n_boom_modes, n_membrane_modes) * n_membrane_modes
+    results = 9 * (2 * n_boom_modes + n_membrane_modes) ** 2
+    return 8 * (moments + chunk + gathered + results)
 
 
 def available_memory_bytes() -> int | None:
@@ -157,27 +179,199 @@ def boom_integrals(n_boom_modes: int, order: int) -> BoomIntegrals:
     )
 
 
+class _RowRule:
+    """The collapsed rule as a sum over its rows `u_i` of sums over `v_j`.
+
+    On row `i`, `xi = u_i`, `eta_ij = (1 - u_i) v_j` and the weight is
+    `omega_i wv_j` with `omega_i = wu_i (1 - u_i)`. A function of `xi` is constant
+    along a row, so every integral reduces to the row moments of the functions of
+    `eta`, `Y = [psi; psi'; T]` against the trig table `T` (sines then cosines of
+    `j pi eta`, `trig_table`):
+
+        moments[c][i, f, z] = sum_j wv_j (1 - eta_ij)^c Y_f(eta_ij) T_z(eta_ij),  c = 0, 1, 2,
+
+    and, for the integrals of two functions of `eta` alone, `eta_grams` (full sums over
+    the points, `n_B x n_B`): `<psi psi^T>`, `<psi' psi'^T>`, `<psi R^T>` and `<R R^T>`
+    with `R = (1 - eta) psi'`. The membrane modes are `SeparableSum`s of `T` rows.
+    The methods' `c1`, `c2` are the powers of `(1 - xi)` and `(1 - eta)` in the weight;
+    `a`, `b` are functions of `xi` at the `u_i` (`(k, order)`), `y_rows` a slice of `Y`.
+    """
+
+    def __init__(self, n_boom_modes: int, n_membrane_modes: int, order: int):
+        u, wu = gauss_unit_interval(order)  # the same rule in u and in v
+        self.u, self.v, self.wv, self.omega = u, u, wu, wu * (1.0 - u)
+        self.j_max, *self.membrane = triangle_mode_terms(n_membrane_modes)
+        self.nb = nb = n_boom_modes
+        n_z = 2 * (self.j_max + 1)
+        # rows of Y: psi, psi', then T (T_z is row trig.start + z)
+        self.psi = slice(0, nb)
+        self.dpsi = slice(nb, 2 * nb)
+        self.trig = slice(2 * nb, 2 * nb + n_z)
+        self.one = self.j_max + 1  # cos(0 pi eta), the row of T that is 1
+        self.xi_trig = trig_table(self.j_max, u)
+        self.moments = np.empty((3, order, 2 * nb + n_z, n_z))
+        self.eta_grams = np.zeros((4, nb, nb))
+        for start in range(0, order, _chunk_rows(order)):
+            self._add_rows(slice(start, start + _chunk_rows(order)))
+
+    def _add_rows(self, rows: slice) -> None:
+        """Moments of, and `eta_grams` over, the points of `rows`."""
+        nb = self.nb
+        eta = (1.0 - self.u[rows, None]) * self.v  # (rows, order)
+        psi, dpsi = cantilever_modes_and_slopes(nb, eta)
+        trig = trig_table(self.j_max, eta)
+        weighted = np.concatenate([psi, dpsi, trig]) * self.wv  # (n_Y, rows, order)
+        for c in range(3):  # batched over rows: (rows, n_Y, order) @ (rows, order, n_Z)
+            self.moments[c, rows] = weighted.transpose(1, 0, 2) @ trig.transpose(1, 2, 0)
+            weighted *= 1.0 - eta
+        w = (self.omega[rows, None] * self.wv).ravel()
+        psi, dpsi = psi.reshape(nb, -1), dpsi.reshape(nb, -1)
+        r = dpsi * (1.0 - eta.ravel())
+        psi_w = psi * w
+        self.eta_grams += [psi_w @ psi.T, (dpsi * w) @ dpsi.T, psi_w @ r.T, (r * w) @ r.T]
+
+    def _row_weights(self, c1: int) -> np.ndarray:
+        """Row weights `omega_i (1 - u_i)^c1`."""
+        return self.omega * (1.0 - self.u) ** c1
+
+    def xi_xi(self, a: np.ndarray, b: np.ndarray, c1: int) -> np.ndarray:
+        """`<a(xi) b(xi)^T (1 - xi)^c1>`."""
+        row_sums = self.moments[0, :, self.trig.start + self.one, self.one]  # sum_j wv_j
+        return (a * (self._row_weights(c1) * row_sums)) @ b.T
+
+    def xi_eta(self, a: np.ndarray, y_rows: slice, c1: int, c2: int) -> np.ndarray:
+        """`<a(xi) Y_rows(eta)^T (1 - xi)^c1 (1 - eta)^c2>`."""
+        return (a * self._row_weights(c1)) @ self.moments[c2, :, y_rows, self.one]
+
+    def xi_membrane(self, a: np.ndarray, f: SeparableSum, c1: int, c2: int) -> np.ndarray:
+        """`<a(xi) f^T (1 - xi)^c1 (1 - eta)^c2>`: per term, the row sums of f's
+        eta factor times its xi factor, against `a`."""
+        row_sums = self.moments[c2, :, self.trig, self.one]
+        return sum(
+            (
+                (a * self._row_weights(c1))
+                @ (self.xi_trig[f.xi_row[t]].T * row_sums[:, f.eta_row[t]])
+            )
+            * f.coef[t]
+            for t in range(2)
+        )
+
+    def eta_membrane(self, y_rows: slice, f: SeparableSum, c1: int, c2: int) -> np.ndarray:
+        """`<Y_rows(eta) f^T (1 - xi)^c1 (1 - eta)^c2>`."""
+        return sum(
+            np.einsum(
+                "ib,igb->gb",
+                self._row_weights(c1)[:, None] * self.xi_trig[f.xi_row[t]].T,
+                self.moments[c2][:, y_rows][:, :, f.eta_row[t]],
+            )
+            * f.coef[t]
+            for t in range(2)
+        )
+
+    def membrane_membrane(self, f: SeparableSum, g: SeparableSum, c1: int, c2: int) -> np.ndarray:
+        """`<f g^T (1 - xi)^c1 (1 - eta)^c2>`: the four products of their terms."""
+        total = 0.0
+        for t in range(2):
+            f_xi = self._row_weights(c1)[:, None] * self.xi_trig[f.xi_row[t]].T
+            f_eta = self.moments[c2][:, self.trig.start + f.eta_row[t]]
+            for s in range(2):
+                moments = f_eta[:, :, g.eta_row[s]]
+                product = np.einsum("ia,ib,iab->ab", f_xi, self.xi_trig[g.xi_row[s]].T, moments)
+                total = total + np.outer(f.coef[t], g.coef[s]) * product
+        return total
+
+
+def _assemble(nb: int, nm: int, blocks: dict[str, np.ndarray]) -> np.ndarray:
+    """The `n~ x n~` matrix from its nonzero blocks, keyed by row and column block:
+    `x` the xi-boom, `e` the eta-boom, `m` the membrane coordinates."""
+    span = {"x": slice(0, nb), "e": slice(nb, 2 * nb), "m": slice(2 * nb, 2 * nb + nm)}
+    matrix = np.zeros((2 * nb + nm, 2 * nb + nm))
+    for key, block in blocks.items():
+        matrix[span[key[0]], span[key[1]]] = block
+    return matrix
+
+
 @functools.cache
 def quadrant_integrals(n_boom_modes: int, n_membrane_modes: int, order: int) -> QuadrantIntegrals:
-    xi, eta, w = collapsed_gauss_triangle(order)
-    zero = np.zeros((n_boom_modes, xi.size))
-    phi, phi_xi, phi_eta = triangle_modes(n_membrane_modes, xi, eta)
-    s = np.vstack([cantilever_modes(n_boom_modes, xi), cantilever_modes(n_boom_modes, eta), phi])
-    s_xi = np.vstack([cantilever_modes(n_boom_modes, xi, 1), zero, phi_xi])
-    s_eta = np.vstack([zero, cantilever_modes(n_boom_modes, eta, 1), phi_eta])
-    ra = (1.0 - xi) * s_xi
-    rb = (1.0 - eta) * s_eta
-    ra_rb = _gram(ra, rb, w)
+    """The quadrant integrals on the collapsed rule of `order^2` points, block by block.
+
+    Only the nonzero blocks of `S = [A; B; P]`, `R_a = (1 - xi) [A'; 0; P_xi]`,
+    `R_b = (1 - eta) [0; B'; P_eta]` are integrated (`A = psi(xi)`, `B = psi(eta)`,
+    `P = phi`), each through the `_RowRule` method for its kinds of factor.
+    """
+    nb, nm = n_boom_modes, n_membrane_modes
+    rule = _RowRule(nb, nm, order)
+    a, da = cantilever_modes_and_slopes(nb, rule.u)
+    ones = np.ones((1, order))
+    psi, dpsi = rule.psi, rule.dpsi
+    p, p_xi, p_eta = rule.membrane
+    g_psi, g_dpsi, g_psi_r, g_r = rule.eta_grams
+    xx, xe, xm = rule.xi_xi, rule.xi_eta, rule.xi_membrane
+    em, mm = rule.eta_membrane, rule.membrane_membrane
+
+    def symmetric(blocks: dict[str, np.ndarray]) -> np.ndarray:
+        """The blocks on and above the diagonal, mirrored below it."""
+        return _assemble(nb, nm, blocks | {k[::-1]: v.T for k, v in blocks.items() if k[0] != k[1]})
+
+    ra_rb = _assemble(
+        nb,
+        nm,
+        {
+            "xe": xe(da, dpsi, 1, 1),
+            "xm": xm(da, p_eta, 1, 1),
+            "me": em(dpsi, p_xi, 1, 1).T,
+            "mm": mm(p_xi, p_eta, 1, 1),
+        },
+    )
     return _freeze(
         QuadrantIntegrals(
-            s_s=_gram(s, s, w),
-            s_ra=_gram(s, ra, w),
-            s_rb=_gram(s, rb, w),
-            ra_ra=_gram(ra, ra, w),
+            s_s=symmetric(
+                {
+                    "xx": xx(a, a, 0),
+                    "xe": xe(a, psi, 0, 0),
+                    "xm": xm(a, p, 0, 0),
+                    "ee": g_psi,
+                    "em": em(psi, p, 0, 0),
+                    "mm": mm(p, p, 0, 0),
+                }
+            ),
+            s_ra=_assemble(
+                nb,
+                nm,
+                {
+                    "xx": xx(a, da, 1),
+                    "xm": xm(a, p_xi, 1, 0),
+                    "ex": xe(da, psi, 1, 0).T,
+                    "em": em(psi, p_xi, 1, 0),
+                    "mx": xm(da, p, 1, 0).T,
+                    "mm": mm(p, p_xi, 1, 0),
+                },
+            ),
+            s_rb=_assemble(
+                nb,
+                nm,
+                {
+                    "xe": xe(a, dpsi, 0, 1),
+                    "xm": xm(a, p_eta, 0, 1),
+                    "ee": g_psi_r,
+                    "em": em(psi, p_eta, 0, 1),
+                    "me": em(dpsi, p, 0, 1).T,
+                    "mm": mm(p, p_eta, 0, 1),
+                },
+            ),
+            ra_ra=symmetric(
+                {"xx": xx(da, da, 2), "xm": xm(da, p_xi, 2, 0), "mm": mm(p_xi, p_xi, 2, 0)}
+            ),
             ra_rb=ra_rb + ra_rb.T,
-            rb_rb=_gram(rb, rb, w),
-            sxi_sxi=_gram(s_xi, s_xi, w),
-            seta_seta=_gram(s_eta, s_eta, w),
-            s_mean=s @ w,
+            rb_rb=symmetric({"ee": g_r, "em": em(dpsi, p_eta, 0, 2), "mm": mm(p_eta, p_eta, 0, 2)}),
+            sxi_sxi=symmetric(
+                {"xx": xx(da, da, 0), "xm": xm(da, p_xi, 0, 0), "mm": mm(p_xi, p_xi, 0, 0)}
+            ),
+            seta_seta=symmetric(
+                {"ee": g_dpsi, "em": em(dpsi, p_eta, 0, 0), "mm": mm(p_eta, p_eta, 0, 0)}
+            ),
+            s_mean=np.concatenate(
+                [xx(ones, a, 0)[0], xe(ones, psi, 0, 0)[0], xm(ones, p, 0, 0)[0]]
+            ),
         )
     )
