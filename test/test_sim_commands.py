@@ -323,10 +323,10 @@ def test_bad_load_commands_are_rejected_whole(model, config, topic, values, reas
 def test_short_booms_get_sub_steps(model, config):
     short = config_from_values({**DEFAULTS, "initial_lengths": [1.5]})
     sim = Simulation(model, short)
-    # omega_1 = 1.8751^2 sqrt(6000 / 0.1) / 1.5^2 = 383 rad/s: 0.01 s needs ceil(3.83 / 1.5) = 3
-    assert sim.substeps() == 3
+    # omega_1 = 1.8751^2 sqrt(6000 / 0.1) / 1.5^2 = 383 rad/s: 0.01 s needs ceil(3.83 / 2) = 2
+    assert sim.substeps() == 2
     assert Simulation(model, config).substeps() == 1
-    assert sim.step() and sim.stepper.steps_taken == 3 and sim.t == pytest.approx(0.01)
+    assert sim.step() and sim.stepper.steps_taken == 2 and sim.t == pytest.approx(0.01)
 
 
 def test_rejected_command_leaves_the_state_alone(model, config):
@@ -538,11 +538,11 @@ def test_bad_configuration_names_the_parameter(change, reason):
 
 def test_a_min_length_whose_booms_would_need_too_many_substeps_is_refused():
     """omega_1 = beta_1^2 sqrt(EI / rho_B) / L^2 (beta_1 = 1.8751), one sub-step per
-    1.5 rad: 5 mm would need 2.3e7 sub-steps per simulated second; the refusal
+    2 rad: 5 mm would need 1.7e7 sub-steps per simulated second; the refusal
     names the shortest length within max_substep_rate, whatever the step."""
     omega_1m = 1.875104068711961**2 * math.sqrt(6000.0 / 0.1)  # [rad/s at 1 m]
-    needed = omega_1m / 0.005**2 / 1.5
-    shortest = math.ceil(math.sqrt(omega_1m / (1.5 * 3200.0)) * 1e3) / 1e3
+    needed = omega_1m / 0.005**2 / 2.0
+    shortest = math.ceil(math.sqrt(omega_1m / (2.0 * 3200.0)) * 1e3) / 1e3
     for step in (0.01, 0.1):
         with pytest.raises(ConfigError) as refused:
             config_from_values(

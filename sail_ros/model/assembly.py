@@ -34,6 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from sail_ros.model.blocks import BlockLayout, BlockMatrices
 from sail_ros.model.integrals import BoomIntegrals, QuadrantIntegrals
 from sail_ros.model.layout import QUADRANTS, Layout
 
@@ -298,10 +299,21 @@ class _Component:
         return select.reshape(len(self.terms), -1)
 
     def values(self, motion, constants: Constants, selection: np.ndarray, k: int) -> np.ndarray:
-        """Entries of every block of every requested output, flat."""
+        """Entries of every block of every requested output, flat, component-major."""
+        return (
+            self._weights(motion, constants, selection).reshape(4 * k, -1) @ self.integrals
+        ).ravel()
+
+    def blocks(self, motion, constants: Constants, selection: np.ndarray, k: int) -> np.ndarray:
+        """Every block of every requested output, (k, 4, size, size), output-major."""
+        weights = self._weights(motion, constants, selection).reshape(4, k, -1).transpose(1, 0, 2)
+        size = int(round(np.sqrt(self.integrals.shape[1])))
+        return (weights @ self.integrals).reshape(k, 4, size, size)
+
+    def _weights(self, motion, constants: Constants, selection: np.ndarray) -> np.ndarray:
+        """(4, outputs x integrals): the coefficient of each integral in each output."""
         coefficients = np.array([term.coefficient(motion, constants) for term in self.terms]).T
-        weights = (coefficients @ selection).reshape(4 * k, -1)
-        return (weights @ self.integrals).ravel()
+        return coefficients @ selection
 
 
 class SystemAssembler:
@@ -335,6 +347,7 @@ class SystemAssembler:
         self._first = np.array([q.first for q in QUADRANTS])
         self._second = np.array([q.second for q in QUADRANTS])
         self._plans: dict[tuple[str, ...], tuple] = {}
+        self.blocks = BlockLayout(layout)
 
     def _plan(self, outputs: tuple[str, ...]):
         """Term-to-integral selections and scatter indices for `outputs`."""
@@ -354,6 +367,30 @@ class SystemAssembler:
             self._plans[outputs] = plan
         return plan
 
+    def evaluate_blocks(self, outputs, lengths, rates, accelerations) -> BlockMatrices:
+        """The requested matrices as their boom and quadrant blocks (`blocks.py`),
+        unassembled; arguments as for `evaluate`."""
+        outputs = tuple(outputs)
+        k = len(outputs)
+        boom_selection, quadrant_selection, _ = self._plan(outputs)
+        booms, quadrants = self._kinematics(lengths, rates, accelerations)
+        return BlockMatrices(
+            self._booms.blocks(booms, self.constants, boom_selection, k),
+            self._quadrants.blocks(quadrants, self.constants, quadrant_selection, k),
+            self.blocks,
+        )
+
+    def _kinematics(self, lengths, rates, accelerations):
+        first, second = self._first, self._second
+        return BoomKinematics(lengths, rates, accelerations), QuadrantKinematics(
+            lengths[first],
+            rates[first],
+            accelerations[first],
+            lengths[second],
+            rates[second],
+            accelerations[second],
+        )
+
     def evaluate(self, outputs, lengths, rates, accelerations) -> np.ndarray:
         """The requested matrices stacked, shape (len(outputs), n, n).
 
@@ -366,16 +403,7 @@ class SystemAssembler:
         outputs = tuple(outputs)
         k = len(outputs)
         boom_selection, quadrant_selection, scatter = self._plan(outputs)
-        booms = BoomKinematics(lengths, rates, accelerations)
-        first, second = self._first, self._second
-        quadrants = QuadrantKinematics(
-            lengths[first],
-            rates[first],
-            accelerations[first],
-            lengths[second],
-            rates[second],
-            accelerations[second],
-        )
+        booms, quadrants = self._kinematics(lengths, rates, accelerations)
         values = np.concatenate(
             [
                 self._booms.values(booms, self.constants, boom_selection, k),

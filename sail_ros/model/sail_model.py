@@ -279,6 +279,11 @@ class SailModel:
         hot path; `stepper.LinearSystem`)."""
         return self.assembler.evaluate(outputs, lengths, rates, accelerations)
 
+    def assemble_blocks(self, outputs, lengths, rates, accelerations):
+        """`assemble` as unassembled boom and quadrant blocks (`blocks.BlockMatrices`;
+        `stepper.LinearSystem`)."""
+        return self.assembler.evaluate_blocks(outputs, lengths, rates, accelerations)
+
     def resolved_frequency(self, lengths) -> float:
         """The highest angular frequency [rad/s] a time step must resolve at these
         lengths: the first cantilever frequency of the shortest bare boom,

@@ -1,0 +1,64 @@
+"""The matrices as component blocks (`model/blocks.py`): the same matrices, products and
+shifted solves as the assembled ones, and a moving step that does not depend on which
+form the stepper uses."""
+
+import numpy as np
+import pytest
+
+from sail_ros.model import CycloidalProfile, SailModel, SailParameters
+from sail_ros.model import stepper as stepper_module
+from sail_ros.model.blocks import DenseMatrices
+from sail_ros.model.stepper import _PADE_POLES, _STEP_MATRICES
+
+pytestmark = pytest.mark.model
+
+LENGTHS = np.array([10.0, 11.5, 12.0, 13.0])
+RATES = np.array([0.1, 0.3, 0.0, 0.2])
+ACCELERATIONS = np.array([0.01, -0.02, 0.0, 0.03])
+SIZES = [(1, 1), (2, 3), (3, 7), (6, 2)]
+
+
+def _model(n_boom_modes, n_membrane_modes):
+    return SailModel(
+        SailParameters(
+            n_boom_modes=n_boom_modes,
+            n_membrane_modes=n_membrane_modes,
+            mass_damping=0.02,
+            stiffness_damping=5e-4,
+        )
+    )
+
+
+@pytest.mark.parametrize(("n_boom_modes", "n_membrane_modes"), SIZES)
+def test_blocks_add_up_to_the_assembled_matrices_and_act_like_them(n_boom_modes, n_membrane_modes):
+    model = _model(n_boom_modes, n_membrane_modes)
+    motion = (LENGTHS, RATES, ACCELERATIONS)
+    full = model.assemble(_STEP_MATRICES, *motion)
+    blocks = model.assemble_blocks(_STEP_MATRICES, *motion)
+    assert np.array_equal(blocks.dense(), full)
+    rng = np.random.default_rng(1)
+    x = rng.standard_normal((len(_STEP_MATRICES), model.n))
+    expected = np.einsum("kij,kj->ki", full, x)
+    for products in (blocks.matvec(x), DenseMatrices(full).matvec(x)):
+        assert np.allclose(products, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+
+    taus = 0.07 / _PADE_POLES
+    rhs = rng.standard_normal((taus.size, model.n)) + 1j * rng.standard_normal((taus.size, model.n))
+    systems = full[0] + taus[:, None, None] * full[1] + taus[:, None, None] ** 2 * full[2]
+    for u in (blocks.solve_shifted(taus, rhs), DenseMatrices(full).solve_shifted(taus, rhs)):
+        residual = np.einsum("pij,pj->pi", systems, u) - rhs
+        assert np.abs(residual).max() < 1e-12 * np.abs(rhs).max() * np.abs(systems).max()
+
+
+def test_moving_steps_by_blocks_and_in_full_agree(monkeypatch):
+    model = _model(3, 7)
+    profile = CycloidalProfile(10.0, 14.0, 8.0)
+    loads = ([2e-3, 0.0, 1e-3, 0.0], [0.0, 0.05, 0.0, 0.0])
+    runs = []
+    for threshold in (model.n, model.n + 1):  # by blocks, then in full
+        monkeypatch.setattr(stepper_module, "BLOCK_SOLVE_MIN_COORDINATES", threshold)
+        runs.append(model.simulate(profile, 8.0, q0=model.mode_state("a", 0.1), loads=loads)[1:])
+    (q_blocks, qd_blocks), (q_full, qd_full) = runs
+    assert np.abs(q_full).max() > 0
+    assert np.allclose(q_blocks, q_full, rtol=0, atol=1e-11 * np.abs(q_full).max())
+    assert np.allclose(qd_blocks, qd_full, rtol=0, atol=1e-11 * np.abs(qd_full).max())
