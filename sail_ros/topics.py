@@ -352,12 +352,24 @@ def _diverging(v: float) -> ColorRGBA:
 _PALETTE = [_diverging(level / COLOUR_LEVELS) for level in range(-COLOUR_LEVELS, COLOUR_LEVELS + 1)]
 
 
+# the same shades as float32 RGBA rows, as CDR holds them (`shape_message`)
+_PALETTE_RGBA = np.array([[c.r, c.g, c.b, c.a] for c in _PALETTE], dtype="<f4")
+
+
+def _height_levels(heights, scale: float) -> np.ndarray:
+    v = np.clip(np.asarray(heights, dtype=float) / scale, -1.0, 1.0)
+    return np.rint(v * COLOUR_LEVELS).astype(int) + COLOUR_LEVELS
+
+
 def height_colours(heights, scale: float) -> list[ColorRGBA]:
     """Diverging colour map of heights [m]: blue at -scale, white at 0, red at
     +scale, in 2 COLOUR_LEVELS + 1 shades."""
-    v = np.clip(np.asarray(heights, dtype=float) / scale, -1.0, 1.0)
-    levels = np.rint(v * COLOUR_LEVELS).astype(int) + COLOUR_LEVELS
-    return [_PALETTE[level] for level in levels.tolist()]
+    return [_PALETTE[level] for level in _height_levels(heights, scale).tolist()]
+
+
+def colour_array(heights, scale: float) -> np.ndarray:
+    """`height_colours` as an (N, 4) float32 array of r, g, b, a."""
+    return _PALETTE_RGBA[_height_levels(heights, scale)]
 
 
 def shape(stamp_ns_: int, vertices, triangles, boom_lines, frame_id: str = FRAME_ID) -> MarkerArray:

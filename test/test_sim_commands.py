@@ -26,6 +26,7 @@ from sail_ros.nodes.intake import CommandQueue
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.sim_params import DEFAULTS, SPECS, ConfigError, config_from_values
 from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation
+from sail_ros.shape_message import ShapeSerializer
 
 pytestmark = pytest.mark.model
 
@@ -652,3 +653,21 @@ def test_a_trajectory_longer_than_max_trajectory_points_is_rejected_whole(config
     assert sim.rejected == 1
     command.points.pop()
     assert sim.follow(command, limits).booms == (0,)
+
+
+def test_shape_bytes_decode_to_the_message_built_from_objects(model):
+    """What the simulator publishes on /sail/shape (CDR filled with numpy) is, after
+    rclpy's deserialiser, the message `topics.shape` builds: every stamp, point and
+    colour, frame after frame (each fills a fresh copy of the template)."""
+    surface = SailSurface(model, 6)
+    serializer = ShapeSerializer(surface.triangles, surface.boom_stations.size, "body")
+    lengths = [10.0, 11.0, 12.0, 13.0]
+    for stamp_ns, tips in (
+        (1_700_000_000_123_456_789, [0.1, -0.02, 0.03, -0.05]),
+        (5, [0.0, 0.0, 0.0, 0.0]),  # flat: the colour scale's floor
+        (2_000_000_000_000_000_001, [-0.3, 0.2, 0.0, 0.01]),
+    ):
+        q = model.initial_coordinates(tips)
+        vertices, booms = surface.vertices(q, lengths), surface.boom_lines(q, lengths)
+        decoded = deserialize_message(serializer.serialize(stamp_ns, vertices, booms), MarkerArray)
+        assert decoded == topics.shape(stamp_ns, vertices, surface.triangles, booms, "body")

@@ -53,6 +53,7 @@ from sail_ros.nodes.parameters import ConfigError, declare, node_options
 from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
 from sail_ros.ros_cli import run_node
+from sail_ros.shape_message import ShapeSerializer
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
@@ -81,6 +82,9 @@ class SimNode(Node):
             raise ConfigError(f"sail.n_boom_modes, sail.n_membrane_modes: {error}") from None
         self.sim = Simulation(model, config)
         self.surface = SailSurface(model, config.shape_divisions)
+        self._shape = ShapeSerializer(
+            self.surface.triangles, self.surface.boom_stations.size, config.frame_id
+        )
         self.coordinate_names = model.coordinate_names
         self.pacer = Pacer(
             config.time_scale, config.integration_step, config.steps_between(config.state_rate_hz)
@@ -359,13 +363,11 @@ class SimNode(Node):
 
     def _publish_shape(self) -> None:
         q, lengths = self.sim.stepper.q, self.sim.stepper.boom_motion()[0]
-        self._outputs[topics.SHAPE].publish(
-            topics.shape(
+        self._outputs[topics.SHAPE].publish(  # CDR bytes of `topics.shape`
+            self._shape.serialize(
                 self._stamp(),
                 self.surface.vertices(q, lengths),
-                self.surface.triangles,
                 self.surface.boom_lines(q, lengths),
-                self.config.frame_id,
             )
         )
 
