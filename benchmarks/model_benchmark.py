@@ -18,13 +18,14 @@ Rows per size:
   from the project's own assembly (one Cholesky solve of `M`), tuned to just
   meet the same 0.2 %: the fastest of an `rtol` ladder (steps of 10^(1/8)
   from 0.03, with `atol = rtol x 0.01` and `x 0.1` of the largest initial
-  coordinate) that meets it; its real-time factor is measured in the same
-  process as the stepper's, so their ratio holds while the machine drifts;
+  coordinate) that meets it;
 - `loaded`: the default stepper on the same deployment loaded and damped
   (model.md §11: Rayleigh alpha 0.02 1/s, beta 2e-4 s, 2 mPa on quadrants ab
   and cd, 0.05 N at the tip of boom b from 5 s to 10 s); its accuracy is
   checked in test_loads_damping, its real-time factor here.
 The `steps` column counts the stepper's steps, and Radau's right-hand-side calls.
+Every case of a size is timed in the same process, the cases interleaved, best of
+`--repeat` each: the machine's drift reaches them alike, so their ratios hold.
 
 Then the build of the reference integrals alone for `--integrals` sizes (wall
 time and peak resident memory of a fresh process).
@@ -69,14 +70,6 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> list[dict]
     def error_pct(tips):
         return 100 * np.abs(np.array(tips) - exact).max() / peak
 
-    def best_wall(run):
-        walls = []
-        for _ in range(repeat):
-            started = time.perf_counter()
-            outcome = run()
-            walls.append(time.perf_counter() - started)
-        return min(walls), outcome
-
     def stepper_run(model, max_step, inputs=None):
         def run():
             stepper = model.stepper(profile, q0=q0, max_step=max_step, inputs=inputs)
@@ -88,32 +81,12 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> list[dict]
 
         return run
 
-    rows = []
-
-    def row(case, wall, steps, error):
-        rows.append(
-            {
-                "sizes": (n_boom_modes, n_membrane_modes),
-                "case": case,
-                "n": model.n,
-                "build_s": build,
-                "wall_s": wall,
-                "steps": steps,
-                "error_pct": error,
-                "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-            }
-        )
-
-    wall, (steps, tips) = best_wall(stepper_run(model, DEFAULT_MAX_STEP))
-    row("default", wall, steps, error_pct(tips))
+    at_bar = None
     for max_step in LONGER_STEPS:
-        wall, (steps, tips) = best_wall(stepper_run(model, max_step))
-        if error_pct(tips) <= ACCURACY_BAR_PCT:
-            row(f"at bar {max_step:g} s", wall, steps, error_pct(tips))
+        run = stepper_run(model, max_step)
+        if error_pct(run()[1]) <= ACCURACY_BAR_PCT:
+            at_bar = (f"at bar {max_step:g} s", run)
             break
-    wall, (steps, tips) = best_wall(_radau_at_bar(model, profile, q0, t_out, error_pct, repeat))
-    row("Radau", wall, steps, error_pct(tips))
-
     damped = SailModel(
         SailParameters(
             n_boom_modes=n_boom_modes,
@@ -127,9 +100,34 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> list[dict]
         force = 0.05 if 5.0 <= t < 10.0 else 0.0
         return np.array([2e-3, 0.0, 2e-3, 0.0, 0.0, force, 0.0, 0.0])
 
-    wall, (steps, _) = best_wall(stepper_run(damped, DEFAULT_MAX_STEP, inputs))
-    row("loaded", wall, steps, None)
-    return rows
+    cases = [
+        ("default", stepper_run(model, DEFAULT_MAX_STEP), True),
+        *([(*at_bar, True)] if at_bar else []),
+        ("Radau", _radau_at_bar(model, profile, q0, t_out, error_pct), True),
+        ("loaded", stepper_run(damped, DEFAULT_MAX_STEP, inputs), False),
+    ]
+    # interleaved, best of `repeat` each: the machine's drift reaches every case alike
+    walls = {name: [] for name, _, _ in cases}
+    outcomes = {}
+    for _ in range(repeat):
+        for name, run, _ in cases:
+            started = time.perf_counter()
+            outcomes[name] = run()
+            walls[name].append(time.perf_counter() - started)
+    peak_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return [
+        {
+            "sizes": (n_boom_modes, n_membrane_modes),
+            "case": name,
+            "n": model.n,
+            "build_s": build,
+            "wall_s": min(walls[name]),
+            "steps": outcomes[name][0],
+            "error_pct": error_pct(outcomes[name][1]) if checked else None,
+            "peak_rss_mb": peak_rss,
+        }
+        for name, _, checked in cases
+    ]
 
 
 def _reference_tips(model, profile, q0, t_out):
@@ -151,7 +149,7 @@ def _reference_tips(model, profile, q0, t_out):
     return np.array(exact)
 
 
-def _radau_at_bar(model, profile, q0, t_out, error_pct, repeat):
+def _radau_at_bar(model, profile, q0, t_out, error_pct):
     """The fastest Radau setting of the ladder that meets the bar, as a run to time."""
     import time
 

@@ -4,8 +4,11 @@ For each rate, a publisher process sends `--seconds` worth of simulator-like
 steps (per step: /sail/boom_state with 4 booms, /sail/modal_state with 40
 modes, /sail/shape with a membrane of --points points), a recorder process
 records them (default parameters: zstd, reliable), and the messages in the
-finished bag are counted. Prints one line per rate and the highest rate
-without loss. Not a test: the figures depend on the machine.
+finished bag are counted. The publisher sends pre-serialised CDR bytes, so
+that it is not the first to saturate. Prints one line per rate and the
+highest rate without loss, and the recorder's CPU time per recorded message
+(user + system, all threads, from /proc). Not a test: the figures depend on
+the machine.
 
     python benchmarks/recorder_throughput.py
     python benchmarks/recorder_throughput.py --rates 100 1000 3000 --points 1000
@@ -57,8 +60,13 @@ def publish(rate: float, steps: int, points: int) -> None:
     publishers = {t: node.create_publisher(type(m), t, 10) for t, m in step.items()}
     while min(p.get_subscription_count() for p in publishers.values()) < 1:
         rclpy.spin_once(node, timeout_sec=0.01)
-    # built ahead, so that the rate measures publishing, not building messages
-    messages = [sail_step(i, points) for i in range(min(steps, 50))]
+    from rclpy.serialization import serialize_message
+
+    # serialised ahead, so that the rate measures the recorder, not building messages
+    messages = [
+        {topic: serialize_message(message) for topic, message in sail_step(i, points).items()}
+        for i in range(min(steps, 50))
+    ]
     start = due = time.monotonic()
     for i in range(steps):
         for topic, message in messages[i % len(messages)].items():
@@ -71,8 +79,16 @@ def publish(rate: float, steps: int, points: int) -> None:
     rclpy.shutdown()
 
 
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time [s] of process `pid`, all threads."""
+    with open(f"/proc/{pid}/stat") as stat:
+        fields = stat.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def measure(rate: float, seconds: float, points: int, env: dict, folder: Path) -> tuple:
-    """(achieved publish rate [Hz], messages published, messages in the bag)."""
+    """(achieved publish rate [Hz], messages published, messages in the bag, recorder CPU
+    seconds while the publisher ran)."""
     steps = max(50, round(rate * seconds))
     recorder = subprocess.Popen(
         [
@@ -91,6 +107,8 @@ def measure(rate: float, seconds: float, points: int, env: dict, folder: Path) -
         stderr=subprocess.PIPE,
         text=True,
     )
+    time.sleep(1.0)  # past the recorder's start-up, which is not what is measured
+    cpu_before = cpu_seconds(recorder.pid)
     publisher = subprocess.run(
         [sys.executable, __file__, "--publish", str(rate), str(steps), str(points)],
         env=env,
@@ -99,6 +117,7 @@ def measure(rate: float, seconds: float, points: int, env: dict, folder: Path) -
         timeout=seconds * 20 + 60,
         check=True,
     )
+    cpu = cpu_seconds(recorder.pid) - cpu_before
     recorder.send_signal(signal.SIGINT)
     _, err = recorder.communicate(timeout=60)
     if recorder.returncode != 0:
@@ -106,7 +125,7 @@ def measure(rate: float, seconds: float, points: int, env: dict, folder: Path) -
     from sail_ros.bag import BagReader
 
     recorded = sum(info.message_count for info in BagReader(folder).topics().values())
-    return float(publisher.stdout.strip()), steps * len(TOPICS), recorded
+    return float(publisher.stdout.strip()), steps * len(TOPICS), recorded, cpu
 
 
 def main() -> int:
@@ -115,7 +134,7 @@ def main() -> int:
         "--rates",
         type=float,
         nargs="+",
-        default=[100, 200, 500, 1000, 2000, 4000],
+        default=[100, 200, 500, 1000, 2000, 4000, 8000],
         help="steps/s to try",
     )
     parser.add_argument("--seconds", type=float, default=2.0, help="publishing time per rate [s]")
@@ -138,18 +157,22 @@ def main() -> int:
     )
     print(
         f"{'target Hz':>10} {'achieved Hz':>12} {'published':>10} {'recorded':>9} "
-        f"{'lost':>6} {'MiB/s':>7}"
+        f"{'lost':>6} {'MiB/s':>7} {'CPU/message':>12}"
     )
     best = None
     with tempfile.TemporaryDirectory() as tmp:
         for index, rate in enumerate(args.rates):
             folder = Path(tmp) / f"rate_{index}"
-            achieved, published, recorded = measure(rate, args.seconds, args.points, env, folder)
+            achieved, published, recorded, cpu = measure(
+                rate, args.seconds, args.points, env, folder
+            )
             size = sum(f.stat().st_size for f in folder.glob("*.mcap"))
             raw_rate = achieved * (shape_bytes + 800) / 2**20  # uncompressed, roughly
+            cpu_us = 1e6 * cpu / max(recorded, 1)
             print(
                 f"{rate:>10.0f} {achieved:>12.1f} {published:>10} {recorded:>9} "
-                f"{published - recorded:>6} {raw_rate:>7.2f}   (bag {size / 2**20:.2f} MiB)"
+                f"{published - recorded:>6} {raw_rate:>7.2f} {cpu_us:>9.0f} us "
+                f"  (bag {size / 2**20:.2f} MiB)"
             )
             if recorded == published:
                 best = achieved

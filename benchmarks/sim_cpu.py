@@ -8,7 +8,9 @@ the end of the phase even as fast as possible). Reported per phase:
 - CPU: the simulator process's CPU time (user + system, all threads) over
   wall time, from /proc/<pid>/stat (100 % = one core);
 - RTF: simulation time advanced over wall time (from its diagnostics);
-- step: mean wall time of one 0.01 s grid step (from its diagnostics).
+- step: mean wall time of one 0.01 s grid step (from its diagnostics);
+- overruns: ticks that found the model more than a step behind the clock
+  (from its diagnostics; only meaningful when paced, not as fast as possible).
 
     python benchmarks/sim_cpu.py            # about 90 s
     python benchmarks/sim_cpu.py --quick    # shorter phases
@@ -42,6 +44,25 @@ SETTINGS = [
             "sail.n_membrane_modes": 10,
             "state_rate_hz": 100.0,
             "shape_rate_hz": 10.0,
+        },
+    ),
+    (
+        "n_B = n_M = 20, 100 Hz state, 10 Hz shape, real time",
+        {
+            "sail.n_boom_modes": 20,
+            "sail.n_membrane_modes": 20,
+            "state_rate_hz": 100.0,
+            "shape_rate_hz": 10.0,
+        },
+    ),
+    (
+        "n_B = n_M = 10, 100 Hz state, 10 Hz shape, 8x real time",
+        {
+            "sail.n_boom_modes": 10,
+            "sail.n_membrane_modes": 10,
+            "state_rate_hz": 100.0,
+            "shape_rate_hz": 10.0,
+            "time_scale": 8.0,
         },
     ),
     ("default, as fast as possible", {"time_scale": 0.0}),
@@ -81,7 +102,7 @@ class Observer(Node):
         self.executor_ = SingleThreadedExecutor(context=context)
         self.executor_.add_node(self)
         self.received = 0
-        self.status: list[tuple[float, float, float]] = []
+        self.status: list[tuple[float, float, float, int]] = []
         for name, type_name in OUTPUTS.items():
             package, _, kind = type_name.split("/")
             module = __import__(f"{package}.msg", fromlist=[kind])
@@ -99,7 +120,12 @@ class Observer(Node):
     def _on_status(self, message: DiagnosticArray) -> None:
         values = topics.diagnostic_values(message)
         self.status.append(
-            (time.monotonic(), float(values["sim_time_s"]), float(values["step_time_ms_mean"]))
+            (
+                time.monotonic(),
+                float(values["sim_time_s"]),
+                float(values["step_time_ms_mean"]),
+                int(values["overruns"]),
+            )
         )
 
     def spin_for(self, seconds: float) -> None:
@@ -108,16 +134,16 @@ class Observer(Node):
             self.executor_.spin_once(timeout_sec=0.01)
 
 
-def measure(observer: Observer, pid: int, seconds: float) -> tuple[float, float, float]:
-    """(CPU fraction, real-time factor, mean step ms) over the next `seconds`."""
+def measure(observer: Observer, pid: int, seconds: float) -> tuple[float, float, float, int]:
+    """(CPU fraction, real-time factor, mean step ms, overruns) over the next `seconds`."""
     first = len(observer.status)
     cpu0, wall0 = cpu_seconds(pid), time.monotonic()
     observer.spin_for(seconds)
     cpu = (cpu_seconds(pid) - cpu0) / (time.monotonic() - wall0)
     window = observer.status[first:]
-    (w0, t0, _), (w1, t1, _) = window[0], window[-1]
-    steps = [step for _, _, step in window[1:]]
-    return cpu, (t1 - t0) / (w1 - w0), sum(steps) / len(steps)
+    (w0, t0, _, overruns0), (w1, t1, _, overruns1) = window[0], window[-1]
+    steps = [step for _, _, step, _ in window[1:]]
+    return cpu, (t1 - t0) / (w1 - w0), sum(steps) / len(steps), overruns1 - overruns0
 
 
 def run(parameters: dict, rest_s: float, moving_s: float, env: dict, domain: int):
@@ -175,12 +201,15 @@ def main(argv=None) -> int:
             f"sail_sim CPU use and real-time factor ({os.cpu_count()} cores; CPU 100 % = "
             f"one core; {phase:g} s per phase)\n"
         )
-        print(f"  {'setting':<66}{'phase':>9}{'CPU':>8}{'RTF':>9}{'step':>10}")
+        print(f"  {'setting':<66}{'phase':>9}{'CPU':>8}{'RTF':>9}{'step':>10}{'overruns':>10}")
         for name, parameters in SETTINGS:
-            for label, (cpu, rtf, step) in zip(
+            for label, (cpu, rtf, step, overruns) in zip(
                 ("at rest", "moving"), run(parameters, phase, phase, env, domain), strict=True
             ):
-                print(f"  {name:<66}{label:>9}{100 * cpu:7.1f}%{rtf:9.2f}{step:8.3f}ms", flush=True)
+                print(
+                    f"  {name:<66}{label:>9}{100 * cpu:7.1f}%{rtf:9.2f}{step:8.3f}ms{overruns:>10}",
+                    flush=True,
+                )
                 name = ""
     return 0
 
