@@ -32,18 +32,24 @@ QUADRANTS = (Quadrant("ab", 0, 1), Quadrant("bc", 1, 2), Quadrant("cd", 2, 3), Q
 QUADRANT_NAMES = tuple(quadrant.name for quadrant in QUADRANTS)
 
 
-def per_boom(value, name: str, positive: bool = False) -> np.ndarray:
-    """A scalar (all booms) or 4 values (order a, b, c, d) as a float array of 4.
+def per_boom(
+    value, name: str, positive: bool = False, order: str = "booms a, b, c, d"
+) -> np.ndarray:
+    """A scalar (all four) or 4 values (in `order`: booms, or quadrants for their
+    loads) as a float array of 4.
 
     Raises:
-        ValueError: naming `name` and the value, when the shape is wrong, a
-            value is not finite, or (with `positive`) a value is <= 0.
+        ValueError: naming `name` and the value, when it is not numbers, the shape
+            is wrong, a value is not finite, or (with `positive`) a value is <= 0.
     """
-    array = np.asarray(value, dtype=float)
-    if array.ndim == 0:
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        array = None
+    if array is not None and array.ndim == 0:
         array = np.full(4, float(array))
-    elif array.shape != (4,):
-        raise ValueError(f"{name} must be a scalar or 4 values (booms a, b, c, d), got {value!r}")
+    if array is None or array.shape != (4,):
+        raise ValueError(f"{name} must be a scalar or 4 values ({order}), got {value!r}")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{name} must be finite, got {value!r}")
     if positive and np.any(array <= 0.0):

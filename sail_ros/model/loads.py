@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sail_ros.model.layout import BOOMS, QUADRANT_NAMES
+from sail_ros.model.layout import BOOMS, QUADRANT_NAMES, per_boom
 
 INPUT_NAMES = tuple(f"pressure_{q}" for q in QUADRANT_NAMES) + tuple(
     f"tip_force_{b}" for b in BOOMS
@@ -22,6 +22,7 @@ OUTPUT_NAMES = tuple(f"tip_deflection_{b}" for b in BOOMS) + tuple(
 )
 OUTPUT_UNITS = ("m",) * 4 + ("N m",) * 4
 N_INPUTS = len(INPUT_NAMES)
+QUADRANT_ORDER = "quadrants ab, bc, cd, da"  # how the errors name the order of pressures
 
 
 def inputs(pressures=0.0, tip_forces=0.0) -> np.ndarray:
@@ -34,24 +35,10 @@ def inputs(pressures=0.0, tip_forces=0.0) -> np.ndarray:
     """
     return np.concatenate(
         [
-            _four(pressures, "pressures", "quadrants ab, bc, cd, da"),
-            _four(tip_forces, "tip_forces", "booms a, b, c, d"),
+            per_boom(pressures, "pressures", order=QUADRANT_ORDER),
+            per_boom(tip_forces, "tip_forces"),
         ]
     )
-
-
-def _four(value, name: str, order: str) -> np.ndarray:
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        array = None
-    if array is not None and array.ndim == 0:
-        array = np.full(4, float(array))
-    if array is None or array.shape != (4,):
-        raise ValueError(f"{name} must be a scalar or 4 values ({order}), got {value!r}")
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return array
 
 
 def input_function(loads):
@@ -97,9 +84,11 @@ class LoadSchedule:
             if not np.isfinite(t) or (self.switch_times and t <= self.switch_times[-1]):
                 raise ValueError(f"load step {i}: times must be finite and increasing, got {t!r}")
             if new_pressures is not None:
-                pressures = _four(new_pressures, f"load step {i}: pressures", "ab, bc, cd, da")
+                pressures = per_boom(
+                    new_pressures, f"load step {i}: pressures", order="ab, bc, cd, da"
+                )
             if new_forces is not None:
-                forces = _four(new_forces, f"load step {i}: tip_forces", "booms a, b, c, d")
+                forces = per_boom(new_forces, f"load step {i}: tip_forces")
             self.switch_times.append(float(t))
             self._values.append((pressures, forces))
 
