@@ -75,8 +75,9 @@ class ShapeSerializer:
 
 
 def _write(buffer: bytearray, offset: int, values: np.ndarray) -> None:
-    data = np.ascontiguousarray(values, dtype=values.dtype.newbyteorder("<")).tobytes()
-    buffer[offset : offset + len(data)] = data
+    """`values` into `buffer` at `offset`, little-endian, through a view (one copy)."""
+    dtype = values.dtype.newbyteorder("<")
+    np.frombuffer(buffer, dtype=dtype, count=values.size, offset=offset)[:] = values.ravel()
 
 
 def _offset_of(data: bytes, values: np.ndarray) -> int:

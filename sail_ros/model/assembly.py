@@ -286,6 +286,7 @@ class _Component:
         for name, skew in keys:
             matrix = getattr(integrals, name)
             stacked.append(matrix - matrix.T if skew else matrix)
+        self.size = stacked[0].shape[0]  # of each block: n_B, or n~ for a quadrant
         self.integrals = np.stack(stacked).reshape(len(keys), -1)
         self.targets = targets  # (4, size^2): flat system index of every block entry
 
@@ -307,8 +308,7 @@ class _Component:
     def blocks(self, motion, constants: Constants, selection: np.ndarray, k: int) -> np.ndarray:
         """Every block of every requested output, (k, 4, size, size), output-major."""
         weights = self._weights(motion, constants, selection).reshape(4, k, -1).transpose(1, 0, 2)
-        size = int(round(np.sqrt(self.integrals.shape[1])))
-        return (weights @ self.integrals).reshape(k, 4, size, size)
+        return (weights @ self.integrals).reshape(k, 4, self.size, self.size)
 
     def _weights(self, motion, constants: Constants, selection: np.ndarray) -> np.ndarray:
         """(4, outputs x integrals): the coefficient of each integral in each output."""
