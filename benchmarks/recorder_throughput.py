@@ -23,6 +23,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from sim_cpu import cpu_seconds  # a sibling script: benchmarks/ is on sys.path when run
+
 TOPICS = ["/sail/boom_state", "/sail/modal_state", "/sail/shape"]
 
 
@@ -77,13 +79,6 @@ def publish(rate: float, steps: int, points: int) -> None:
             time.sleep(delay)
     print(f"{steps / (time.monotonic() - start):.1f}", flush=True)
     rclpy.shutdown()
-
-
-def cpu_seconds(pid: int) -> float:
-    """User + system CPU time [s] of process `pid`, all threads."""
-    with open(f"/proc/{pid}/stat") as stat:
-        fields = stat.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def measure(rate: float, seconds: float, points: int, env: dict, folder: Path) -> tuple:
