@@ -17,6 +17,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros import topics
+from sail_ros.message_bytes import ShapeSerializer, StateSerializer
 from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointProfile
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion
@@ -26,7 +27,6 @@ from sail_ros.nodes.intake import CommandQueue
 from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.sim_params import DEFAULTS, SPECS, ConfigError, config_from_values
 from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation
-from sail_ros.shape_message import ShapeSerializer
 
 pytestmark = pytest.mark.model
 
@@ -248,12 +248,16 @@ def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
         assert sim.step()
     assert sim.t == pytest.approx(6.0, abs=1e-12)
     assert sim.accepted == 1 and sim.last_command_start == pytest.approx(1.0)
-    # the same motion offline, on the same step: agreement to round-off
+    # the same motion offline, sampled as the simulator does: agreement to round-off
     profile = CycloidalProfile.within_limits(10.0, 12.0, 1.0, 0.5, t0=sim.last_command_start)
-    _, q, _ = model.simulate(
-        profile, 6.0, model.initial_coordinates([0.1, 0, 0, 0]), t_eval=[6.0], max_step=0.01
+    t, q, qd = model.simulate_on_grid(
+        profile, 6.0, 0.01, model.initial_coordinates([0.1, 0, 0, 0]), max_step=0.05
     )
-    assert sim.stepper.q == pytest.approx(q[0], abs=1e-12)
+    assert t[-1] == pytest.approx(6.0, abs=1e-12)
+    assert sim.q == pytest.approx(q[-1], abs=1e-12) and sim.qd == pytest.approx(qd[-1], abs=1e-12)
+    # ... which took one model step per 5 grid steps while the booms moved
+    moving = np.count_nonzero(t[:-1] >= profile.t0)
+    assert sim.stepper.steps_taken == 100 + moving / 5
     assert sim.sample().lengths == pytest.approx(profile(6.0)[0])
 
 
@@ -286,7 +290,7 @@ def test_loads_are_held_from_the_next_step_and_match_simulate(model, config):
         loads=schedule,
         max_step=0.01,
     )
-    assert sim.stepper.q == pytest.approx(q[-1], abs=1e-12)
+    assert sim.q == pytest.approx(q[-1], abs=1e-12)
     assert sim.sample().root_moments == pytest.approx(model.root_moments(q[-1], 10.0))
     load_power, dissipation = sim.powers()
     assert dissipation == 0.0 and load_power != 0.0  # undamped, loaded
@@ -327,7 +331,9 @@ def test_short_booms_get_sub_steps(model, config):
     # omega_1 = 1.8751^2 sqrt(6000 / 0.1) / 1.5^2 = 383 rad/s: 0.01 s needs ceil(3.83 / 2) = 2
     assert sim.substeps() == 2
     assert Simulation(model, config).substeps() == 1
-    assert sim.step() and sim.stepper.steps_taken == 2 and sim.t == pytest.approx(0.01)
+    assert sim.step() and sim.stepper.steps_taken == 1  # at rest: one exact step
+    sim.deploy(2.0, short.limits)
+    assert sim.step() and sim.stepper.steps_taken == 3 and sim.t == pytest.approx(0.02)
 
 
 def test_rejected_command_leaves_the_state_alone(model, config):
@@ -341,7 +347,7 @@ def test_rejected_command_leaves_the_state_alone(model, config):
     for _ in range(50):
         reference.step()
         sim.step()
-    assert np.array_equal(sim.stepper.q, reference.stepper.q)
+    assert np.array_equal(sim.q, reference.q)
 
 
 def test_leaving_the_linear_range_warns_then_stops_before_anything_is_non_finite(config):
@@ -361,8 +367,8 @@ def test_leaving_the_linear_range_warns_then_stops_before_anything_is_non_finite
     assert sim.state == ERROR and "beyond tip_error_fraction 0.3: out of the linear range" in (
         sim.error
     )
-    tips = sim.model.tip_deflections(sim.stepper.q)
-    assert np.all(np.isfinite(sim.stepper.q)) and abs(tips[0]) / 10.0 < 1.0  # 0.3 < ... < 1
+    tips = sim.model.tip_deflections(sim.q)
+    assert np.all(np.isfinite(sim.q)) and abs(tips[0]) / 10.0 < 1.0  # 0.3 < ... < 1
 
 
 def test_non_finite_state_stops_until_reset(config):
@@ -378,14 +384,14 @@ def test_non_finite_state_stops_until_reset(config):
     while sim.step():
         assert sim.steps < 1000, "the buckled booms should diverge within 10 s"
     assert sim.state == ERROR and "non-finite" in sim.error
-    assert np.all(np.isfinite(sim.stepper.q))  # the last finite state is kept
+    assert np.all(np.isfinite(sim.q))  # the last finite state is kept
     t = sim.t
     assert not sim.step() and sim.t == t
     with pytest.raises(CommandError, match="call sail/reset first"):
         sim.deploy(12.0, buckling.limits)
     sim.paused = True
     sim.reset(config_from_values({**DEFAULTS, "sail.boom_axial_load": 1e6}))  # no tip: stays 0
-    assert sim.state == PAUSED and sim.t == t and not np.any(sim.stepper.q)
+    assert sim.state == PAUSED and sim.t == t and not np.any(sim.q)
     sim.paused = False
     assert sim.state == RUNNING and all(sim.step() for _ in range(100))
 
@@ -503,6 +509,7 @@ def test_every_parameter_is_described_with_unit_and_range():
             or spec.name
             in {
                 "integration_step",
+                "max_model_step",
                 "time_scale",
                 "frame_id",
                 "shape_divisions",
@@ -671,3 +678,22 @@ def test_shape_bytes_decode_to_the_message_built_from_objects(model):
         vertices, booms = surface.vertices(q, lengths), surface.boom_lines(q, lengths)
         decoded = deserialize_message(serializer.serialize(stamp_ns, vertices, booms), MarkerArray)
         assert decoded == topics.shape(stamp_ns, vertices, surface.triangles, booms, "body")
+
+
+def test_state_bytes_decode_to_the_messages_built_from_objects(model):
+    """What the simulator publishes on the state topics (CDR filled with numpy) is,
+    after rclpy's deserialiser, what `topics.state_messages` builds, topic by topic."""
+    for with_clock in (False, True):
+        serializer = StateSerializer(model.coordinate_names, "body", with_clock=with_clock)
+        rng = np.random.default_rng(7)
+        for stamp_ns in (1_700_000_000_123_456_789, 5, 2_000_000_000_000_000_001):
+            q, qd = rng.normal(size=model.n), rng.normal(size=model.n)
+            lengths, rates = rng.uniform(5.0, 20.0, 4), rng.normal(size=4)
+            sample = model.sample(1.5, lengths, rates, q, qd)
+            built = topics.state_messages(
+                stamp_ns, sample, model.coordinate_names, "body", with_clock=with_clock
+            )
+            sent = serializer.serialize(stamp_ns, sample)
+            assert [name for name, _ in sent] == [name for name, _ in built]
+            for (_, data), (name, message) in zip(sent, built, strict=True):
+                assert deserialize_message(data, type(message)) == message, name

@@ -32,10 +32,12 @@ from sail_ros.nodes.commands import BoomState, Limits, plan_deploy, plan_traject
 pytestmark = pytest.mark.multiprocess
 
 STEP = 0.01  # s, integration_step (default)
+MODEL_STEP = 0.05  # s, max_model_step (default)
 LIMITS = Limits(min_length=1.0, max_length=70.71, max_rate=1.0, max_acceleration=0.5)  # defaults
-# The simulator and SailModel.simulate integrate the same equations on the same
-# 0.01 s grid from the same state, so they differ by round-off in the step times
-# only (~1e-9 m, ~1e-7 m/s); a command applied one step late moves the tips by ~3e-3 m.
+# The simulator and SailModel.simulate_on_grid integrate the same equations with the
+# same steps and samples from the same state, so they differ by round-off in the step
+# times only (~1e-9 m, ~1e-7 m/s); a command applied one step late moves the tips by
+# ~3e-3 m.
 TIP_TOLERANCE = 1e-6  # m; rates 1e-5 m/s
 
 
@@ -147,9 +149,12 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
 
     model = SailModel(SailParameters())
     t_tip, tips, tip_rates = series(operator.states[topics.TIP_DEFLECTION], epoch)
-    _, q, qd = model.simulate(
-        motion, t_tip[-1], model.initial_coordinates(tip0), t_eval=t_tip, max_step=STEP
+    t_grid, q, qd = model.simulate_on_grid(
+        motion, t_tip[-1] + 0.5 * STEP, STEP, model.initial_coordinates(tip0), max_step=MODEL_STEP
     )
+    on_grid = np.rint(t_tip / STEP).astype(int)
+    assert t_grid[on_grid] == pytest.approx(t_tip, abs=1e-9)
+    q, qd = q[on_grid], qd[on_grid]
     assert np.abs(tips).max() > 0.05  # the boom still rings: a real comparison
     assert tips == pytest.approx(model.tip_deflections(q), abs=TIP_TOLERANCE)
     assert tip_rates == pytest.approx(model.tip_deflections(qd), abs=10 * TIP_TOLERANCE)

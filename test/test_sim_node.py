@@ -166,15 +166,13 @@ def test_pause_resume_and_reset(ros):
     # paced again from where it stopped, not catching up the paused time
     assert sim.sim.t < held + 1.0
 
-    assert not np.allclose(sim.sim.stepper.q, sim.sim.model.initial_coordinates([0, 0.05, 0, 0]))
+    assert not np.allclose(sim.sim.q, sim.sim.model.initial_coordinates([0, 0.05, 0, 0]))
     # paused, so that no tick moves the state between the reset and this check
     assert call(spin_until, client.pause, SetBool.Request(data=True)).success
     answer = call(spin_until, client.reset, Trigger.Request())
     assert answer.success and "reset to the initial state" in answer.message
     assert answer.message.endswith("(paused)")
-    assert sim.sim.stepper.q == pytest.approx(
-        sim.sim.model.initial_coordinates([0, 0.05, 0, 0]), abs=1e-15
-    )
+    assert sim.sim.q == pytest.approx(sim.sim.model.initial_coordinates([0, 0.05, 0, 0]), abs=1e-15)
     assert sim.sim.t >= held  # time goes on: stamps never go backwards
 
 

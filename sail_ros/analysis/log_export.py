@@ -56,11 +56,12 @@ def simulator_parameters(
 
     `initial_lengths` and `initial_tip_deflection` are the lengths [m] and
     tip deflections [m] at t = 0. `integration_step` is the simulator's grid
-    step [s]: the state sample interval, at most `max_step` (the offline
-    integrator steps to every sample, as the simulator does to every grid
-    point). `time_scale` 0.0 means "as fast as possible", which an offline
-    run is.
+    step [s]: the state sample interval, at most `max_step`; the offline
+    integrator steps to every sample, so `max_model_step` is the same (the
+    simulator with these values takes the same steps). `time_scale` 0.0
+    means "as fast as possible", which an offline run is.
     """
+    step = min(float(max_step), 1.0 / state_rate_hz)
     values = topics.flat_sail_parameters(model.params)
     values.update(
         {
@@ -68,7 +69,8 @@ def simulator_parameters(
             "initial_tip_deflection": [float(v) for v in run.tips[0]],
             "state_rate_hz": float(state_rate_hz),
             "shape_rate_hz": float(shape_rate_hz),
-            "integration_step": min(float(max_step), 1.0 / state_rate_hz),
+            "integration_step": step,
+            "max_model_step": step,
             "time_scale": 0.0,
             "frame_id": frame_id,
             "shape_divisions": int(shape_divisions),

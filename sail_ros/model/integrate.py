@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sail_ros.model.sampling import GridSampler
 from sail_ros.model.stepper import LinearSystem, SailStepper
 
 
@@ -53,3 +54,36 @@ def simulate(
         if progress is not None:
             progress(t)
     return t_eval.copy(), q, qd
+
+
+def simulate_on_grid(
+    system: LinearSystem,
+    profile,
+    t_end: float,
+    spacing: float,
+    q0=None,
+    qd0=None,
+    progress=None,
+    **options,
+):
+    """The state every `spacing` [s] from t = 0 to `t_end` [s] as the simulator samples
+    it (`sampling.GridSampler`: exact steps at rest; moving steps of up to `max_step`,
+    whole grid intervals, the grid points inside from the step's continuous extension).
+
+    Args and returns as `simulate`, with the grid in place of `t_eval`.
+    """
+    if not (np.isfinite(t_end) and t_end > 0):
+        raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
+    sampler = GridSampler(SailStepper(system, profile, q0=q0, qd0=qd0, **options), spacing)
+    count = int(np.floor(t_end / sampler.spacing + 1e-9))
+    q = np.empty((count + 1, system.n))
+    qd = np.empty((count + 1, system.n))
+    t = np.empty(count + 1)
+    point = sampler.point
+    for i in range(count + 1):
+        if i:
+            point = sampler.advance()
+        t[i], q[i], qd[i] = point.t, point.q, point.qd
+        if progress is not None:
+            progress(point.t)
+    return t, q, qd

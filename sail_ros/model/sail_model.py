@@ -30,7 +30,7 @@ from sail_ros.model.integrals import (
     default_quadrature_order,
     quadrant_integrals,
 )
-from sail_ros.model.integrate import simulate
+from sail_ros.model.integrate import simulate, simulate_on_grid
 from sail_ros.model.layout import BOOMS, QUADRANTS, Layout, per_boom
 from sail_ros.model.loads import N_INPUTS, input_function, inputs
 from sail_ros.model.parameters import SailParameters
@@ -326,6 +326,15 @@ class SailModel:
             progress=progress,
             inputs=input_function(loads),
             **options,
+        )
+
+    def simulate_on_grid(
+        self, profile, t_end: float, spacing: float, q0=None, qd0=None, loads=None, **options
+    ):
+        """`integrate.simulate_on_grid`: the states every `spacing` [s] to `t_end` [s],
+        stepped and sampled as the simulator does; `loads` as in `simulate`."""
+        return simulate_on_grid(
+            self, profile, t_end, spacing, q0=q0, qd0=qd0, inputs=input_function(loads), **options
         )
 
     # derived quantities --------------------------------------------------------

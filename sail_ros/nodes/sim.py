@@ -1,8 +1,8 @@
 # ruff: noqa: E402  (the BLAS thread count must be set before numpy is imported)
 """Node `sail_sim`: the solar sail's deployment dynamics and vibration in real time.
 
-Integrates the sail model (`sail_ros.model`, model.md) on a fixed grid of
-`integration_step` seconds, paced by the steady clock (`time_scale`
+Integrates the sail model (`sail_ros.model`, model.md) and samples it on a
+fixed grid of `integration_step` seconds (`Simulation`), paced by the steady clock (`time_scale`
 simulation seconds per wall second), and publishes the boom state, the
 modal state, the boom-tip deflections, the sail's shape and diagnostics
 (msg_docs/README.md). Booms move on `sail/boom_length_cmd` and
@@ -27,6 +27,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
+import functools
 import gc
 import math
 import sys
@@ -43,6 +44,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
 from sail_ros.cli import PHYSICS_DOC
+from sail_ros.message_bytes import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.commands import CommandError
@@ -52,16 +54,30 @@ from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.parameters import ConfigError, declare, node_options
 from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
+from sail_ros.nodes.ticker import Ticker
 from sail_ros.ros_cli import run_node
-from sail_ros.shape_message import ShapeSerializer
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
 RTF_MIN_WINDOW_S = 0.5  # the real-time factor is measured over running windows this long
 
 
+def _locked(method):
+    """The method with the node's `lock` held (callbacks of the executor's thread)."""
+
+    @functools.wraps(method)
+    def locked(self, *args):
+        with self.lock:
+            return method(self, *args)
+
+    return locked
+
+
 class SimNode(Node):
-    """The `sail_sim` node. All work happens in its callbacks (one executor thread).
+    """The `sail_sim` node. The integration runs on a thread of its own (`Ticker`),
+    commands are taken from DDS on another (`_reception`); services, parameters,
+    commands and diagnostics run in the executor's callbacks. `lock` is held around
+    anything that reads or changes the simulation.
 
     Args:
         parameter_overrides: initial parameter values (besides --ros-args).
@@ -85,7 +101,6 @@ class SimNode(Node):
         self._shape = ShapeSerializer(
             self.surface.triangles, self.surface.boom_stations.size, config.frame_id
         )
-        self.coordinate_names = model.coordinate_names
         self.pacer = Pacer(
             config.time_scale, config.integration_step, config.steps_between(config.state_rate_hz)
         )
@@ -95,6 +110,9 @@ class SimNode(Node):
         published = [*topics.STATE_TOPICS, topics.SHAPE, topics.DIAGNOSTICS, topics.COMMAND_STATUS]
         if config.time_scale != 1.0:
             published.append(topics.CLOCK)
+        self._states = StateSerializer(
+            model.coordinate_names, config.frame_id, with_clock=topics.CLOCK in published
+        )
         self._outputs = {
             name: self.create_publisher(
                 topics.TOPICS[name].message_type, name, topics.TOPICS[name].qos
@@ -128,15 +146,17 @@ class SimNode(Node):
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
 
-        self._tick_timer = self.create_timer(self.pacer.tick_period, self._tick, clock=self._steady)
+        self.lock = threading.RLock()
+        self._ticker = Ticker(self._tick, self.lock, "sail_sim integration")
         self._diagnostics_timer = None
-        self._use_config()
-        self.epoch_ns = time.time_ns()  # the stamp of simulation time 0
-        self.pacer.run_from(0.0)
-        self.real_time_factor = RealTimeFactor(RTF_MIN_WINDOW_S)
-        self.real_time_factor.restart(self.sim.t, self.sim.state == RUNNING)
-        self._window = self._window_start()
-        self._start_sampling()
+        with self.lock:  # the first tick waits for the rest of the set-up
+            self._use_config()
+            self.epoch_ns = time.time_ns()  # the stamp of simulation time 0
+            self.pacer.run_from(0.0)
+            self.real_time_factor = RealTimeFactor(RTF_MIN_WINDOW_S)
+            self.real_time_factor.restart(self.sim.t, self.sim.state == RUNNING)
+            self._window = self._window_start()
+            self._start_sampling()
         speed = (
             "as fast as possible"
             if config.as_fast_as_possible
@@ -159,6 +179,7 @@ class SimNode(Node):
             return SetParametersResult(successful=False, reason=str(error))
         return SetParametersResult(successful=True)
 
+    @_locked
     def _apply_parameters(self, parameters) -> None:
         """Post-set: use the new values, and say so (the recorder keeps the change too,
         from /parameter_events)."""
@@ -180,7 +201,7 @@ class SimNode(Node):
         self._every_state = config.steps_between(config.state_rate_hz)
         self._every_shape = config.steps_between(config.shape_rate_hz)
         self.pacer.tick_steps = self._every_state
-        self._tick_timer.timer_period_ns = round(self.pacer.tick_period * 1e9)
+        self._ticker.set(self.pacer.tick_period, self.sim.state == RUNNING)
         period = 1.0 / config.diagnostics_rate_hz
         if self._diagnostics_timer is None or self._diagnostics_timer.timer_period_ns != round(
             period * 1e9
@@ -221,12 +242,12 @@ class SimNode(Node):
 
     def _set_running(self) -> None:
         """Tick while the simulation runs; hold the clock (and stop ticking) otherwise."""
-        if self.sim.state == RUNNING:
+        running = self.sim.state == RUNNING
+        if running:
             self.pacer.run_from(self.sim.t)
-            self._tick_timer.reset()
         else:
             self.pacer.hold(self.sim.t)
-            self._tick_timer.cancel()
+        self._ticker.set(self.pacer.tick_period, running)
         self.real_time_factor.restart(self.sim.t, self.sim.state == RUNNING)
 
     def _stop_on_error(self) -> None:
@@ -265,6 +286,7 @@ class SimNode(Node):
         self.get_logger().warning(f"{self.resolve_topic_name(name)} {text}")
         self._answer(name, info, topics.IGNORED, text, {})
 
+    @_locked
     def _run_commands(self) -> None:
         """Simulator thread: act on the waiting commands in their order of arrival."""
         for name, message, info, why_not in self.queue.take():
@@ -283,7 +305,7 @@ class SimNode(Node):
             try:
                 if name in topics.LOAD_NAMES:
                     change = self.sim.load(name, message, limits)
-                    text, values = change.summary, {"t_start_s": f"{self.sim.t:.9f}"}
+                    text, values = change.summary, {"t_start_s": f"{self.sim.t_model:.9f}"}
                 else:
                     if name == topics.DEPLOY_CMD:
                         plan = self.sim.deploy(message.data, limits, self.config.deploy_duration)
@@ -296,7 +318,7 @@ class SimNode(Node):
                 self.get_logger().warning(f"rejected {topic}: {error}")
             else:
                 outcome = topics.ACCEPTED
-                self.get_logger().info(f"{topic} accepted at t = {self.sim.t:.6f} s: {text}")
+                self.get_logger().info(f"{topic} accepted at t = {self.sim.t_model:.6f} s: {text}")
         self._answer(name, info, outcome, text, values)
 
     def _answer(self, name: str, info: dict, outcome: str, text: str, values: dict) -> None:
@@ -310,6 +332,7 @@ class SimNode(Node):
         )
         self._outputs[topics.COMMAND_STATUS].publish(topics.command_status(self._stamp(), answer))
 
+    @_locked
     def _on_reset(self, request, response):
         self.sim.reset(self.config)
         self._set_running()
@@ -322,6 +345,7 @@ class SimNode(Node):
         self._publish_diagnostics()
         return response
 
+    @_locked
     def _on_pause(self, request, response):
         sim = self.sim
         if sim.paused == request.data:
@@ -351,18 +375,11 @@ class SimNode(Node):
         return topics.stamp_ns(self.epoch_ns, self.sim.t)
 
     def _publish_state(self) -> None:
-        messages = topics.state_messages(
-            self._stamp(),
-            self.sim.sample(),
-            self.coordinate_names,
-            self.config.frame_id,
-            with_clock=topics.CLOCK in self._outputs,
-        )
-        for name, message in messages:
-            self._outputs[name].publish(message)
+        for name, data in self._states.serialize(self._stamp(), self.sim.sample()):
+            self._outputs[name].publish(data)  # CDR bytes of `topics.state_messages`
 
     def _publish_shape(self) -> None:
-        q, lengths = self.sim.stepper.q, self.sim.stepper.boom_motion()[0]
+        q, lengths = self.sim.q, self.sim.lengths
         self._outputs[topics.SHAPE].publish(  # CDR bytes of `topics.shape`
             self._shape.serialize(
                 self._stamp(),
@@ -379,9 +396,19 @@ class SimNode(Node):
             "dropped": self.queue.dropped,
         }
 
+    @_locked
     def _publish_diagnostics(self) -> None:
         """The integrator's status: counts over the window since the last message, and
         the last complete real-time factor measurement (`RealTimeFactor`)."""
+        stamp, level, message, values = self._status()
+        self._outputs[topics.DIAGNOSTICS].publish(
+            topics.diagnostics(stamp, level, message, values, self.get_fully_qualified_name())
+        )
+        if topics.CLOCK in self._outputs:  # fresh for late joiners, also while paused
+            self._outputs[topics.CLOCK].publish(topics.clock(stamp))
+
+    def _status(self):
+        """`(stamp_ns, level, message, values)` of the status now; a new window starts."""
         sim, config, window = self.sim, self.config, self._window
         span = time.monotonic() - window["wall"]
         rtf = self.real_time_factor
@@ -428,17 +455,12 @@ class SimNode(Node):
             "load_power_W": float(f"{load_power:.6g}"),
             "damping_dissipation_W": float(f"{dissipation:.6g}"),
         }
-        stamp = self._stamp()
-        self._outputs[topics.DIAGNOSTICS].publish(
-            topics.diagnostics(stamp, level, message, values, self.get_fully_qualified_name())
-        )
-        if topics.CLOCK in self._outputs:  # fresh for late joiners, also while paused
-            self._outputs[topics.CLOCK].publish(topics.clock(stamp))
         self._window = self._window_start()
+        return self._stamp(), level, message, values
 
     def close(self) -> None:
         """Stop integrating and give subscribers time to acknowledge what was published."""
-        self._tick_timer.cancel()
+        self._ticker.stop()
         self._stop_reception()
         deadline = time.monotonic() + ACK_TIMEOUT_S
         for publisher in self._outputs.values():
@@ -451,6 +473,7 @@ class SimNode(Node):
             self._reception_thread.join()
 
     def destroy_node(self) -> None:
+        self._ticker.stop()
         self._stop_reception()
         self._reception.destroy_node()
         super().destroy_node()

@@ -19,7 +19,7 @@ import numpy as np
 from sail_ros.model import SailParameters
 from sail_ros.model.layout import per_boom
 from sail_ros.model.sail_model import cantilever_frequency
-from sail_ros.model.stepper import PHASE_PER_STEP
+from sail_ros.model.stepper import DEFAULT_MAX_STEP, PHASE_PER_STEP
 from sail_ros.nodes.commands import Limits
 from sail_ros.nodes.parameters import ConfigError, ParamSpec
 from sail_ros.topics import SAIL_PREFIX, sail_parameters_from_flat
@@ -156,8 +156,18 @@ SPECS = [
     ParamSpec(
         "integration_step",
         0.01,
-        "time step of the simulation grid [s]; each is split "
+        "time step of the simulation grid [s]: every sample falls on it; split "
         "further where the shortest boom's first bending mode needs it",
+        True,
+        1e-4,
+        0.2,
+    ),
+    ParamSpec(
+        "max_model_step",
+        DEFAULT_MAX_STEP,
+        "longest model step while the booms move [s], in whole integration steps "
+        "(the samples between are interpolated, cubic Hermite); at rest every "
+        "integration step is one exact step; the model's own default",
         True,
         1e-4,
         0.2,
@@ -273,6 +283,7 @@ class SimConfig:
     shape_rate_hz: float
     diagnostics_rate_hz: float
     integration_step: float
+    max_model_step: float  # s
     time_scale: float
     frame_id: str
     shape_divisions: int
@@ -359,6 +370,7 @@ def config_from_values(values: dict) -> SimConfig:
         shape_rate_hz=float(values["shape_rate_hz"]),
         diagnostics_rate_hz=float(values["diagnostics_rate_hz"]),
         integration_step=step,
+        max_model_step=float(values["max_model_step"]),
         time_scale=float(values["time_scale"]),
         frame_id=str(values["frame_id"]),
         shape_divisions=int(values["shape_divisions"]),

@@ -1,12 +1,16 @@
 """The simulator without ROS: the sail's state on a fixed time grid, commands, reset.
 
-`Simulation` owns a `SailStepper` and advances it one grid step
-(`integration_step`) at a time, so published samples fall on the grid
-whatever the wall clock does. A grid step is split into equal sub-steps
-where the shortest boom's first cantilever frequency `omega_1` needs it
-(`omega_1 h_sub <= PHASE_PER_STEP`, the stepper's own accuracy rule); the
-sub-step is the same from step to step, which lets the stepper reuse its
-exact propagator while the booms stand still.
+`Simulation` samples a `SailStepper` one grid step (`integration_step`) at a
+time (`sampling.GridSampler`), so published samples fall on the grid whatever
+the wall clock does. At rest each grid step is one exact step; while the
+booms move one model step spans as many grid steps as `max_model_step` and
+the stepper's accuracy rule allow, and the samples inside are interpolated;
+a grid step is split into equal sub-steps where the shortest boom's first
+cantilever frequency needs it (`omega_1 h_sub <= PHASE_PER_STEP`).
+
+The model's time `t_model` may therefore be ahead of the latest sample `t`:
+motion and load commands start at `t_model`, after the samples already
+computed; a reset acts at `t`.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import numpy as np
 
 from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
 from sail_ros.model.sail_model import StateSample
+from sail_ros.model.sampling import GridSampler
 from sail_ros.nodes.commands import (
     BoomState,
     CommandError,
@@ -54,7 +59,7 @@ class StepStatistics:
 class Simulation:
     """The sail's state, stepped on a grid of `config.integration_step` [s] from t = 0.
 
-    Commands and reset act at the current grid time `t`. After an
+    Commands act at `t_model`, a reset at `t` (the module's docstring). After an
     `IntegrationError` the state stays at its last finite value and `step`
     refuses to go on until `reset`.
     """
@@ -68,8 +73,9 @@ class Simulation:
         self.stepper = model.stepper(
             self.motion,
             q0=model.initial_coordinates(config.initial_tip_deflection),
-            max_step=self.step_size,
+            max_step=config.max_model_step,
         )
+        self.sampler = GridSampler(self.stepper, self.step_size)
         self.solar_pressure = config.solar_pressure  # [Pa] on every quadrant, on top
         self.pressures = np.zeros(4)  # commanded, per quadrant ab, bc, cd, da [Pa]
         self.tip_forces = np.zeros(4)  # commanded, per boom a..d [N]
@@ -88,8 +94,28 @@ class Simulation:
 
     @property
     def t(self) -> float:
-        """Simulation time [s]."""
+        """Simulation time [s] of the latest sample."""
+        return self.sampler.point.t
+
+    @property
+    def t_model(self) -> float:
+        """The model's time [s], >= `t`: where commands start."""
         return self.stepper.t
+
+    @property
+    def q(self) -> np.ndarray:
+        """Generalised coordinates at `t`."""
+        return self.sampler.point.q
+
+    @property
+    def qd(self) -> np.ndarray:
+        """Generalised velocities at `t`."""
+        return self.sampler.point.qd
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """Boom lengths [m] at `t`."""
+        return self.sampler.point.lengths
 
     @property
     def state(self) -> str:
@@ -97,16 +123,18 @@ class Simulation:
         return ERROR if self.error else PAUSED if self.paused else RUNNING
 
     def boom_state(self) -> BoomState:
-        return BoomState(self.t, *self.stepper.boom_motion())
+        """The booms at `t_model`, where a command starts."""
+        return BoomState(self.t_model, *self.stepper.boom_motion())
 
     def sample(self) -> StateSample:
-        lengths, rates, _ = self.stepper.boom_motion()
-        return self.model.sample(self.t, lengths, rates, self.stepper.q, self.stepper.qd)
+        point = self.sampler.point
+        return self.model.sample(point.t, point.lengths, point.rates, point.q, point.qd)
 
     def energy(self) -> float:
-        """Mechanical energy [J] (model.md §7); inf or nan once the state has blown up."""
+        """Mechanical energy [J] at `t` (model.md §7); inf or nan once the state has
+        blown up."""
         with np.errstate(over="ignore", invalid="ignore"):
-            return self.stepper.energy()
+            return self.model.energy(self.q, self.qd, self.lengths)
 
     def inputs(self) -> np.ndarray:
         """The model's inputs now (8,): pressures [Pa] (commanded + solar), tip forces [N]."""
@@ -119,14 +147,14 @@ class Simulation:
         self.stepper.inputs = (lambda t: u) if u.any() else None
 
     def powers(self) -> tuple[float, float]:
-        """`(load power qd^T Q, damping dissipation qd^T C_d qd)` [W] now."""
-        lengths = self.stepper.boom_motion()[0]
-        qd = self.stepper.qd
+        """`(load power qd^T Q, damping dissipation qd^T C_d qd)` [W] at `t`, with the
+        loads as commanded."""
+        lengths, qd = self.lengths, self.qd
         load = float(qd @ (self.model.input_matrix(lengths) @ self.inputs()))
         return load, float(qd @ self.model.structural_damping(lengths) @ qd)
 
     def substeps(self) -> int:
-        """Equal sub-steps the next grid step needs (`SailStepper.step_limit`)."""
+        """Equal sub-steps a moving grid step needs now (`SailStepper.step_limit`)."""
         return max(1, math.ceil(self.step_size / self.stepper.step_limit() - 1e-9))
 
     # -- stepping ---------------------------------------------------------------------------
@@ -135,12 +163,9 @@ class Simulation:
         """Advance one grid step; False (and `error` set) if the state became non-finite."""
         if self.error:
             return False
-        count = self.substeps()
-        h = self.step_size / count
         started = time.perf_counter()
         try:
-            for _ in range(count):
-                self.stepper.step(h)
+            self.sampler.advance()
         except IntegrationError as error:
             self.error = str(error)
             return False
@@ -153,8 +178,8 @@ class Simulation:
         of each boom's length): set `range_warning` past the first, stop with `error`
         past the second, before anything non-finite goes out."""
         warn, stop = self.range_limits
-        lengths = self.stepper.boom_motion()[0]
-        fractions = np.abs(self.model.tip_deflections(self.stepper.q)) / lengths
+        lengths = self.lengths
+        fractions = np.abs(self.model.tip_deflections(self.q)) / lengths
         k = int(np.argmax(fractions))
         reason = (
             f"tip deflection of boom {'abcd'[k]} is {fractions[k]:.3g} of its length "
@@ -170,7 +195,8 @@ class Simulation:
 
     def reset(self, config: SimConfig) -> None:
         """Back to the initial lengths (at rest) and tip deflections of `config`, at
-        the current time; clears an error. The pause state is kept."""
+        `t` (what was computed beyond is dropped); clears an error. The pause state is
+        kept."""
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
         self.stepper.reset(
             self.model.initial_coordinates(config.initial_tip_deflection),
@@ -178,6 +204,7 @@ class Simulation:
             self.t,
             profile=self.motion,
         )
+        self.sampler.restart()
         self.error = None
         self.range_warning = ""
         self.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
@@ -192,7 +219,7 @@ class Simulation:
     # -- commands ---------------------------------------------------------------------------
 
     def deploy(self, target: float, limits: Limits, duration: float = 0.0) -> Plan:
-        """All booms to `target` [m] (see `plan_deploy`), starting now.
+        """All booms to `target` [m] (see `plan_deploy`), starting at `t_model`.
 
         Raises:
             CommandError: why (counted in `rejected`); the motion is unchanged.
@@ -201,7 +228,7 @@ class Simulation:
 
     def follow(self, trajectory, limits: Limits) -> Plan:
         """The named booms along a JointTrajectory-like command (see
-        `plan_trajectory`), starting now.
+        `plan_trajectory`), starting at `t_model`.
 
         Raises:
             CommandError: why (counted in `rejected`); the motion is unchanged.
@@ -210,7 +237,7 @@ class Simulation:
 
     def load(self, topic: str, message, limits: Limits):
         """Apply a `sail/pressure_cmd` or `sail/tip_force_cmd` (see `load_commands`) from
-        the next step on; returns the `LoadChange`.
+        `t_model` on; returns the `LoadChange`.
 
         Raises:
             CommandError: why (counted in `rejected`); the loads are unchanged.
@@ -237,7 +264,7 @@ class Simulation:
             self.tip_forces = change.values
         self._use_loads()
         self.accepted += 1
-        self.last_command, self.last_command_start = change.summary, self.t
+        self.last_command, self.last_command_start = change.summary, self.t_model
         return change
 
     def _command(self, make_plan) -> Plan:

@@ -1,0 +1,113 @@
+"""A stepper's state on a uniform time grid, with steps longer than the grid while the
+booms move.
+
+The simulator publishes on a fine grid (0.01 s by default) but the stepper's
+accuracy rule allows longer steps while the booms move (`max_step`, 0.05 s by
+default, and 2 rad of `omega_r`). A moving step is the costly one (two complex
+solves), so `GridSampler` takes one step over as many whole grid intervals
+as the rule allows and fills the grid points inside from the step's
+continuous extension (`SailStepper.between`): the step's own resolvent
+solutions recombined for a fraction of the step, accurate to `(omega h)^5`
+for a mode and not amplifying any (a cubic through the ends' `q` and `qd`
+overshoots the modes a step does not resolve: 4.6 % of the peak root moment
+at n_B = n_M = 20, against 0.35 % this way). The step's end is the
+integrator's own state.
+
+While the booms stand still over a grid interval, one exact step (the cached
+propagator: a matrix-vector product) lands on the next grid point. A grid
+interval longer than one allowed step is split into equal sub-steps.
+
+So the stepper's time may run ahead of the latest sample by up to one
+moving step less one grid interval; a change of motion or load given to the
+stepper acts at the stepper's time, after the samples already computed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from sail_ros.model.stepper import SailStepper
+
+
+@dataclass(frozen=True)
+class GridPoint:
+    """The state at a grid time `t` [s]: boom lengths [m] and rates [m/s], `q`, `qd`."""
+
+    t: float
+    lengths: np.ndarray
+    rates: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+
+
+class GridSampler:
+    """Samples of `stepper`'s state every `spacing` [s], starting at its current time.
+
+    `point` is the latest sample; `advance` moves to the next grid time, stepping
+    the model when it has not reached it yet.
+    """
+
+    def __init__(self, stepper: SailStepper, spacing: float):
+        if not (math.isfinite(spacing) and spacing > 0):
+            raise ValueError(f"spacing must be finite and > 0, got {spacing!r}")
+        self.stepper = stepper
+        self.spacing = float(spacing)
+        self._ahead: deque[GridPoint] = deque()  # samples computed, not yet reached
+        self.restart()
+
+    def restart(self) -> None:
+        """Sample from the stepper's state as it is now (after `reset`, or at start);
+        samples computed ahead are dropped."""
+        self._ahead.clear()
+        self.point = self._exact()
+
+    def advance(self) -> GridPoint:
+        """The sample one grid interval on (it becomes `point`).
+
+        Raises:
+            IntegrationError: the state became non-finite; `point` is unchanged.
+        """
+        if not self._ahead:
+            self._step()
+        self.point = self._ahead.popleft()
+        return self.point
+
+    def _exact(self) -> GridPoint:
+        stepper = self.stepper
+        lengths, rates, _ = stepper.boom_motion()
+        return GridPoint(stepper.t, lengths, rates, stepper.q, stepper.qd)
+
+    def _step(self) -> None:
+        stepper, h = self.stepper, self.spacing
+        start = self.point  # the stepper's state: nothing is ahead
+        is_static = getattr(stepper.profile, "is_static", None)
+        limit = stepper.step_limit()
+        intervals = max(1, math.floor(limit / h + 1e-9))
+        if is_static is not None and is_static(start.t, start.t + h):
+            stepper.step(h)  # exact at any length
+        elif intervals == 1:
+            count = max(1, math.ceil(h / limit - 1e-9))
+            for _ in range(count):
+                stepper.step(h / count)
+        else:
+            stepper.step(intervals * h)
+            self._ahead.extend(self._between(start, self._exact(), intervals))
+            return
+        self._ahead.append(self._exact())
+
+    def _between(self, start: GridPoint, end: GridPoint, intervals: int) -> list[GridPoint]:
+        """The grid points after `start` up to `end` (included, exact), from the step's
+        continuous extension (`SailStepper.between`)."""
+        fractions = [j / intervals for j in range(1, intervals)]
+        q, qd = self.stepper.between(fractions, start.qd, end.qd)
+        points = []
+        for j in range(1, intervals):
+            t = start.t + j * self.spacing
+            lengths, rates, _ = self.stepper.boom_motion(t)
+            points.append(GridPoint(t, lengths, rates, q[j - 1], qd[j - 1]))
+        points.append(end)
+        return points
