@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from sail_ros.model import basis
 from sail_ros.model.basis import (
     cantilever_modes,
     cantilever_roots,
@@ -144,3 +145,17 @@ def test_quadrant_integrals_equal_sums_over_every_point_of_the_rule(n_boom_modes
         assert np.allclose(getattr(built, name), value, rtol=0, atol=1e-12 * np.abs(value).max()), (
             name
         )
+
+
+@pytest.mark.parametrize("n", [3, 12, 40, 400])
+def test_rotated_cosines_equal_the_direct_ones_to_round_off(n):
+    """`cos(b_i x)`, `sin(b_i x)` from rotating mode i - 1 by `b_i - b_(i-1)` equal a
+    direct evaluation in long double to what the direct float64 evaluation itself
+    reaches (its argument `b_i x` rounded: ~ulp(b_n))."""
+    x = np.concatenate([np.linspace(0.0, 1.0, 1001), np.random.default_rng(3).random(999)])
+    b = basis.cantilever_roots(n).reshape(n, 1)
+    cos, sin = basis._cos_sin(b, x)
+    exact_cos = np.cos(b.astype(np.longdouble) * x.astype(np.longdouble))
+    exact_sin = np.sin(b.astype(np.longdouble) * x.astype(np.longdouble))
+    bound = 4 * np.spacing(b[-1, 0]) + 1e-15
+    assert np.abs(cos - exact_cos).max() < bound and np.abs(sin - exact_sin).max() < bound

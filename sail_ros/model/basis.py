@@ -39,6 +39,15 @@ def cantilever_roots(n: int) -> np.ndarray:
     return roots
 
 
+def _cantilever_constants(b: np.ndarray) -> tuple[np.ndarray, ...]:
+    """`(b, s, c, e^-b)` of `cantilever_modes` for the roots `b` (any shape)."""
+    eb = np.exp(-b)
+    d = 1.0 - eb**2 + 2.0 * np.sin(b) * eb
+    s = (1.0 + eb**2 + 2.0 * np.cos(b) * eb) / d
+    c = (np.sin(b) - np.cos(b) - eb) / d
+    return b, s, c, eb
+
+
 def _cantilever_parts(n: int, xi) -> tuple[np.ndarray, ...]:
     """Every transcendental of `cantilever_modes` at points `xi` (any shape).
 
@@ -49,14 +58,63 @@ def _cantilever_parts(n: int, xi) -> tuple[np.ndarray, ...]:
     """
     xi = np.asarray(xi, dtype=float)
     b = cantilever_roots(n).reshape((n,) + (1,) * xi.ndim)
-    eb = np.exp(-b)
-    d = 1.0 - eb**2 + 2.0 * np.sin(b) * eb
-    s = (1.0 + eb**2 + 2.0 * np.cos(b) * eb) / d
-    c = (np.sin(b) - np.cos(b) - eb) / d
-    bx = b * xi
-    e_bx = np.exp(-bx)
+    b, s, c, eb = _cantilever_constants(b)
+    e_bx = np.exp(-b * xi)
     grow = np.exp(b * (xi - 1.0))  # e^(b(x-1)) <= 1 on [0, 1]
-    return b, s, c, e_bx, np.cos(bx), np.sin(bx), grow, e_bx * eb
+    return b, s, c, e_bx, *_cos_sin(b, xi), grow, e_bx * eb
+
+
+# Past the first few roots, neighbours differ by pi + epsilon, |epsilon| < this: the
+# rotation by epsilon x is then exact to round-off from its second-order expansion.
+_ROTATION_EPSILON = 1e-6
+
+
+class _Rotation:
+    """`cos(b_i xi)`, `sin(b_i xi)` for the cantilever roots `b_i` in turn (`next`).
+
+    numpy's float64 sine and cosine cost ~16 ns a value here, most of the integrals'
+    time. Root `i` tends to `(i - 1/2) pi`; once neighbours differ by `pi + epsilon`
+    with `|epsilon| < _ROTATION_EPSILON`, each mode is the one before rotated by that
+    angle (`cos(pi xi)`, `sin(pi xi)` once, `epsilon xi` to second order): a few
+    products a mode. The difference of two neighbouring roots is exact in floating
+    point, so the phase is `b_i xi` to a few units in the last place, as when
+    evaluated directly (whose argument `b_i xi` is itself rounded).
+    """
+
+    def __init__(self, roots: np.ndarray, xi: np.ndarray):
+        self.roots, self.xi = roots, xi
+        self.epsilon = np.diff(roots) - np.pi
+        small = np.abs(self.epsilon) < _ROTATION_EPSILON
+        self.direct = roots.size if not small.any() else int(np.argmax(small)) + 1
+        self.i = 0
+        self.pi_turn = None
+
+    def next(self) -> tuple[np.ndarray, np.ndarray]:
+        i, xi = self.i, self.xi
+        self.i += 1
+        if i < self.direct:
+            self.cos, self.sin = np.cos(self.roots[i] * xi), np.sin(self.roots[i] * xi)
+            return self.cos, self.sin
+        if self.pi_turn is None:
+            self.pi_turn = np.cos(np.pi * xi), np.sin(np.pi * xi)
+        cos_pi, sin_pi = self.pi_turn
+        angle = self.epsilon[i - 1] * xi
+        keep = 1.0 - 0.5 * angle * angle
+        c_step = cos_pi * keep - sin_pi * angle
+        s_step = sin_pi * keep + cos_pi * angle
+        self.cos, self.sin = (
+            self.cos * c_step - self.sin * s_step,
+            self.sin * c_step + self.cos * s_step,
+        )
+        return self.cos, self.sin
+
+
+def _cos_sin(b: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`cos(b xi)`, `sin(b xi)` for the roots `b` (shape `(n, 1, ...)`) at points `xi`,
+    each `(n, *xi.shape)` (`_Rotation`)."""
+    turns = _Rotation(b.reshape(-1), xi)
+    pairs = [turns.next() for _ in range(b.shape[0])]
+    return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
 
 
 def cantilever_modes(n: int, xi, derivative: int = 0) -> np.ndarray:
@@ -92,12 +150,32 @@ def cantilever_modes(n: int, xi, derivative: int = 0) -> np.ndarray:
     return b**derivative * (sign_e * e_bx + trig + c * hyper)
 
 
-def cantilever_modes_and_slopes(n: int, xi) -> tuple[np.ndarray, np.ndarray]:
+def cantilever_modes_and_slopes(n: int, xi, out=None) -> tuple[np.ndarray, np.ndarray]:
     """`(psi, dpsi/dxi)` at points `xi`, as `cantilever_modes` with derivative 0 and 1
-    but sharing their transcendentals; each of shape `(n, *np.shape(xi))`."""
-    b, s, c, e_bx, cos_bx, sin_bx, grow, decay = _cantilever_parts(n, xi)
-    psi = e_bx + (-cos_bx + s * sin_bx) + c * (grow - decay)
-    slope = b * (-e_bx + (sin_bx + s * cos_bx) + c * (grow + decay))
+    but sharing their transcendentals; each of shape `(n, *np.shape(xi))`, written into
+    `out` (a pair of such arrays) if given.
+
+    Mode by mode, so that every temporary is one mode's worth: the integrals call this
+    on thousands of points, and arrays of all modes at once were allocated, touched
+    and given back to the system at every chunk (page faults were 40 % of the time).
+    """
+    xi = np.asarray(xi, dtype=float)
+    b = cantilever_roots(n).reshape((n,) + (1,) * xi.ndim)
+    psi, slope = out if out is not None else (np.empty((n, *xi.shape)), np.empty((n, *xi.shape)))
+    b, s, c, eb = (v.reshape(-1) for v in _cantilever_constants(b))
+    turns = _Rotation(cantilever_roots(n), xi)
+    for i in range(n):
+        cos, sin = turns.next()
+        e_bx = np.exp(-b[i] * xi)
+        grow = np.exp(b[i] * (xi - 1.0))
+        decay = e_bx * eb[i]
+        np.subtract(grow, decay, out=psi[i])
+        psi[i] *= c[i]
+        psi[i] += e_bx - cos + s[i] * sin
+        np.add(grow, decay, out=slope[i])
+        slope[i] *= c[i]
+        slope[i] += sin + s[i] * cos - e_bx
+        slope[i] *= b[i]
     return psi, slope
 
 

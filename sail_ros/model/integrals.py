@@ -211,6 +211,7 @@ class _RowRule:
         self.xi_trig = trig_table(self.j_max, u)
         self.moments = np.empty((3, order, 2 * nb + n_z, n_z))
         self.eta_grams = np.zeros((4, nb, nb))
+        self._chunk_buffers: dict = {}
         for start in range(0, order, _chunk_rows(order)):
             self._add_rows(slice(start, start + _chunk_rows(order)))
 
@@ -218,17 +219,40 @@ class _RowRule:
         """Moments of, and `eta_grams` over, the points of `rows`."""
         nb = self.nb
         eta = (1.0 - self.u[rows, None]) * self.v  # (rows, order)
-        psi, dpsi = cantilever_modes_and_slopes(nb, eta)
+        # Arrays of a chunk's size are written into buffers kept for the whole build:
+        # allocated afresh, each would be mapped, touched and unmapped at every chunk.
+        weighted, psi, dpsi, scratch = self._buffers(eta.shape)
+        cantilever_modes_and_slopes(nb, eta, out=(psi, dpsi))
         trig = trig_table(self.j_max, eta)
-        weighted = np.concatenate([psi, dpsi, trig]) * self.wv  # (n_Y, rows, order)
+        np.multiply(psi, self.wv, out=weighted[self.psi])
+        np.multiply(dpsi, self.wv, out=weighted[self.dpsi])
+        np.multiply(trig, self.wv, out=weighted[self.trig])
         for c in range(3):  # batched over rows: (rows, n_Y, order) @ (rows, order, n_Z)
             self.moments[c, rows] = weighted.transpose(1, 0, 2) @ trig.transpose(1, 2, 0)
             weighted *= 1.0 - eta
         w = (self.omega[rows, None] * self.wv).ravel()
         psi, dpsi = psi.reshape(nb, -1), dpsi.reshape(nb, -1)
-        r = dpsi * (1.0 - eta.ravel())
-        psi_w = psi * w
-        self.eta_grams += [psi_w @ psi.T, (dpsi * w) @ dpsi.T, psi_w @ r.T, (r * w) @ r.T]
+        r, weighted_r = scratch
+        np.multiply(dpsi, 1.0 - eta.ravel(), out=r)
+        np.multiply(psi, w, out=weighted_r)  # psi w
+        grams = [weighted_r @ psi.T, None, weighted_r @ r.T, None]
+        np.multiply(dpsi, w, out=weighted_r)
+        grams[1] = weighted_r @ dpsi.T
+        np.multiply(r, w, out=weighted_r)
+        grams[3] = weighted_r @ r.T
+        self.eta_grams += grams
+
+    def _buffers(self, shape: tuple[int, int]):
+        """`(weighted, psi, dpsi, (r, scratch))` for chunks of `shape` (rows, points)."""
+        if shape not in self._chunk_buffers:
+            nb, n_y = self.nb, self.trig.stop
+            self._chunk_buffers[shape] = (
+                np.empty((n_y, *shape)),
+                np.empty((nb, *shape)),
+                np.empty((nb, *shape)),
+                (np.empty((nb, shape[0] * shape[1])), np.empty((nb, shape[0] * shape[1]))),
+            )
+        return self._chunk_buffers[shape]
 
     def _row_weights(self, c1: int) -> np.ndarray:
         """Row weights `omega_i (1 - u_i)^c1`."""
