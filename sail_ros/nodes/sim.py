@@ -59,6 +59,7 @@ from sail_ros.ros_cli import run_node
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
+RECEPTION_WAIT_S = 1.0  # the reception thread's longest wait (a stop wakes it at once)
 RTF_MIN_WINDOW_S = 0.5  # the real-time factor is measured over running windows this long
 
 
@@ -137,6 +138,8 @@ class SimNode(Node):
                     qos,
                 )
         self._reception_stop = threading.Event()
+        # wakes the reception thread's wait at once when it is to stop
+        self._reception_wake = self._reception.create_guard_condition(lambda: None)
         self._reception_thread = threading.Thread(
             target=self._spin_reception, name="sail_sim commands", daemon=True
         )
@@ -264,7 +267,7 @@ class SimNode(Node):
         executor.add_node(self._reception)
         try:
             while not self._reception_stop.is_set() and self.context.ok():
-                executor.spin_once(timeout_sec=0.05)
+                executor.spin_once(timeout_sec=RECEPTION_WAIT_S)
         except ExternalShutdownException:
             pass
         finally:
@@ -469,6 +472,7 @@ class SimNode(Node):
 
     def _stop_reception(self) -> None:
         self._reception_stop.set()
+        self._reception_wake.trigger()
         if self._reception_thread.is_alive():
             self._reception_thread.join()
 
