@@ -28,6 +28,8 @@ from sail_ros.bag import BagReader
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion
 from sail_ros.nodes.commands import BoomState, Limits, plan_deploy, plan_trajectory
+from sail_ros.nodes.sim_params import DEFAULTS, config_from_values
+from sail_ros.nodes.simulation import Simulation
 
 pytestmark = pytest.mark.multiprocess
 
@@ -83,6 +85,17 @@ class Switched:
         return self._at(t0) is self._at(t1) and self._at(t0).is_static(t0, t1)
 
 
+def commanded_motion(t_deploy: float, t_command: float, command) -> Switched:
+    """At rest at 10 m, deployed to 12 m from `t_deploy` [s], and `command` (a
+    trajectory) from `t_command` [s] on: the plans the simulator makes, rebuilt."""
+    hold = BoomMotion([StaticProfile(10.0)] * 4)
+    deploy = plan_deploy(12.0, BoomState(t_deploy, *hold(t_deploy)), LIMITS)
+    deploying = hold.replaced(deploy.profile, deploy.booms)
+    follow = plan_trajectory(command, BoomState(t_command, *deploying(t_command)), LIMITS)
+    moving = deploying.replaced(follow.profile, follow.booms)
+    return Switched([0.0, t_deploy, t_command], [hold, deploying, moving])
+
+
 # -- tests --------------------------------------------------------------------------------------
 
 
@@ -132,12 +145,7 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
     assert "SIGTERM: stopping" in log
 
     # the motion the simulator should have followed, rebuilt from the same plans
-    hold = BoomMotion([StaticProfile(10.0)] * 4)
-    deploy = plan_deploy(12.0, BoomState(t_deploy, *hold(t_deploy)), LIMITS)
-    deploying = hold.replaced(deploy.profile, deploy.booms)
-    follow = plan_trajectory(command, BoomState(t_command, *deploying(t_command)), LIMITS)
-    moving = deploying.replaced(follow.profile, follow.booms)
-    motion = Switched([0.0, t_deploy, t_command], [hold, deploying, moving])
+    motion = commanded_motion(t_deploy, t_command, command)
 
     epoch = operator.epoch_ns()
     t, lengths, rates = series(operator.states[topics.BOOM_STATE], epoch)
@@ -345,3 +353,32 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     (factor,) = [line for line in lines if "real-time factor: max" in line]
     largest, median = (float(word.strip(",")) for word in factor.split()[3:6:2])
     assert 0.5 * 5.0 < median <= largest < 1.2 * 5.0, factor
+
+
+def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
+    """In process: the simulation of the first test, replayed by `simulate_on_grid` from
+    command times rounded as the status logs them (to 1 ns). The trajectory ends on a
+    grid time; were the step after it long or short by a 1e-10 s difference, the tips
+    would differ by ~1e-5 m."""
+    config = config_from_values({**DEFAULTS, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
+    model = SailModel(config.sail)
+    sim = Simulation(model, config)
+    while sim.t < 0.5 - 1e-9:
+        assert sim.step()
+    t_deploy = sim.deploy(12.0, config.limits).t_start
+    while sim.t < t_deploy + 2.0:
+        assert sim.step()
+    command = trajectory(["boom_a", "boom_b"], ([12.5, 11.5], 8.0), ([13.0, 11.0], 14.0))
+    t_command = sim.follow(command, config.limits).t_start
+    tips = []
+    while sim.t < t_command + 15.0:
+        assert sim.step()
+        tips.append(model.tip_deflections(sim.q))
+    for shift in (-4e-10, 4e-10):
+        motion = commanded_motion(round(t_deploy, 9), round(t_command, 9) + shift, command)
+        _, q, _ = model.simulate_on_grid(
+            motion, sim.t + 0.5 * STEP, STEP, model.initial_coordinates([0.1, 0, 0, 0]),
+            max_step=MODEL_STEP,
+        )  # fmt: skip
+        replayed = model.tip_deflections(q[-len(tips) :])
+        assert np.abs(replayed - np.array(tips)).max() < 1e-8

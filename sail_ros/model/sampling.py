@@ -32,6 +32,13 @@ import numpy as np
 
 from sail_ros.model.stepper import SailStepper
 
+# A grid interval whose motion starts or ends within this fraction of the interval
+# from its ends is stepped as one interval (the booms move for a microsecond at zero
+# rate): whether a motion ending at a grid time makes the next step one interval or
+# a long one then no longer hangs on round-off in the motion's times (a command's
+# start logged to the nanosecond replays the same steps).
+STATIC_MARGIN = 1e-4
+
 
 @dataclass(frozen=True)
 class GridPoint:
@@ -87,7 +94,8 @@ class GridSampler:
         is_static = getattr(stepper.profile, "is_static", None)
         limit = stepper.step_limit()
         intervals = max(1, math.floor(limit / h + 1e-9))
-        if is_static is not None and is_static(start.t, start.t + h):
+        margin = STATIC_MARGIN * h
+        if is_static is not None and is_static(start.t + margin, start.t + h - margin):
             stepper.step(h)  # exact at any length
         elif intervals == 1:
             count = max(1, math.ceil(h / limit - 1e-9))
