@@ -80,7 +80,15 @@ class Ticker:
             if self._period <= 0.0:
                 next_call = now
                 time.sleep(AFAP_PAUSE_S)
-            else:  # a call that is due is made at once; calls missed before it are skipped
-                next_call += self._period
-                if next_call <= now - self._period:
-                    next_call += self._period * math.floor((now - next_call) / self._period)
+            else:
+                next_call = following_call(next_call, now, self._period)
+
+
+def following_call(last_due: float, now: float, period: float) -> float:
+    """When the call after the one due at `last_due` [s] is due, at `now`, for
+    `period` > 0 [s]: one period later; if that has passed, at once (the latest
+    missed time in phase), the calls missed before it skipped."""
+    due = last_due + period
+    if due <= now - period:
+        due += period * math.floor((now - due) / period)
+    return due

@@ -1,0 +1,44 @@
+"""The integration thread's pacing (`nodes/ticker.py`), on the real steady clock, with
+margins wide enough for a busy machine."""
+
+import threading
+import time
+
+import pytest
+
+from sail_ros.nodes.ticker import Ticker, following_call
+
+pytestmark = pytest.mark.node
+
+
+def test_calls_come_every_period_while_active_and_never_after_stop():
+    calls, lock = [], threading.RLock()
+    ticker = Ticker(lambda: calls.append(time.monotonic()), lock, "test ticker")
+    time.sleep(0.05)
+    assert not calls  # inactive until set
+    ticker.set(0.01, True)
+    time.sleep(0.3)
+    ticker.set(0.01, False)
+    count = len(calls)
+    assert 10 <= count <= 31
+    time.sleep(0.05)
+    assert len(calls) == count  # inactive: no call
+    with lock:  # a call holds the lock: none runs while it is held here
+        ticker.set(0.0, True)  # back to back
+        held = len(calls)
+        time.sleep(0.05)
+        assert len(calls) == held
+    time.sleep(0.05)
+    ticker.stop()
+    stopped = len(calls)
+    assert stopped > held
+    time.sleep(0.05)
+    assert len(calls) == stopped
+
+
+def test_a_late_call_is_made_at_once_and_the_missed_ones_skipped():
+    assert following_call(1.00, 1.003, 0.01) == pytest.approx(1.01)  # on time: one period on
+    assert following_call(1.00, 1.012, 0.01) == pytest.approx(1.01)  # late: due, at once
+    # 5.5 periods late: the latest missed time in phase, at once; the four before it skipped
+    assert following_call(1.00, 1.055, 0.01) == pytest.approx(1.05)
+    assert following_call(1.05, 1.0551, 0.01) == pytest.approx(1.06)  # then in phase again
