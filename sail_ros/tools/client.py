@@ -27,6 +27,10 @@ from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
 
+# How long the watcher waits for an answer given before it started, once the answers'
+# writer matched: their history arrives within milliseconds; there may be none.
+ANSWER_HISTORY_S = 0.3
+
 
 class NoAnswerError(RuntimeError):
     """The simulator did not appear, or did not answer, in time; the message says which."""
@@ -85,6 +89,20 @@ class SimClient(Node):
                 self.executor_.spin_once(timeout_sec=quiet / 4)
             if self.received == before:
                 return
+
+    def settle_answers(self, timeout: float, limit: float = ANSWER_HISTORY_S) -> None:
+        """Take the simulator's answers already given: their transient-local history
+        comes on a writer of its own, which may match after the state arrived. Waits for
+        it to match (up to `timeout` [s]), then for an answer, up to `limit` [s] (there
+        may be none)."""
+        self.spin_until(
+            lambda: self.status_subscription.get_publisher_count() > 0,
+            timeout,
+            f"{topics.COMMAND_STATUS} of {self.sim_name}",
+        )
+        deadline = time.monotonic() + limit
+        while "answer" not in self.latest and time.monotonic() < deadline:
+            self.executor_.spin_once(timeout_sec=0.01)
 
     def close(self) -> None:
         self.executor_.shutdown()

@@ -121,6 +121,7 @@ def run(args, client: SimClient) -> int:
         "namespace and domain?)",
     )
     client.settle()  # the newest of the kept samples, not the first to arrive
+    client.settle_answers(args.timeout)
     try:
         while True:
             view = snapshot(client)
