@@ -8,8 +8,9 @@ A one-way chain, each module importing only those above it:
 - `basis`, `integrals`: basis functions and the reference integrals (§2, §5);
 - `assembly`: the matrices of Eq. 2 as a table of named terms, lifted (§5, §6);
 - `parameters`, `sail_model`: `SailParameters` and `SailModel`;
-- `stepper`, `integrate`: time integration against a narrow `LinearSystem`
-  (the matrices at a boom motion), which `SailModel` is;
+- `stepper`, `sampling`, `integrate`: time integration against a narrow
+  `LinearSystem` (the matrices at a boom motion), which `SailModel` is; the
+  state sampled on a grid between long moving steps; batch runs;
 - `profiles`: boom motion (`Profile`, the profiles, `BoomMotion`);
 - `shape`: the deflected sail sampled on a mesh.
 """
