@@ -83,6 +83,12 @@ class GridSampler:
         self.point = self._ahead.popleft()
         return self.point
 
+    def substeps(self, limit: float | None = None) -> int:
+        """Equal sub-steps a moving grid interval needs under the step limit `limit` [s]
+        (default the stepper's now, `SailStepper.step_limit`)."""
+        limit = self.stepper.step_limit() if limit is None else limit
+        return max(1, math.ceil(self.spacing / limit - 1e-9))
+
     def _exact(self) -> GridPoint:
         stepper = self.stepper
         lengths, rates, _ = stepper.boom_motion()
@@ -98,7 +104,7 @@ class GridSampler:
         if is_static is not None and is_static(start.t + margin, start.t + h - margin):
             stepper.step(h)  # exact at any length
         elif intervals == 1:
-            count = max(1, math.ceil(h / limit - 1e-9))
+            count = self.substeps(limit)
             for _ in range(count):
                 stepper.step(h / count)
         else:

@@ -155,7 +155,7 @@ class Simulation:
 
     def substeps(self) -> int:
         """Equal sub-steps a moving grid step needs now (`SailStepper.step_limit`)."""
-        return max(1, math.ceil(self.step_size / self.stepper.step_limit() - 1e-9))
+        return self.sampler.substeps()
 
     # -- stepping ---------------------------------------------------------------------------
 

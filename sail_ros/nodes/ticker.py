@@ -35,6 +35,7 @@ class Ticker:
         self._period = 0.0
         self._active = False
         self._stopping = False
+        self._restart = False  # set by `set`, read by the thread: before it starts
         self._changed = threading.Event()
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
@@ -57,7 +58,6 @@ class Ticker:
 
     def _run(self) -> None:
         next_call = None
-        self._restart = False
         while not self._stopping:
             if not self._active:
                 self._changed.wait()

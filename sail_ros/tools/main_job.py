@@ -34,6 +34,7 @@ from std_srvs.srv import SetBool, Trigger
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
+from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.tools.client import NoAnswerError, SimClient, init_context
 from sail_ros.tools.domains import DomainLease
 
@@ -236,7 +237,7 @@ def summarise(output: Path, t_start: float) -> None:
         DURATION + SETTLE_S,
         step,
         model.initial_coordinates([TIP, 0.0, 0.0, 0.0]),
-        max_step=float(parameters.get("max_model_step", "0.05")),
+        max_step=float(parameters.get("max_model_step", DEFAULT_MAX_STEP)),
     )
     offline = model.tip_deflections(q[np.rint(t[chosen] / step).astype(int)])
     print(
