@@ -8,13 +8,17 @@ ROS arguments (`--ros-args -r __ns:=/sat2 -p name:=value --params-file f.yaml
 from __future__ import annotations
 
 import argparse
+import contextlib
 import difflib
 import importlib
+import select
 import signal
+import socket
 import threading
 
 import rclpy
 import yaml
+from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.logging import get_logger
 from rclpy.signals import SignalHandlerOptions
@@ -90,14 +94,23 @@ class StopSignals:
 
     Use with `rclpy.init(..., signal_handler_options=SignalHandlerOptions.NO)`
     so that the tool, not rclpy, decides how to shut down (drain, close files).
+    `wait` sleeps until a signal comes, without polling: the signal's C handler
+    writes to a socket the main thread waits on (`signal.set_wakeup_fd`).
     """
 
     def __init__(self):
         self.event = threading.Event()
         self.received: str | None = None
         self._previous = {}
+        self._wakeup: socket.socket | None = None  # read end, while active
+        self._writer: socket.socket | None = None
 
     def __enter__(self) -> StopSignals:
+        self._wakeup, writer = socket.socketpair()
+        for end in (self._wakeup, writer):
+            end.setblocking(False)
+        self._writer = writer
+        self._previous_wakeup_fd = signal.set_wakeup_fd(writer.fileno(), warn_on_full_buffer=False)
         for signum in (signal.SIGINT, signal.SIGTERM):
             self._previous[signum] = signal.signal(signum, self._handle)
         return self
@@ -105,10 +118,72 @@ class StopSignals:
     def __exit__(self, *exc_info) -> None:
         for signum, handler in self._previous.items():
             signal.signal(signum, handler)
+        signal.set_wakeup_fd(self._previous_wakeup_fd)
+        self._wakeup.close()
+        self._writer.close()
+        self._wakeup = self._writer = None
+
+    def wait(self, timeout: float) -> bool:
+        """Sleep until a stop signal or for `timeout` [s] (main thread); whether one came."""
+        if self._wakeup is None:  # not active: only `event` can say stop
+            return self.event.wait(timeout)
+        if not self.event.is_set():
+            ready, _, _ = select.select([self._wakeup], [], [], timeout)
+            if ready:
+                with contextlib.suppress(BlockingIOError):
+                    while self._wakeup.recv(64):
+                        pass
+        return self.event.is_set()
+
+    def wake(self) -> None:
+        """End a `wait` under way at once, without a stop (from any thread)."""
+        if self._writer is not None:
+            with contextlib.suppress(OSError):
+                self._writer.send(b"\0")
 
     def _handle(self, signum, frame) -> None:
         self.received = signal.Signals(signum).name
         self.event.set()
+
+
+SERVE_WAIT_S = 1.0  # the longest wait of `serve_until_stopped`'s two threads [s]
+
+
+def serve_until_stopped(executor, node, stop: StopSignals) -> None:
+    """Run `executor`'s callbacks (it serves `node`) on a thread of its own until a stop
+    signal (or until rclpy is shut down); an error in a callback is raised here.
+
+    The main thread sleeps meanwhile (`StopSignals.wait`): spinning there with a short
+    timeout, only to notice a signal, would wake the process ten times a second and
+    compete with the node's own threads for the interpreter."""
+    failures = []
+    stopping = threading.Event()
+    # ends the thread's wait at once (`executor.wake` would not end a `spin_once`)
+    wake = node.create_guard_condition(lambda: None)
+
+    def serve() -> None:
+        try:
+            while not stopping.is_set():
+                executor.spin_once(timeout_sec=SERVE_WAIT_S)
+        except ExternalShutdownException:
+            pass
+        except BaseException as error:  # handed to the main thread
+            failures.append(error)
+        finally:
+            stop.wake()
+
+    thread = threading.Thread(target=serve, name="executor", daemon=True)
+    thread.start()
+    try:
+        while thread.is_alive() and not stop.wait(SERVE_WAIT_S):
+            pass
+    finally:
+        stopping.set()
+        wake.trigger()
+        thread.join()
+        node.destroy_guard_condition(wake)
+    if failures:
+        raise failures[0]
 
 
 def run_node(name: str, parser: argparse.ArgumentParser, argv: list[str], body) -> int:

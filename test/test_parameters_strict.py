@@ -56,6 +56,7 @@ def test_run_time_changes_are_refused_by_name_or_published(ros_context):
     from rclpy.executors import SingleThreadedExecutor
 
     sim = SimNode(context=ros_context)
+    sim.start()
     client = Node("strict_client", context=ros_context)
     events = []
     client.create_subscription(ParameterEvent, "/parameter_events", events.append, 100)

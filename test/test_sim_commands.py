@@ -292,10 +292,27 @@ def test_loads_are_held_from_the_next_step_and_match_simulate(model, config):
     )
     assert sim.q == pytest.approx(q[-1], abs=1e-12)
     assert sim.sample().root_moments == pytest.approx(model.root_moments(q[-1], 10.0))
-    load_power, dissipation = sim.powers()
+    energy, load_power, dissipation = sim.balance()
+    assert energy == pytest.approx(model.energy(sim.q, sim.qd, 10.0), rel=1e-12)
     assert dissipation == 0.0 and load_power != 0.0  # undamped, loaded
     sim.reset(solar)
     assert sim.inputs() == pytest.approx([9.08e-6] * 4 + [0.0] * 4)
+
+
+def test_the_balance_of_a_damped_ringing_sail_is_its_energy_and_dissipation():
+    """With Rayleigh damping the dissipation `qd^T C_d qd` is positive and the energy
+    that of the model, both from the one assembly `balance` makes."""
+    damping = {"sail.mass_damping": 0.01, "sail.stiffness_damping": 1e-3}
+    damped = config_from_values({**DEFAULTS, "initial_tip_deflection": [0.1, 0, 0, 0], **damping})
+    model = SailModel(damped.sail)
+    sim = Simulation(model, damped)
+    for _ in range(30):
+        assert sim.step()
+    energy, load_power, dissipation = sim.balance()
+    qd, lengths = sim.qd, sim.lengths
+    assert dissipation > 0.0 and load_power == 0.0
+    assert dissipation == pytest.approx(qd @ model.structural_damping(lengths) @ qd, rel=1e-12)
+    assert energy == pytest.approx(model.energy(sim.q, qd, lengths), rel=1e-12)
 
 
 @pytest.mark.parametrize(

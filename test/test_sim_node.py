@@ -45,6 +45,7 @@ def ros(monkeypatch, tmp_path):
     def start(**parameters):
         overrides = [Parameter(name, value=value) for name, value in parameters.items()]
         sim = SimNode(overrides, context=context)
+        sim.start()
         client = Client(context)
         for node in (sim, client):
             executor.add_node(node)

@@ -34,9 +34,7 @@ import sys
 import threading
 import time
 
-import numpy as np
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -54,8 +52,8 @@ from sail_ros.nodes.pacing import Pacer, RealTimeFactor
 from sail_ros.nodes.parameters import ConfigError, declare, node_options
 from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
-from sail_ros.nodes.ticker import Ticker
-from sail_ros.ros_cli import run_node
+from sail_ros.nodes.ticker import Ticker, following_call
+from sail_ros.ros_cli import run_node, serve_until_stopped
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
@@ -106,7 +104,6 @@ class SimNode(Node):
             config.time_scale, config.integration_step, config.steps_between(config.state_rate_hz)
         )
         self.overruns = 0
-        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
 
         published = [*topics.STATE_TOPICS, topics.SHAPE, topics.DIAGNOSTICS, topics.COMMAND_STATUS]
         if config.time_scale != 1.0:
@@ -150,16 +147,35 @@ class SimNode(Node):
         self.add_post_set_parameters_callback(self._apply_parameters)
 
         self.lock = threading.RLock()
-        self._ticker = Ticker(self._tick, self.lock, "sail_sim integration")
-        self._diagnostics_timer = None
-        with self.lock:  # the first tick waits for the rest of the set-up
-            self._use_config()
-            self.epoch_ns = time.time_ns()  # the stamp of simulation time 0
-            self.pacer.run_from(0.0)
-            self.real_time_factor = RealTimeFactor(RTF_MIN_WINDOW_S)
+        # the node's periodic work (integration and diagnostics) runs on this thread;
+        # the executor only serves commands, services and parameters
+        self._ticker = Ticker(self._tick, self.lock, "sail_sim ticks")
+        self._diagnostics_period = 1.0 / config.diagnostics_rate_hz  # s
+        self._diagnostics_due = math.inf  # steady clock [s]; set by `start`
+        self._started = False
+        self.epoch_ns = time.time_ns()  # the stamp of simulation time 0 (again at `start`)
+        self.real_time_factor = RealTimeFactor(RTF_MIN_WINDOW_S)
+        self._window = self._window_start()
+        self._use_config()
+
+    def start(self) -> None:
+        """Start the clock, the ticks and the diagnostics, and publish the initial state.
+
+        Apart from construction so that whoever runs the node can finish its own set-up
+        first (`_simulate` moves start-up's objects out of the collector's way, which
+        would otherwise delay the first ticks)."""
+        with self.lock:
+            if self._started:
+                return
+            self._started = True
+            self.epoch_ns = time.time_ns()
+            self.pacer.run_from(self.sim.t)
             self.real_time_factor.restart(self.sim.t, self.sim.state == RUNNING)
             self._window = self._window_start()
+            self._diagnostics_due = time.monotonic() + self._diagnostics_period
+            self._set_ticks()
             self._start_sampling()
+        config, model = self.config, self.sim.model
         speed = (
             "as fast as possible"
             if config.as_fast_as_possible
@@ -195,7 +211,7 @@ class SimNode(Node):
             )
 
     def _use_config(self) -> None:
-        """Publication intervals, tick period, range limits and diagnostics timer from
+        """Publication intervals, range limits, loads and the ticks' period from
         `self.config`."""
         config = self.config
         self.sim.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
@@ -204,20 +220,37 @@ class SimNode(Node):
         self._every_state = config.steps_between(config.state_rate_hz)
         self._every_shape = config.steps_between(config.shape_rate_hz)
         self.pacer.tick_steps = self._every_state
-        self._ticker.set(self.pacer.tick_period, self.sim.state == RUNNING)
         period = 1.0 / config.diagnostics_rate_hz
-        if self._diagnostics_timer is None or self._diagnostics_timer.timer_period_ns != round(
-            period * 1e9
-        ):
-            if self._diagnostics_timer is not None:
-                self.destroy_timer(self._diagnostics_timer)
-            self._diagnostics_timer = self.create_timer(
-                period, self._publish_diagnostics, clock=self._steady
-            )
+        if period != self._diagnostics_period:
+            self._diagnostics_period = period
+            self._diagnostics_due = min(self._diagnostics_due, time.monotonic() + period)
+        self._set_ticks()
+
+    def _set_ticks(self) -> None:
+        """Tick at the pacing's period while running (at least as often as diagnostics
+        are due), else at the diagnostics' period (nothing before `start`)."""
+        if not self._started:
+            return
+        period = self._diagnostics_period
+        if self.sim.state == RUNNING:
+            period = min(period, self.pacer.tick_period)
+        self._ticker.set(period, True)
 
     # -- integration ------------------------------------------------------------------------
 
     def _tick(self) -> None:
+        """One wake-up of the ticks' thread: integrate while running, and publish the
+        diagnostics when they are due."""
+        if self.sim.state == RUNNING:
+            self._integrate()
+        now = time.monotonic()
+        if now >= self._diagnostics_due:
+            self._publish_diagnostics()
+            self._diagnostics_due = following_call(
+                self._diagnostics_due, now, self._diagnostics_period
+            )
+
+    def _integrate(self) -> None:
         """Integrate whole grid steps up to the time due (never beyond), publishing
         the samples that fall on them, within the tick's wall-time budget."""
         sim = self.sim
@@ -244,13 +277,13 @@ class SimNode(Node):
                 self._publish_shape()
 
     def _set_running(self) -> None:
-        """Tick while the simulation runs; hold the clock (and stop ticking) otherwise."""
+        """Integrate while the simulation runs; hold the clock otherwise."""
         running = self.sim.state == RUNNING
         if running:
             self.pacer.run_from(self.sim.t)
         else:
             self.pacer.hold(self.sim.t)
-        self._ticker.set(self.pacer.tick_period, running)
+        self._set_ticks()
         self.real_time_factor.restart(self.sim.t, self.sim.state == RUNNING)
 
     def _stop_on_error(self) -> None:
@@ -419,8 +452,7 @@ class SimNode(Node):
         steps, mean, largest = sim.step_times.take()
         overruns = self.overruns - window["overruns"]
         rejected = sim.rejected - window["rejected"]
-        with np.errstate(over="ignore", invalid="ignore"):  # inf or nan once blown up
-            load_power, dissipation = sim.powers()
+        energy, load_power, dissipation = sim.balance()
         level, message = diagnose(
             Observations(
                 state=sim.state,
@@ -454,7 +486,7 @@ class SimNode(Node):
             "last_command_start_s": _time_or_none(sim.last_command_start),
             "last_rejection": sim.last_rejection,
             "motion_end_s": _time_or_none(sim.motion.t_end),
-            "mechanical_energy_J": float(f"{sim.energy():.6g}"),
+            "mechanical_energy_J": float(f"{energy:.6g}"),
             "load_power_W": float(f"{load_power:.6g}"),
             "damping_dissipation_W": float(f"{dissipation:.6g}"),
         }
@@ -513,14 +545,13 @@ def _simulate(_namespace, stop) -> int:
     # for tens of milliseconds.
     gc.collect()
     gc.freeze()
+    node.start()
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        while not stop.event.is_set():
-            executor.spin_once(timeout_sec=0.1)
-        node.get_logger().info(f"{stop.received}: stopping at t = {node.sim.t:.6f} s")
-    except ExternalShutdownException:
-        pass
+        serve_until_stopped(executor, node, stop)
+        if stop.received:
+            node.get_logger().info(f"{stop.received}: stopping at t = {node.sim.t:.6f} s")
     finally:
         node.close()
         executor.remove_node(node)

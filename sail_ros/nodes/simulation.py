@@ -21,6 +21,7 @@ import time
 import numpy as np
 
 from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
+from sail_ros.model.assembly import MASS, STIFFNESS, STRUCTURAL_DAMPING
 from sail_ros.model.sail_model import StateSample
 from sail_ros.model.sampling import GridSampler
 from sail_ros.nodes.commands import (
@@ -130,11 +131,21 @@ class Simulation:
         point = self.sampler.point
         return self.model.sample(point.t, point.lengths, point.rates, point.q, point.qd)
 
-    def energy(self) -> float:
-        """Mechanical energy [J] at `t` (model.md §7); inf or nan once the state has
-        blown up."""
+    def balance(self) -> tuple[float, float, float]:
+        """`(energy, load power, dissipation)` at `t`: the mechanical energy `1/2 qd^T M
+        qd + 1/2 q^T K q` [J] (model.md §7), the loads' power `qd^T Q` and the damping's
+        dissipation `qd^T C_d qd` [W], loads as commanded; from one assembly (0 without
+        damping); inf or nan once the state has blown up."""
+        lengths, q, qd = self.lengths, self.q, self.qd
+        params = self.model.params
+        damped = params.mass_damping > 0.0 or params.stiffness_damping > 0.0
+        outputs = (MASS, STIFFNESS, STRUCTURAL_DAMPING) if damped else (MASS, STIFFNESS)
         with np.errstate(over="ignore", invalid="ignore"):
-            return self.model.energy(self.q, self.qd, self.lengths)
+            matrices = self.model.evaluate(outputs, lengths)
+            energy = 0.5 * float(qd @ matrices[0] @ qd) + 0.5 * float(q @ matrices[1] @ q)
+            load = float(qd @ (self.model.input_matrix(lengths) @ self.inputs()))
+            dissipation = float(qd @ matrices[2] @ qd) if damped else 0.0
+        return energy, load, dissipation
 
     def inputs(self) -> np.ndarray:
         """The model's inputs now (8,): pressures [Pa] (commanded + solar), tip forces [N]."""
@@ -145,13 +156,6 @@ class Simulation:
         lands on a step boundary)."""
         u = self.inputs()
         self.stepper.inputs = (lambda t: u) if u.any() else None
-
-    def powers(self) -> tuple[float, float]:
-        """`(load power qd^T Q, damping dissipation qd^T C_d qd)` [W] at `t`, with the
-        loads as commanded."""
-        lengths, qd = self.lengths, self.qd
-        load = float(qd @ (self.model.input_matrix(lengths) @ self.inputs()))
-        return load, float(qd @ self.model.structural_damping(lengths) @ qd)
 
     def substeps(self) -> int:
         """Equal sub-steps a moving grid step needs now (`SailStepper.step_limit`)."""

@@ -1,15 +1,17 @@
 """A periodic call on a thread of its own, paced by the steady clock.
 
-The simulator's ticks (up to 200 per second) run here rather than as an rclpy
-timer: each wake-up of rclpy's executor rebuilds a wait set of this node's
-timers, services and publisher event handlers, about 1 ms of a core, 10 % at
-100 Hz; a thread waiting on an `Event` wakes for a few microseconds. The
-executor still runs everything else (commands, services, parameters,
-diagnostics), so both threads take the same lock around the simulation.
+The simulator's ticks (up to 200 per second) and its diagnostics run here rather
+than as rclpy timers: each wake-up of rclpy's executor rebuilds a wait set of
+the node's timers, services and publisher event handlers, about 1 ms of a core,
+10 % at 100 Hz. A thread waiting on a lock wakes for less: ~100 us on a virtual
+machine whose idle cores are halted (an `Event`, a condition with locks of its
+own, costs twice that). The executor runs the rest (commands, services,
+parameters), so both threads take the same lock around the simulation.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -36,7 +38,9 @@ class Ticker:
         self._active = False
         self._stopping = False
         self._restart = False  # set by `set`, read by the thread: before it starts
-        self._changed = threading.Event()
+        # a change wakes the thread by releasing this lock, which the thread takes
+        self._changed = threading.Lock()
+        self._changed.acquire()
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
@@ -47,12 +51,12 @@ class Ticker:
         self._period, self._active = float(period), bool(active)
         if restart or active:
             self._restart = restart
-            self._changed.set()
+            self._wake()
 
     def stop(self) -> None:
         """No more calls once this returns (a call under way finishes first)."""
         self._stopping = True
-        self._changed.set()
+        self._wake()
         if self._thread is not threading.current_thread():
             self._thread.join()
 
@@ -60,8 +64,7 @@ class Ticker:
         next_call = None
         while not self._stopping:
             if not self._active:
-                self._changed.wait()
-                self._changed.clear()
+                self._changed.acquire()
                 next_call = None
                 continue
             now = time.monotonic()
@@ -69,8 +72,7 @@ class Ticker:
                 self._restart = False
                 next_call = now + self._period
             if now < next_call:
-                if self._changed.wait(next_call - now):
-                    self._changed.clear()
+                if self._changed.acquire(timeout=next_call - now):
                     next_call = min(next_call, time.monotonic() + self._period)
                 continue
             with self._lock:
@@ -82,6 +84,11 @@ class Ticker:
                 time.sleep(AFAP_PAUSE_S)
             else:
                 next_call = following_call(next_call, now, self._period)
+
+    def _wake(self) -> None:
+        # released already and not yet taken: the thread wakes anyway
+        with contextlib.suppress(RuntimeError):
+            self._changed.release()
 
 
 def following_call(last_due: float, now: float, period: float) -> float:
