@@ -122,9 +122,12 @@ def _reliable(depth: int, durability: DurabilityPolicy) -> QoSProfile:
     )
 
 
-STATE_QOS = _reliable(
-    50, DurabilityPolicy.TRANSIENT_LOCAL
-)  # boom_state, modal_state, tip_deflection
+# boom_state, modal_state, tip_deflection, root_moment. A reliable publisher can
+# resend a sample a subscriber missed only while it still holds it: 500 samples
+# are 2.5 s at 200 samples/s (4x real time at 50 Hz), so a subscriber whose process
+# stalls for a few hundred milliseconds (one recorder, on a loaded 2-core machine,
+# took none for 370 ms) still gets every sample; 50 lost the samples of the stall.
+STATE_QOS = _reliable(500, DurabilityPolicy.TRANSIENT_LOCAL)
 SHAPE_QOS = _reliable(5, DurabilityPolicy.VOLATILE)  # big messages, low rate: keep few
 DIAGNOSTICS_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
 CLOCK_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
