@@ -453,7 +453,12 @@ def test_sigkill_at_random_times_loses_only_the_open_chunk(ros_env, listener, tm
                 ["-o", str(folder), "--topics", *streams, "--max-chunk-duration-s", str(CHUNK_S)],
                 ros_env,
             )
-            listener.spin_until(lambda f=folder: recorded(f), 30.0, "the first chunk on disk")
+            try:
+                listener.spin_until(lambda f=folder: recorded(f), 30.0, "the first chunk on disk")
+            except AssertionError:  # say what the recorder saw
+                recorder.kill()
+                _, log = recorder.communicate(timeout=10.0)
+                raise AssertionError(f"trial {trial}: no chunk in 30 s; recorder:\n{log}") from None
             run_s = float(rng.uniform(0.3, 2.5))
             until = time.monotonic() + run_s
             listener.spin_until(lambda u=until: time.monotonic() > u, run_s + 5.0, "the run")
