@@ -128,6 +128,9 @@ def _reliable(depth: int, durability: DurabilityPolicy) -> QoSProfile:
 # stalls for a few hundred milliseconds (one recorder, on a loaded 2-core machine,
 # took none for 370 ms) still gets every sample; 50 lost the samples of the stall.
 STATE_QOS = _reliable(500, DurabilityPolicy.TRANSIENT_LOCAL)
+# for subscribers that want the newest sample only (`sail-ros watch`): DDS delivers
+# the kept history, but only the last sample reaches Python
+NEWEST_STATE_QOS = _reliable(1, DurabilityPolicy.TRANSIENT_LOCAL)
 SHAPE_QOS = _reliable(5, DurabilityPolicy.VOLATILE)  # big messages, low rate: keep few
 DIAGNOSTICS_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
 CLOCK_QOS = _reliable(10, DurabilityPolicy.VOLATILE)

@@ -60,7 +60,9 @@ class SimClient(Node):
         self.received = 0  # state messages taken
         if watch:
             for name_ in (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT):
-                self.create_subscription(JointState, name_, self._keeper(name_), topics.STATE_QOS)
+                self.create_subscription(
+                    JointState, name_, self._keeper(name_), topics.NEWEST_STATE_QOS
+                )
             self.create_subscription(
                 DiagnosticArray, topics.DIAGNOSTICS, self._on_diagnostics, topics.DIAGNOSTICS_QOS
             )
@@ -93,13 +95,17 @@ class SimClient(Node):
     def settle_answers(self, timeout: float, limit: float = ANSWER_HISTORY_S) -> None:
         """Take the simulator's answers already given: their transient-local history
         comes on a writer of its own, which may match after the state arrived. Waits for
-        it to match (up to `timeout` [s]), then for an answer, up to `limit` [s] (there
-        may be none)."""
+        it to match (up to `timeout` [s]), then for an answer: up to `timeout` if the
+        diagnostics counted a command, else up to `limit` [s] (there may be none)."""
         self.spin_until(
             lambda: self.status_subscription.get_publisher_count() > 0,
             timeout,
             f"{topics.COMMAND_STATUS} of {self.sim_name}",
         )
+        status = self.latest.get("diagnostics_values", {})
+        counted = ("accepted_commands", "rejected_commands", "dropped_commands")
+        if any(int(status.get(name, 0)) for name in counted):  # so an answer was given
+            limit = timeout
         deadline = time.monotonic() + limit
         while "answer" not in self.latest and time.monotonic() < deadline:
             self.executor_.spin_once(timeout_sec=0.01)
