@@ -73,10 +73,10 @@ def _locked(method):
 
 
 class SimNode(Node):
-    """The `sail_sim` node. The integration runs on a thread of its own (`Ticker`),
-    commands are taken from DDS on another (`_reception`); services, parameters,
-    commands and diagnostics run in the executor's callbacks. `lock` is held around
-    anything that reads or changes the simulation.
+    """The `sail_sim` node. The integration and the diagnostics run on a thread of
+    their own (`Ticker`) from `start` on, commands are taken from DDS on another
+    (`_reception`); services, parameters and commands run in the executor's callbacks.
+    `lock` is held around anything that reads or changes the simulation.
 
     Args:
         parameter_overrides: initial parameter values (besides --ros-args).
