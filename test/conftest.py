@@ -60,13 +60,15 @@ def pytest_collection_modifyitems(items):
 @pytest.fixture(scope="session")
 def ros_env(tmp_path_factory) -> dict[str, str]:
     """Environment of the processes a test starts: the private domain, localhost, a
-    private home and log folder, unbuffered output."""
+    private home and log folder, unbuffered output; a process stopped by SIGABRT prints
+    every thread's Python stack (faulthandler), so a hang names where it hangs."""
     home = tmp_path_factory.mktemp("home")
     return dict(
         os.environ,
         HOME=str(home),
         ROS_LOG_DIR=str(home / "log"),
         PYTHONUNBUFFERED="1",
+        PYTHONFAULTHANDLER="1",
         RCUTILS_COLORIZED_OUTPUT="0",
     )
 

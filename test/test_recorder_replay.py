@@ -203,8 +203,12 @@ def finish(process: subprocess.Popen, timeout: float = 20.0) -> tuple[int, str, 
     try:
         out, err = process.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
-        process.kill()
-        out, err = process.communicate()
+        process.send_signal(signal.SIGABRT)  # its threads' stacks (PYTHONFAULTHANDLER)
+        try:
+            out, err = process.communicate(timeout=10.0)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            out, err = process.communicate()
         pytest.fail(f"process did not exit within {timeout} s:\n{err}")
     return process.returncode, out, err
 
