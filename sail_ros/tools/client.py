@@ -27,8 +27,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
 
-# How long the watcher waits for an answer given before it started, once the answers'
-# writer matched: their history arrives within milliseconds; there may be none.
+# Once the answers the diagnostics counted arrived, the watcher takes more until none
+# came for this long [s]: the rest of the history arrives within milliseconds.
 ANSWER_HISTORY_S = 0.3
 
 
@@ -95,8 +95,9 @@ class SimClient(Node):
     def settle_answers(self, timeout: float, limit: float = ANSWER_HISTORY_S) -> None:
         """Take the simulator's answers already given: their transient-local history
         comes on a writer of its own, which may match after the state arrived. Waits for
-        it to match (up to `timeout` [s]), then for an answer: up to `timeout` if the
-        diagnostics counted a command, else up to `limit` [s] (there may be none)."""
+        it to match (up to `timeout` [s]), then for as many answers as the diagnostics
+        counted commands (the kept ones at most; up to `timeout`), then until none came
+        for `limit` [s] (answers to commands not counted, e.g. stale ones)."""
         self.spin_until(
             lambda: self.status_subscription.get_publisher_count() > 0,
             timeout,
@@ -104,11 +105,20 @@ class SimClient(Node):
         )
         status = self.latest.get("diagnostics_values", {})
         counted = ("accepted_commands", "rejected_commands", "dropped_commands")
-        if any(int(status.get(name, 0)) for name in counted):  # so an answer was given
-            limit = timeout
-        deadline = time.monotonic() + limit
-        while "answer" not in self.latest and time.monotonic() < deadline:
+        expected = min(
+            topics.COMMAND_STATUS_QOS.depth, sum(int(status.get(name, 0)) for name in counted)
+        )
+        self.spin_until(
+            lambda: len(self.answers) >= expected,
+            timeout,
+            f"the {expected} answer(s) on {topics.COMMAND_STATUS} the diagnostics count",
+        )
+        heard = len(self.answers)
+        quiet_until = time.monotonic() + limit
+        while time.monotonic() < quiet_until:
             self.executor_.spin_once(timeout_sec=0.01)
+            if len(self.answers) != heard:
+                heard, quiet_until = len(self.answers), time.monotonic() + limit
 
     def close(self) -> None:
         self.executor_.shutdown()
