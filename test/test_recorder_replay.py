@@ -672,12 +672,12 @@ from sail_ros.nodes import recorder
 sys.exit(recorder.main(sys.argv[1:]))
 """
 FAIL_ON_MESSAGE_51 = """
-original = recorder.Recorder._on_message
-def on_message(self, topic, data, info):
+original = recorder.Recorder._record  # once per message, also within a batch
+def record(self, topic, data, info):
     if self._received == 50:
         raise RuntimeError("injected failure")
     original(self, topic, data, info)
-recorder.Recorder._on_message = on_message
+recorder.Recorder._record = record
 """
 FAIL_IN_INIT = """
 def create_timer(self, *args, **kwargs):
