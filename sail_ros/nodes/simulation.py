@@ -21,7 +21,6 @@ import time
 import numpy as np
 
 from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
-from sail_ros.model.assembly import MASS, STIFFNESS, STRUCTURAL_DAMPING
 from sail_ros.model.sail_model import StateSample
 from sail_ros.model.sampling import GridSampler
 from sail_ros.nodes.commands import (
@@ -132,19 +131,19 @@ class Simulation:
         return self.model.sample(point.t, point.lengths, point.rates, point.q, point.qd)
 
     def balance(self) -> tuple[float, float, float]:
-        """`(energy, load power, dissipation)` at `t`: the mechanical energy `1/2 qd^T M
-        qd + 1/2 q^T K q` [J] (model.md §7), the loads' power `qd^T Q` and the damping's
-        dissipation `qd^T C_d qd` [W], loads as commanded; from one assembly (0 without
-        damping); inf or nan once the state has blown up."""
+        """`(energy, load power, dissipation)` at `t`: the mechanical energy [J]
+        (`SailModel.energy`, model.md §7), the loads' power `qd^T Q` and the damping's
+        dissipation `qd^T C_d qd` [W], loads as commanded (no damping matrix is assembled
+        without damping); inf or nan once the state has blown up."""
         lengths, q, qd = self.lengths, self.q, self.qd
         params = self.model.params
         damped = params.mass_damping > 0.0 or params.stiffness_damping > 0.0
-        outputs = (MASS, STIFFNESS, STRUCTURAL_DAMPING) if damped else (MASS, STIFFNESS)
         with np.errstate(over="ignore", invalid="ignore"):
-            matrices = self.model.evaluate(outputs, lengths)
-            energy = 0.5 * float(qd @ matrices[0] @ qd) + 0.5 * float(q @ matrices[1] @ q)
+            energy = self.model.energy(q, qd, lengths)
             load = float(qd @ (self.model.input_matrix(lengths) @ self.inputs()))
-            dissipation = float(qd @ matrices[2] @ qd) if damped else 0.0
+            dissipation = 0.0
+            if damped:
+                dissipation = float(qd @ self.model.structural_damping(lengths) @ qd)
         return energy, load, dissipation
 
     def inputs(self) -> np.ndarray:
