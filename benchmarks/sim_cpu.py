@@ -12,6 +12,9 @@ the end of the phase even as fast as possible). Reported per phase:
 - overruns: ticks that found the model more than a step behind the clock
   (from its diagnostics; only meaningful when paced, not as fast as possible).
 
+A setting with `realtime_priority` runs the integration thread first-in first-out
+(needs CAP_SYS_NICE or an rtprio limit); where the system refuses, its line says so.
+
     python benchmarks/sim_cpu.py            # about 90 s
     python benchmarks/sim_cpu.py --quick    # shorter phases
 """
@@ -65,6 +68,17 @@ SETTINGS = [
             "time_scale": 8.0,
         },
     ),
+    (
+        "n_B = n_M = 10, 100 Hz state, 10 Hz shape, 8x, SCHED_FIFO 50",
+        {
+            "sail.n_boom_modes": 10,
+            "sail.n_membrane_modes": 10,
+            "state_rate_hz": 100.0,
+            "shape_rate_hz": 10.0,
+            "time_scale": 8.0,
+            "realtime_priority": 50,
+        },
+    ),
     ("default, as fast as possible", {"time_scale": 0.0}),
     (
         "n_B = n_M = 10, 100 Hz state, 10 Hz shape, as fast as possible",
@@ -103,6 +117,7 @@ class Observer(Node):
         self.executor_.add_node(self)
         self.received = 0
         self.status: list[tuple[float, float, float, int]] = []
+        self.realtime_priority = 0
         for name, type_name in OUTPUTS.items():
             package, _, kind = type_name.split("/")
             module = __import__(f"{package}.msg", fromlist=[kind])
@@ -119,6 +134,7 @@ class Observer(Node):
 
     def _on_status(self, message: DiagnosticArray) -> None:
         values = topics.diagnostic_values(message)
+        self.realtime_priority = int(values["realtime_priority"])
         self.status.append(
             (
                 time.monotonic(),
@@ -172,6 +188,7 @@ def run(parameters: dict, rest_s: float, moving_s: float, env: dict, domain: int
         observer.deploy.publish(Float64(data=60.0))  # 1000 s of simulation at 0.1 m/s
         observer.spin_for(0.2)
         moving = measure(observer, sim.pid, moving_s)
+        priority = observer.realtime_priority
     finally:
         sim.send_signal(signal.SIGINT)
         code = sim.wait(20)
@@ -179,7 +196,7 @@ def run(parameters: dict, rest_s: float, moving_s: float, env: dict, domain: int
         rclpy.shutdown(context=context)
     if code != 0:
         raise RuntimeError(f"the simulator exited with {code}")
-    return rest, moving
+    return rest, moving, priority
 
 
 def main(argv=None) -> int:
@@ -201,13 +218,16 @@ def main(argv=None) -> int:
             f"sail_sim CPU use and real-time factor ({os.cpu_count()} cores; CPU 100 % = "
             f"one core; {phase:g} s per phase)\n"
         )
-        print(f"  {'setting':<66}{'phase':>9}{'CPU':>8}{'RTF':>9}{'step':>10}{'overruns':>10}")
+        print(f"  {'setting':<72}{'phase':>9}{'CPU':>8}{'RTF':>9}{'step':>10}{'overruns':>10}")
         for name, parameters in SETTINGS:
+            *phases, priority = run(parameters, phase, phase, env, domain)
+            if priority != parameters.get("realtime_priority", 0):
+                name += " (refused)"
             for label, (cpu, rtf, step, overruns) in zip(
-                ("at rest", "moving"), run(parameters, phase, phase, env, domain), strict=True
+                ("at rest", "moving"), phases, strict=True
             ):
                 print(
-                    f"  {name:<66}{label:>9}{100 * cpu:7.1f}%{rtf:9.2f}{step:8.3f}ms{overruns:>10}",
+                    f"  {name:<72}{label:>9}{100 * cpu:7.1f}%{rtf:9.2f}{step:8.3f}ms{overruns:>10}",
                     flush=True,
                 )
                 name = ""

@@ -528,6 +528,7 @@ def test_every_parameter_is_described_with_unit_and_range():
                 "integration_step",
                 "max_model_step",
                 "time_scale",
+                "realtime_priority",
                 "frame_id",
                 "shape_divisions",
                 "max_queued_commands",

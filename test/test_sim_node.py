@@ -1,7 +1,10 @@
 """Node `sail_sim` in this process: a private rclpy Context, its own executor,
 and a client node in the same context talking to it over (loopback) DDS."""
 
+import errno
 import math
+import os
+import threading
 import time
 
 import numpy as np
@@ -238,6 +241,45 @@ def test_command_times_read_minus_one_when_there_is_none(ros):
     assert float(client.diagnostics[-1]["last_command_start_s"]) == start  # ...not its record
 
 
+def _fifo_threads() -> dict[str, int]:
+    """Name -> SCHED_FIFO priority of this process's live Python threads that have it."""
+    return {
+        thread.name: os.sched_getparam(thread.native_id)[0]
+        for thread in threading.enumerate()
+        if os.sched_getscheduler(thread.native_id) == os.SCHED_FIFO
+    }
+
+
+def test_realtime_priority_puts_the_integration_thread_alone_on_fifo_scheduling(ros):
+    sim, client, spin_until = ros(realtime_priority=40, diagnostics_rate_hz=20.0)
+    spin_until(lambda: sim.sim.t > 0.2, 5.0, "0.2 s of simulation")
+    if sim.realtime_priority == 0:  # refused: then so is any thread here
+        with pytest.raises(PermissionError):
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(40))
+        assert _fifo_threads() == {}
+    else:
+        assert sim.realtime_priority == 40
+        assert _fifo_threads() == {"sail_sim ticks": 40}
+    assert client.diagnostics[-1]["realtime_priority"] == str(sim.realtime_priority)
+
+
+def test_realtime_priority_is_not_used_as_fast_as_possible(ros):
+    sim, client, _ = ros(realtime_priority=40, time_scale=0.0, shape_rate_hz=0.0)
+    assert sim.realtime_priority == 0 and _fifo_threads() == {}
+    assert client.diagnostics[-1]["realtime_priority"] == "0"
+
+
+def test_a_refused_realtime_priority_leaves_normal_scheduling(ros, monkeypatch):
+    def refuse(*_):
+        raise PermissionError(errno.EPERM, os.strerror(errno.EPERM))
+
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    sim, client, spin_until = ros(realtime_priority=40)
+    spin_until(lambda: sim.sim.t > 0.1, 5.0, "the simulation to run")
+    assert sim.realtime_priority == 0 and _fifo_threads() == {}
+    assert client.diagnostics[-1]["realtime_priority"] == "0"
+
+
 def test_bad_parameter_values_stop_the_start(ros):
     with pytest.raises(ConfigError, match="parameter max_rate: .*out of range"):
         ros(max_rate=500.0)
@@ -245,6 +287,8 @@ def test_bad_parameter_values_stop_the_start(ros):
         ros(time_scale=2)
     with pytest.raises(ConfigError, match="initial_lengths must hold 1 or 4 values"):
         ros(initial_lengths=[10.0, 11.0])
+    with pytest.raises(ConfigError, match="parameter realtime_priority: .*out of range"):
+        ros(realtime_priority=100)
 
 
 def test_main_exits_2_on_a_bad_parameter(monkeypatch, tmp_path):

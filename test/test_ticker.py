@@ -1,6 +1,7 @@
 """The integration thread's pacing (`nodes/ticker.py`), on the real steady clock, with
 margins wide enough for a busy machine."""
 
+import os
 import threading
 import time
 
@@ -42,3 +43,28 @@ def test_a_late_call_is_made_at_once_and_the_missed_ones_skipped():
     # 5.5 periods late: the latest missed time in phase, at once; the four before it skipped
     assert following_call(1.00, 1.055, 0.01) == pytest.approx(1.05)
     assert following_call(1.05, 1.0551, 0.01) == pytest.approx(1.06)  # then in phase again
+
+
+def _policy(name: str) -> tuple[int, int]:
+    """(scheduling policy, priority) of the one live thread called `name`."""
+    (thread,) = [t for t in threading.enumerate() if t.name == name]
+    return os.sched_getscheduler(thread.native_id), os.sched_getparam(thread.native_id)[0]
+
+
+def test_make_realtime_schedules_the_thread_first_in_first_out_or_leaves_it_as_it_was():
+    calls, lock = [], threading.RLock()
+    ticker = Ticker(lambda: calls.append(time.monotonic()), lock, "test realtime ticker")
+    try:
+        assert _policy("test realtime ticker") == (os.SCHED_OTHER, 0)
+        try:
+            ticker.make_realtime(10)
+        except PermissionError:  # no CAP_SYS_NICE, no rtprio limit: nothing changed
+            assert _policy("test realtime ticker") == (os.SCHED_OTHER, 0)
+        else:
+            assert _policy("test realtime ticker") == (os.SCHED_FIFO, 10)
+            assert os.sched_getscheduler(0) == os.SCHED_OTHER  # this thread is not
+        ticker.set(0.01, True)
+        time.sleep(0.2)
+        assert len(calls) >= 5
+    finally:
+        ticker.stop()

@@ -18,6 +18,7 @@ A bad parameter: exit 2.
 
     sail-ros sim --ros-args --params-file config/sim.yaml
     sail-ros sim --ros-args -p time_scale:=5.0 -p initial_tip_deflection:=[0.1,0.0,0.0,0.0]
+    sail-ros sim --ros-args -p time_scale:=8.0 -p realtime_priority:=50
 """
 
 import os
@@ -76,7 +77,8 @@ class SimNode(Node):
     """The `sail_sim` node. The integration and the diagnostics run on a thread of
     their own (`Ticker`) from `start` on, commands are taken from DDS on another
     (`_reception`); services, parameters and commands run in the executor's callbacks.
-    `lock` is held around anything that reads or changes the simulation.
+    `lock` is held around anything that reads or changes the simulation. With
+    `realtime_priority` the ticks' thread alone is scheduled first-in first-out.
 
     Args:
         parameter_overrides: initial parameter values (besides --ros-args).
@@ -150,6 +152,7 @@ class SimNode(Node):
         # the node's periodic work (integration and diagnostics) runs on this thread;
         # the executor only serves commands, services and parameters
         self._ticker = Ticker(self._tick, self.lock, "sail_sim ticks")
+        self.realtime_priority = self._schedule_ticks()  # 0: normal scheduling
         self._diagnostics_period = 1.0 / config.diagnostics_rate_hz  # s
         self._diagnostics_due = math.inf  # steady clock [s]; set by `start`
         self._started = False
@@ -181,12 +184,37 @@ class SimNode(Node):
             if config.as_fast_as_possible
             else f"time scale {config.time_scale:g}"
         )
+        if self.realtime_priority:
+            speed += f", integration thread at real-time priority {self.realtime_priority}"
         self.get_logger().info(
             f"{model.n} coordinates (n_B = {model.n_boom_modes}, n_M = "
             f"{model.n_membrane_modes}), step {config.integration_step:g} s, {speed}; "
             f"booms at {config.initial_lengths.tolist()} m; stamps = {self.epoch_ns} ns + "
             "simulation time"
         )
+
+    def _schedule_ticks(self) -> int:
+        """Put the ticks' thread on real-time scheduling if `realtime_priority` asks for it
+        and the run is paced; returns the priority it runs at (0: normal scheduling)."""
+        priority = self.config.realtime_priority
+        if not priority:
+            return 0
+        if self.config.as_fast_as_possible:
+            self.get_logger().warning(
+                f"realtime_priority {priority} ignored: as fast as possible, the integration "
+                "thread never waits and would take a core from everything else"
+            )
+            return 0
+        try:
+            self._ticker.make_realtime(priority)
+        except OSError as error:
+            self.get_logger().warning(
+                f"realtime_priority {priority} refused ({error.strerror or error}): the "
+                "integration thread keeps normal scheduling; real-time priorities need "
+                f"CAP_SYS_NICE or an rtprio limit (ulimit -r) of at least {priority}"
+            )
+            return 0
+        return priority
 
     # -- parameters -------------------------------------------------------------------------
 
@@ -479,6 +507,7 @@ class SimNode(Node):
             "step_time_ms_max": round(1e3 * largest, 4),
             "steps_in_window": steps,
             "overruns": self.overruns,
+            "realtime_priority": self.realtime_priority,
             "accepted_commands": sim.accepted,
             "rejected_commands": sim.rejected,
             "dropped_commands": self.queue.dropped,

@@ -181,6 +181,19 @@ SPECS = [
         -1.0,
         1000.0,
     ),
+    ParamSpec(
+        "realtime_priority",
+        0,
+        "real-time priority of the integration thread while paced [-]: 1-99 schedules it "
+        "first-in first-out (Linux SCHED_FIFO), ahead of every normally scheduled thread "
+        "on the machine, so that a busy machine does not make it late; needs CAP_SYS_NICE "
+        "or an rtprio limit (ulimit -r), else a warning and normal scheduling; a time_scale "
+        "the model cannot keep up with then takes a core from everything else; 0: normal "
+        "scheduling",
+        True,
+        0,
+        99,
+    ),
     ParamSpec("frame_id", "sail", "frame of every published state and marker", True),
     ParamSpec(
         "shape_divisions",
@@ -285,6 +298,7 @@ class SimConfig:
     integration_step: float
     max_model_step: float  # s
     time_scale: float
+    realtime_priority: int  # 0: normal scheduling
     frame_id: str
     shape_divisions: int
     max_queued_commands: int
@@ -372,6 +386,7 @@ def config_from_values(values: dict) -> SimConfig:
         integration_step=step,
         max_model_step=float(values["max_model_step"]),
         time_scale=float(values["time_scale"]),
+        realtime_priority=int(values["realtime_priority"]),
         frame_id=str(values["frame_id"]),
         shape_divisions=int(values["shape_divisions"]),
         max_queued_commands=int(values["max_queued_commands"]),

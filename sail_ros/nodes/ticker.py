@@ -7,12 +7,18 @@ the node's timers, services and publisher event handlers, about 1 ms of a core,
 machine whose idle cores are halted (an `Event`, a condition with locks of its
 own, costs twice that). The executor runs the rest (commands, services,
 parameters), so both threads take the same lock around the simulation.
+
+How late a call comes is up to the operating system: on a busy machine a
+normally scheduled thread that wakes may wait milliseconds for a core.
+`make_realtime` puts the thread on first-in first-out real-time scheduling,
+so that it runs as soon as it wakes, ahead of every normally scheduled thread.
 """
 
 from __future__ import annotations
 
 import contextlib
 import math
+import os
 import threading
 import time
 
@@ -52,6 +58,21 @@ class Ticker:
         if restart or active:
             self._restart = restart
             self._wake()
+
+    def make_realtime(self, priority: int) -> None:
+        """Schedule the thread first-in first-out at `priority` (1-99; Linux's
+        SCHED_FIFO, as ros2_control's `thread_priority`). Such a thread yields its core
+        only by waiting, so a period shorter than the calls take would starve every
+        normally scheduled thread on that core.
+
+        Raises:
+            OSError: the system refuses (PermissionError without CAP_SYS_NICE or an
+                rtprio limit, `ulimit -r`, of at least `priority`); the scheduling is
+                unchanged.
+        """
+        if not hasattr(os, "SCHED_FIFO"):
+            raise OSError("this system has no SCHED_FIFO scheduling")
+        os.sched_setscheduler(self._thread.native_id, os.SCHED_FIFO, os.sched_param(priority))
 
     def stop(self) -> None:
         """No more calls once this returns (a call under way finishes first)."""
