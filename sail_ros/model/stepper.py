@@ -231,11 +231,17 @@ class SailStepper:
         """Current generalised velocities `M^-1 (p - G q)` [m/s] (copy)."""
         if self._qd_cache[0] != self._t:
             lengths, rates, _ = self._motion(self._t)
+            # M is assembled from finite lengths and the state is checked after every
+            # step: scipy's finiteness scans would only repeat that
             if rates.any():
                 M, G = self._mass_gyro(self._t)
-                qd = scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), self._p - G @ self._q)
+                qd = scipy.linalg.cho_solve(
+                    scipy.linalg.cho_factor(M, check_finite=False),
+                    self._p - G @ self._q,
+                    check_finite=False,
+                )
             else:  # G = 0 at rest, and M depends on the lengths alone: keep its factor
-                qd = scipy.linalg.cho_solve(self._mass_factor(lengths), self._p)
+                qd = scipy.linalg.cho_solve(self._mass_factor(lengths), self._p, check_finite=False)
             self._qd_cache = (self._t, qd)
         return self._qd_cache[1].copy()
 
@@ -341,13 +347,18 @@ class SailStepper:
         if cached_t == t:
             return motion
         values = self._profile(t)
-        motion = tuple(np.asarray(v, dtype=float) for v in values)
-        motion = tuple(np.full(4, v) if v.ndim == 0 else v for v in motion)
-        if not (
-            len(motion) == 3
-            and all(v.shape == (4,) and np.isfinite(v).all() for v in motion)
-            and motion[0].min() > 0
-        ):  # the messages name the field, the time and the value
+        try:  # three arrays of 4 (the usual case) checked as one
+            stacked = np.array(values, dtype=float)
+        except (TypeError, ValueError):  # ragged: a scalar among them, or wrong sizes
+            stacked = None
+        if (
+            stacked is not None
+            and stacked.shape == (3, 4)
+            and np.isfinite(stacked).all()
+            and stacked[0].min() > 0
+        ):
+            motion = (stacked[0], stacked[1], stacked[2])
+        else:  # scalars stand for all booms; the messages name the field, time and value
             lengths, rates, accelerations = values
             motion = (
                 per_boom(lengths, f"lengths at t = {t:.6g} s", positive=True),

@@ -184,6 +184,9 @@ class Simulation:
         lengths = self.lengths
         fractions = np.abs(self.model.tip_deflections(self.q)) / lengths
         k = int(np.argmax(fractions))
+        if not (fractions[k] > warn or fractions[k] > stop):  # every step: no text to write
+            self.range_warning = ""
+            return True
         reason = (
             f"tip deflection of boom {'abcd'[k]} is {fractions[k]:.3g} of its length "
             f"({fractions[k] * lengths[k]:.4g} m of {lengths[k]:.4g} m)"
@@ -191,9 +194,7 @@ class Simulation:
         if fractions[k] > stop:
             self.error = f"{reason}, beyond tip_error_fraction {stop:g}: out of the linear range"
             return False
-        self.range_warning = (
-            f"{reason}, beyond tip_warn_fraction {warn:g}" if fractions[k] > warn else ""
-        )
+        self.range_warning = f"{reason}, beyond tip_warn_fraction {warn:g}"
         return True
 
     def reset(self, config: SimConfig) -> None:
