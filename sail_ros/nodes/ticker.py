@@ -61,9 +61,9 @@ class Ticker:
 
     def make_realtime(self, priority: int) -> None:
         """Schedule the thread first-in first-out at `priority` (1-99; Linux's
-        SCHED_FIFO, as ros2_control's `thread_priority`). Such a thread yields its core
-        only by waiting, so a period shorter than the calls take would starve every
-        normally scheduled thread on that core.
+        SCHED_FIFO, as ros2_control's controller manager schedules its loop). Such a
+        thread yields its core only by waiting, so a period shorter than the calls take
+        would starve every normally scheduled thread on that core.
 
         Raises:
             OSError: the system refuses (PermissionError without CAP_SYS_NICE or an
