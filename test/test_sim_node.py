@@ -224,6 +224,16 @@ def test_a_slow_state_rate_does_not_slow_the_integration(ros):
     assert float(client.diagnostics[-1]["real_time_factor"]) == pytest.approx(1.0, rel=0.1)
 
 
+def test_overruns_are_counted_each_and_logged_once_in_five_seconds(ros, capfd):
+    sim, client, spin_until = ros(shape_rate_hz=0.0)
+    for stall in range(3):  # the ticks wait for the lock: each next one is late
+        with sim.lock:
+            time.sleep(0.05)
+        spin_until(lambda stall=stall: sim.overruns > stall, 2.0, f"overrun {stall + 1}")
+    assert sim.overruns >= 3
+    assert capfd.readouterr().err.count("overrun at t = ") == 1
+
+
 def test_command_times_read_minus_one_when_there_is_none(ros):
     sim, client, spin_until = ros(diagnostics_rate_hz=20.0)
     status = client.diagnostics[-1]
