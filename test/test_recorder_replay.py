@@ -70,17 +70,33 @@ def stream_message(topic: str, i: int):
 
 def publish_main(argv) -> int:
     """Publish --count messages per stream at --rate [Hz] once every stream has
-    --subscribers subscribers and a line arrived on stdin; then idle until stdin closes."""
+    --subscribers subscribers (and, if asked, the parameters were fetched) and a line
+    arrived on stdin; then idle until stdin closes."""
     parser = argparse.ArgumentParser()
     parser.add_argument("--count", type=int, required=True)
     parser.add_argument("--rate", type=float, required=True)
     parser.add_argument("--subscribers", type=int, required=True)
     parser.add_argument("--prefix", default="", help="in front of every stream's topic")
+    parser.add_argument(
+        "--after-parameter-fetch",
+        action="store_true",
+        help="also wait until the parameters' values were asked for (a recorder ends a file "
+        "only once it holds them, however long the fetch takes on a busy machine)",
+    )
     args = parser.parse_args(argv)
     rclpy.init()
     node = Node("sail_sim")
     for name, value in SIM_PARAMETERS.items():
         node.declare_parameter(name, value)
+    fetched = [not args.after_parameter_fetch]
+    (get_service,) = [s for s in node.services if s.service_name.endswith("/get_parameters")]
+    answer = get_service.callback
+
+    def answer_and_note(request, response):
+        fetched[0] = True
+        return answer(request, response)
+
+    get_service.callback = answer_and_note
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     latched = node.create_publisher(Float64, LATCHED_TOPIC, LATCHED_QOS)
@@ -88,7 +104,10 @@ def publish_main(argv) -> int:
     publishers = {
         topic: node.create_publisher(cls, args.prefix + topic, 10) for topic, cls in STREAMS.items()
     }
-    while min(p.get_subscription_count() for p in publishers.values()) < args.subscribers:
+    while (
+        min(p.get_subscription_count() for p in publishers.values()) < args.subscribers
+        or not fetched[0]
+    ):
         executor.spin_once(timeout_sec=0.01)
     sys.stdin.readline()
     period, due = 1.0 / args.rate, time.monotonic()
@@ -180,7 +199,9 @@ def start_tool(tool, args, env) -> subprocess.Popen:
     return start(["-m", "sail_ros.cli", tool, *args], env)
 
 
-def start_publisher(env, count, rate, subscribers, prefix="") -> subprocess.Popen:
+def start_publisher(
+    env, count, rate, subscribers, prefix="", after_parameter_fetch=False
+) -> subprocess.Popen:
     return start(
         [
             __file__,
@@ -193,6 +214,7 @@ def start_publisher(env, count, rate, subscribers, prefix="") -> subprocess.Pope
             str(subscribers),
             "--prefix",
             prefix,
+            *(["--after-parameter-fetch"] if after_parameter_fetch else []),
         ],
         env,
         stdin=subprocess.PIPE,
@@ -232,7 +254,8 @@ RECORDER_TOPICS = ["--topics", *STREAMS, LATCHED_TOPIC]
 @pytest.fixture(scope="module")
 def recording(ros_env, listener, tmp_path_factory):
     """Recorder started before the topics exist, splitting files every 0.5 s of log
-    time; 120 messages per stream over 1.2 s; SIGINT."""
+    time; 120 messages per stream over 1.2 s, once the recorder asked for the
+    parameters; SIGINT."""
     folder = tmp_path_factory.mktemp("rec") / "run"
     recorder = start_tool(
         "recorder",
@@ -247,7 +270,9 @@ def recording(ros_env, listener, tmp_path_factory):
         ],
         ros_env,
     )
-    publisher = start_publisher(ros_env, count=120, rate=100.0, subscribers=2)
+    publisher = start_publisher(
+        ros_env, count=120, rate=100.0, subscribers=2, after_parameter_fetch=True
+    )
     try:
         go(listener, publisher)
         listener.spin_until(
