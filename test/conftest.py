@@ -162,7 +162,7 @@ class Operator(Node):
         for name, kept in self.states.items():
             self.create_subscription(JointState, name, kept.append, topics.STATE_QOS)
         self.diagnostics: list[DiagnosticArray] = []
-        self.received_at: list[float] = []  # steady time [s] each diagnostics arrived
+        self.published_ns: list[int] = []  # wall clock each diagnostics left the simulator
         self.create_subscription(
             DiagnosticArray, topics.DIAGNOSTICS, self._on_status, topics.DIAGNOSTICS_QOS
         )
@@ -174,9 +174,11 @@ class Operator(Node):
         self.pause = self.create_client(SetBool, topics.PAUSE_SERVICE)
         self.set_parameters = self.create_client(SetParameters, "/sail_sim/set_parameters")
 
-    def _on_status(self, message: DiagnosticArray) -> None:
+    def _on_status(self, message: DiagnosticArray, info) -> None:
+        # DDS's source timestamp: when the simulator published, however late this
+        # process takes the sample
         self.diagnostics.append(message)
-        self.received_at.append(time.monotonic())
+        self.published_ns.append(info["source_timestamp"])
 
     def spin_until(self, condition, timeout, what):
         spin_until(self.spinner, condition, timeout, what)

@@ -243,13 +243,17 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     )
     assert np.abs(q).max() > 0.005
     assert q == pytest.approx(q_alone, abs=1e-9)
-    # real time: simulation time kept pace with the wall clock (to its 0.02 s ticks)
-    first, last = 2, len(operator.diagnostics) - 1
-    advanced = float(operator.status(last)["sim_time_s"]) - float(
-        operator.status(first)["sim_time_s"]
+    # real time: simulation time kept pace with the wall clock. A status is published
+    # on its tick or late, never early, so the least lag of the wall clock behind
+    # simulation time is the same in the run's last quarter as in its first
+    sim_time = np.array(
+        [float(operator.status(i)["sim_time_s"]) for i in range(2, len(operator.diagnostics))]
     )
-    elapsed = operator.received_at[last] - operator.received_at[first]
-    assert elapsed > 1.0 and advanced / elapsed == pytest.approx(1.0, abs=0.05)
+    lag = np.array(operator.published_ns[2:]) * 1e-9 - sim_time
+    quarter = len(lag) // 4
+    span = sim_time[-quarter] - sim_time[quarter - 1]
+    drift = (lag[-quarter:].min() - lag[:quarter].min()) / span
+    assert span > 0.5 and abs(drift) < 0.02, (span, drift)
 
     answer = operator.call(operator.pause, SetBool.Request(data=True))
     assert answer.success
