@@ -42,7 +42,8 @@ def tool(ros_env, *args, timeout=60.0) -> subprocess.CompletedProcess:
 
 
 def watch(ros_env, *ros_args) -> dict:
-    result = tool(ros_env, "watch", "--once", "--json", *ros_args)
+    """One sample; waiting as long as processes starting on a busy machine may take."""
+    result = tool(ros_env, "watch", "--once", "--json", "--timeout", "30", *ros_args)
     assert result.returncode == 0, result.stderr
     return json.loads(result.stdout)
 
