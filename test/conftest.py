@@ -187,6 +187,22 @@ class Operator(Node):
         deadline = time.monotonic() + seconds
         self.spin_until(lambda: time.monotonic() > deadline, seconds + 1.0, "time to pass")
 
+    def spin_until_quiet(self, quiet=0.3, timeout=10.0):
+        """Take what is in flight: until nothing arrived for `quiet` [s]."""
+
+        def arrived():
+            return len(self.diagnostics) + sum(len(kept) for kept in self.states.values())
+
+        seen, calm_from = arrived(), time.monotonic()
+
+        def calm():
+            nonlocal seen, calm_from
+            if arrived() != seen:
+                seen, calm_from = arrived(), time.monotonic()
+            return time.monotonic() - calm_from > quiet
+
+        self.spin_until(calm, timeout, f"{quiet} s without a message")
+
     def status(self, index=-1) -> dict:
         """An integrator status (default the latest): its values, plus level,
         message and stamp_ns."""

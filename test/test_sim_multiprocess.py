@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
-from diagnostic_msgs.msg import DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
@@ -28,6 +28,7 @@ from sail_ros.bag import BagReader
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion
 from sail_ros.nodes.commands import BoomState, Limits, plan_deploy, plan_trajectory
+from sail_ros.nodes.sim import RTF_MIN_WINDOW_S
 from sail_ros.nodes.sim_params import DEFAULTS, config_from_values
 from sail_ros.nodes.simulation import Simulation
 
@@ -137,7 +138,7 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
         lambda: float(operator.status()["sim_time_s"]) > t_end + 1.0, 30.0, "the motion to end"
     )
     assert sim.stop(signal.SIGTERM) == 0, sim.log()
-    operator.spin_for(0.3)  # the last samples in flight
+    operator.spin_until_quiet()  # the last samples in flight
     assert recorder.stop(signal.SIGINT) == 0, recorder.log()
     assert operator.status()["rejected_commands"] == "0"
     log = sim.log()
@@ -326,10 +327,14 @@ def test_divergence_is_an_error_before_anything_non_finite_until_reset(
     )
     assert operator.call(operator.set_parameters, request).results[0].successful
     assert operator.call(operator.reset, Trigger.Request()).success
-    operator.spin_for(0.5)  # a flat sail stays flat, buckling or not
-    running = operator.status()
-    assert running["state"] == "running" and running["level"] != DiagnosticStatus.ERROR
-    assert float(running["sim_time_s"]) > float(error["sim_time_s"]) + 0.3
+    running = operator.wait_for_status(  # a flat sail stays flat, buckling or not
+        lambda s: (
+            s["state"] == "running" and float(s["sim_time_s"]) > float(error["sim_time_s"]) + 0.3
+        ),
+        5.0,
+        "0.3 s of running after the reset",
+    )
+    assert running["level"] != DiagnosticStatus.ERROR
     assert not np.any(operator.states[topics.MODAL_STATE][-1].position)
     assert sim.stop(signal.SIGTERM) == 0
     assert "beyond tip_error_fraction 0.3: out of the linear range" in sim.log()
@@ -358,7 +363,16 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     # measured over >= 0.5 s windows: near the time scale, never a short window's 10x+
     (factor,) = [line for line in lines if "real-time factor: max" in line]
     largest, median = (float(word.strip(",")) for word in factor.split()[3:6:2])
-    assert 0.5 * 5.0 < median <= largest < 1.2 * 5.0, factor
+    assert 0.5 * 5.0 < median <= largest, factor
+    (overruns,) = [line for line in lines if line.lstrip().startswith("overruns (")]
+    if overruns.split("): ")[1].startswith("0;"):  # a late tick's catch-up would show
+        assert largest < 1.2 * 5.0, factor
+    statuses = [
+        topics.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
+        for m in BagReader(output).messages([topics.DIAGNOSTICS])
+    ]
+    windows = {float(status["real_time_factor_window_s"]) for status in statuses}
+    assert len(windows) > 5 and min(windows - {0.0}) >= RTF_MIN_WINDOW_S
 
 
 def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():

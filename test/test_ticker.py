@@ -17,11 +17,12 @@ def test_calls_come_every_period_while_active_and_never_after_stop():
     ticker = Ticker(lambda: calls.append(time.monotonic()), lock, "test ticker")
     time.sleep(0.05)
     assert not calls  # inactive until set
+    started = time.monotonic()
     ticker.set(0.01, True)
-    time.sleep(0.3)
+    _wait_until(lambda: len(calls) >= 10, "ten calls")
     ticker.set(0.01, False)
     count = len(calls)
-    assert 10 <= count <= 31
+    assert count <= (time.monotonic() - started) / 0.01 + 1  # none faster than the period
     time.sleep(0.05)
     assert len(calls) == count  # inactive: no call
     with lock:  # a call holds the lock: none runs while it is held here
@@ -29,12 +30,18 @@ def test_calls_come_every_period_while_active_and_never_after_stop():
         held = len(calls)
         time.sleep(0.05)
         assert len(calls) == held
-    time.sleep(0.05)
+    _wait_until(lambda: len(calls) > held, "a call once the lock is free")
     ticker.stop()
     stopped = len(calls)
-    assert stopped > held
     time.sleep(0.05)
     assert len(calls) == stopped
+
+
+def _wait_until(condition, what: str, timeout: float = 5.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
+        time.sleep(0.001)
 
 
 def test_a_late_call_is_made_at_once_and_the_missed_ones_skipped():
