@@ -14,6 +14,7 @@ import hashlib
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -24,6 +25,7 @@ pytestmark = pytest.mark.multiprocess
 
 ROOT = Path(__file__).resolve().parents[1]
 SETUP_INPUTS = ("requirements.txt", "constraints.txt", "setup.py")  # as scripts/setup_env.sh
+TIMEOUT_S = 900  # the blocks take ~2 min on an idle 2-core machine
 FENCE = re.compile(r"^```([^\n`]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)
 
 
@@ -73,23 +75,36 @@ def test_readme_runs_top_to_bottom(tmp_path, ros_env):
     script = ["set -euo pipefail"]
     for index, (info, body) in enumerate(blocks((tree / "README.md").read_text())):
         if info == "bash":
-            script += [f"echo '--- README block {index}'", body]
+            script += [f'echo "--- README block {index} at ${{SECONDS}} s"', body]
         elif info == "python":
             path = tmp_path / f"block_{index}.py"
             path.write_text(body)
-            script += [f"echo '--- README block {index}'", f"{sys.executable} {path}"]
+            script += [
+                f'echo "--- README block {index} at ${{SECONDS}} s"',
+                f"{sys.executable} {path}",
+            ]
     env = dict(ros_env, PYTHONPATH=str(tree))  # the copy's code, not the developer's
     env.pop("AMENT_PREFIX_PATH", None)  # scripts/env.sh sets it
-    result = subprocess.run(
-        ["bash", "-c", "\n".join(script)],
-        cwd=tree,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    output = result.stdout + result.stderr
-    assert result.returncode == 0, output[-6000:]
+    log = tmp_path / "readme.log"
+    with log.open("w") as out:  # in a session of its own: a timeout ends its jobs too
+        session = subprocess.Popen(
+            ["bash", "-c", "\n".join(script)],
+            cwd=tree,
+            env=env,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+        try:
+            session.wait(timeout=TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            os.killpg(session.pid, signal.SIGKILL)
+            session.wait()
+            raise AssertionError(
+                f"over {TIMEOUT_S} s; so far:\n{log.read_text()[-6000:]}"
+            ) from None
+    output = log.read_text()
+    assert session.returncode == 0, output[-6000:]
     assert "accepted: deploy to 12 m" in output
     assert "rejected, as it should be" in output
     assert "simulator and recorder stopped cleanly" in output  # scripts/main.sh
