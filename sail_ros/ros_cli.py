@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import difflib
+import faulthandler
 import importlib
 import select
 import signal
@@ -24,6 +25,7 @@ from rclpy.logging import get_logger
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
+from sail_ros import EARLY_SIGNALS
 from sail_ros.model import yaml_values
 
 
@@ -113,6 +115,9 @@ class StopSignals:
         self._previous_wakeup_fd = signal.set_wakeup_fd(writer.fileno(), warn_on_full_buffer=False)
         for signum in (signal.SIGINT, signal.SIGTERM):
             self._previous[signum] = signal.signal(signum, self._handle)
+        if EARLY_SIGNALS:  # came while the program was starting
+            self.received = EARLY_SIGNALS[0]
+            self.event.set()
         return self
 
     def __exit__(self, *exc_info) -> None:
@@ -144,6 +149,27 @@ class StopSignals:
     def _handle(self, signum, frame) -> None:
         self.received = signal.Signals(signum).name
         self.event.set()
+
+
+TEARDOWN_LIMIT_S = 10.0  # a node's DDS teardown takes milliseconds; this long, it is stuck
+
+
+@contextlib.contextmanager
+def bounded_teardown(limit_s: float = TEARDOWN_LIMIT_S):
+    """Within: destroying nodes and contexts, after the program's work is done. If
+    that takes longer than `limit_s` [s], the process ends (exit code 1, with every
+    thread's stack on standard error).
+
+    Fast DDS 2.14 can deadlock while it removes a process's participant if other
+    participants leave at the same moment (its discovery callbacks wait on a lock,
+    the removal waits for them, spinning): the process would spin at 100 % of a
+    core for ever, and it holds the interpreter's lock, so the watchdog is
+    faulthandler's, which runs without it."""
+    faulthandler.dump_traceback_later(limit_s, exit=True)
+    try:
+        yield
+    finally:
+        faulthandler.cancel_dump_traceback_later()
 
 
 SERVE_WAIT_S = 1.0  # the longest wait of `serve_until_stopped`'s two threads [s]
@@ -211,7 +237,8 @@ def run_node(name: str, parser: argparse.ArgumentParser, argv: list[str], body) 
             get_logger(name).error(str(error))
             return 2
         finally:
-            rclpy.try_shutdown()
+            with bounded_teardown():
+                rclpy.try_shutdown()
 
 
 def message_class(type_name: str):

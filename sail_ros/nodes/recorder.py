@@ -52,7 +52,7 @@ from sail_ros.nodes.parameters import (
     node_options,
     overrides,
 )
-from sail_ros.ros_cli import StopSignals, message_class, run_node
+from sail_ros.ros_cli import StopSignals, bounded_teardown, message_class, run_node
 from sail_ros.topics import PARAMETERS_METADATA, RECORDED_TOPICS, yaml_value
 
 NODE_NAME = "sail_recorder"
@@ -559,7 +559,8 @@ def _record(namespace, stop) -> int:
     try:
         return recorder.run(stop)
     finally:
-        recorder.destroy_node()
+        with bounded_teardown():
+            recorder.destroy_node()
 
 
 if __name__ == "__main__":

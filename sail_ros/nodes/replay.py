@@ -38,7 +38,7 @@ from sail_ros.nodes.parameters import (
     node_options,
     overrides,
 )
-from sail_ros.ros_cli import message_class, run_node
+from sail_ros.ros_cli import bounded_teardown, message_class, run_node
 
 NODE_NAME = "sail_replay"
 ACK_POLL_S = 0.1  # s: how often the wait for acknowledgements looks at a stop
@@ -321,7 +321,8 @@ def _replay(namespace, stop) -> int:
         done.set()
         spinner.join()  # before anything it waits on is destroyed
         executor.shutdown()
-        replay.destroy_node()
+        with bounded_teardown():
+            replay.destroy_node()
 
 
 def _spin(executor, done: threading.Event) -> None:

@@ -54,7 +54,7 @@ from sail_ros.nodes.parameters import ConfigError, declare, node_options
 from sail_ros.nodes.sim_params import SPECS, config_from_values
 from sail_ros.nodes.simulation import RUNNING, Simulation
 from sail_ros.nodes.ticker import Ticker, following_call
-from sail_ros.ros_cli import run_node, serve_until_stopped
+from sail_ros.ros_cli import bounded_teardown, run_node, serve_until_stopped
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
@@ -597,7 +597,8 @@ def _simulate(_namespace, stop) -> int:
     finally:
         node.close()
         executor.remove_node(node)
-        node.destroy_node()
+        with bounded_teardown():
+            node.destroy_node()
     return 0
 
 

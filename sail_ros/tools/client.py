@@ -26,6 +26,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
+from sail_ros.ros_cli import bounded_teardown, parse_command_line
 
 # Once the answers the diagnostics counted arrived, the watcher takes more until none
 # came for this long [s]: the rest of the history arrives within milliseconds.
@@ -122,7 +123,8 @@ class SimClient(Node):
 
     def close(self) -> None:
         self.executor_.shutdown()
-        self.destroy_node()
+        with bounded_teardown():
+            self.destroy_node()
 
     # -- commands ---------------------------------------------------------------------------
 
@@ -231,8 +233,6 @@ def run_client(prog: str, parser, argv, name: str, body, check=None, watch: bool
     (`check(args)` returns an error text or None: exit 2), run `body(args, client)` with a
     `SimClient` in the namespace and domain asked for, and turn a missing answer into
     one line and exit 1. Returns the exit code."""
-    from sail_ros.ros_cli import parse_command_line
-
     try:
         args, ros_argv = parse_command_line(parser, prog, argv)
     except SystemExit as exit_:
@@ -252,4 +252,5 @@ def run_client(prog: str, parser, argv, name: str, body, check=None, watch: bool
         return 130
     finally:
         client.close()
-        context.try_shutdown()
+        with bounded_teardown():
+            context.try_shutdown()

@@ -35,6 +35,7 @@ from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
+from sail_ros.ros_cli import bounded_teardown
 from sail_ros.tools.client import NoAnswerError, SimClient, init_context
 from sail_ros.tools.domains import DomainLease
 
@@ -193,7 +194,8 @@ def _run(processes, time_scale: float, domain: int, lease: DomainLease) -> float
         return t_start
     finally:
         client.close()
-        context.try_shutdown()
+        with bounded_teardown():
+            context.try_shutdown()
 
 
 def summarise(output: Path, t_start: float) -> None:

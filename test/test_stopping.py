@@ -1,0 +1,71 @@
+"""How the programs end when things around them go wrong: a SIGINT that comes while a
+program started from a script is still starting, and a teardown that never returns."""
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+pytestmark = pytest.mark.multiprocess
+
+
+def _ignoring_sigint():
+    # what a non-interactive shell does to a background job (`sail-ros recorder &`)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def test_a_sigint_while_starting_in_the_background_finishes_the_recording(ros_env, tmp_path):
+    """The SIGINT comes once the package is imported, before the recorder exists: it is
+    acted on when the recorder starts, which finishes an empty bag and exits 0, instead
+    of being ignored for good (a recorder that runs on after `kill -INT`)."""
+    folder = tmp_path / "bag"
+    program = (
+        "import os, signal, sys\n"
+        "import sail_ros\n"
+        "os.kill(os.getpid(), signal.SIGINT)\n"
+        "from sail_ros.cli import main\n"
+        f"sys.exit(main(['recorder', '-o', {str(folder)!r}]))\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", program],
+        env=ros_env,
+        preexec_fn=_ignoring_sigint,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "SIGINT: finishing the recording" in result.stderr
+    assert (folder / "metadata.yaml").is_file()
+
+
+def test_a_stuck_teardown_ends_the_process_even_holding_the_interpreter_lock(ros_env):
+    """`bounded_teardown`'s watchdog needs no interpreter lock: a teardown stuck in code
+    that holds it (here a regular expression that backtracks for ever) still ends, with
+    exit code 1 and the stacks; a teardown that returns leaves no watchdog behind."""
+    stuck = (
+        "import re\n"
+        "from sail_ros.ros_cli import bounded_teardown\n"
+        "with bounded_teardown(0.5):\n"
+        "    re.match(r'(a+)+$', 'a' * 64 + 'b')\n"
+    )
+    started = time.monotonic()
+    result = subprocess.run(
+        [sys.executable, "-c", stuck], env=ros_env, capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 1 and time.monotonic() - started < 30.0
+    assert "Timeout (0:00:00.500000)!" in result.stderr and "<string>" in result.stderr
+
+    finished = (
+        "import time\n"
+        "from sail_ros.ros_cli import bounded_teardown\n"
+        "with bounded_teardown(0.2):\n"
+        "    pass\n"
+        "time.sleep(0.6)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", finished], env=ros_env, capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 0 and result.stderr == ""
