@@ -247,6 +247,10 @@ class Recorder(Node):
         parameter_node = self.config["parameter_node"].rstrip("/")
         self._parameter_node = parameter_node
         self._sim_parameters: dict[str, str] | None = None  # last fetched
+        # last written into the file (writer thread): a split waits for the first, and
+        # the next file starts with them; a fetch is in the file only once the writer
+        # thread has taken its turn in the queue
+        self._stored_parameters: dict[str, str] | None = None
         self._refetch = threading.Event()  # set by a split, from the writer thread
         self._request_started: float | None = None
         self._warned_absent = False
@@ -470,21 +474,26 @@ class Recorder(Node):
         for the first fetch, unless the node has not appeared for a while."""
         return (
             not self._parameter_node
-            or self._sim_parameters is not None
+            or self._stored_parameters is not None
             or time.monotonic() - self._started > PARAMETER_WAIT_WARNING_S
         )
 
     def _on_new_file(self, path) -> None:
         """A split (writer thread): the new file gets the parameters at once, the last
-        values fetched (a fetch takes two service round trips, and under load a short
+        values stored (a fetch takes two service round trips, and under load a short
         file could end before its answer); then they are fetched again, and stored
         again only if they changed."""
         if self._parameter_node:
-            values = self._sim_parameters
+            values = self._stored_parameters
             if values is not None:
                 self.bag.writer.add_metadata(PARAMETERS_METADATA, values)
             self._refetch.set()
             self._refetch_guard.trigger()
+
+    def _store_parameters(self, values: dict[str, str]) -> None:
+        """Into the current file (writer thread)."""
+        self.bag.writer.add_metadata(PARAMETERS_METADATA, values)
+        self._stored_parameters = values
 
     def _poll_parameters(self) -> None:
         if self._request_started is not None:
@@ -538,7 +547,7 @@ class Recorder(Node):
         if values == self._sim_parameters:
             return  # the current file holds them already (`_on_new_file`)
         self._sim_parameters = values
-        self.bag.submit(self.bag.writer.add_metadata, PARAMETERS_METADATA, values)
+        self.bag.submit(self._store_parameters, values)
         if first:
             self.get_logger().info(f"stored {len(values)} parameters of '{self._parameter_node}'")
 
