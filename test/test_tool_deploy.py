@@ -229,3 +229,47 @@ def test_reference_options_conflict_with_a_scenario(capsys):
     path = CONFIG / "scenario_reference.yaml"
     assert deploy.main(["--scenario", str(path), "--from", "5", "--tip", "0.2"]) == 2
     assert "--from, --tip describe the reference scenario" in capsys.readouterr().err
+
+
+def test_json_gives_true_peaks_per_boom_and_their_convergence(capsys):
+    """`--json`: one object with every boom's true peaks and times (those of the run's
+    own steps, not of the printed 1 s table), the parameters, mode counts and wall time;
+    `--convergence 4 10` reruns with more membrane modes, which moves the small booms'
+    peaks by far more than 1 %: a warning says so."""
+    import json
+
+    from sail_ros.analysis.deployment import run_deployment
+
+    argv = ["--t-end", "6", "--set", "n_membrane_modes=3"]
+    assert deploy.main([*argv, "--json", "--convergence", "4", "10"]) == 0
+    captured = capsys.readouterr()
+    report = json.loads(captured.out)
+    assert report["n_boom_modes"] == 4 and report["n_membrane_modes"] == 3
+    assert report["parameters"]["n_membrane_modes"] == 3 and report["wall_time_s"] > 0
+    scenario = deploy._scenario(deploy.build_parser().parse_args(argv))[0]
+    model = SailModel(SailParameters(n_membrane_modes=3))
+    peaks = run_deployment(model, scenario, np.arange(7.0)).peaks
+    for key, peak in (("peak_tip_deflection", peaks.tip_deflection),
+                      ("peak_root_moment", peaks.root_moment)):  # fmt: skip
+        unit = "_m" if key.endswith("deflection") else "_Nm"
+        assert list(report[key + unit]) == ["a", "b", "c", "d"]
+        assert [report[key + unit][b] for b in "abcd"] == pytest.approx(peak.value, rel=1e-12)
+        assert [report[key + "_time_s"][b] for b in "abcd"] == pytest.approx(peak.time_s)
+    # the true peak of boom a's tip lies between the printed seconds
+    table = deploy.main(argv) == 0 and capsys.readouterr().out
+    printed = [float(line.split()[2]) for line in table.splitlines()
+               if line[:9].strip().replace(".", "").isdigit()]  # fmt: skip
+    assert 1e3 * peaks.tip_deflection.value[0] > max(abs(v) for v in printed)
+    assert "peaks over the whole run, per boom" in table and "|root moment| [N m]" in table
+    convergence = report["convergence"]
+    assert (convergence["n_boom_modes"], convergence["n_membrane_modes"]) == (4, 10)
+    changes = [convergence["root_moment_change"][b] for b in "abcd"]
+    assert max(map(abs, changes)) > 0.01 and convergence["converged"] is False
+    assert "warning: peaks not converged" in captured.err and "moment b" in captured.err
+
+
+def test_convergence_needs_more_modes(capsys):
+    assert deploy.main(["--convergence", "4", "6"]) == 2
+    assert "must grow from the run's (n_B, n_M) = (4, 6)" in capsys.readouterr().err
+    assert deploy.main(["--convergence", "8"]) == 2
+    assert "--convergence takes no value or two (N_B N_M)" in capsys.readouterr().err

@@ -14,6 +14,7 @@ import numpy as np
 
 from sail_ros.analysis.scenario import Scenario
 from sail_ros.model import SailModel
+from sail_ros.model.peaks import OutputPeaks, Peaks
 from sail_ros.model.sail_model import StateSample
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
 
@@ -29,6 +30,8 @@ class DeploymentRun:
         tips, tip_rates: boom-tip deflections [m] and their rates [m/s], (k, 4).
         wall_seconds: wall time of the integration [s].
         root_moments: root bending moments [N m] of booms a..d, (k, 4).
+        peaks: the true peaks of the whole run, per boom with their times, taken
+            inside every integration step (`peaks.OutputPeaks`), not from `t`.
     """
 
     t: np.ndarray
@@ -40,6 +43,7 @@ class DeploymentRun:
     tip_rates: np.ndarray
     wall_seconds: float
     root_moments: np.ndarray
+    peaks: Peaks | None = None
 
     @property
     def real_time_factor(self) -> float:
@@ -92,10 +96,16 @@ def output_times(duration: float, rate_hz: float, extra=()) -> np.ndarray:
 
 
 def run_deployment(
-    model: SailModel, scenario: Scenario, t_eval, max_step: float = DEFAULT_MAX_STEP, progress=None
+    model: SailModel,
+    scenario: Scenario,
+    t_eval,
+    max_step: float = DEFAULT_MAX_STEP,
+    progress=None,
+    initial=None,
 ) -> DeploymentRun:
     """Integrate the scenario and sample it at `t_eval` [s] (and at its load switches,
-    which thereby fall on step boundaries).
+    which thereby fall on step boundaries); the peaks of the tips and root moments
+    over the whole run come from inside every step (`DeploymentRun.peaks`).
 
     Args:
         model: the sail model (its parameters should include `scenario.sail`).
@@ -103,11 +113,13 @@ def run_deployment(
         t_eval: increasing output times within [0, scenario.duration].
         max_step: largest integration step [s].
         progress: optional callable `progress(t)` after each output time.
+        initial: `(q0, qd0)` instead of the scenario's initial state for `model`.
     """
-    q0, qd0 = scenario.initial_state(model)
+    q0, qd0 = scenario.initial_state(model) if initial is None else initial
     if scenario.loads is not None:
         switches = [t for t in scenario.loads.switch_times if 0.0 < t < scenario.duration]
         t_eval = np.union1d(np.asarray(t_eval, dtype=float), switches)
+    peaks = OutputPeaks(model)
     started = time.perf_counter()
     t, q, qd = model.simulate(
         scenario.profile,
@@ -118,6 +130,7 @@ def run_deployment(
         loads=scenario.loads,
         progress=progress,
         max_step=max_step,
+        observer=peaks,
     )
     wall = time.perf_counter() - started
     motion = [scenario.profile(ti) for ti in t]
@@ -133,4 +146,89 @@ def run_deployment(
         model.tip_deflections(qd),
         wall,
         model.root_moments(q, lengths),
+        peaks.peaks,
     )
+
+
+@dataclasses.dataclass(frozen=True)
+class Convergence:
+    """How a run's peaks move when the mode counts grow (`converge`).
+
+    Attributes:
+        n_boom_modes, n_membrane_modes: the larger mode counts of the rerun.
+        peaks: the rerun's peaks.
+        tip_change, moment_change: per boom a..d, `(finer - coarser) / finer` of the
+            peak |tip deflection| and |root moment| (0 where the finer peak is 0).
+    """
+
+    n_boom_modes: int
+    n_membrane_modes: int
+    peaks: Peaks
+    tip_change: np.ndarray
+    moment_change: np.ndarray
+
+    def largest(self) -> float:
+        """The largest |relative change| of any peak."""
+        return float(np.max(np.abs(np.concatenate([self.tip_change, self.moment_change]))))
+
+
+def finer_mode_counts(params, n_boom_modes=None, n_membrane_modes=None) -> tuple[int, int]:
+    """The mode counts of a convergence rerun: those given, else twice the run's, at most
+    `MAX_BOOM_MODES` and `MAX_MEMBRANE_MODES`; ValueError unless at least one grows."""
+    from sail_ros.model.parameters import MAX_BOOM_MODES, MAX_MEMBRANE_MODES
+
+    nb = n_boom_modes or min(2 * params.n_boom_modes, MAX_BOOM_MODES)
+    nm = n_membrane_modes or min(2 * params.n_membrane_modes, MAX_MEMBRANE_MODES)
+    if (
+        nb < params.n_boom_modes
+        or nm < params.n_membrane_modes
+        or ((nb, nm) == (params.n_boom_modes, params.n_membrane_modes))
+    ):
+        raise ValueError(
+            f"convergence: mode counts ({nb}, {nm}) must grow from the run's "
+            f"(n_B, n_M) = ({params.n_boom_modes}, {params.n_membrane_modes})"
+        )
+    return nb, nm
+
+
+def converge(
+    model: SailModel,
+    scenario: Scenario,
+    run: DeploymentRun,
+    n_boom_modes: int,
+    n_membrane_modes: int,
+    max_step: float = DEFAULT_MAX_STEP,
+    progress=None,
+) -> Convergence:
+    """Rerun `scenario` with more modes and compare the peaks with `run`'s (of `model`).
+
+    The finer model starts from the same initial deflection: the cantilever and
+    triangle functions of the coarser model are the first ones of the finer (the
+    bases are nested), so its coordinates carry over by name and the new ones start
+    at 0."""
+    finer = SailModel(
+        model.params.replace(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes)
+    )
+    q0, qd0 = scenario.initial_state(model)
+    initial = (_carried_over(q0, model, finer), _carried_over(qd0, model, finer))
+    rerun = run_deployment(finer, scenario, run.t, max_step, progress, initial)
+    coarse, fine = run.peaks, rerun.peaks
+    return Convergence(
+        n_boom_modes,
+        n_membrane_modes,
+        fine,
+        _relative_change(coarse.tip_deflection.value, fine.tip_deflection.value),
+        _relative_change(coarse.root_moment.value, fine.root_moment.value),
+    )
+
+
+def _carried_over(values, model: SailModel, finer: SailModel) -> np.ndarray:
+    index = {name: i for i, name in enumerate(finer.coordinate_names)}
+    carried = np.zeros(finer.n)
+    for name, value in zip(model.coordinate_names, values, strict=True):
+        carried[index[name]] = value
+    return carried
+
+
+def _relative_change(coarse, fine) -> np.ndarray:
+    return np.divide(fine - coarse, fine, out=np.zeros_like(fine), where=fine != 0)

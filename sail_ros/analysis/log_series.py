@@ -19,13 +19,14 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
-from sail_ros.model import SailParameters
+from sail_ros.model import SailParameters, yaml_values
 
 STATE_TOPICS = (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.MODAL_STATE, topics.ROOT_MOMENT)
 
@@ -56,6 +57,8 @@ class LogSeries:
         boom, tips, modal, moments: the state topics (None when absent).
         diagnostics: stamps [ns] (k,) and the integrator status values per
             key as text lists, or None when the log has no /diagnostics.
+        scenario: the scenario document of a `sail-ros deploy` log (its
+            `sail_deploy_scenario` record), or None.
     """
 
     path: Path
@@ -69,6 +72,7 @@ class LogSeries:
     modal: JointSeries | None
     moments: JointSeries | None
     diagnostics: tuple[np.ndarray, dict[str, list[str]]] | None
+    scenario: dict | None = None
 
     def seconds(self, stamp_ns) -> np.ndarray:
         """Stamps [ns] on the log's time axis [s]."""
@@ -128,12 +132,20 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
     namespace = "/" + namespace.strip("/")
     state_topics = {topics.absolute(name, namespace): name for name in STATE_TOPICS}
     sim_node = topics.absolute(topics.SIM_NODE, namespace)
-    parameters, epoch_ns = None, None
+    parameters, epoch_ns, scenario = None, None, None
     for name, record in reader.metadata():
         if name == topics.PARAMETERS_METADATA:
             parameters = dict(record)  # the last record wins (a split re-stores it)
-        elif name == topics.SCENARIO_METADATA and "epoch_ns" in record:
-            epoch_ns = int(record["epoch_ns"])
+        elif name == topics.SCENARIO_METADATA:
+            if "epoch_ns" in record:
+                epoch_ns = int(record["epoch_ns"])
+            if "scenario" in record:
+                try:
+                    scenario = yaml_values.load(record["scenario"])
+                except yaml.YAMLError:
+                    raise ValueError(
+                        f"'{path}': its {topics.SCENARIO_METADATA} record is not YAML"
+                    ) from None
     joints: dict[str, list] = {name: [] for name in STATE_TOPICS}
     diagnostics: list[DiagnosticArray] = []
     counts: dict[str, int] = {}
@@ -170,6 +182,7 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
         modal=series[topics.MODAL_STATE],
         moments=series[topics.ROOT_MOMENT],
         diagnostics=status,
+        scenario=scenario,
     )
 
 

@@ -58,6 +58,7 @@ OUTPUTS = (
     *(f"peak_tip_{b}_m" for b in BOOMS),
     *(f"peak_tip_{b}_time_s" for b in BOOMS),
     *(f"peak_root_moment_{b}_N_m" for b in BOOMS),
+    *(f"peak_root_moment_{b}_time_s" for b in BOOMS),
     "peak_tip_m",
     "final_energy_J",
     "stability_margin_1_s",
@@ -299,18 +300,17 @@ def run_sample(case) -> dict:
         t_eval = output_times(scenario.duration, study.output_rate_hz)
         run = run_deployment(model, scenario, t_eval)
         with np.errstate(over="ignore", invalid="ignore"):
-            peaks = np.abs(run.tips).max(axis=0)
-            moments = np.abs(run.root_moments).max(axis=0)
             energy = model.energy(run.q[-1], run.qd[-1], run.lengths[-1])
             margin = float(model.eigenvalues(run.lengths[-1], run.rates[-1]).real.max())
-        if not (np.all(np.isfinite(peaks)) and math.isfinite(energy)):
+        tips, moments = run.peaks  # true peaks, from inside every step
+        if not (np.all(np.isfinite(tips.value)) and math.isfinite(energy)):
             raise ValueError("the state became non-finite")
-        when = run.t[np.abs(run.tips).argmax(axis=0)]
         for k, boom in enumerate(BOOMS):
-            row[f"peak_tip_{boom}_m"] = float(peaks[k])
-            row[f"peak_tip_{boom}_time_s"] = float(when[k])
-            row[f"peak_root_moment_{boom}_N_m"] = float(moments[k])
-        row["peak_tip_m"] = float(peaks.max())
+            row[f"peak_tip_{boom}_m"] = float(tips.value[k])
+            row[f"peak_tip_{boom}_time_s"] = float(tips.time_s[k])
+            row[f"peak_root_moment_{boom}_N_m"] = float(moments.value[k])
+            row[f"peak_root_moment_{boom}_time_s"] = float(moments.time_s[k])
+        row["peak_tip_m"] = float(tips.value.max())
         row["final_energy_J"] = float(energy)
         row["stability_margin_1_s"] = margin
         row["error"] = ""
@@ -330,6 +330,9 @@ class Summary:
         percentiles: output -> (5 %, 50 %, 95 %).
         influence: (input, Spearman rank correlation with peak_tip_m), strongest first.
         worst: sample indices with the largest peak_tip_m, worst first (up to five).
+        n_boom_modes, n_membrane_modes: the mode counts every sample ran with (the
+            peaks depend on them: `sail-ros deploy --convergence` reruns a sample with
+            more).
     """
 
     succeeded: int
@@ -337,9 +340,17 @@ class Summary:
     percentiles: dict[str, tuple[float, float, float]]
     influence: list[tuple[str, float]]
     worst: list[int]
+    n_boom_modes: int
+    n_membrane_modes: int
 
 
-def summarize(study: Study, rows: list[dict], worst: int = 5) -> Summary:
+def study_parameters(study: Study, base_sail: dict) -> SailParameters:
+    """The sail of the study's base scenario (its mode counts hold for every sample: the
+    dispersions change only float fields)."""
+    return SailParameters.from_dict({**base_sail, **(study.scenario.get("sail") or {})})
+
+
+def summarize(study: Study, rows: list[dict], base_sail: dict, worst: int = 5) -> Summary:
     import scipy.stats
 
     good = [row for row in rows if row is not None and not row.get("error")]
@@ -361,7 +372,16 @@ def summarize(study: Study, rows: list[dict], worst: int = 5) -> Summary:
         influence.append((name, float(rho)))
     influence.sort(key=lambda item: -abs(item[1]))
     order = np.argsort(-peak, kind="stable")[:worst]
-    return Summary(len(good), failed, percentiles, influence, [good[i]["sample"] for i in order])
+    params = study_parameters(study, base_sail)
+    return Summary(
+        len(good),
+        failed,
+        percentiles,
+        influence,
+        [good[i]["sample"] for i in order],
+        params.n_boom_modes,
+        params.n_membrane_modes,
+    )
 
 
 def csv_columns(study: Study) -> list[str]:

@@ -16,6 +16,7 @@ def simulate(
     qd0=None,
     t_eval=None,
     progress=None,
+    observer=None,
     **options,
 ):
     """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`.
@@ -29,6 +30,9 @@ def simulate(
         t_eval: increasing output times in [0, t_end]; default a uniform
             grid with the stepper's `max_step` spacing (default 0.05 s).
         progress: optional callable `progress(t)` after each output time.
+        observer: optional object that sees every step: `observer.start(stepper)`
+            before the first, `observer.after_step(stepper)` after each (e.g.
+            `peaks.OutputPeaks`).
         options: `SailStepper` options, `max_step` [s], `resolved_frequency` [rad/s],
             `inputs` (callable `t -> u`).
 
@@ -38,6 +42,9 @@ def simulate(
     if not (np.isfinite(t_end) and t_end > 0):
         raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
     stepper = SailStepper(system, profile, q0=q0, qd0=qd0, **options)
+    if observer is not None:
+        observer.start(stepper)
+        stepper.on_step = observer.after_step
     if t_eval is None:
         count = int(np.ceil(t_end / stepper.max_step - 1e-9))
         t_eval = np.linspace(0.0, t_end, count + 1)

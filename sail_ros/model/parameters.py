@@ -15,6 +15,9 @@ import yaml
 
 import sail_ros.model.yaml_values as yaml_values
 
+MAX_BOOM_MODES = 30  # beyond, the cantilever functions' evaluation and the integrals cost more
+MAX_MEMBRANE_MODES = 100  # than the model is worth
+
 
 @dataclasses.dataclass(frozen=True)
 class SailParameters:

@@ -100,6 +100,10 @@ class SailModel:
         self._cantilever_constant = cantilever_frequency(self.params, 1.0)  # [rad/s at 1 m]
         self._tip_rows = self._boom_rows(self.boom_integrals.tip)
         self._curvature_rows = self._boom_rows(self.boom_integrals.root_curvature)
+        # (8, n): tip deflections, then root moments times L_k^2 (`output_rows`)
+        self.output_rows = np.vstack(
+            [self._tip_rows, self.params.boom_bending_stiffness * self._curvature_rows]
+        )
         self._unit_inputs = self._unit_input_matrix()
 
     # layout ------------------------------------------------------------------
@@ -309,13 +313,15 @@ class SailModel:
         t_eval=None,
         loads=None,
         progress=None,
+        observer=None,
         **options,
     ):
         """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`; returns
         `(t, q, qd)`. `loads`: None, a constant pair `(pressures, tip_forces)` or a
         callable `t -> (pressures, tip_forces)` (sampled at each step's midpoint; a
         load step lands on a step boundary when its time is one of `t_eval`). The
-        other arguments are those of `integrate.simulate`."""
+        other arguments are those of `integrate.simulate` (`observer`, e.g.
+        `peaks.OutputPeaks(model)`, sees every step)."""
         return simulate(
             self,
             profile,
@@ -324,6 +330,7 @@ class SailModel:
             qd0=qd0,
             t_eval=t_eval,
             progress=progress,
+            observer=observer,
             inputs=input_function(loads),
             **options,
         )

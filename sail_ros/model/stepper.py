@@ -41,7 +41,6 @@ systems solve by eliminating each quadrant's membrane) and that frequency bound.
 
 from __future__ import annotations
 
-import functools
 import math
 from math import factorial
 from typing import Protocol
@@ -109,23 +108,45 @@ _PADE_CONSTANT, _PADE_POLES, _PADE_RESIDUES = _diagonal_pade_partial_fractions(P
 _PADE_WEIGHTS = -_PADE_RESIDUES / _PADE_POLES  # r_k (hB - z_k)^-1 = -(r_k / z_k) (I - tau_k B)^-1
 
 
-@functools.lru_cache(maxsize=64)
-def _extension_weights(fraction: float) -> tuple[float, np.ndarray]:
-    """`(c, w)` of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the continuous
-    extension of the step's Padé approximant to the fraction `f` of the step: same
-    poles `z_k`, Taylor series equal to `exp(f z)` to order 4 (error ~(omega h)^5 for a
-    mode), `R_1` the approximant itself. On the imaginary axis `|R_f| <= 1` for the
-    fractions j / k, k <= 5 (an undamped mode is not amplified), at most 1.026 for
-    k <= 20 (near f = 0 or 1, at omega h ~ 5.5); the extension only samples, nothing
-    integrated grows."""
-    # coefficient of z^m: c [m = 0] + 2 Re sum_k w_k z_k^-m = f^m / m!
+def _extension_conditions() -> np.ndarray:
+    """The Taylor conditions on `(c, Re w_k, Im w_k)` of the continuous extension: the
+    coefficient of `z^m` in `c + sum_k 2 Re[w_k / (1 - z / z_k)]` is
+    `c [m = 0] + 2 Re sum_k w_k z_k^-m`, one row per m = 0 .. 2 k."""
     rows = []
     for m in range(2 * _PADE_POLES.size + 1):
         g = 2.0 * _PADE_POLES ** (-m)  # Re(w g) = Re w Re g - Im w Im g
         rows.append([float(m == 0), *np.column_stack([g.real, -g.imag]).ravel()])
-    rhs = [fraction**m / factorial(m) for m in range(len(rows))]
-    x = np.linalg.solve(np.array(rows), np.array(rhs))
-    return float(x[0]), x[1::2] + 1j * x[2::2]
+    return np.array(rows)
+
+
+_EXTENSION_FACTOR = scipy.linalg.lu_factor(_extension_conditions())
+_WEIGHTS_CACHE: dict = {}  # (fractions, derivative) -> weights
+_TAYLOR_DIVISORS = np.array([factorial(m) for m in range(2 * _PADE_POLES.size + 1)], float)
+
+
+def extension_weights(fractions, derivative: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """`(c, w)` ((m,), (m, k)) of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the
+    continuous extension of the step's Padé approximant to each fraction `f` of the
+    step: same poles `z_k`, Taylor series equal to `exp(f z)` to order 4 (error
+    ~(omega h)^5 for a mode), `R_1` the approximant itself. On the imaginary axis
+    `|R_f| <= 1` for the fractions j / k, k <= 5 (an undamped mode is not amplified),
+    at most 1.026 for k <= 20 (near f = 0 or 1, at omega h ~ 5.5); the extension only
+    samples, nothing integrated grows. With `derivative`, the weights of `dR_f / df`
+    (the same conditions on the derivative of the Taylor series)."""
+    fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
+    key = (fractions.tobytes(), derivative)
+    if key in _WEIGHTS_CACHE:  # a sampler asks for the same fractions at every step
+        return _WEIGHTS_CACHE[key]
+    powers = np.arange(_TAYLOR_DIVISORS.size)[:, None]
+    if derivative:  # d/df f^m / m! = m f^(m-1) / m!
+        taylor = powers * fractions[None, :] ** np.maximum(powers - 1, 0)
+    else:
+        taylor = fractions[None, :] ** powers
+    x = scipy.linalg.lu_solve(_EXTENSION_FACTOR, taylor / _TAYLOR_DIVISORS[:, None])
+    if len(_WEIGHTS_CACHE) >= 64:
+        _WEIGHTS_CACHE.clear()
+    weights = _WEIGHTS_CACHE[key] = (x[0], (x[1::2] + 1j * x[2::2]).T)
+    return weights
 
 
 # matrices one moving step needs, in this order
@@ -162,6 +183,8 @@ class SailStepper:
             current lengths.
         inputs: callable `t -> u` (the system's inputs, e.g. `loads.INPUT_NAMES`),
             or None for none. May be replaced between steps.
+        on_step: callable `on_step(stepper)` after every step, or None; it may ask
+            `interpolant` for the outputs inside the step just taken (e.g. `peaks`).
     """
 
     def __init__(
@@ -174,6 +197,7 @@ class SailStepper:
         max_step: float = DEFAULT_MAX_STEP,
         resolved_frequency: float | None = None,
         inputs=None,
+        on_step=None,
     ):
         if not (math.isfinite(max_step) and max_step > 0):
             raise ValueError(f"max_step must be finite and > 0, got {max_step!r}")
@@ -191,6 +215,8 @@ class SailStepper:
         self._profile = profile
         self._motion_cache = (math.nan, None)  # (t, motion at t) of the current profile
         self.inputs = inputs
+        self.on_step = on_step
+        self._last_static = None  # the last step's data when it was a step at rest
         self.steps_taken = 0
         self.reset(q0, qd0, t0)
 
@@ -295,7 +321,7 @@ class SailStepper:
             self.step(remaining / count)
 
     def step(self, h: float) -> None:
-        """One exponential-midpoint step of length `h` [s]."""
+        """One exponential-midpoint step of length `h` [s]; then `on_step(self)`."""
         t_mid = self._t + 0.5 * h
         lengths, rates, accelerations = self._motion(t_mid)
         is_static = getattr(self._profile, "is_static", None)
@@ -310,26 +336,62 @@ class SailStepper:
         self._q, self._p = q, p
         self._t += h
         self.steps_taken += 1
+        if self.on_step is not None:
+            self.on_step(self)
 
     def between(self, fractions, qd0, qd1) -> tuple[np.ndarray, np.ndarray]:
         """`(q, qd)` (each (m, n)) inside the last step, a moving one, at `fractions`
         (m values in (0, 1)) of it, given the velocities `qd0`, `qd1` [m/s] at its ends.
 
         The step's own resolvent solutions, recombined with the weights of the
-        continuous extension `R_f` (`_extension_weights`): `q(f) = c q0 + sum_k 2 Re[w_k
+        continuous extension `R_f` (`extension_weights`): `q(f) = c q0 + sum_k 2 Re[w_k
         y_q,k]`, and, with the midpoint matrices, `M^-1 (p - G q)(f) = c qd*_0 + sum_k 2
         Re[w_k u_k]`. `qd*_0` (the start's velocity under the midpoint matrices) is
         taken as `qd0` and a term linear in `f` makes both ends exact; the difference
         is of the midpoint rule's own order (the change of `M`, `G` over the step)."""
+        fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
         q0, y_q, u, v = self._extension
-        q = np.empty((len(fractions), q0.size))
-        qd = np.empty_like(q)
-        correction = qd1 - qd0 - 2.0 * v
-        for i, fraction in enumerate(fractions):
-            c, w = _extension_weights(float(fraction))
-            q[i] = c * q0 + 2.0 * (w @ y_q).real
-            qd[i] = c * qd0 + 2.0 * (w @ u).real + fraction * correction
+        c, w = extension_weights(fractions)
+        q = c[:, None] * q0 + 2.0 * (w @ y_q).real
+        qd = c[:, None] * qd0 + 2.0 * (w @ u).real + fractions[:, None] * (qd1 - qd0 - 2.0 * v)
         return q, qd
+
+    def interpolant_frequency(self) -> float:
+        """The highest angular frequency [rad/s] in the last step's interpolant: a step
+        at rest holds its highest mode, `sqrt(max lambda)`; a moving step's extension is a
+        polynomial of degree 2 k = 8 in the fraction, which turns at most that often over
+        the step, counted as `2 pi k / h`."""
+        if self._last_static is not None:
+            lam = self._last_static[3][2]
+            return float(np.sqrt(max(float(lam[-1]), 0.0)))
+        return 2.0 * math.pi * _PADE_POLES.size / self._extension_step
+
+    def interpolant(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
+        """`rows q(t)` and its time derivative [per s] (each (m, r)) at `fractions` (m
+        values in [0, 1]) of the last step, for output rows `rows` (r, n): the step's own
+        curve through its ends, whose derivative is consistent with it (what an
+        interpolation between samples needs, e.g. `peaks`).
+
+        A step at rest: each mode's exact propagator over `f h`, about the equilibrium of
+        its load. A moving step: its continuous extension `R_f` (`between`) and the
+        derivative of that polynomial in `f`; at `f = 1` it is the step's end."""
+        fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
+        rows = np.asarray(rows, dtype=float)
+        if self._last_static is not None:
+            q0, p0, h, (_, V, lam, d, VtM), shift = self._last_static
+            c, s, sd, cd = _modal_propagator(lam, d, fractions[:, None] * h)
+            eta0 = VtM @ (q0 - shift)  # q = shift + V eta, p = VtM^T etad, qd = V etad
+            etad0 = V.T @ p0
+            modes = rows @ V
+            values = rows @ shift + (c * eta0 + s * etad0) @ modes.T
+            return values, (sd * eta0 + cd * etad0) @ modes.T
+        q0, y_q, _, _ = self._extension
+        h = self._extension_step
+        start, outputs = rows @ q0, y_q @ rows.T  # (r,), (k, r)
+        c, w = extension_weights(fractions)
+        dc, dw = extension_weights(fractions, derivative=True)
+        values = c[:, None] * start + 2.0 * (w @ outputs).real
+        return values, (dc[:, None] * start + 2.0 * (dw @ outputs).real) / h
 
     def step_limit(self) -> float:
         """The longest step [s] allowed now: `max_step`, and 2 rad of `resolved_frequency`
@@ -411,6 +473,8 @@ class SailStepper:
         v = weighted.sum(axis=0).real
         s = _PADE_WEIGHTS.real.sum() * q0 + (taus[:, None] * weighted).sum(axis=0).real
         self._extension = (q0, q0 + taus[:, None] * u, u, v)  # y_q,k, u_k: for `between`
+        self._extension_step = h
+        self._last_static = None
         zero = np.zeros_like(q0)
         Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))  # one call beats two
         return _PADE_CONSTANT * q0 + 2.0 * s, _PADE_CONSTANT * p0 + 2.0 * (Mv + Gs)
@@ -423,47 +487,34 @@ class SailStepper:
                 self._static_cache.clear()
             cached = self._exact_propagator(lengths, h)
             self._static_cache[key] = cached
-        propagator, V, lam = cached
+        propagator, V, lam, _, _ = cached
         x = np.concatenate([self._q, self._p])
         n = self.system.n
+        shift = np.zeros(n)
         if force is None:
             x = propagator @ x
         else:  # about the equilibrium q_s = K^-1 Q (p_s = 0: nothing moves there)
-            shift = np.zeros(2 * n)
-            shift[:n] = V @ ((V.T @ force) / lam)
-            x = shift + propagator @ (x - shift)
+            shift = V @ ((V.T @ force) / lam)
+            x[:n] -= shift
+            x = propagator @ x
+            x[:n] += shift
+        self._last_static = (self._q, self._p, h, cached, shift)  # for `between`
         return x[:n], x[n:]
 
     def _exact_propagator(self, lengths, h):
-        """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M), with the
-        mode matrix `V` and eigenvalues `lam` (omega^2).
+        """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M): the
+        propagator, the mode matrix `V`, eigenvalues `lam` (omega^2), modal damping `d`
+        and `V^T M`.
 
-        With V^T M V = I and K V = M V diag(lam): eta = V^T M q, etad = V^T p. Undamped,
-        eta(h) = c eta + s etad, etad(h) = -lam s eta + c etad, where
-        c = cos(sqrt(lam) h), s = sin(sqrt(lam) h) / sqrt(lam) (cosh/sinh for
-        lam < 0, a buckled mode). Damped (`V^T C_d V = diag(d)`), each mode's
-        2 x 2 propagator is exp(h [[0, 1], [-lam, -d]]).
+        With V^T M V = I and K V = M V diag(lam): eta = V^T M q, etad = V^T p, and each
+        mode moves by its own 2 x 2 propagator (`_modal_propagator`); Rayleigh damping
+        is classical (`V^T C_d V = diag(d)`).
         """
         zero = np.zeros(4)
         M, K, C_d = self.system.assemble((MASS, STIFFNESS, STRUCTURAL_DAMPING), lengths, zero, zero)
         lam, V = scipy.linalg.eigh(K, M)
         d = np.einsum("ij,ik,kj->j", V, C_d, V)  # diag(V^T C_d V): classical damping
-        if np.any(d):
-            generator = np.zeros((lam.size, 2, 2))
-            generator[:, 0, 1] = 1.0
-            generator[:, 1, 0] = -lam
-            generator[:, 1, 1] = -d
-            E = scipy.linalg.expm(h * generator)
-            c, s, sd, cd = E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1]
-        else:
-            root = np.sqrt(np.abs(lam))
-            c = np.where(lam >= 0, np.cos(root * h), np.cosh(root * h))
-            s = np.where(
-                lam >= 0,
-                h * np.sinc(root * h / np.pi),
-                np.sinh(root * h) / np.where(root > 0, root, 1.0),
-            )
-            sd, cd = -lam * s, c
+        c, s, sd, cd = _modal_propagator(lam, d, h)
         VtM = V.T @ M  # eta = VtM q; q = V eta; p = VtM^T etad
         n = self.system.n
         P = np.empty((2 * n, 2 * n))
@@ -471,4 +522,41 @@ class SailStepper:
         P[:n, n:] = (V * s) @ V.T
         P[n:, :n] = (VtM.T * sd) @ VtM
         P[n:, n:] = (VtM.T * cd) @ V.T
-        return P, V, lam
+        return P, V, lam, d, VtM
+
+
+def _modal_propagator(lam, d, tau):
+    """`exp(tau [[0, 1], [-lam, -d]])` of every mode as its four entries `(c, s, sd, cd)`:
+    `eta(tau) = c eta + s etad`, `etad(tau) = sd eta + cd etad`, for modal stiffness `lam`
+    (omega^2; < 0 for a buckled mode) and damping `d` (n,), at times `tau` [s] (a scalar
+    or an array broadcasting against (n,)).
+
+    Undamped: `c = cos(omega tau)`, `s = sin(omega tau) / omega` (cosh and sinh for
+    lam < 0; `s -> tau` at lam = 0). Damped: from the roots `r = -d/2 +- sqrt(d^2/4 -
+    lam)` of each mode, `exp(tau A) = (r1 e^(r2 tau) - r2 e^(r1 tau)) / (r1 - r2) I +
+    (e^(r1 tau) - e^(r2 tau)) / (r1 - r2) A`, in complex arithmetic; a critically
+    damped mode (equal roots) takes its limit `e^(r tau) ((1 - r tau) I + tau A)`."""
+    lam = np.asarray(lam, dtype=float)
+    d = np.asarray(d, dtype=float)
+    tau = np.asarray(tau, dtype=float)
+    if not np.any(d):
+        root = np.sqrt(np.abs(lam))
+        c = np.where(lam >= 0, np.cos(root * tau), np.cosh(root * tau))
+        s = np.where(
+            lam >= 0,
+            tau * np.sinc(root * tau / np.pi),
+            np.sinh(root * tau) / np.where(root > 0, root, 1.0),
+        )
+        return c, s, -lam * s, c
+    half = np.sqrt((0.25 * d * d - lam).astype(complex))
+    r2 = -0.5 * d - half
+    # r1 r2 = lam: the slow root of an overdamped mode without cancellation
+    r1 = np.where(r2 != 0, lam / np.where(r2 != 0, r2, 1.0), -0.5 * d + half)
+    e1, e2 = np.exp(r1 * tau), np.exp(r2 * tau)
+    gap = r1 - r2
+    equal = np.abs(gap) <= 1e-12 * np.maximum(np.abs(r1), 1.0)
+    safe = np.where(equal, 1.0, gap)
+    # exp(tau A) = a I + b A with A = [[0, 1], [-lam, -d]]
+    a = np.where(equal, e1 * (1.0 - r1 * tau), (r1 * e2 - r2 * e1) / safe)
+    b = np.where(equal, tau * e1, (e1 - e2) / safe)
+    return a.real, b.real, (-lam * b).real, (a - d * b).real

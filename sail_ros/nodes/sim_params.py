@@ -18,6 +18,7 @@ import numpy as np
 
 from sail_ros.model import SailParameters
 from sail_ros.model.layout import per_boom
+from sail_ros.model.parameters import MAX_BOOM_MODES, MAX_MEMBRANE_MODES
 from sail_ros.model.sail_model import cantilever_frequency
 from sail_ros.model.stepper import DEFAULT_MAX_STEP, PHASE_PER_STEP
 from sail_ros.nodes.commands import Limits
@@ -38,8 +39,8 @@ _SAIL_SPECS = [
     ("membrane_density", "film density rho [kg/m^3]; areal density rho h", 0.0, 1e5),
     ("membrane_prestress", "isotropic film prestress sigma [Pa]; tension N0 = sigma h", 0.0, 1e10),
     ("boom_axial_load", "axial compression P the membrane puts on each boom [N]", 0.0, 1e12),
-    ("n_boom_modes", "cantilever modes per boom n_B [-]", 1, 30),
-    ("n_membrane_modes", "clamped-triangle modes per quadrant n_M [-]", 1, 100),
+    ("n_boom_modes", "cantilever modes per boom n_B [-]", 1, MAX_BOOM_MODES),
+    ("n_membrane_modes", "clamped-triangle modes per quadrant n_M [-]", 1, MAX_MEMBRANE_MODES),
     (
         "mass_damping",
         "Rayleigh alpha of the damping C_d = alpha M + beta K [1/s]",

@@ -99,3 +99,23 @@ def print_written(paths) -> None:
     """Tell the user which files a tool wrote."""
     for path in paths:
         print(f"wrote {path}")
+
+
+def print_peak_table(peaks, changes=None, indent: str = "  ") -> None:
+    """Each boom's peak |tip deflection| [mm] and |root moment| [N m] with its time, and
+    with `changes = (label, tip, moment)` their relative changes [%] (e.g. with more
+    modes) under each."""
+    lines = [
+        ("|tip deflection| [mm]", 1e3 * peaks.tip_deflection.value, "12.4f"),
+        ("  at t [s]", peaks.tip_deflection.time_s, "12.3f"),
+        ("|root moment| [N m]", peaks.root_moment.value, "12.5g"),
+        ("  at t [s]", peaks.root_moment.time_s, "12.3f"),
+    ]
+    if changes is not None:
+        label, tip, moment = changes
+        lines[1:1] = [(label, 100 * tip, "+12.3f")]
+        lines.append((label, 100 * moment, "+12.3f"))
+    width = max(len(label) for label, _, _ in lines) + 2
+    print(f"{indent}{'':{width}}" + "".join(f"{'boom ' + b:>12}" for b in "abcd"))
+    for label, values, spec in lines:
+        print(f"{indent}{label:<{width}}" + "".join(f"{v:>{spec}}" for v in values))

@@ -5,10 +5,15 @@ By default all booms extend along the cycloidal profile from `--from` to
 first mode with tip deflection `--tip`; `--scenario FILE` runs any scenario
 instead (per-boom cycloidal or waypoint profiles, any initial state; see
 config/scenario_reference.yaml). Prints the boom-tip deflections against
-time; writes an MCAP log with the live simulator's topics (`--mcap`) and
-figures (`--figures`).
+time and the true peaks of each boom's tip deflection and root moment with
+their times (taken inside every integration step, not from the printed
+times); `--convergence` reruns with more modes and says how far each peak
+moves; `--json` prints it all as one JSON object. Writes an MCAP log with the
+live simulator's topics (`--mcap`) and figures (`--figures`).
 
     sail-ros deploy --summary
+    sail-ros deploy --convergence
+    sail-ros deploy --json --convergence 10 10
     sail-ros deploy --scenario config/scenario_staggered.yaml --mcap run.mcap --figures out/
 """
 
@@ -16,13 +21,19 @@ from __future__ import annotations
 
 import argparse
 import copy
+import json
 import sys
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from sail_ros.analysis.deployment import output_times, run_deployment
+from sail_ros.analysis.deployment import (
+    converge,
+    finer_mode_counts,
+    output_times,
+    run_deployment,
+)
 from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
 from sail_ros.cli import PHYSICS_DOC
 from sail_ros.model import SailModel, SailParameters
@@ -30,12 +41,14 @@ from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.tools.common import (
     add_sail_options,
     describe_parameters,
+    print_peak_table,
     print_written,
     run,
     sail_parameters,
 )
 
 LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
+CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -73,6 +86,21 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="print the table even when writing --mcap or --figures "
         "(it is printed anyway without them)",
+    )
+    parser.add_argument(
+        "--convergence",
+        type=int,
+        nargs="*",
+        metavar=("N_B", "N_M"),
+        help="rerun with more modes (default: twice n_B and n_M, at most 30 and 100) and "
+        "say how far each peak moves; a warning when one moves by more than "
+        f"{100 * CONVERGENCE_WARNING:g} %%",
+    )
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object (peaks per boom with times, parameters, mode counts, "
+        "wall time, convergence) instead of the table",
     )
     output = parser.add_argument_group("output")
     output.add_argument(
@@ -181,12 +209,76 @@ def _print_table(run_result, table_times, description, params, wall, duration) -
             f"  {run_result.t[i]:7.2f}{run_result.lengths[i, 0]:9.3f}   {'':21}"
             + "".join(f"{1e3 * v:10.3f}" for v in tips)
         )
-    peak = np.abs(run_result.tips[rows]).max()
+    print()
+    print(f"  {duration:g} s simulated in {wall:.3f} s wall ({duration / wall:.0f}x real time)")
+
+
+def _print_peaks(peaks, params, convergence=None) -> None:
+    """Each boom's peak |tip| and |root moment| with its time, and their convergence."""
     print()
     print(
-        f"  peak |tip| {1e3 * peak:.3f} mm over the printed times; "
-        f"{duration:g} s simulated in {wall:.3f} s wall ({duration / wall:.0f}x real time)"
+        f"  peaks over the whole run, per boom (taken inside every integration step; "
+        f"n_B = {params.n_boom_modes}, n_M = {params.n_membrane_modes}):"
     )
+    changes = None
+    if convergence is not None:
+        label = (
+            f"  change at ({convergence.n_boom_modes}, {convergence.n_membrane_modes}) modes [%]"
+        )
+        changes = (label, convergence.tip_change, convergence.moment_change)
+    print_peak_table(peaks, changes)
+
+
+def _convergence_warning(convergence) -> str:
+    """One line naming every peak that moved by more than CONVERGENCE_WARNING ("" if none)."""
+    moved = [
+        f"{what} {boom} {100 * change:+.2f} %"
+        for what, changes in (
+            ("tip", convergence.tip_change),
+            ("moment", convergence.moment_change),
+        )
+        for boom, change in zip("abcd", changes, strict=True)
+        if abs(change) > CONVERGENCE_WARNING
+    ]
+    if not moved:
+        return ""
+    return (
+        f"warning: peaks not converged: with (n_B, n_M) = ({convergence.n_boom_modes}, "
+        f"{convergence.n_membrane_modes}) they move by more than "
+        f"{100 * CONVERGENCE_WARNING:g} % ({', '.join(moved)}); raise n_boom_modes and "
+        "n_membrane_modes (--set) until they stop moving"
+    )
+
+
+def _json_report(result, params, description, convergence) -> dict:
+    def per_boom(values):
+        return dict(zip("abcd", (float(v) for v in values), strict=True))
+
+    peaks = result.peaks
+    report = {
+        "description": description,
+        "duration_s": float(result.t[-1] - result.t[0]),
+        "peak_tip_deflection_m": per_boom(peaks.tip_deflection.value),
+        "peak_tip_deflection_time_s": per_boom(peaks.tip_deflection.time_s),
+        "peak_root_moment_Nm": per_boom(peaks.root_moment.value),
+        "peak_root_moment_time_s": per_boom(peaks.root_moment.time_s),
+        "n_boom_modes": params.n_boom_modes,
+        "n_membrane_modes": params.n_membrane_modes,
+        "parameters": params.to_dict(),
+        "wall_time_s": result.wall_seconds,
+    }
+    if convergence is not None:
+        fine = convergence.peaks
+        report["convergence"] = {
+            "n_boom_modes": convergence.n_boom_modes,
+            "n_membrane_modes": convergence.n_membrane_modes,
+            "peak_tip_deflection_m": per_boom(fine.tip_deflection.value),
+            "peak_root_moment_Nm": per_boom(fine.root_moment.value),
+            "tip_deflection_change": per_boom(convergence.tip_change),
+            "root_moment_change": per_boom(convergence.moment_change),
+            "converged": convergence.largest() <= CONVERGENCE_WARNING,
+        }
+    return report
 
 
 def _deploy(args) -> int:
@@ -214,6 +306,14 @@ def _deploy(args) -> int:
     else:  # the table alone: no fine grid, whose short steps would slow the run
         t_eval = table_times
 
+    finer = None
+    if args.convergence is not None:
+        if len(args.convergence) not in (0, 2):
+            raise ValueError(
+                f"--convergence takes no value or two (N_B N_M), got {args.convergence}"
+            )
+        finer = finer_mode_counts(params, *args.convergence)
+
     model = SailModel(params)
     with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
 
@@ -221,9 +321,28 @@ def _deploy(args) -> int:
             bar.update(t - bar.n)
 
         result = run_deployment(model, scenario, t_eval, max_step=args.max_step, progress=progress)
+    convergence = None
+    if finer is not None:
+        with tqdm(
+            total=duration,
+            unit="s sim",
+            desc=f"rerun at (n_B, n_M) = {finer}",
+            disable=None,
+            leave=False,
+            file=sys.stderr,
+        ) as bar:
+            convergence = converge(
+                model, scenario, result, *finer, args.max_step, lambda t: bar.update(t - bar.n)
+            )
 
-    if args.summary or not (args.mcap or args.figures):
+    if args.json:
+        print(json.dumps(_json_report(result, params, description, convergence), indent=2))
+    elif args.summary or not (args.mcap or args.figures):
         _print_table(result, table_times, description, params, result.wall_seconds, duration)
+        _print_peaks(result.peaks, params, convergence)
+    warning = _convergence_warning(convergence) if convergence is not None else ""
+    if warning:
+        print(warning, file=sys.stderr)
 
     written = []
     if args.mcap:
@@ -291,7 +410,8 @@ def _deploy(args) -> int:
                 title=description,
             )
         )
-    print_written(written)
+    if not args.json:
+        print_written(written)
     return 0
 
 

@@ -10,11 +10,18 @@ up to its last complete record) and writes into `--out`:
   quadrant coordinate group and in all, with `M` and `K` built from the sail
   parameters recorded in the log (`sail_sim_parameters`);
 - real_time_factor.csv, real_time_factor.png: the achieved real-time factor
-  from /diagnostics (an offline run has none; the report says so).
+  from /diagnostics (an offline run has none; the report says so);
+- peaks.csv: each boom's peak |tip deflection| and |root moment| with its time,
+  interpolated between the logged samples with the logged rates (cubic
+  Hermite), with what the sampling cannot follow; for a `sail-ros deploy` log
+  also the true peaks of a rerun of its recorded scenario and, unless
+  `--no-convergence`, of a rerun with twice the modes (a warning when a peak
+  moves by more than 1 %).
 
 `--config`/`--set` describe the sail only for a log without recorded parameters.
 
     sail-ros report run1/run1_0.mcap --out run1_report
+    sail-ros report out/reference.mcap --out out/reference_report --no-convergence
 """
 
 from __future__ import annotations
@@ -27,8 +34,11 @@ from pathlib import Path
 
 import numpy as np
 
+from sail_ros.analysis.deployment import converge, finer_mode_counts, run_deployment
 from sail_ros.analysis.energy import group_energies
+from sail_ros.analysis.log_peaks import RESOLVED_PHASE, log_peaks
 from sail_ros.analysis.log_series import read_log
+from sail_ros.analysis.scenario import scenario_from_dict
 from sail_ros.cli import PHYSICS_DOC
 from sail_ros.model import SailModel
 from sail_ros.model.layout import BOOMS, QUADRANTS
@@ -42,6 +52,7 @@ from sail_ros.plots.histories import (
 from sail_ros.tools.common import (
     add_sail_options,
     describe_parameters,
+    print_peak_table,
     print_written,
     run,
     sail_parameters,
@@ -75,6 +86,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--namespace",
         help="the simulator's namespace in the log, e.g. /sat2 (needed only when the log "
         "holds several sails)",
+    )
+    parser.add_argument(
+        "--no-convergence",
+        action="store_true",
+        help="for a `sail-ros deploy` log: skip the rerun with twice the modes",
     )
     add_sail_options(parser)  # used only when the log has no recorded parameters
     return parser
@@ -165,10 +181,114 @@ def _report(args) -> int:
             )
         )
     written.append(_write_states(log, out / "states.csv"))
+    written.append(_peaks(args, log, out))
     written += _energies(args, log, out, time_label)
     written += _real_time_factor(log, out, time_label, args.log.name)
     print_written(written)
     return 0
+
+
+PEAK_COLUMNS = [
+    f"peak_{what}_{boom}_{unit}"
+    for boom in BOOMS
+    for what, unit in (
+        ("tip", "m"),
+        ("tip", "time_s"),
+        ("root_moment", "N_m"),
+        ("root_moment", "time_s"),
+    )
+]
+CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
+
+
+def _peaks(args, log, out: Path) -> Path:
+    """Each boom's peaks: from the log's samples, and for a deploy log from reruns of its
+    scenario (the same mode counts, then twice as many); one row each in peaks.csv."""
+    params = _recorded_parameters(log) or sail_parameters(args)
+    model = SailModel(params)
+    if log.modal is not None and log.modal.names != model.coordinate_names:
+        model = None  # another sail than --config/--set say: the energies say so
+    found = log_peaks(log, model)
+    how = "interpolated with the logged rates (cubic Hermite)"
+    if not all(found.interpolated):
+        how = (
+            "tips "
+            + ("interpolated" if found.interpolated[0] else "as sampled")
+            + ", root moments "
+            + ("interpolated" if found.interpolated[1] else "as sampled")
+        )
+    print(
+        f"  peaks per boom from the logged samples (every {1e3 * found.spacing_s:.4g} ms), {how}:"
+    )
+    rows = [_peak_row("log", params, found.peaks)]
+    print_peak_table(found.peaks, indent="    ")
+    if found.unresolved_moment is not None and np.isfinite(found.unresolved_frequency_hz):
+        share = found.unresolved_moment / np.maximum(found.peaks.root_moment.value, 1e-300)
+        print(
+            f"  boom modes from {found.unresolved_frequency_hz:.3g} Hz up are sampled too "
+            f"coarsely to follow (more than {RESOLVED_PHASE:g} rad between samples); they carry "
+            "up to " + ", ".join(f"{100 * v:.2g} %" for v in share) + " of the peak root "
+            "moments a..d, which may be off by that much between samples"
+        )
+    if log.scenario is not None and model is not None:
+        rows += _rerun_peaks(args, log, model)
+    else:
+        print(
+            "  true peaks and their convergence with the mode counts come from an offline run: "
+            "this log records no scenario (`sail-ros deploy --convergence` runs one)"
+        )
+    path = out / "peaks.csv"
+    header = ["source", "n_boom_modes", "n_membrane_modes", *PEAK_COLUMNS]
+    _write_csv(path, header, zip(*rows, strict=True))
+    return path
+
+
+def _peak_row(source: str, params, peaks) -> list:
+    cells = [source, params.n_boom_modes, params.n_membrane_modes]
+    for k in range(4):
+        cells += [
+            peaks.tip_deflection.value[k],
+            peaks.tip_deflection.time_s[k],
+            peaks.root_moment.value[k],
+            peaks.root_moment.time_s[k],
+        ]
+    return cells
+
+
+def _rerun_peaks(args, log, model) -> list[list]:
+    """Rerun a deploy log's scenario at its mode counts (true peaks; how well the rerun
+    reproduces the logged tips) and, unless --no-convergence, with twice the modes."""
+    scenario = scenario_from_dict(log.scenario)
+    t = log.seconds(log.tips.stamp_ns) if log.tips is not None else None
+    if t is None or not log.simulation_time:
+        return []
+    step = float(log.parameters.get("max_model_step", "0.05")) if log.parameters else 0.05
+    run = run_deployment(model, scenario, t, max_step=step)
+    agreement = np.abs(run.tips - log.tips.position).max() / max(
+        float(np.abs(log.tips.position).max()), 1e-300
+    )
+    print(
+        f"  a rerun of the recorded scenario reproduces the logged tips to {agreement:.2g} of "
+        "their peak; its true peaks (taken inside every integration step):"
+    )
+    rows = [_peak_row("rerun", model.params, run.peaks)]
+    if args.no_convergence:
+        print_peak_table(run.peaks, indent="    ")
+        return rows
+    finer = finer_mode_counts(model.params)
+    convergence = converge(model, scenario, run, *finer, max_step=step)
+    label = f"  change at ({finer[0]}, {finer[1]}) modes [%]"
+    changes = (label, convergence.tip_change, convergence.moment_change)
+    print_peak_table(run.peaks, changes, indent="    ")
+    finer_params = model.params.replace(n_boom_modes=finer[0], n_membrane_modes=finer[1])
+    rows.append(_peak_row("rerun, more modes", finer_params, convergence.peaks))
+    if convergence.largest() > CONVERGENCE_WARNING:
+        print(
+            f"warning: peaks not converged: with (n_B, n_M) = {finer} they move by up to "
+            f"{100 * convergence.largest():.3g} %; raise n_boom_modes and n_membrane_modes",
+            file=sys.stderr,
+        )
+    return rows
 
 
 def _recorded_parameters(log):
