@@ -26,7 +26,7 @@ setup(
     description="Real-time deployment dynamics of a four-quadrant solar sail.",
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [f"{name} = {target}" for name, target in TOOLS.items()]
+        "console_scripts": [f"{name} = sail_ros.cli:main_{name}" for name in TOOLS]
         + ["sail-ros = sail_ros.cli:main"],
     },
 )

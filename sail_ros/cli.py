@@ -1,12 +1,17 @@
 """The umbrella command `sail-ros <tool> [args]`.
 
 Each tool is also its own executable under `lib/sail_ros` (what `ros2 run
-sail_ros <tool>` starts); both routes call the same `main`. This module
-imports nothing heavy so that `setup.py` can read `TOOLS`.
+sail_ros <tool>` starts, `main_<tool>` here); both routes call the tool's same
+`main`. This module imports nothing heavy, so that `setup.py` can read `TOOLS`
+and so that an entry point keeps an early SIGINT (`early_signals`) before the
+tool's imports take their second.
 """
 
+import difflib
 import importlib
 import sys
+
+from sail_ros.early_signals import keep_early_sigint
 
 PHYSICS_DOC = (
     "The physics, its choices and checks: docs/model.md (installed as "
@@ -42,18 +47,44 @@ def _usage():
 
 
 def main(argv=None):
+    """`sail-ros <tool> [args]`; returns the exit code."""
+    keep_early_sigint()
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help"):
         print(_usage())
         return 0
     name, rest = argv[0], argv[1:]
     if name not in TOOLS:
-        print(f"sail-ros: unknown tool {name!r}\n\n{_usage()}", file=sys.stderr)
+        close = difflib.get_close_matches(name, TOOLS, n=1, cutoff=0.6)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        print(
+            f"sail-ros: unknown tool {name!r}{hint}; tools: {', '.join(TOOLS)}",
+            file=sys.stderr,
+        )
         return 2
+    return _run_tool(name, rest, f"sail-ros {name}")
+
+
+def _run_tool(name: str, args: list[str], prog: str) -> int:
     module_name, function_name = TOOLS[name].split(":")
     tool_main = getattr(importlib.import_module(module_name), function_name)
-    sys.argv = [f"sail-ros {name}", *rest]
-    return tool_main(rest)
+    sys.argv = [prog, *args]
+    return tool_main(args)
+
+
+def _entry_point(name: str):
+    def entry() -> int:
+        keep_early_sigint()
+        return _run_tool(name, sys.argv[1:], sys.argv[0])
+
+    entry.__name__ = entry.__qualname__ = f"main_{name}"
+    entry.__doc__ = f"The executable `{name}` (`ros2 run sail_ros {name}`)."
+    return entry
+
+
+# the console scripts of setup.py: `<tool> = sail_ros.cli:main_<tool>`
+for _name in TOOLS:
+    globals()[f"main_{_name}"] = _entry_point(_name)
 
 
 if __name__ == "__main__":

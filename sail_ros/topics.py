@@ -465,10 +465,12 @@ def diagnostic_values(array: DiagnosticArray, node: str = SIM_NODE) -> dict[str,
 # -- answers to commands ------------------------------------------------------------------------
 
 ACCEPTED, REJECTED, IGNORED = "accepted", "rejected", "ignored"
+SUPERSEDED = "superseded"  # a newer command replaced it before it started
 _OUTCOME_LEVELS = {
     ACCEPTED: DiagnosticStatus.OK,
     REJECTED: DiagnosticStatus.ERROR,
     IGNORED: DiagnosticStatus.WARN,
+    SUPERSEDED: DiagnosticStatus.WARN,
 }
 
 
@@ -477,8 +479,8 @@ class CommandAnswer(NamedTuple):
 
     Attributes:
         topic: the command topic, as the simulator resolved it.
-        outcome: "accepted", "rejected" or "ignored" (published before the
-            simulator started).
+        outcome: "accepted", "superseded" (a newer command replaced it before it
+            started), "rejected" or "ignored" (published before the simulator started).
         message: the plan ("deploy to 12 m: ...") or the reason.
         source_timestamp_ns: when its publisher wrote it [ns, the publisher's clock].
         sequence: the publisher's sequence number of the command.

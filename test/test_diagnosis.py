@@ -2,7 +2,7 @@
 
 import pytest
 
-from sail_ros.nodes.diagnosis import RTF_WARN_FRACTION, Observations, diagnose
+from sail_ros.runtime.diagnosis import RTF_WARN_FRACTION, Observations, diagnose
 
 pytestmark = pytest.mark.model
 

@@ -6,6 +6,7 @@ come back (a restarted simulator); two sails in two namespaces; two demos at
 once.
 """
 
+import collections
 import json
 import signal
 import subprocess
@@ -180,7 +181,8 @@ def test_commands_from_publishers_that_send_at_once_all_arrive(processes, operat
 def test_a_burst_beyond_the_command_queue_is_answered_and_counted(processes, operator):
     """30 commands at once into a queue of 2 while the simulator integrates as fast as
     it can (its thread busy in 50 ms ticks): each command gets exactly one answer,
-    those dropped say so, and /diagnostics counts exactly those."""
+    accepted, superseded by a newer one of its batch, or rejected because the queue was
+    full (saying so), and /diagnostics counts exactly those."""
     answers = Answers(operator)
     processes("sim", parameters={"time_scale": 0.0, "max_queued_commands": 2})
     operator.wait_for_simulator()
@@ -194,12 +196,14 @@ def test_a_burst_beyond_the_command_queue_is_answered_and_counted(processes, ope
     operator.spin_until(lambda: len(answers.received) >= 30, 20.0, "30 answers")
     operator.spin_for(0.5)
     assert sorted(a.sequence for a in answers.received) == list(range(1, 31))
-    dropped = [a for a in answers.received if a.outcome == "ignored"]
-    assert dropped and all(a.message.startswith("dropped: 2 commands were") for a in dropped)
-    assert {a.outcome for a in answers.received} == {"accepted", "ignored"}
+    outcomes = collections.Counter(a.outcome for a in answers.received)
+    dropped = [a for a in answers.received if a.outcome == "rejected"]
+    assert dropped and all(a.message.startswith("2 commands were already waiting") for a in dropped)
+    assert set(outcomes) <= {"accepted", "superseded", "rejected"} and outcomes["accepted"] >= 1
     status = operator.wait_for_status(lambda s: True, 5.0, "a status")
-    assert int(status["dropped_commands"]) == len(dropped)
-    assert int(status["accepted_commands"]) == 30 - len(dropped)
+    assert int(status["dropped_commands"]) == int(status["rejected_commands"]) == len(dropped)
+    assert int(status["accepted_commands"]) == outcomes["accepted"]
+    assert int(status["superseded_commands"]) == outcomes["superseded"]
 
 
 def test_a_started_simulator_does_not_run_commands_published_before(processes, operator):

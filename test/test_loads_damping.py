@@ -3,6 +3,7 @@ answer computed here independently: closed forms, a finite-element Poisson solve
 and a tight-tolerance integration of the same equations."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -288,7 +289,7 @@ def test_loaded_damped_deployment_matches_a_tight_reference():
         ),
         (
             lambda m: SailParameters(mass_damping=-1.0),
-            "mass_damping must be >= 0",
+            "mass_damping must be in [0, 1e+06] 1/s, got -1",
         ),
         (
             lambda m: SailParameters(stiffness_damping=math.nan),
@@ -299,7 +300,7 @@ def test_loaded_damped_deployment_matches_a_tight_reference():
 )
 def test_load_and_damping_errors_name_the_argument(call, message):
     model = SailModel()
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(ValueError, match=re.escape(message)):
         call(model)
 
 

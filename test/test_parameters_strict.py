@@ -12,10 +12,10 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from sail_ros.nodes.parameters import ConfigError
 from sail_ros.nodes.recorder import Recorder
 from sail_ros.nodes.replay import Replay
 from sail_ros.nodes.sim import SimNode
+from sail_ros.ros.parameters import ConfigError
 
 pytestmark = pytest.mark.node
 
@@ -69,7 +69,7 @@ def test_run_time_changes_are_refused_by_name_or_published(ros_context):
         assert not sim.has_parameter("max_rat")
         ok, reason = set_parameter(client, executor, "max_rate", 2.0)
         assert ok, reason
-        assert sim.config.limits.max_rate == 2.0
+        assert sim.config.policy.max_rate == 2.0
         spin_until(
             executor,
             lambda: any(

@@ -19,9 +19,9 @@ from sensor_msgs.msg import JointState
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, BagWriter
-from sail_ros.nodes.parameters import ConfigError
 from sail_ros.nodes.recorder import Recorder
 from sail_ros.nodes.replay import Replay
+from sail_ros.ros.parameters import ConfigError
 
 pytestmark = pytest.mark.node
 

@@ -9,8 +9,8 @@ import pytest
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from sail_ros import ros_cli
-from sail_ros.ros_cli import StopSignals, serve_until_stopped
+from sail_ros.ros import cli as ros_cli
+from sail_ros.ros.cli import StopSignals, serve_until_stopped
 
 pytestmark = pytest.mark.node
 

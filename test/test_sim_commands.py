@@ -3,7 +3,6 @@ grid-stepping core, pacing, the parameter table and the message builders.
 No ROS runtime."""
 
 import copy
-import dataclasses
 import math
 from pathlib import Path
 
@@ -18,20 +17,30 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros import topics
 from sail_ros.message_bytes import ShapeSerializer, StateSerializer
-from sail_ros.model import CycloidalProfile, SailModel, StaticProfile, WaypointProfile
+from sail_ros.model import (
+    CycloidalProfile,
+    SailModel,
+    SailParameters,
+    StaticProfile,
+    WaypointProfile,
+)
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion
 from sail_ros.model.shape import SailSurface
-from sail_ros.nodes.commands import BoomState, CommandError, Limits, plan_deploy, plan_trajectory
-from sail_ros.nodes.intake import CommandQueue
-from sail_ros.nodes.pacing import Pacer, RealTimeFactor
-from sail_ros.nodes.sim_params import DEFAULTS, SPECS, ConfigError, config_from_values
-from sail_ros.nodes.simulation import ERROR, PAUSED, RUNNING, Simulation
+from sail_ros.nodes.sim import SPECS
+from sail_ros.policy import Policy
+from sail_ros.runtime.commands import BoomState, CommandError, Rules, plan_deploy, plan_trajectory
+from sail_ros.runtime.config import DEFAULTS, ConfigError, config_from_values
+from sail_ros.runtime.intake import CommandQueue
+from sail_ros.runtime.pacing import Pacer, RealTimeFactor
+from sail_ros.runtime.simulation import ERROR, PAUSED, RUNNING, Simulation
 
 pytestmark = pytest.mark.model
 
 ROOT = Path(__file__).resolve().parents[1]
-LIMITS = Limits(min_length=1.0, max_length=70.0, max_rate=1.0, max_acceleration=0.5)
+RULES = Rules(
+    Policy(min_length=1.0, max_length=70.0, max_rate=1.0, max_acceleration=0.5), SailParameters()
+)
 REST = BoomState(2.0, np.full(4, 10.0), np.zeros(4), np.zeros(4))
 
 
@@ -55,7 +64,7 @@ def trajectory(names, *points, **fields):
 
 def test_trajectory_passes_through_points_and_others_are_untouched():
     plan = plan_trajectory(
-        trajectory(["boom_c", "boom_a"], ([11.0, 11.5], 6.0), ([12.0, 12.0], 12.0)), REST, LIMITS
+        trajectory(["boom_c", "boom_a"], ([11.0, 11.5], 6.0), ([12.0, 12.0], 12.0)), REST, RULES
     )
     assert plan.booms == (2, 0)
     assert (plan.t_start, plan.t_end) == (2.0, 14.0)
@@ -75,7 +84,7 @@ def test_trajectory_starts_from_the_current_rates():
     moving = BoomState(
         0.0, np.array([10.0, 11.0, 12.0, 13.0]), np.array([0.3, 0.0, -0.2, 0.0]), np.zeros(4)
     )
-    plan = plan_trajectory(trajectory(["boom_a", "boom_c"], ([12.0, 12.0], 10.0)), moving, LIMITS)
+    plan = plan_trajectory(trajectory(["boom_a", "boom_c"], ([12.0, 12.0], 10.0)), moving, RULES)
     lengths, rates, _ = plan.profile(0.0)
     assert lengths[[0, 2]] == pytest.approx([10.0, 12.0])
     assert rates[[0, 2]] == pytest.approx([0.3, -0.2])
@@ -137,7 +146,7 @@ BAD_TRAJECTORIES = {
 def test_bad_trajectory_is_rejected_with_its_reason(case):
     message, reason = BAD_TRAJECTORIES[case]
     with pytest.raises(CommandError, match=reason):
-        plan_trajectory(message, REST, LIMITS)
+        plan_trajectory(message, REST, RULES)
 
 
 def test_spline_overshoot_beyond_the_limits_is_rejected():
@@ -147,15 +156,15 @@ def test_spline_overshoot_beyond_the_limits_is_rejected():
         0.0, np.array([69.5, 10.0, 10.0, 10.0]), np.array([0.5, 0, 0, 0]), np.zeros(4)
     )
     with pytest.raises(CommandError, match="boom_a would pass through 70.12 m on the way"):
-        plan_trajectory(trajectory(["boom_a"], ([69.6], 8.0)), moving, LIMITS)
-    assert plan_trajectory(trajectory(["boom_a"], ([69.6], 4.0)), moving, LIMITS)
+        plan_trajectory(trajectory(["boom_a"], ([69.6], 8.0)), moving, RULES)
+    assert plan_trajectory(trajectory(["boom_a"], ([69.6], 4.0)), moving, RULES)
 
 
 # -- deployment ---------------------------------------------------------------------------------
 
 
 def test_deploy_from_rest_is_the_fastest_cycloidal_within_limits():
-    plan = plan_deploy(15.0, REST, LIMITS)
+    plan = plan_deploy(15.0, REST, RULES)
     assert isinstance(plan.profile, CycloidalProfile)
     # travel 5 m: rate-limited 2*5/1 = 10 s vs acceleration-limited sqrt(2 pi 5 / 0.5) = 7.9 s
     assert plan.profile.duration == pytest.approx(10.0)
@@ -163,11 +172,11 @@ def test_deploy_from_rest_is_the_fastest_cycloidal_within_limits():
 
 
 def test_deploy_duration_is_honoured_or_rejected():
-    plan = plan_deploy(15.0, REST, LIMITS, duration=15.0)  # model.md §9 reference
+    plan = plan_deploy(15.0, REST, RULES, duration=15.0)  # model.md §9 reference
     assert plan.profile.duration == 15.0
     assert plan.profile(9.5)[1] == pytest.approx(np.full(4, 2 * 5 / 15))  # peak rate at T/2
     with pytest.raises(CommandError, match="a 4 s deployment to 15 m needs 2.5 m/s and 1.963"):
-        plan_deploy(15.0, REST, LIMITS, duration=4.0)
+        plan_deploy(15.0, REST, RULES, duration=4.0)
 
 
 @pytest.mark.parametrize(
@@ -182,7 +191,7 @@ def test_deploy_duration_is_honoured_or_rejected():
 )
 def test_bad_deploy_target_is_rejected(target, reason):
     with pytest.raises(CommandError, match=reason):
-        plan_deploy(target, REST, LIMITS)
+        plan_deploy(target, REST, RULES)
 
 
 def test_deploy_while_moving_continues_smoothly_within_limits():
@@ -192,14 +201,16 @@ def test_deploy_while_moving_continues_smoothly_within_limits():
         np.array([0.8, 0.8, -0.5, 0.0]),
         np.array([0.1, 0.1, 0.0, 0.0]),
     )
-    plan = plan_deploy(11.5, now, LIMITS)
+    plan = plan_deploy(11.5, now, RULES)
     assert isinstance(plan.profile, WaypointProfile)
     lengths, rates, _ = plan.profile(now.t)
     assert lengths == pytest.approx(now.lengths) and rates == pytest.approx(now.rates)
     lengths, rates, accelerations = plan.profile(plan.t_end)
     assert lengths == pytest.approx(np.full(4, 11.5)) and not np.any(rates)
     low, high, rate, acceleration = plan.profile.extremes()
-    assert np.all(rate <= LIMITS.max_rate) and np.all(acceleration <= LIMITS.max_acceleration)
+    assert np.all(rate <= RULES.policy.max_rate) and np.all(
+        acceleration <= RULES.policy.max_acceleration
+    )
     # the quickest such move: 10 % shorter breaks a limit
     shorter = WaypointProfile(
         [now.t, now.t + (plan.t_end - now.t) / 1.1],
@@ -207,7 +218,9 @@ def test_deploy_while_moving_continues_smoothly_within_limits():
         start_rates=now.rates,
     )
     _, _, rate, acceleration = shorter.extremes()
-    assert np.any(rate > LIMITS.max_rate) or np.any(acceleration > LIMITS.max_acceleration)
+    assert np.any(rate > RULES.policy.max_rate) or np.any(
+        acceleration > RULES.policy.max_acceleration
+    )
 
 
 # -- boom motion --------------------------------------------------------------------------------
@@ -243,7 +256,7 @@ def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
     sim = Simulation(model, config)
     for _ in range(100):
         assert sim.step()
-    sim.deploy(12.0, config.limits)
+    sim.deploy(12.0)
     while sim.steps < 600:
         assert sim.step()
     assert sim.t == pytest.approx(6.0, abs=1e-12)
@@ -271,10 +284,10 @@ def test_loads_are_held_from_the_next_step_and_match_simulate(model, config):
     for _ in range(100):
         assert sim.step()
     force = topics.load_command(topics.TIP_FORCE_CMD, {"boom_b": 0.05})
-    change = sim.load(topics.TIP_FORCE_CMD, force, solar.limits)
+    change = sim.load(topics.TIP_FORCE_CMD, force)
     assert change.summary == "boom_b = 0.05 N (others held)"
     pressure = topics.load_command(topics.PRESSURE_CMD, {"quadrant_ab": 2e-3, "quadrant_cd": 1e-3})
-    sim.load(topics.PRESSURE_CMD, pressure, solar.limits)
+    sim.load(topics.PRESSURE_CMD, pressure)
     assert sim.inputs() == pytest.approx(
         [2e-3 + 9.08e-6, 9.08e-6, 1e-3 + 9.08e-6, 9.08e-6, 0, 0.05, 0, 0]
     )
@@ -331,14 +344,14 @@ def test_bad_load_commands_are_rejected_whole(model, config, topic, values, reas
     sim = Simulation(model, config)
     message = topics.load_command(topic, {"quadrant_ab": 1e-3} if topic == topics.PRESSURE_CMD
                                   else {"boom_b": 0.5})  # fmt: skip
-    sim.load(topic, message, config.limits)
+    sim.load(topic, message)
     before = sim.inputs()
     bad = topics.load_command(topic, {**values})
     if topic == topics.TIP_FORCE_CMD and values:
         bad.name.insert(0, "boom_c")  # a good value first: nothing of the command applies
         bad.effort = [0.3, *bad.effort]
     with pytest.raises(CommandError, match=reason):
-        sim.load(topic, bad, config.limits)
+        sim.load(topic, bad)
     assert np.array_equal(sim.inputs(), before) and sim.rejected == 1
 
 
@@ -349,7 +362,7 @@ def test_short_booms_get_sub_steps(model, config):
     assert sim.substeps() == 2
     assert Simulation(model, config).substeps() == 1
     assert sim.step() and sim.stepper.steps_taken == 1  # at rest: one exact step
-    sim.deploy(2.0, short.limits)
+    sim.deploy(2.0)
     assert sim.step() and sim.stepper.steps_taken == 3 and sim.t == pytest.approx(0.02)
 
 
@@ -359,7 +372,7 @@ def test_rejected_command_leaves_the_state_alone(model, config):
         reference.step()
         sim.step()
     with pytest.raises(CommandError, match="above max_rate"):
-        sim.follow(trajectory(["boom_a"], ([20.0], 5.0)), config.limits)
+        sim.follow(trajectory(["boom_a"], ([20.0], 5.0)))
     assert (sim.rejected, sim.accepted) == (1, 0) and "above max_rate" in sim.last_rejection
     for _ in range(50):
         reference.step()
@@ -388,6 +401,13 @@ def test_leaving_the_linear_range_warns_then_stops_before_anything_is_non_finite
     assert np.all(np.isfinite(sim.q)) and abs(tips[0]) / 10.0 < 1.0  # 0.3 < ... < 1
 
 
+class NoRangeCheck:
+    """A policy without the tip-deflection alarms."""
+
+    def range_state(self, tips, lengths):
+        return "", ""
+
+
 def test_non_finite_state_stops_until_reset(config):
     buckling = config_from_values(
         {
@@ -397,7 +417,7 @@ def test_non_finite_state_stops_until_reset(config):
         }
     )
     sim = Simulation(SailModel(buckling.sail), buckling)
-    sim.range_limits = (math.inf, math.inf)  # no range check: let it blow up
+    sim.policy = NoRangeCheck()  # let it blow up
     while sim.step():
         assert sim.steps < 1000, "the buckled booms should diverge within 10 s"
     assert sim.state == ERROR and "non-finite" in sim.error
@@ -405,7 +425,7 @@ def test_non_finite_state_stops_until_reset(config):
     t = sim.t
     assert not sim.step() and sim.t == t
     with pytest.raises(CommandError, match="call sail/reset first"):
-        sim.deploy(12.0, buckling.limits)
+        sim.deploy(12.0)
     sim.paused = True
     sim.reset(config_from_values({**DEFAULTS, "sail.boom_axial_load": 1e6}))  # no tip: stays 0
     assert sim.state == PAUSED and sim.t == t and not np.any(sim.q)
@@ -543,23 +563,38 @@ def test_every_parameter_is_described_with_unit_and_range():
             {"min_length": 20.0, "max_length": 15.0},
             "min_length \\(20 m\\) must be below max_length",
         ),
-        ({"initial_lengths": [10.0, 10.0, 80.0, 10.0]}, "initial_lengths .* must lie in"),
+        (
+            {"initial_lengths": [10.0, 10.0, 80.0, 10.0]},
+            "initial_lengths of boom c = 80 m is outside \\[min_length, max_length\\] = "
+            "\\[1, 70.7107\\] m",
+        ),
         (
             {"initial_lengths": [10.0, 10.0]},
             "initial_lengths must hold 1 or 4 values, got 2: \\[10.0, 10.0\\]",
         ),
-        ({"max_rate": 2}, "max_rate must be a double: write 2.0, not 2"),
-        ({"max_rate": -1.0}, "max_rate = -1.0 is outside"),
-        ({"initial_tip_deflection": [math.nan]}, "initial_tip_deflection = nan is outside"),
+        ({"max_rate": -1.0}, "max_rate must be in \\[1e-06, 100\\] m/s, got -1.0"),
+        ({"max_rate": True}, "max_rate must be a number, got True"),
+        ({"initial_tip_deflection": [math.nan]}, "initial_tip_deflection\\[0\\] must be finite"),
+        (
+            {"initial_tip_deflection": [4.0, 0.0, 0.0, 0.0]},
+            "initial_tip_deflection of boom a = 4 m is outside \\+-tip_error_fraction",
+        ),
         ({"state_rate_hz": 200.0}, "state_rate_hz = 200 Hz is faster than the integration step"),
-        ({"sail.sail_side": 0.0}, "sail.sail_side must be > 0"),
-        ({"frame_id": 3}, "frame_id must be a str"),
+        ({"sail.sail_side": 0.0}, "sail.sail_side must be in \\(0, 10000\\] m, got 0.0"),
+        ({"sail.n_boom_modes": 31}, "sail.n_boom_modes must be an integer in \\[1, 30\\], got 31"),
+        ({"frame_id": 3}, "frame_id must be a text, got 3"),
     ],
     ids=str,
 )
 def test_bad_configuration_names_the_parameter(change, reason):
     with pytest.raises(ConfigError, match=reason):
         config_from_values(change)
+
+
+def test_integers_are_taken_for_doubles_as_ros_users_type_them():
+    config = config_from_values({"max_rate": 2, "time_scale": 3, "initial_lengths": [12]})
+    assert config.policy.max_rate == 2.0 and isinstance(config.policy.max_rate, float)
+    assert config.time_scale == 3.0 and config.initial_lengths.tolist() == [12.0] * 4
 
 
 def test_a_min_length_whose_booms_would_need_too_many_substeps_is_refused():
@@ -583,11 +618,11 @@ def test_a_min_length_whose_booms_would_need_too_many_substeps_is_refused():
     config_from_values({"min_length": 0.05, "max_substep_rate": needed / 99.0})
 
 
-def test_the_command_queue_is_bounded_and_counts_what_it_drops():
+def test_the_command_queue_is_bounded_and_counts_what_it_refuses():
     queue = CommandQueue(capacity=3)
     assert [queue.offer(k) for k in range(5)] == [True, True, True, False, False]
-    assert queue.dropped == 2 and queue.take() == [0, 1, 2] and queue.take() == []
-    assert queue.offer(5) and queue.take() == [5] and queue.dropped == 2
+    assert queue.overflowed == 2 and queue.take() == [0, 1, 2] and queue.take() == []
+    assert queue.offer(5) and queue.take() == [5] and queue.overflowed == 2
 
 
 def test_publication_intervals_round_to_whole_steps():
@@ -667,17 +702,17 @@ def test_shared_vertex_points_serialise_as_one_point_per_corner(model):
 
 def test_a_trajectory_longer_than_max_trajectory_points_is_rejected_whole(config):
     sim = Simulation(SailModel(config.sail), config)
-    limits = dataclasses.replace(config.limits, max_points=3)
+    sim.policy = sim.policy.replace(max_trajectory_points=3)
     command = JointTrajectory(joint_names=["boom_a"])
     for i in range(4):
         point = JointTrajectoryPoint(positions=[10.0 + 0.01 * (i + 1)])
         point.time_from_start.sec = i + 1
         command.points.append(point)
     with pytest.raises(CommandError, match="4 points, more than max_trajectory_points = 3"):
-        sim.follow(command, limits)
+        sim.follow(command)
     assert sim.rejected == 1
     command.points.pop()
-    assert sim.follow(command, limits).booms == (0,)
+    assert sim.follow(command).booms == (0,)
 
 
 def test_shape_bytes_decode_to_the_message_built_from_objects(model):

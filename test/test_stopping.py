@@ -17,16 +17,23 @@ def _ignoring_sigint():
 
 
 def test_a_sigint_while_starting_in_the_background_finishes_the_recording(ros_env, tmp_path):
-    """The SIGINT comes once the package is imported, before the recorder exists: it is
-    acted on when the recorder starts, which finishes an empty bag and exits 0, instead
-    of being ignored for good (a recorder that runs on after `kill -INT`)."""
+    """The SIGINT comes while the entry point imports the recorder's modules (its second
+    of imports), before the recorder exists: it is acted on when the recorder starts,
+    which finishes an empty bag and exits 0, instead of being ignored for good (a
+    recorder that runs on after `kill -INT`). Importing the package alone changes no
+    signal handling."""
     folder = tmp_path / "bag"
     program = (
-        "import os, signal, sys\n"
-        "import sail_ros\n"
-        "os.kill(os.getpid(), signal.SIGINT)\n"
-        "from sail_ros.cli import main\n"
-        f"sys.exit(main(['recorder', '-o', {str(folder)!r}]))\n"
+        "import importlib, os, signal, sys\n"
+        "import sail_ros, sail_ros.cli\n"
+        "assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN  # quiet imports\n"
+        "load = importlib.import_module\n"
+        "def importing(name, *args, **kwargs):\n"
+        "    if name == 'sail_ros.nodes.recorder':\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "    return load(name, *args, **kwargs)\n"
+        "importlib.import_module = importing\n"
+        f"sys.exit(sail_ros.cli.main(['recorder', '-o', {str(folder)!r}]))\n"
     )
     result = subprocess.run(
         [sys.executable, "-c", program],
@@ -47,7 +54,7 @@ def test_a_stuck_teardown_ends_the_process_even_holding_the_interpreter_lock(ros
     exit code 1 and the stacks; a teardown that returns leaves no watchdog behind."""
     stuck = (
         "import re\n"
-        "from sail_ros.ros_cli import bounded_teardown\n"
+        "from sail_ros.ros.cli import bounded_teardown\n"
         "with bounded_teardown(0.5):\n"
         "    re.match(r'(a+)+$', 'a' * 64 + 'b')\n"
     )
@@ -60,7 +67,7 @@ def test_a_stuck_teardown_ends_the_process_even_holding_the_interpreter_lock(ros
 
     finished = (
         "import time\n"
-        "from sail_ros.ros_cli import bounded_teardown\n"
+        "from sail_ros.ros.cli import bounded_teardown\n"
         "with bounded_teardown(0.2):\n"
         "    pass\n"
         "time.sleep(0.6)\n"

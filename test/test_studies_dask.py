@@ -139,7 +139,7 @@ def test_the_same_study_gives_the_same_csv_on_any_cluster(
     rows = list(csv.DictReader((tmp_path / "one" / "samples.csv").open()))
     assert [int(r["sample"]) for r in rows] == list(range(10))
     failed = [r for r in rows if r["error"]]
-    assert failed and all("membrane_thickness must be >= 0" in r["error"] for r in failed)
+    assert failed and all("membrane_thickness must be in [0, 0.01] m" in r["error"] for r in failed)
     study = load_study(study_file)
     for row in failed:  # the sample that failed did draw a negative thickness
         assert sample_inputs(study, int(row["sample"]))["membrane_thickness"] < 0

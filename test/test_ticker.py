@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from sail_ros.nodes.ticker import Ticker, following_call
+from sail_ros.runtime.ticker import Ticker, following_call
 
 pytestmark = pytest.mark.node
 

@@ -15,7 +15,7 @@ from sail_ros.analysis.scenario import load_scenario, reference_scenario
 from sail_ros.bag import BagReader
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.nodes.recorder import PARAMETERS_METADATA
-from sail_ros.nodes.sim_params import SPEC_BY_NAME, config_from_values
+from sail_ros.runtime.config import PARAMETERS, config_from_values
 from sail_ros.tools import deploy
 
 pytestmark = pytest.mark.model
@@ -105,7 +105,7 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
     metadata = dict(bag.metadata())
     parameters = metadata[PARAMETERS_METADATA]
     # the simulator's own names and value syntax: its validator accepts them
-    assert set(parameters) <= set(SPEC_BY_NAME)
+    assert set(parameters) <= set(PARAMETERS)
     config = config_from_values({name: yaml.safe_load(text) for name, text in parameters.items()})
     assert (config.integration_step, config.state_rate_hz, config.shape_rate_hz) == (0.05, 10, 2)
     assert (config.sail.n_boom_modes, config.sail.n_membrane_modes) == (3, 3)

@@ -53,7 +53,7 @@ BAD_INPUTS = [
     ("modes", ["--config", "{root}/missing.yaml"], "cannot read '{root}/missing.yaml'"),
     ("modes", ["--config", "{root}/broken.yaml"], "broken.yaml: not valid YAML"),
     ("modes", ["--config", "{root}/misspelt.yaml"], "unknown sail parameter(s) 'max_rat'"),
-    ("modes", ["--set", "n_boom_modes=0"], "n_boom_modes must be an integer >= 1, got 0"),
+    ("modes", ["--set", "n_boom_modes=0"], "n_boom_modes must be an integer in [1, 30], got 0"),
     ("modes", ["--set", "membrane_thickness"], "--set expects KEY=VALUE"),
     ("modes", ["--set", "sail_side=[1,"], "--set sail_side: '[1,' is not a value"),
     ("modes", ["--count", "100000"], "--count must be in [1, 40]"),
@@ -64,7 +64,7 @@ BAD_INPUTS = [
     ("stability", ["--prestress", "10", "1"], "--prestress needs 0 < MIN < MAX"),
     ("deploy", ["--scenario", "{root}/missing.yaml"], "cannot read scenario"),
     ("deploy", ["--every", "0"], "--every must be > 0"),
-    ("deploy", ["--set", "n_membrane_modes=-1"], "n_membrane_modes must be an integer >= 1"),
+    ("deploy", ["--set", "n_membrane_modes=-1"], "n_membrane_modes must be an integer in [1, 100]"),
     ("report", ["{root}/nothing_here"], "'{root}/nothing_here' does not exist"),
     ("report", ["{root}/no_mcap"], "folder '{root}/no_mcap' has no .mcap file"),
     ("report", ["{root}/text.mcap"], "is not an MCAP file"),
@@ -75,7 +75,7 @@ BAD_INPUTS = [
     ("send", ["tip-force", "--booms", "e", "--values", "1"], "invalid choice: 'e'"),
     ("send", ["pressure", "--quadrants", "ab", "cd", "--values", "1", "2", "3"], "--values: one"),
     ("plant", ["--lengths", "1", "2"], "--lengths takes 1 or 4 values, got 2"),
-    ("plant", ["--set", "stiffness_damping=-.5"], "stiffness_damping must be >= 0"),
+    ("plant", ["--set", "stiffness_damping=-.5"], "stiffness_damping must be in [0, 1e+06] s"),
     ("plant", ["--npz", "{root}/blocker/p.npz"], "{root}/blocker"),
 ]
 
@@ -112,7 +112,8 @@ def test_a_damaged_chunk_is_named_by_the_reader(files):
 
 
 def test_mode_counts_that_would_not_fit_are_refused_before_allocating():
-    code, _, err = run_tool("modes", ["--set", "n_boom_modes=4000"])  # about 81 GiB
+    """4000 boom modes would need about 81 GiB of integrals: refused by the field's range
+    (the one every program checks) before anything is allocated."""
+    code, _, err = run_tool("modes", ["--set", "n_boom_modes=4000"])
     assert code == 2 and "Traceback" not in err
-    assert err.startswith("error: n_boom_modes = 4000, n_membrane_modes = 6 need about ")
-    assert "GiB to build their integrals" in err and len(err.strip().splitlines()) == 1
+    assert err == "error: n_boom_modes must be an integer in [1, 30], got 4000\n"

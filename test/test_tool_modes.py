@@ -130,7 +130,7 @@ def test_fem_cross_check_converges_and_agrees_within_one_percent(tmp_path, capsy
         (["--lengths", "10", "20"], "--lengths takes 1 or 4 values, got 2"),
         (["--fem", "--lengths", "30", "50", "30", "50"], "--fem needs one length for all booms"),
         (["--fem-csv", "x.csv"], "--fem-csv x.csv needs --fem"),
-        (["--set", "membrane_prestress=-1"], "membrane_prestress must be >= 0, got -1"),
+        (["--set", "membrane_prestress=-1"], "membrane_prestress must be in [0, 1e+10] Pa, got -1"),
     ],
     ids=["lengths", "fem-unequal", "fem-csv", "bad-parameter"],
 )

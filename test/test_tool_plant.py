@@ -64,7 +64,7 @@ def test_poles_carry_the_rayleigh_damping_ratio_and_the_response_its_dc_gain():
         (["--lengths", "-3"], "lengths must be > 0"),
         (["--count", "0"], "--count must be in [1, 80]"),
         (["--band", "2", "1"], "--band needs 0 < F_MIN < F_MAX"),
-        (["--set", "mass_damping=-1"], "mass_damping must be >= 0"),
+        (["--set", "mass_damping=-1"], "mass_damping must be in [0, 1e+06] 1/s, got -1"),
     ],
     ids=str,
 )

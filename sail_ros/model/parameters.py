@@ -14,6 +14,7 @@ from pathlib import Path
 import yaml
 
 import sail_ros.model.yaml_values as yaml_values
+from sail_ros.model.fields import check_fields, setting
 
 MAX_BOOM_MODES = 30  # beyond, the cantilever functions' evaluation and the integrals cost more
 MAX_MEMBRANE_MODES = 100  # than the model is worth
@@ -21,7 +22,9 @@ MAX_MEMBRANE_MODES = 100  # than the model is worth
 
 @dataclasses.dataclass(frozen=True)
 class SailParameters:
-    """Parameters of the four-boom, four-quadrant sail.
+    """Parameters of the four-boom, four-quadrant sail: one declaration per field, with
+    its unit and range (`fields.setting`), from which its check, the simulator's ROS
+    parameters `sail.<field>`, the tools' `--set` help and the docs table come.
 
     Attributes:
         sail_side: side `a` of the square sail [m]; full boom length a/sqrt(2).
@@ -30,46 +33,60 @@ class SailParameters:
         membrane_thickness: film thickness `h` [m].
         membrane_density: film density `rho` [kg/m^3]; areal density rho h.
         membrane_prestress: isotropic film prestress `sigma` [Pa]; N0 = sigma h.
-        boom_axial_load: axial compression `P` on each boom [N] (>= 0).
-        n_boom_modes: cantilever modes per boom `n_B` (>= 1).
-        n_membrane_modes: clamped-triangle modes per quadrant `n_M` (>= 1).
-        mass_damping: Rayleigh `alpha` [1/s] of `C_d = alpha M + beta K` (>= 0).
-        stiffness_damping: Rayleigh `beta` [s] (>= 0); a mode of frequency omega
-            then has the damping ratio `alpha / (2 omega) + beta omega / 2`.
+        boom_axial_load: axial compression `P` on each boom [N].
+        n_boom_modes: cantilever modes per boom `n_B`.
+        n_membrane_modes: clamped-triangle modes per quadrant `n_M`.
+        mass_damping: Rayleigh `alpha` [1/s] of `C_d = alpha M + beta K`.
+        stiffness_damping: Rayleigh `beta` [s]; a mode of frequency omega then has the
+            damping ratio `alpha / (2 omega) + beta omega / 2`.
     """
 
-    sail_side: float = 100.0
-    boom_bending_stiffness: float = 6000.0
-    boom_linear_density: float = 0.1
-    membrane_thickness: float = 2.5e-6
-    membrane_density: float = 1430.0
-    membrane_prestress: float = 6890.0
-    boom_axial_load: float = 0.0
-    n_boom_modes: int = 4
-    n_membrane_modes: int = 6
-    mass_damping: float = 0.0
-    stiffness_damping: float = 0.0
-
-    # fields that must be > 0; the others must be >= 0 (mode counts >= 1)
-    _POSITIVE = ("sail_side", "boom_bending_stiffness", "boom_linear_density")
-    _MODE_COUNTS = ("n_boom_modes", "n_membrane_modes")
+    sail_side: float = setting(
+        100.0,
+        "m",
+        "side a of the square sail; the fully deployed boom length is a/sqrt(2)",
+        minimum=0.0,
+        maximum=1e4,
+        above_minimum=True,
+    )
+    boom_bending_stiffness: float = setting(
+        6000.0, "N m^2", "bending stiffness EI of each boom", minimum=0.0, maximum=1e12,
+        above_minimum=True,
+    )  # fmt: skip
+    boom_linear_density: float = setting(
+        0.1, "kg/m", "mass per length rho_B of each boom", minimum=0.0, maximum=1e6,
+        above_minimum=True,
+    )  # fmt: skip
+    membrane_thickness: float = setting(2.5e-6, "m", "film thickness h", minimum=0.0, maximum=1e-2)
+    membrane_density: float = setting(
+        1430.0, "kg/m^3", "film density rho; areal density rho h", minimum=0.0, maximum=1e5
+    )
+    membrane_prestress: float = setting(
+        6890.0, "Pa", "isotropic film prestress sigma; tension N0 = sigma h", minimum=0.0,
+        maximum=1e10,
+    )  # fmt: skip
+    boom_axial_load: float = setting(
+        0.0, "N", "axial compression P the membrane puts on each boom", minimum=0.0,
+        maximum=1e12,
+    )  # fmt: skip
+    n_boom_modes: int = setting(
+        4, "-", "cantilever modes per boom n_B", minimum=1, maximum=MAX_BOOM_MODES
+    )
+    n_membrane_modes: int = setting(
+        6, "-", "clamped-triangle modes per quadrant n_M", minimum=1, maximum=MAX_MEMBRANE_MODES
+    )
+    mass_damping: float = setting(
+        0.0, "1/s", "Rayleigh alpha of the damping C_d = alpha M + beta K", minimum=0.0,
+        maximum=1e6,
+    )  # fmt: skip
+    stiffness_damping: float = setting(
+        0.0, "s", "Rayleigh beta of the damping C_d = alpha M + beta K; a mode of frequency "
+        "omega has the damping ratio alpha / (2 omega) + beta omega / 2", minimum=0.0,
+        maximum=1e6,
+    )  # fmt: skip
 
     def __post_init__(self):
-        for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
-            if field.name in self._MODE_COUNTS:
-                if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                    raise ValueError(f"{field.name} must be an integer >= 1, got {value!r}")
-                continue
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f"{field.name} must be a number, got {value!r}")
-            if not math.isfinite(value):
-                raise ValueError(f"{field.name} must be finite, got {value!r}")
-            if field.name in self._POSITIVE and value <= 0:
-                raise ValueError(f"{field.name} must be > 0, got {value!r}")
-            if value < 0:
-                raise ValueError(f"{field.name} must be >= 0, got {value!r}")
-            object.__setattr__(self, field.name, float(value))
+        check_fields(self)
 
     # derived quantities -------------------------------------------------
     @property

@@ -42,6 +42,11 @@ class StaticProfile:
     def is_static(self, t0, t1) -> bool:
         return True
 
+    def extremes(self):
+        """`(lowest, highest length [m], largest |rate| [m/s], |acceleration| [m/s^2])`
+        of each boom (4 values each) over the whole profile."""
+        return self.lengths, self.lengths, self._zero, self._zero
+
 
 class CycloidalProfile:
     """The smooth deployment of model.md §9, per boom.
@@ -105,6 +110,17 @@ class CycloidalProfile:
     def is_static(self, t0, t1) -> bool:
         return t1 <= self.t0 or t0 >= self.t_end or np.array_equal(self.start, self.end)
 
+    def extremes(self):
+        """As `StaticProfile.extremes`: peak rate `2 |Lf - L0| / T` at mid-way, peak
+        acceleration `2 pi |Lf - L0| / T^2` at a quarter and three quarters."""
+        travel = np.abs(self.end - self.start)
+        return (
+            np.minimum(self.start, self.end),
+            np.maximum(self.start, self.end),
+            2.0 * travel / self.duration,
+            2.0 * math.pi * travel / self.duration**2,
+        )
+
 
 class WaypointProfile:
     """Booms through waypoints along a cubic spline (continuous rate and acceleration).
@@ -163,8 +179,8 @@ class WaypointProfile:
         return bool(after or before)
 
     def extremes(self, samples_per_segment: int = 64):
-        """Lowest and highest length [m], largest |rate| [m/s] and |acceleration|
-        [m/s^2] over the profile, per boom (4 values each)."""
+        """As `StaticProfile.extremes`, from `samples_per_segment` samples of each segment
+        (the spline's own overshoot included)."""
         t = np.concatenate(
             [
                 np.linspace(a, b, samples_per_segment, endpoint=False)
@@ -231,6 +247,11 @@ class JammedProfile:
     def is_static(self, t0, t1) -> bool:
         return bool(np.all(t0 >= self.jam_times)) or self.profile.is_static(t0, t1)
 
+    def extremes(self):
+        """Those of the motion without the jam (stopping dead is the failure modelled, not
+        a commanded motion): a boom stops within its travel."""
+        return self.profile.extremes()
+
 
 class BoomMotion:
     """Booms a..d, each following its own 4-boom profile (only its column is used).
@@ -264,6 +285,14 @@ class BoomMotion:
 
     def is_static(self, t0, t1) -> bool:
         return all(p.is_static(t0, t1) for p in self._distinct)
+
+    def extremes(self):
+        """As `StaticProfile.extremes`, each boom from its own profile."""
+        found = {id(p): p.extremes() for p in self._distinct}
+        return tuple(
+            np.array([found[id(p)][part][k] for k, p in enumerate(self.profiles)])
+            for part in range(4)
+        )
 
     @property
     def t_end(self) -> float:

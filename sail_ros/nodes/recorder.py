@@ -44,7 +44,8 @@ from sail_ros.bag import (
     message_definition,
     qos,
 )
-from sail_ros.nodes.parameters import (
+from sail_ros.ros.cli import StopSignals, bounded_teardown, message_class, run_node
+from sail_ros.ros.parameters import (
     ConfigError,
     ParamSpec,
     declare,
@@ -52,7 +53,6 @@ from sail_ros.nodes.parameters import (
     node_options,
     overrides,
 )
-from sail_ros.ros_cli import StopSignals, bounded_teardown, message_class, run_node
 from sail_ros.topics import PARAMETERS_METADATA, RECORDED_TOPICS, yaml_value
 
 NODE_NAME = "sail_recorder"

@@ -26,7 +26,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
-from sail_ros.ros_cli import bounded_teardown, parse_command_line
+from sail_ros.ros.cli import bounded_teardown, parse_command_line
 
 # Once the answers the diagnostics counted arrived, the watcher takes more until none
 # came for this long [s]: the rest of the history arrives within milliseconds.

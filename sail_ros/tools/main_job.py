@@ -35,7 +35,7 @@ from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
-from sail_ros.ros_cli import bounded_teardown
+from sail_ros.ros.cli import bounded_teardown
 from sail_ros.tools.client import NoAnswerError, SimClient, init_context
 from sail_ros.tools.domains import DomainLease
 

@@ -1,6 +1,6 @@
-"""Boom commands checked and turned into boom motion, without ROS.
+"""Commands checked against the policy and turned into boom motion or loads, without ROS.
 
-Two commands (msg_docs/boom_length_cmd.md, msg_docs/deploy_cmd.md):
+Two motion commands (msg_docs/boom_length_cmd.md, msg_docs/deploy_cmd.md):
 
 * a trajectory (`trajectory_msgs/JointTrajectory`-like: `joint_names`,
   `points[i].positions`, `points[i].time_from_start`): the named booms
@@ -13,7 +13,13 @@ Two commands (msg_docs/boom_length_cmd.md, msg_docs/deploy_cmd.md):
   current length and rate to rest at the target, again the fastest within
   the limits.
 
-A command is accepted whole or rejected whole: `CommandError` says why,
+and two load commands (msg_docs/pressure_cmd.md, msg_docs/tip_force_cmd.md):
+`sensor_msgs/JointState`-like messages naming what they load (`quadrant_ab`
+... / `boom_a` ...) with the value in `effort` (Pa / N, +z of the sail frame);
+named values change, the others are held.
+
+Every limit is the policy's (`sail_ros.policy.Policy`, the same for the offline
+tools). A command is accepted whole or rejected whole: `CommandError` says why,
 and nothing of it is used.
 """
 
@@ -25,10 +31,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sail_ros.model import CycloidalProfile, WaypointProfile
+from sail_ros import topics
+from sail_ros.model import CycloidalProfile, SailParameters, WaypointProfile
+from sail_ros.policy import TOLERANCE, Policy
 from sail_ros.topics import BOOM_JOINTS
 
-TOLERANCE = 1e-9  # relative slack on the limits, for round-off in the profiles
 # Candidate durations of a deployment that starts while the booms move:
 # T_rest * GROWTH**k, k = -DURATION_STEPS_DOWN .. DURATION_STEPS_UP.
 GROWTH = 1.1
@@ -50,26 +57,19 @@ class BoomState(NamedTuple):
 
 
 @dataclasses.dataclass(frozen=True)
-class Limits:
-    """What any commanded motion must respect.
+class Rules:
+    """What a command must respect: the policy, for this sail (its full boom length
+    bounds `max_length` 0)."""
 
-    Attributes:
-        min_length, max_length: allowed boom lengths [m].
-        max_rate: largest |extension rate| [m/s].
-        max_acceleration: largest |extension acceleration| [m/s^2].
-        max_points: most points a trajectory may have (the work per command is
-            bounded: planning checks the whole spline).
-        max_pressure: largest |pressure| on a quadrant [Pa].
-        max_tip_force: largest |force| at a boom tip [N].
-    """
+    policy: Policy
+    sail: SailParameters
 
-    min_length: float
-    max_length: float
-    max_rate: float
-    max_acceleration: float
-    max_points: int = 1000
-    max_pressure: float = 0.01
-    max_tip_force: float = 1.0
+    def check(self, check, *args, **kwargs):
+        """`check(*args, **kwargs)` (a `Policy` method), its ValueError a CommandError."""
+        try:
+            return check(*args, **kwargs)
+        except ValueError as error:
+            raise CommandError(str(error)) from None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -90,7 +90,7 @@ class Plan:
     summary: str
 
 
-def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
+def plan_trajectory(trajectory, now: BoomState, rules: Rules) -> Plan:
     """Check a JointTrajectory-like command and make its motion.
 
     The trajectory starts at `now.t` whatever its header stamp; point times
@@ -115,10 +115,10 @@ def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
     repeated = sorted({name for name in names if names.count(name) > 1})
     if repeated:
         raise CommandError(f"joint name(s) {', '.join(map(repr, repeated))} given more than once")
-    if len(trajectory.points) > limits.max_points:
+    most = rules.policy.max_trajectory_points
+    if len(trajectory.points) > most:
         raise CommandError(
-            f"{len(trajectory.points)} points, more than max_trajectory_points = "
-            f"{limits.max_points}"
+            f"{len(trajectory.points)} points, more than max_trajectory_points = {most}"
         )
     points = list(trajectory.points)
     if not points:
@@ -146,7 +146,7 @@ def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
             )
         previous = offset
         for name, value in zip(names, positions, strict=True):
-            _check_length(value, f"point {i}: {name}", limits)
+            rules.check(rules.policy.check_length, value, f"point {i}: {name}", rules.sail)
         row = rows[0].copy()
         row[list(booms)] = positions
         times.append(now.t + offset)
@@ -154,7 +154,7 @@ def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
     start_rates = np.zeros(4)
     start_rates[list(booms)] = np.asarray(now.rates)[list(booms)]
     profile = WaypointProfile(times, np.array(rows), start_rates=start_rates)
-    _check_motion(profile, booms, limits)
+    rules.check(rules.policy.check_motion, profile, rules.sail, booms)
     return Plan(
         profile,
         booms,
@@ -164,13 +164,13 @@ def plan_trajectory(trajectory, now: BoomState, limits: Limits) -> Plan:
     )
 
 
-def plan_deploy(target: float, now: BoomState, limits: Limits, duration: float = 0.0) -> Plan:
+def plan_deploy(target: float, now: BoomState, rules: Rules, duration: float = 0.0) -> Plan:
     """Check a deployment target [m] for all four booms and make its motion.
 
     Args:
         target: final length of every boom [m].
         now: the booms' state when the command arrives.
-        limits: the limits the motion must respect.
+        rules: what the motion must respect.
         duration: the deployment's duration [s]; 0 for the fastest within the limits.
 
     Raises:
@@ -178,7 +178,8 @@ def plan_deploy(target: float, now: BoomState, limits: Limits, duration: float =
             motion of the given duration (or of any duration tried) within
             the limits.
     """
-    _check_length(target, "target", limits)
+    rules.check(rules.policy.check_length, target, "target", rules.sail)
+    policy = rules.policy
     lengths = np.asarray(now.lengths, dtype=float)
     at_rest = not (np.any(now.rates) or np.any(now.accelerations))
     fixed = duration > 0.0
@@ -187,22 +188,22 @@ def plan_deploy(target: float, now: BoomState, limits: Limits, duration: float =
             profile = CycloidalProfile(lengths, target, duration, t0=now.t)
             travel = float(np.max(np.abs(target - lengths)))
             peak_rate, peak_acceleration = 2 * travel / duration, 2 * math.pi * travel / duration**2
-            if peak_rate > limits.max_rate * (
+            if peak_rate > policy.max_rate * (
                 1 + TOLERANCE
-            ) or peak_acceleration > limits.max_acceleration * (1 + TOLERANCE):
+            ) or peak_acceleration > policy.max_acceleration * (1 + TOLERANCE):
                 raise CommandError(
                     f"a {duration:g} s deployment to {target:g} m needs {peak_rate:.4g} m/s and "
-                    f"{peak_acceleration:.4g} m/s^2; limits {limits.max_rate:g} m/s, "
-                    f"{limits.max_acceleration:g} m/s^2 (raise deploy_duration, or set it "
+                    f"{peak_acceleration:.4g} m/s^2; limits {policy.max_rate:g} m/s, "
+                    f"{policy.max_acceleration:g} m/s^2 (raise deploy_duration, or set it "
                     "to 0 for the fastest allowed)"
                 )
         else:
             profile = CycloidalProfile.within_limits(
-                lengths, target, limits.max_rate, limits.max_acceleration, t0=now.t
+                lengths, target, policy.max_rate, policy.max_acceleration, t0=now.t
             )
         kind = "cycloidal"
     else:
-        profile = _moving_deploy(target, now, limits, duration if fixed else None)
+        profile = _moving_deploy(target, now, rules, duration if fixed else None)
         kind = "cubic from the current rates"
     return Plan(
         profile,
@@ -213,18 +214,19 @@ def plan_deploy(target: float, now: BoomState, limits: Limits, duration: float =
     )
 
 
-def _moving_deploy(target: float, now: BoomState, limits: Limits, duration: float | None):
+def _moving_deploy(target: float, now: BoomState, rules: Rules, duration: float | None):
     """The quickest cubic from the current lengths and rates to rest at `target`
     that keeps within `limits` (or the one of the given `duration`)."""
     if duration is not None:
         candidates = [duration]
     else:
         # the time to go there from rest, or to stop the fastest boom, sets the scale
+        policy = rules.policy
         base = max(
             CycloidalProfile.within_limits(
-                now.lengths, target, limits.max_rate, limits.max_acceleration
+                now.lengths, target, policy.max_rate, policy.max_acceleration
             ).duration,
-            2.0 * float(np.max(np.abs(now.rates))) / limits.max_acceleration,
+            2.0 * float(np.max(np.abs(now.rates))) / policy.max_acceleration,
         )
         candidates = [base * GROWTH**k for k in range(-DURATION_STEPS_DOWN, DURATION_STEPS_UP)]
     reason = ""
@@ -235,7 +237,7 @@ def _moving_deploy(target: float, now: BoomState, limits: Limits, duration: floa
             start_rates=now.rates,
         )
         try:
-            _check_motion(profile, (0, 1, 2, 3), limits)
+            rules.check(rules.policy.check_motion, profile, rules.sail)
         except CommandError as error:
             reason = str(error)
             continue
@@ -251,35 +253,45 @@ def _moving_deploy(target: float, now: BoomState, limits: Limits, duration: floa
     )
 
 
-def _check_length(value, what: str, limits: Limits) -> None:
-    if not math.isfinite(value):
-        raise CommandError(f"{what} is {value!r}, not a finite length")
-    if not limits.min_length <= value <= limits.max_length:
+class LoadChange(NamedTuple):
+    """An accepted load command: the new values (4,) of the loaded kind, and a summary."""
+
+    values: np.ndarray
+    summary: str
+
+
+def plan_load(topic: str, message, current: np.ndarray, rules: Rules) -> LoadChange:
+    """The loads after `message` on `topic` (PRESSURE_CMD or TIP_FORCE_CMD).
+
+    Args:
+        topic: which load command.
+        message: a JointState-like object with `name` and `effort`.
+        current: the values held now (4,), [Pa] or [N].
+        rules: the limits (`max_pressure` [Pa] / `max_tip_force` [N]).
+
+    Raises:
+        CommandError: why the command is refused; nothing changes.
+    """
+    known = topics.LOAD_NAMES[topic]
+    pressure = topic == topics.PRESSURE_CMD
+    unit = "Pa" if pressure else "N"
+    names, values = list(message.name), list(message.effort)
+    if not names:
+        raise CommandError(f"names nothing to load; names are {', '.join(known)}")
+    if len(values) != len(names):
         raise CommandError(
-            f"{what} = {value:g} m is outside [min_length, max_length] = "
-            f"[{limits.min_length:g}, {limits.max_length:g}] m"
+            f"has {len(names)} name(s) but {len(values)} effort value(s): one value per name"
         )
-
-
-def _check_motion(profile: WaypointProfile, booms, limits: Limits) -> None:
-    """Reject the motion if a boom in `booms` leaves the length range or exceeds
-    the rate or acceleration limit anywhere along `profile`."""
-    low, high, rate, acceleration = profile.extremes()
-    slack = 1.0 + TOLERANCE
-    for k in booms:
-        name = BOOM_JOINTS[k]
-        if low[k] < limits.min_length / slack or high[k] > limits.max_length * slack:
-            raise CommandError(
-                f"{name} would pass through {low[k] if low[k] < limits.min_length else high[k]:.4g}"
-                f" m on the way, outside [min_length, max_length] = "
-                f"[{limits.min_length:g}, {limits.max_length:g}] m"
-            )
-        if rate[k] > limits.max_rate * slack:
-            raise CommandError(
-                f"{name} would move at {rate[k]:.4g} m/s, above max_rate {limits.max_rate:g} m/s"
-            )
-        if acceleration[k] > limits.max_acceleration * slack:
-            raise CommandError(
-                f"{name} would accelerate at {acceleration[k]:.4g} m/s^2, "
-                f"above max_acceleration {limits.max_acceleration:g} m/s^2"
-            )
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise CommandError(
+            f"unknown name(s) {', '.join(map(repr, unknown))}; names are {', '.join(known)}"
+        )
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise CommandError(f"names {', '.join(repeated)} more than once")
+    new = np.array(current, dtype=float)
+    for name, value in zip(names, values, strict=True):
+        new[known.index(name)] = rules.check(rules.policy.check_load, name, value, pressure)
+    summary = ", ".join(f"{name} = {new[known.index(name)]:g} {unit}" for name in names)
+    return LoadChange(new, summary + " (others held)" if len(names) < 4 else summary)

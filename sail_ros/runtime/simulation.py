@@ -23,16 +23,16 @@ import numpy as np
 from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
 from sail_ros.model.sail_model import StateSample
 from sail_ros.model.sampling import GridSampler
-from sail_ros.nodes.commands import (
+from sail_ros.runtime.commands import (
     BoomState,
     CommandError,
-    Limits,
     Plan,
+    Rules,
     plan_deploy,
+    plan_load,
     plan_trajectory,
 )
-from sail_ros.nodes.load_commands import plan_load
-from sail_ros.nodes.sim_params import SimConfig
+from sail_ros.runtime.config import SimConfig
 from sail_ros.topics import PRESSURE_CMD
 
 RUNNING, PAUSED, ERROR = "running", "paused", "error"
@@ -67,7 +67,7 @@ class Simulation:
     def __init__(self, model: SailModel, config: SimConfig):
         self.model = model
         self.step_size = config.integration_step
-        self.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
+        self.policy = config.policy  # the range alarms and the limits of commands
         self.range_warning = ""  # why the motion nears the end of the linear range
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
         self.stepper = model.stepper(
@@ -177,24 +177,14 @@ class Simulation:
         return self._within_range()
 
     def _within_range(self) -> bool:
-        """Check the tip deflections against the linear range (`range_limits`, fractions
-        of each boom's length): set `range_warning` past the first, stop with `error`
-        past the second, before anything non-finite goes out."""
-        warn, stop = self.range_limits
-        lengths = self.lengths
-        fractions = np.abs(self.model.tip_deflections(self.q)) / lengths
-        k = int(np.argmax(fractions))
-        if not (fractions[k] > warn or fractions[k] > stop):  # every step: no text to write
-            self.range_warning = ""
-            return True
-        reason = (
-            f"tip deflection of boom {'abcd'[k]} is {fractions[k]:.3g} of its length "
-            f"({fractions[k] * lengths[k]:.4g} m of {lengths[k]:.4g} m)"
-        )
-        if fractions[k] > stop:
-            self.error = f"{reason}, beyond tip_error_fraction {stop:g}: out of the linear range"
+        """Check the tip deflections against the linear range (the policy's
+        `range_state`): set `range_warning` past the warning fraction, stop with `error`
+        past the error one, before anything absurd goes out."""
+        warning, error = self.policy.range_state(self.model.tip_deflections(self.q), self.lengths)
+        self.range_warning = warning
+        if error:
+            self.error = error
             return False
-        self.range_warning = f"{reason}, beyond tip_warn_fraction {warn:g}"
         return True
 
     def reset(self, config: SimConfig) -> None:
@@ -211,7 +201,7 @@ class Simulation:
         self.sampler.restart()
         self.error = None
         self.range_warning = ""
-        self.range_limits = (config.tip_warn_fraction, config.tip_error_fraction)
+        self.policy = config.policy
         self.pressures, self.tip_forces = np.zeros(4), np.zeros(4)
         self._use_loads()
 
@@ -222,46 +212,68 @@ class Simulation:
 
     # -- commands ---------------------------------------------------------------------------
 
-    def deploy(self, target: float, limits: Limits, duration: float = 0.0) -> Plan:
+    @property
+    def rules(self) -> Rules:
+        """What a command must respect now: the policy, for this sail."""
+        return Rules(self.policy, self.model.params)
+
+    def deploy(self, target: float, duration: float = 0.0) -> Plan:
         """All booms to `target` [m] (see `plan_deploy`), starting at `t_model`.
 
         Raises:
             CommandError: why (counted in `rejected`); the motion is unchanged.
         """
-        return self._command(lambda now: plan_deploy(target, now, limits, duration))
+        return self._counted(lambda: self.apply_motion(self.plan_deploy(target, duration)))
 
-    def follow(self, trajectory, limits: Limits) -> Plan:
+    def follow(self, trajectory) -> Plan:
         """The named booms along a JointTrajectory-like command (see
         `plan_trajectory`), starting at `t_model`.
 
         Raises:
             CommandError: why (counted in `rejected`); the motion is unchanged.
         """
-        return self._command(lambda now: plan_trajectory(trajectory, now, limits))
+        return self._counted(lambda: self.apply_motion(self.plan_trajectory(trajectory)))
 
-    def load(self, topic: str, message, limits: Limits):
-        """Apply a `sail/pressure_cmd` or `sail/tip_force_cmd` (see `load_commands`) from
+    def load(self, topic: str, message):
+        """Apply a `sail/pressure_cmd` or `sail/tip_force_cmd` (see `plan_load`) from
         `t_model` on; returns the `LoadChange`.
 
         Raises:
             CommandError: why (counted in `rejected`); the loads are unchanged.
         """
+        return self._counted(lambda: self._apply_load(topic, message))
+
+    def plan_deploy(self, target: float, duration: float = 0.0) -> Plan:
+        """The motion of a deployment to `target` [m] from the booms at `t_model`, not yet
+        applied (nothing is counted). Raises CommandError."""
+        self._refuse_when_stopped()
+        return plan_deploy(target, self.boom_state(), self.rules, duration)
+
+    def plan_trajectory(self, trajectory) -> Plan:
+        """The motion of a trajectory command from the booms at `t_model`, not yet applied
+        (nothing is counted). Raises CommandError."""
+        self._refuse_when_stopped()
+        return plan_trajectory(trajectory, self.boom_state(), self.rules)
+
+    def apply_motion(self, plan: Plan) -> Plan:
+        """Follow `plan` from now on (its booms; the others carry on); counted accepted."""
+        self.motion = self.motion.replaced(plan.profile, plan.booms)
+        self.stepper.profile = self.motion
+        self.accepted += 1
+        self.last_command, self.last_command_start = plan.summary, plan.t_start
+        return plan
+
+    def count_rejection(self, error: Exception) -> None:
+        """A command refused: counted, and its reason kept for the diagnostics."""
+        self.rejected += 1
+        self.last_rejection = str(error)
+
+    def _apply_load(self, topic: str, message):
         pressure = topic == PRESSURE_CMD
-        try:
-            if self.error:
-                raise CommandError(
-                    "the integration stopped on a non-finite state; call sail/reset first"
-                )
-            change = plan_load(
-                topic,
-                message,
-                self.pressures if pressure else self.tip_forces,
-                limits.max_pressure if pressure else limits.max_tip_force,
-            )
-        except CommandError as error:
-            self.rejected += 1
-            self.last_rejection = str(error)
-            raise
+        self._refuse_when_stopped()
+        change = plan_load(
+            topic, message, self.pressures if pressure else self.tip_forces, self.rules
+        )
         if pressure:
             self.pressures = change.values
         else:
@@ -271,19 +283,13 @@ class Simulation:
         self.last_command, self.last_command_start = change.summary, self.t_model
         return change
 
-    def _command(self, make_plan) -> Plan:
+    def _refuse_when_stopped(self) -> None:
+        if self.error:
+            raise CommandError(f"the integration stopped ({self.error}); call sail/reset first")
+
+    def _counted(self, act):
         try:
-            if self.error:
-                raise CommandError(
-                    "the integration stopped on a non-finite state; call sail/reset first"
-                )
-            plan = make_plan(self.boom_state())
+            return act()
         except CommandError as error:
-            self.rejected += 1
-            self.last_rejection = str(error)
+            self.count_rejection(error)
             raise
-        self.motion = self.motion.replaced(plan.profile, plan.booms)
-        self.stepper.profile = self.motion
-        self.accepted += 1
-        self.last_command, self.last_command_start = plan.summary, plan.t_start
-        return plan

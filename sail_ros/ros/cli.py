@@ -25,12 +25,9 @@ from rclpy.logging import get_logger
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
-from sail_ros import EARLY_SIGNALS
+from sail_ros.early_signals import RECEIVED as EARLY_SIGNALS
 from sail_ros.model import yaml_values
-
-
-class ConfigError(ValueError):
-    """A parameter or option has a value the program cannot use; the message names it."""
+from sail_ros.model.fields import ConfigError
 
 
 def suggestion(name: str, known) -> str:
@@ -175,15 +172,18 @@ def bounded_teardown(limit_s: float = TEARDOWN_LIMIT_S):
 SERVE_WAIT_S = 1.0  # the longest wait of `serve_until_stopped`'s two threads [s]
 
 
-def serve_until_stopped(executor, node, stop: StopSignals) -> None:
+def serve_until_stopped(executor, node, stop: StopSignals, failed=None) -> None:
     """Run `executor`'s callbacks (it serves `node`) on a thread of its own until a stop
-    signal (or until rclpy is shut down); an error in a callback is raised here.
+    signal, until rclpy is shut down, or until the event `failed` is set (another of the
+    program's threads cannot go on; it should `stop.wake()` or wait up to SERVE_WAIT_S);
+    an error in a callback is raised here.
 
     The main thread sleeps meanwhile (`StopSignals.wait`): spinning there with a short
     timeout, only to notice a signal, would wake the process ten times a second and
     compete with the node's own threads for the interpreter."""
     failures = []
     stopping = threading.Event()
+    finished = threading.Event()  # set before the wake-up, so the main thread sees it
     # ends the thread's wait at once (`executor.wake` would not end a `spin_once`)
     wake = node.create_guard_condition(lambda: None)
 
@@ -196,12 +196,17 @@ def serve_until_stopped(executor, node, stop: StopSignals) -> None:
         except BaseException as error:  # handed to the main thread
             failures.append(error)
         finally:
+            finished.set()
             stop.wake()
 
     thread = threading.Thread(target=serve, name="executor", daemon=True)
     thread.start()
     try:
-        while thread.is_alive() and not stop.wait(SERVE_WAIT_S):
+        while (
+            not finished.is_set()
+            and not stop.wait(SERVE_WAIT_S)
+            and not (failed is not None and failed.is_set())
+        ):
             pass
     finally:
         stopping.set()

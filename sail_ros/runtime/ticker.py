@@ -31,19 +31,27 @@ class Ticker:
     after it becomes active; a late call is made at once, calls missed before it are
     skipped, not bunched.
 
+    A call that raises ends the calls: the error is kept in `failure` and handed to
+    `on_failure` (a program that cannot go on should say so and end, not carry on
+    without its periodic work).
+
     Args:
         work: the callable.
         lock: held around each call (an `RLock`, so that `work` may take it too).
         name: the thread's name.
+        on_failure: called with the exception if `work` raises (from the thread).
     """
 
-    def __init__(self, work, lock, name: str):
+    def __init__(self, work, lock, name: str, on_failure=None):
         self._work = work
         self._lock = lock
+        self._on_failure = on_failure
+        self.failure: BaseException | None = None
         self._period = 0.0
         self._active = False
         self._stopping = False
         self._restart = False  # set by `set`, read by the thread: before it starts
+        self._poked = False  # set by `poke`: one call at once, the schedule unchanged
         # a change wakes the thread by releasing this lock, which the thread takes
         self._changed = threading.Lock()
         self._changed.acquire()
@@ -58,6 +66,12 @@ class Ticker:
         if restart or active:
             self._restart = restart
             self._wake()
+
+    def poke(self) -> None:
+        """One call as soon as possible, active or not, without changing the schedule
+        (e.g. a command arrived while the periodic calls are far apart)."""
+        self._poked = True
+        self._wake()
 
     def make_realtime(self, priority: int) -> None:
         """Schedule the thread first-in first-out at `priority` (1-99; Linux's
@@ -82,8 +96,22 @@ class Ticker:
             self._thread.join()
 
     def _run(self) -> None:
+        try:
+            self._loop()
+        except BaseException as error:  # handed on: the owner decides what follows
+            self.failure = error
+            if self._on_failure is not None:
+                self._on_failure(error)
+
+    def _loop(self) -> None:
         next_call = None
         while not self._stopping:
+            if self._poked:
+                self._poked = False
+                with self._lock:
+                    if not self._stopping:
+                        self._work()
+                continue
             if not self._active:
                 self._changed.acquire()
                 next_call = None

@@ -1,18 +1,24 @@
 """The ROS parameters of every node: one table entry each, one descriptor, one check.
 
-A node lists its parameters as `ParamSpec`s. From a spec come the declared
-parameter (a `ParameterDescriptor` whose text carries the unit, the range,
-the array sizes or choices, and `read_only` where the value fixes the model
-or the time grid), the check of a value (`ParamSpec.check`, the same at
-start-up and on every change at run time), and for the tools the
-command-line option `--<name-with-dashes>` that overrides it.
+A node lists its parameters as `ParamSpec`s, made from the field tables
+(`ParamSpec.of`: the simulator's `runtime.config.PARAMETERS`) or written out
+(the recorder's and replay's). From a spec come the declared parameter (a
+`ParameterDescriptor` whose text carries the unit, the range, the array sizes
+or choices, and `read_only` where the value fixes the model or the time grid),
+the check of a value (`ParamSpec.check`: `model.fields.check_value`, the same at
+start-up, on every change at run time and in the offline tools), and for the
+tools the command-line option `--<name-with-dashes>` that overrides it.
+
+A double parameter takes an integer value as ROS users type it
+(`-p time_scale:=2`): at declaration the override is read as a double, and at run
+time a pre-set callback turns an integer into a double before rclpy checks the
+type.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -23,7 +29,8 @@ from rcl_interfaces.msg import (
 from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
-from sail_ros.ros_cli import ConfigError, suggestion
+from sail_ros.model.fields import ConfigError, Spec, check_value, range_text, spec_of
+from sail_ros.ros.cli import suggestion
 
 _SCALAR_TYPES = {
     bool: Parameter.Type.BOOL,
@@ -54,6 +61,39 @@ class ParamSpec:
     choices: tuple[str, ...] = ()
     short: str | None = None  # e.g. "-o", an extra command-line spelling
     item_type: type = str  # of a list whose default is empty
+    above_minimum: bool = False  # the minimum itself excluded
+
+    @classmethod
+    def of(cls, name: str, field) -> ParamSpec:
+        """The ROS parameter `name` of a table field (`model.fields.setting`)."""
+        spec = spec_of(field)
+        default = field.default_factory() if callable(field.default_factory) else field.default
+        unit = f" [{spec.unit}]" if spec.unit else ""
+        return cls(
+            name,
+            default,
+            spec.doc + unit,
+            spec.read_only,
+            spec.minimum,
+            spec.maximum,
+            sizes=spec.sizes,
+            choices=spec.choices,
+            item_type=float,
+            above_minimum=spec.above_minimum,
+        )
+
+    @property
+    def spec(self) -> Spec:
+        return Spec(
+            "",
+            self.description,
+            self.minimum,
+            self.maximum,
+            self.above_minimum,
+            self.read_only,
+            self.sizes,
+            self.choices,
+        )
 
     @property
     def is_list(self) -> bool:
@@ -80,11 +120,8 @@ class ParamSpec:
     def constraints(self) -> str:
         """The constraints a range cannot say, as text."""
         if self.sizes:
-            within = (
-                f", each in [{self.minimum:g}, {self.maximum:g}]"
-                if self.minimum is not None
-                else ""
-            )
+            limits = range_text(self.spec)
+            within = f", each {limits}" if limits else ""
             return f"{' or '.join(map(str, self.sizes))} values (booms a, b, c, d){within}"
         if self.choices:
             return "one of: " + ", ".join(self.choices)
@@ -116,39 +153,14 @@ class ParamSpec:
         flags = ", read-only" if self.read_only else ""
         return f"  {self.name} (default {self.default!r}{flags}): {self.description}"
 
-    def check(self, value) -> None:
-        """Raise ConfigError (naming the parameter and the value) unless `value` fits."""
-        kind = self.element_type
-        if self.is_list:
-            if isinstance(value, str | bytes) or not hasattr(value, "__len__"):
-                raise ConfigError(
-                    f"{self.name} must be a list, like {self.default!r}; got {value!r}"
-                )
-            items = list(value)
-            if self.sizes and len(items) not in self.sizes:
-                raise ConfigError(
-                    f"{self.name} must hold {' or '.join(map(str, self.sizes))} values, "
-                    f"got {len(items)}: {items!r}"
-                )
-        elif kind is float and isinstance(value, int) and not isinstance(value, bool):
-            raise ConfigError(f"{self.name} must be a double: write {value}.0, not {value}")
-        elif not isinstance(value, kind) or (isinstance(value, bool) and kind is not bool):
-            raise ConfigError(f"{self.name} must be a {kind.__name__}, got {value!r}")
-        else:
-            items = [value]
-        if self.choices and value not in self.choices:
-            raise ConfigError(
-                f"{self.name} must be one of {', '.join(self.choices)}, got {value!r}"
-            )
-        if self.minimum is None and self.maximum is None:
-            return
-        low = -math.inf if self.minimum is None else self.minimum
-        high = math.inf if self.maximum is None else self.maximum
-        for item in items:
-            if isinstance(item, bool) or not isinstance(item, int | float):
-                raise ConfigError(f"{self.name} must hold numbers, got {item!r}")
-            if not (math.isfinite(item) and low <= item <= high):
-                raise ConfigError(f"{self.name} = {item!r} is outside [{low:g}, {high:g}]")
+    def check(self, value):
+        """`value` as the parameter's type, or ConfigError naming the parameter, the value
+        and what is allowed (`model.fields.check_value`)."""
+        default = self.default if self.default != [] else [self.item_type()]
+        try:
+            return check_value(self.name, value, default, self.spec)
+        except ValueError as error:
+            raise ConfigError(str(error)) from None
 
 
 def node_options(parameter_overrides=(), context=None, namespace=None) -> dict:
@@ -173,20 +185,45 @@ def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
             a parameter was given that the node does not have.
     """
     values = {}
+    # rclpy keeps the values given on the command line or to the constructor here, and
+    # offers no other way to see them before declaring (tested in test_parameters_strict)
+    given = node._parameter_overrides
     for spec in specs:
         # an empty list would be declared as a byte array: declare the type instead
         initial = spec.default if spec.default != [] else spec.kind
+        override = given.get(spec.name)
+        ignore_override = False
+        if override is not None and _as_double(spec, override) is not None:
+            initial, ignore_override = _as_double(spec, override).value, True
         try:
-            parameter = node.declare_parameter(spec.name, initial, spec.descriptor())
+            parameter = node.declare_parameter(
+                spec.name, initial, spec.descriptor(), ignore_override=ignore_override
+            )
         except ParameterException as error:
             raise ConfigError(f"parameter {spec.name}: {error}") from None
         value = parameter.value if parameter.type_ != Parameter.Type.NOT_SET else spec.default
-        value = list(value) if spec.is_list else value
-        spec.check(value)
-        values[spec.name] = value
+        values[spec.name] = spec.check(list(value) if spec.is_list else value)
     reject_unknown(node)
     refuse_unknown_changes(node)
+    by_name = {spec.name: spec for spec in specs}
+    node.add_pre_set_parameters_callback(
+        lambda parameters: [
+            _as_double(by_name.get(p.name), p) or p for p in parameters
+        ]  # fmt: skip
+    )
     return values
+
+
+def _as_double(spec: ParamSpec | None, parameter: Parameter) -> Parameter | None:
+    """An integer (or integer array) given to a double parameter, as doubles; else None."""
+    if spec is None or spec.element_type is not float:
+        return None
+    if parameter.type_ == Parameter.Type.INTEGER:
+        return Parameter(parameter.name, Parameter.Type.DOUBLE, float(parameter.value))
+    if parameter.type_ == Parameter.Type.INTEGER_ARRAY:
+        values = [float(v) for v in parameter.value]
+        return Parameter(parameter.name, Parameter.Type.DOUBLE_ARRAY, values)
+    return None
 
 
 def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse.ArgumentParser:

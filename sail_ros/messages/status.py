@@ -1,0 +1,28 @@
+"""The keys of the simulator's integrator status on /diagnostics, in one place.
+
+The simulator writes them (`runtime.realtime.RealTimeRun.status`); `watch`, `report`,
+the log reader and the main job read them. msg_docs/diagnostics.md describes each.
+"""
+
+STATE = "state"  # running, paused or error
+SIM_TIME = "sim_time_s"  # simulation time of the latest sample [s]
+REAL_TIME_FACTOR = "real_time_factor"  # simulated s per wall s, last complete window
+REAL_TIME_FACTOR_WINDOW = "real_time_factor_window_s"  # that window [s of wall time]
+TIME_SCALE = "time_scale"  # the one asked for
+STEP_TIME_MEAN = "step_time_ms_mean"  # wall time per grid step over the window [ms]
+STEP_TIME_MAX = "step_time_ms_max"
+STEPS_IN_WINDOW = "steps_in_window"
+OVERRUNS = "overruns"  # ticks that found the model more than a step behind, since start
+REALTIME_PRIORITY = "realtime_priority"  # SCHED_FIFO priority in force; 0: normal
+ACCEPTED = "accepted_commands"  # since start, per outcome
+SUPERSEDED = "superseded_commands"
+REJECTED = "rejected_commands"
+IGNORED = "ignored_commands"
+DROPPED = "dropped_commands"  # of the rejected: refused because the intake was full
+LAST_COMMAND = "last_command"
+LAST_COMMAND_START = "last_command_start_s"
+LAST_REJECTION = "last_rejection"
+MOTION_END = "motion_end_s"
+ENERGY = "mechanical_energy_J"
+LOAD_POWER = "load_power_W"
+DISSIPATION = "damping_dissipation_W"

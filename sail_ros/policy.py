@@ -1,0 +1,245 @@
+"""The limits and alarms of the sail's operation: one policy for the simulator and every tool.
+
+What a boom may do (lengths, rates, accelerations), what loads it may take, how
+short a boom the integration can afford, how many points a trajectory and how
+many samples an offline output may hold, and when the linear model leaves its
+range (a tip deflection past a fraction of its boom's length). The simulator
+takes its policy from its ROS parameters of the same names; the offline tools
+from the same defaults, changed with `--set name=value`. So a command the
+simulator refuses is refused by `sail-ros deploy`, `modes`, `plant` and
+`stability` alike, with the same words: the field, the value and the range.
+
+A run that leaves the model's range stops with `OutOfRangeError`, whose text is
+the simulator's alarm.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from sail_ros.model import SailParameters
+from sail_ros.model.fields import check_fields, setting
+from sail_ros.model.sail_model import cantilever_frequency
+from sail_ros.model.stepper import PHASE_PER_STEP
+
+TOLERANCE = 1e-9  # relative slack on the limits, for round-off in the profiles
+BOOMS = "abcd"
+# offline outputs (time histories held in memory) are refused beyond this, with the estimate
+MAX_OUTPUT_BYTES = 1 << 30
+
+
+class OutOfRangeError(RuntimeError):
+    """A run left the linear model's range or became non-finite; the text says where."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Policy:
+    """The limits a motion, a load or an output must respect, and the alarms of a run."""
+
+    min_length: float = setting(
+        1.0, "m", "shortest boom length a command may ask for or pass through",
+        minimum=1e-3, maximum=1e4, read_only=False,
+    )  # fmt: skip
+    max_length: float = setting(
+        0.0, "m", "longest boom length a command may ask for or pass through; 0: the "
+        "fully deployed length a/sqrt(2) of the sail", minimum=0.0, maximum=1e4,
+        read_only=False,
+    )  # fmt: skip
+    max_rate: float = setting(
+        1.0, "m/s", "largest |extension rate| of a commanded motion", minimum=1e-6,
+        maximum=100.0, read_only=False,
+    )  # fmt: skip
+    max_acceleration: float = setting(
+        0.5, "m/s^2", "largest |extension acceleration| of a commanded motion",
+        minimum=1e-6, maximum=100.0, read_only=False,
+    )  # fmt: skip
+    max_trajectory_points: int = setting(
+        1000, "-", "most points a boom-length trajectory may hold (planning checks the "
+        "whole spline)", minimum=1, maximum=100000, read_only=False,
+    )  # fmt: skip
+    max_pressure: float = setting(
+        0.01, "Pa", "largest |pressure| on a quadrant (solar radiation pressure at 1 AU "
+        "is at most 9.1e-6 Pa)", minimum=0.0, maximum=1e3, read_only=False,
+    )  # fmt: skip
+    max_tip_force: float = setting(
+        1.0, "N", "largest |force| at a boom tip", minimum=0.0, maximum=1e4, read_only=False
+    )
+    max_substep_rate: float = setting(
+        3200.0, "1/s", "most sub-steps per second of simulation the shortest allowed boom "
+        "may need: its first bending frequency, which the sub-steps resolve, grows like "
+        "1/L^2, so this bounds min_length from below", minimum=1.0, maximum=1e7,
+        read_only=False,
+    )  # fmt: skip
+    tip_warn_fraction: float = setting(
+        0.1, "-", "a boom-tip deflection beyond this fraction of its boom's length is a "
+        "warning: the linear (small-deflection) model is leaving its range", minimum=1e-6,
+        maximum=10.0, read_only=False,
+    )  # fmt: skip
+    tip_error_fraction: float = setting(
+        0.3, "-", "a boom-tip deflection beyond this fraction of its boom's length stops "
+        "the run (the results mean nothing beyond); above tip_warn_fraction", minimum=1e-6,
+        maximum=10.0, read_only=False,
+    )  # fmt: skip
+
+    def __post_init__(self):
+        check_fields(self)
+        if not self.tip_warn_fraction < self.tip_error_fraction:
+            raise ValueError(
+                f"tip_warn_fraction ({self.tip_warn_fraction:g}) must be below "
+                f"tip_error_fraction ({self.tip_error_fraction:g})"
+            )
+        if self.max_length and not self.min_length < self.max_length:
+            raise ValueError(
+                f"min_length ({self.min_length:g} m) must be below max_length "
+                f"({self.max_length:g} m)"
+            )
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    def replace(self, **changes) -> Policy:
+        return dataclasses.replace(self, **changes)
+
+    # -- lengths and motion ----------------------------------------------------------------
+
+    def length_range(self, sail: SailParameters) -> tuple[float, float]:
+        """`[min_length, max_length]` [m] for `sail` (max_length 0: its full length)."""
+        return self.min_length, self.max_length or sail.full_boom_length
+
+    def check_sail(self, sail: SailParameters) -> None:
+        """The range of lengths must be one the sail and the integration can have: below
+        the longest, and not so short that its booms' sub-steps cost more than
+        `max_substep_rate`."""
+        low, high = self.length_range(sail)
+        if not low < high:
+            raise ValueError(
+                f"min_length ({low:g} m) must be below max_length ({high:g} m, the fully "
+                f"deployed length of a {sail.sail_side:g} m sail when max_length is 0)"
+            )
+        needed = cantilever_frequency(sail, low) / PHASE_PER_STEP
+        if needed > self.max_substep_rate:
+            shortest = low * math.sqrt(needed / self.max_substep_rate)  # rate ~ 1/L^2
+            raise ValueError(
+                f"min_length = {low:g} m would need {needed:.4g} sub-steps per second "
+                f"of simulation, more than max_substep_rate = {self.max_substep_rate:g}: the "
+                f"shortest affordable min_length here is {math.ceil(shortest * 1e3) / 1e3:g} m"
+            )
+
+    def check_length(self, value: float, what: str, sail: SailParameters) -> float:
+        """`value` [m] if a boom may have that length, else ValueError naming `what`."""
+        low, high = self.length_range(sail)
+        if not math.isfinite(value):
+            raise ValueError(f"{what} is {value!r}, not a finite length")
+        if not low <= value <= high:
+            raise ValueError(
+                f"{what} = {value:g} m is outside [min_length, max_length] = [{low:g}, {high:g}] m"
+            )
+        return float(value)
+
+    def check_lengths(self, values, what: str, sail: SailParameters) -> np.ndarray:
+        """Per-boom lengths [m] (4), each checked (`what` names them: "lengths")."""
+        values = np.asarray(values, dtype=float)
+        for boom, value in zip(BOOMS, values, strict=True):
+            self.check_length(float(value), f"{what} of boom {boom}", sail)
+        return values
+
+    def check_rates(self, rates, what: str = "rates") -> np.ndarray:
+        """Per-boom constant extension rates [m/s] (4), each within max_rate."""
+        rates = np.asarray(rates, dtype=float)
+        for boom, rate in zip(BOOMS, rates, strict=True):
+            if not abs(rate) <= self.max_rate * (1.0 + TOLERANCE):
+                raise ValueError(
+                    f"{what} of boom {boom} = {rate:g} m/s is outside [-max_rate, max_rate] = "
+                    f"[{-self.max_rate:g}, {self.max_rate:g}] m/s"
+                )
+        return rates
+
+    def check_motion(self, profile, sail: SailParameters, booms=range(4), what: str = "") -> None:
+        """A motion (a profile with `extremes()`) of the booms at indices `booms`: its
+        lengths, |rates| and |accelerations| everywhere within the limits."""
+        low, high, rate, acceleration = profile.extremes()
+        shortest, longest = self.length_range(sail)
+        slack = 1.0 + TOLERANCE
+        prefix = f"{what}: " if what else ""
+        for k in booms:
+            name = f"boom_{BOOMS[k]}"
+            if low[k] < shortest / slack or high[k] > longest * slack:
+                reached = low[k] if low[k] < shortest / slack else high[k]
+                raise ValueError(
+                    f"{prefix}{name} would pass through {reached:.4g} m on the way, outside "
+                    f"[min_length, max_length] = [{shortest:g}, {longest:g}] m"
+                )
+            if rate[k] > self.max_rate * slack:
+                raise ValueError(
+                    f"{prefix}{name} would move at {rate[k]:.4g} m/s, above max_rate "
+                    f"{self.max_rate:g} m/s"
+                )
+            if acceleration[k] > self.max_acceleration * slack:
+                raise ValueError(
+                    f"{prefix}{name} would accelerate at {acceleration[k]:.4g} m/s^2, above "
+                    f"max_acceleration {self.max_acceleration:g} m/s^2"
+                )
+
+    # -- loads -----------------------------------------------------------------------------
+
+    def check_load(self, name: str, value: float, pressure: bool) -> float:
+        """A pressure [Pa] (`pressure`) or tip force [N] named `name`, within its limit."""
+        unit, limit_name = ("Pa", "max_pressure") if pressure else ("N", "max_tip_force")
+        limit = self.max_pressure if pressure else self.max_tip_force
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"{name} = {value} {unit} is not finite")
+        if abs(value) > limit:
+            raise ValueError(
+                f"|{name}| = {abs(value):g} {unit} exceeds {limit_name} = {limit:g} {unit}"
+            )
+        return value
+
+    # -- alarms of a run -------------------------------------------------------------------
+
+    def check_initial_tips(self, tips, lengths, what: str = "initial tip deflection") -> None:
+        """Tip deflections [m] a run may start from: within tip_error_fraction of each
+        boom's length [m] (a start beyond would stop the run at once)."""
+        for boom, tip, length in zip(BOOMS, np.asarray(tips, float), np.asarray(lengths, float),
+                                     strict=True):  # fmt: skip
+            if not math.isfinite(tip) or abs(tip) > self.tip_error_fraction * length:
+                raise ValueError(
+                    f"{what} of boom {boom} = {tip:g} m is outside +-tip_error_fraction x length "
+                    f"= +-{self.tip_error_fraction * length:.4g} m (boom length {length:g} m)"
+                )
+
+    def range_state(self, tips, lengths) -> tuple[str, str]:
+        """`(warning, error)` texts of tip deflections [m] at lengths [m] (4 each): "" while
+        within tip_warn_fraction / tip_error_fraction of each boom's length."""
+        fractions = np.abs(tips) / lengths
+        k = int(np.argmax(fractions))
+        warn, stop = self.tip_warn_fraction, self.tip_error_fraction
+        if not (fractions[k] > warn or fractions[k] > stop):  # every step: no text to write
+            if np.isfinite(fractions[k]):
+                return "", ""
+            return "", f"state became non-finite (tip deflection of boom {BOOMS[k]})"
+        reason = (
+            f"tip deflection of boom {BOOMS[k]} is {fractions[k]:.3g} of its length "
+            f"({fractions[k] * lengths[k]:.4g} m of {lengths[k]:.4g} m)"
+        )
+        if fractions[k] > stop:
+            return "", f"{reason}, beyond tip_error_fraction {stop:g}: out of the linear range"
+        return f"{reason}, beyond tip_warn_fraction {warn:g}", ""
+
+    # -- offline outputs -------------------------------------------------------------------
+
+    @staticmethod
+    def check_output(samples: int, bytes_per_sample: int, what: str) -> None:
+        """An offline output of `samples` samples must fit in MAX_OUTPUT_BYTES; refused
+        with the estimate before anything is allocated."""
+        size = float(samples) * bytes_per_sample
+        if size > MAX_OUTPUT_BYTES:
+            raise ValueError(
+                f"{what}: {samples:.4g} samples would take {size / 2**30:.3g} GiB, more than "
+                f"the {MAX_OUTPUT_BYTES / 2**30:g} GiB an offline output may hold (fewer "
+                "samples: a shorter duration or a lower output rate)"
+            )

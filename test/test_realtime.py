@@ -1,0 +1,269 @@
+"""`RealTimeRun` without ROS, on a fake clock: pacing, samples, overruns, the real-time
+factor, and commands taken in batches (floods of valid and malformed commands held
+without stalling, every command answered and counted)."""
+
+import math
+
+import numpy as np
+import pytest
+from std_msgs.msg import Float64
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from sail_ros import topics
+from sail_ros.messages import status as key
+from sail_ros.model import SailModel
+from sail_ros.runtime.config import config_from_values
+from sail_ros.runtime.realtime import COMMAND_LINES, RTF_MIN_WINDOW_S, RealTimeRun
+from sail_ros.runtime.simulation import PAUSED, RUNNING
+
+pytestmark = pytest.mark.model
+
+START_NS = 1_700_000_000_000_000_000
+
+
+class Clock:
+    """A steady clock that moves only when told."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+class Outputs:
+    """Everything a run hands out, kept."""
+
+    def __init__(self):
+        self.states, self.shapes, self.statuses, self.answers, self.lines = [], [], [], [], []
+
+    def state(self, stamp_ns, sample):
+        self.states.append((stamp_ns, sample))
+
+    def shape(self, stamp_ns, q, lengths):
+        self.shapes.append(stamp_ns)
+
+    def status(self, stamp_ns, level, message, values):
+        self.statuses.append({"level": level, "message": message, **values})
+
+    def answer(self, answer):
+        self.answers.append(answer)
+
+    def log(self, severity, text):
+        self.lines.append((severity, text))
+
+
+@pytest.fixture(scope="module")
+def model():
+    return SailModel()
+
+
+def make_run(model, **values):
+    clock, outputs = Clock(), Outputs()
+    periods = []
+    run = RealTimeRun(
+        model,
+        config_from_values(values),
+        outputs,
+        START_NS,
+        clock=clock,
+        on_schedule=periods.append,
+    )
+    run.start(START_NS)
+    return run, clock, outputs, periods
+
+
+def advance(run, clock, seconds, period=None):
+    """Tick every `period` [s of the fake clock] (default the run's) for `seconds`."""
+    period = period or run.tick_period
+    end = clock.now + seconds
+    while clock.now < end - 1e-12:
+        clock.now += period
+        with run.lock:
+            run.tick()
+
+
+def deploy(target):
+    return Float64(data=float(target))
+
+
+def trajectory(booms, length, seconds):
+    point = JointTrajectoryPoint(positions=[float(length)] * len(booms))
+    point.time_from_start.sec = int(seconds)
+    return JointTrajectory(joint_names=[f"boom_{b}" for b in booms], points=[point])
+
+
+def info(sequence):
+    return {"source_timestamp": START_NS + 1 + sequence, "publication_sequence_number": sequence}
+
+
+def test_the_simulation_keeps_pace_with_the_clock_and_samples_on_its_grid(model):
+    run, clock, outputs, periods = make_run(model, shape_rate_hz=5.0)
+    assert periods == [pytest.approx(0.02)]  # 2 steps of 0.01 s per tick at 50 Hz
+    advance(run, clock, 2.0)
+    assert run.sim.t == pytest.approx(2.0, abs=1e-9)
+    stamps = [stamp for stamp, _ in outputs.states]
+    assert len(stamps) == 101 and stamps[0] == START_NS  # the start's own sample
+    assert np.diff(stamps) == pytest.approx(2e7)  # every 0.02 s of simulation
+    assert len(outputs.shapes) == 11  # 5 Hz
+    assert run.overruns == 0
+    advance(run, clock, 1.0)
+    assert outputs.statuses and outputs.statuses[-1][key.REAL_TIME_FACTOR] == pytest.approx(1.0)
+
+
+def test_overruns_are_counted_each_and_logged_once_in_five_seconds(model):
+    run, clock, outputs, _ = make_run(model, shape_rate_hz=0.0)
+    advance(run, clock, 0.5)
+    for _ in range(3):  # a tick 50 ms late: the model is five steps behind
+        clock.now += 0.05
+        advance(run, clock, 0.2)
+    assert run.overruns == 3
+    assert sum("overrun at t = " in text for _, text in outputs.lines) == 1
+    clock.now += 6.0  # past the interval: the next overrun says so again
+    advance(run, clock, 0.1)
+    assert sum("overrun at t = " in text for _, text in outputs.lines) == 2
+
+
+def test_the_real_time_factor_is_not_taken_over_short_windows(model):
+    """A status off the schedule (a reset or a pause publishes one) must not close a
+    window of a few milliseconds: the factor would read tens of times the time scale."""
+    run, clock, outputs, _ = make_run(model, time_scale=2.0, diagnostics_rate_hz=4.0)
+    advance(run, clock, 1.0)
+    clock.now += 0.05  # the model falls 0.1 s of simulation behind
+    run.publish_status()
+    advance(run, clock, 0.02, period=0.02)  # it catches up at once
+    run.publish_status()  # a few ms after the previous one
+    advance(run, clock, 2.0)
+    measured = [s for s in outputs.statuses if s[key.REAL_TIME_FACTOR_WINDOW] > 0]
+    assert len(measured) >= 4
+    for status in measured:
+        assert status[key.REAL_TIME_FACTOR_WINDOW] >= RTF_MIN_WINDOW_S
+        assert status[key.REAL_TIME_FACTOR] == pytest.approx(2.0, rel=0.1), status
+
+
+def test_a_slow_state_rate_does_not_slow_the_integration(model):
+    run, clock, outputs, periods = make_run(model, state_rate_hz=0.1, shape_rate_hz=0.0)
+    assert periods[-1] == pytest.approx(0.05)  # ticks at least every 50 ms of wall time
+    advance(run, clock, 3.0)
+    assert run.sim.t == pytest.approx(3.0, abs=0.011)
+    assert len(outputs.states) == 1  # the next sample is due at 10 s
+
+
+def test_pause_resume_and_reset_hold_and_restart_the_clock(model):
+    run, clock, outputs, periods = make_run(model, initial_tip_deflection=[0.0, 0.05, 0.0, 0.0])
+    advance(run, clock, 0.5)
+    assert run.pause(True) == f"paused at t = {run.sim.t:.6f} s" and run.sim.state == PAUSED
+    assert periods[-1] == pytest.approx(1.0)  # only the status while paused
+    held = run.sim.t
+    advance(run, clock, 1.0, period=0.02)
+    assert run.sim.t == held and run.pause(True) == "already paused"
+    assert run.reset().endswith("(paused)")
+    assert run.sim.q == pytest.approx(model.initial_coordinates([0, 0.05, 0, 0]), abs=1e-15)
+    assert run.sim.t == held  # time goes on from where it was: stamps never go backwards
+    assert run.pause(False).startswith("resumed") and run.sim.state == RUNNING
+    advance(run, clock, 0.3)
+    assert run.sim.t == pytest.approx(held + 0.3, abs=1e-9)
+
+
+def count(outputs, outcome):
+    return sum(answer.outcome == outcome for answer in outputs.answers)
+
+
+def test_a_flood_of_deploy_commands_costs_one_plan_a_tick(model):
+    """1000 valid deploy commands a second for 2 s, 20 between two ticks: the newest of
+    each batch is planned and applied, the others are answered superseded unplanned; the
+    run never falls behind, every command is answered and counted, and the log holds a
+    few lines and counts instead of 2000 lines."""
+    run, clock, outputs, _ = make_run(model, shape_rate_hz=0.0)
+    planned = []
+    plan = run.sim.plan_deploy
+    run.sim.plan_deploy = lambda *args: planned.append(args) or plan(*args)
+    sent = 0
+    for _ in range(100):  # 100 ticks of 20 ms
+        for _ in range(20):
+            run.submit(topics.DEPLOY_CMD, deploy(10.0 + 0.001 * (sent % 500)), info(sent))
+            sent += 1
+        advance(run, clock, 0.02)
+    status = run.status()[3]
+    assert status[key.ACCEPTED] == 100 and status[key.SUPERSEDED] == 1900
+    assert status[key.REJECTED] == 0 and len(planned) == 100
+    assert count(outputs, topics.ACCEPTED) + count(outputs, topics.SUPERSEDED) == sent
+    assert run.overruns == 0 and run.sim.t == pytest.approx(2.0, abs=1e-9)
+    advance(run, clock, 6.0)
+    assert len(outputs.lines) < 20
+    assert sum(f"{1900 - COMMAND_LINES} superseded" in text for _, text in outputs.lines) == 1
+
+
+def test_a_flood_of_malformed_commands_is_rejected_and_counted(model):
+    run, clock, outputs, _ = make_run(model, shape_rate_hz=0.0)
+    sent = 0
+    for _ in range(50):
+        for _ in range(20):
+            run.submit(topics.DEPLOY_CMD, deploy(math.nan), info(sent))
+            sent += 1
+        advance(run, clock, 0.02)
+    status = run.status()[3]
+    assert status[key.REJECTED] == sent and status[key.ACCEPTED] == 0
+    assert count(outputs, topics.REJECTED) == sent
+    assert all("not a finite length" in a.message for a in outputs.answers)
+    advance(run, clock, 6.0)  # the interval of the counts ends
+    warnings = [text for severity, text in outputs.lines if severity == "warning"]
+    assert sum(text.startswith("sail/deploy_cmd rejected:") for text in warnings) == COMMAND_LINES
+    assert sum(f"{sent - COMMAND_LINES} rejected" in text for text in warnings) == 1
+    assert run.overruns == 0
+
+
+@pytest.mark.parametrize(
+    ("commands", "outcomes", "final_a", "final_b"),
+    [
+        # a newer rejected deploy leaves the older one to run, as one by one would
+        ([deploy(12.0), deploy(500.0)], ["accepted", "rejected"], 12.0, 12.0),
+        # a deploy then a trajectory of boom a: both run, a follows the trajectory
+        ([deploy(12.0), trajectory("a", 11.0, 8)], ["accepted", "accepted"], 11.0, 12.0),
+        # a trajectory of a and b, then one of b: both run, b follows the newer
+        ([trajectory("ab", 11.0, 8), trajectory("b", 13.0, 8)], ["accepted"] * 2, 11.0, 13.0),
+        # a trajectory of b replaced by a deploy before it started
+        ([trajectory("b", 13.0, 8), deploy(12.0)], ["superseded", "accepted"], 12.0, 12.0),
+        # a trajectory naming an unknown boom replaces nothing, and is rejected
+        (
+            [trajectory("b", 13.0, 8), trajectory("be", 12.0, 8)],
+            ["accepted", "rejected"],
+            10.0,
+            13.0,
+        ),
+    ],
+    ids=["rejected-newest", "deploy-then-boom", "overlapping", "replaced", "unknown-boom"],
+)
+def test_a_batch_ends_as_acting_on_its_commands_one_by_one(
+    model, commands, outcomes, final_a, final_b
+):
+    run, clock, outputs, _ = make_run(model, shape_rate_hz=0.0)
+    for i, message in enumerate(commands):
+        topic = topics.DEPLOY_CMD if isinstance(message, Float64) else topics.BOOM_LENGTH_CMD
+        run.submit(topic, message, info(i))
+    advance(run, clock, 0.02)
+    by_sequence = sorted(outputs.answers, key=lambda answer: answer.sequence)
+    assert [answer.outcome for answer in by_sequence] == outcomes
+    lengths = run.sim.motion(1e6)[0]
+    assert (lengths[0], lengths[1]) == pytest.approx((final_a, final_b))
+
+
+def test_a_full_intake_rejects_and_counts(model):
+    run, clock, outputs, _ = make_run(model, max_queued_commands=5)
+    for i in range(8):
+        run.submit(topics.PRESSURE_CMD, topics.load_command(topics.PRESSURE_CMD, {}), info(i))
+    rejected = [a for a in outputs.answers if a.outcome == topics.REJECTED]
+    assert len(rejected) == 3 and "5 commands were already waiting" in rejected[0].message
+    advance(run, clock, 0.02)
+    status = run.status()[3]
+    assert status[key.DROPPED] == 3 and status[key.REJECTED] == 8  # 5 name nothing
+
+
+def test_commands_published_before_the_start_are_ignored_and_counted(model):
+    run, clock, outputs, _ = make_run(model)
+    stale = {"source_timestamp": START_NS - 1, "publication_sequence_number": 1}
+    assert run.submit(topics.DEPLOY_CMD, deploy(12.0), stale) is False
+    assert outputs.answers[-1].outcome == topics.IGNORED
+    assert run.status()[3][key.IGNORED] == 1
+    assert run.submit(topics.DEPLOY_CMD, deploy(12.0), stale) is False  # the same again
+    assert len(outputs.answers) == 1  # a repeat of a sample is not a new command
