@@ -62,11 +62,11 @@ def publish(rate: float, steps: int, points: int) -> None:
     publishers = {t: node.create_publisher(type(m), t, 10) for t, m in step.items()}
     while min(p.get_subscription_count() for p in publishers.values()) < 1:
         rclpy.spin_once(node, timeout_sec=0.01)
-    from rclpy.serialization import serialize_message
+    from sail_ros.message_bytes import serialize
 
     # serialised ahead, so that the rate measures the recorder, not building messages
     messages = [
-        {topic: serialize_message(message) for topic, message in sail_step(i, points).items()}
+        {topic: serialize(message) for topic, message in sail_step(i, points).items()}
         for i in range(min(steps, 50))
     ]
     start = due = time.monotonic()

@@ -16,7 +16,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros import topics
-from sail_ros.message_bytes import ShapeSerializer, StateSerializer
+from sail_ros.message_bytes import ShapeSerializer, StateSerializer, serialize
 from sail_ros.model import (
     CycloidalProfile,
     SailModel,
@@ -715,10 +715,10 @@ def test_a_trajectory_longer_than_max_trajectory_points_is_rejected_whole(config
     assert sim.follow(command).booms == (0,)
 
 
-def test_shape_bytes_decode_to_the_message_built_from_objects(model):
-    """What the simulator publishes on /sail/shape (CDR filled with numpy) is, after
-    rclpy's deserialiser, the message `topics.shape` builds: every stamp, point and
-    colour, frame after frame (each fills a fresh copy of the template)."""
+def test_shape_bytes_are_those_of_the_message_built_from_objects(model):
+    """What the simulator publishes on /sail/shape (CDR filled with numpy) is, byte for
+    byte, the serialised message `topics.shape` builds: every stamp, point and colour,
+    frame after frame (each fills a fresh copy of the template)."""
     surface = SailSurface(model, 6)
     serializer = ShapeSerializer(surface.triangles, surface.boom_stations.size, "body")
     lengths = [10.0, 11.0, 12.0, 13.0]
@@ -729,13 +729,16 @@ def test_shape_bytes_decode_to_the_message_built_from_objects(model):
     ):
         q = model.initial_coordinates(tips)
         vertices, booms = surface.vertices(q, lengths), surface.boom_lines(q, lengths)
-        decoded = deserialize_message(serializer.serialize(stamp_ns, vertices, booms), MarkerArray)
-        assert decoded == topics.shape(stamp_ns, vertices, surface.triangles, booms, "body")
+        data = serializer.serialize(stamp_ns, vertices, booms)
+        built = topics.shape(stamp_ns, vertices, surface.triangles, booms, "body")
+        assert data == serialize(built)
+        assert deserialize_message(data, MarkerArray) == built
 
 
-def test_state_bytes_decode_to_the_messages_built_from_objects(model):
+def test_state_bytes_are_those_of_the_messages_built_from_objects(model):
     """What the simulator publishes on the state topics (CDR filled with numpy) is,
-    after rclpy's deserialiser, what `topics.state_messages` builds, topic by topic."""
+    byte for byte, the serialised messages `topics.state_messages` builds, topic by
+    topic."""
     for with_clock in (False, True):
         serializer = StateSerializer(model.coordinate_names, "body", with_clock=with_clock)
         rng = np.random.default_rng(7)
@@ -749,4 +752,5 @@ def test_state_bytes_decode_to_the_messages_built_from_objects(model):
             sent = serializer.serialize(stamp_ns, sample)
             assert [name for name, _ in sent] == [name for name, _ in built]
             for (_, data), (name, message) in zip(sent, built, strict=True):
+                assert data == serialize(message), name
                 assert deserialize_message(data, type(message)) == message, name

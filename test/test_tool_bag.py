@@ -2,11 +2,12 @@
 
 import pytest
 from mcap.reader import make_reader
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import deserialize_message
 from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 
-from sail_ros.bag import BagReader, BagWriter, default_qos_profile, trim_cdr
+from sail_ros.bag import BagReader, BagWriter, default_qos_profile
+from sail_ros.message_bytes import serialize
 from sail_ros.tools.bag import main
 
 pytestmark = pytest.mark.model
@@ -17,7 +18,7 @@ TOPIC = "/sail/boom_state"
 def state(i: int) -> bytes:
     message = JointState(name=["boom_a"], position=[0.1 * i])
     message.header.stamp.sec = i
-    return trim_cdr(serialize_message(message), "sensor_msgs/msg/JointState")
+    return serialize(message)
 
 
 @pytest.fixture

@@ -16,8 +16,9 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
   the recorder stores them;
 - metadata `sail_deploy_scenario`: the scenario as YAML and the epoch.
 
-The CDR bytes are trimmed to their last field (`sail_ros.bag.trim_cdr`),
-as a DDS reader would deliver them. A chunk is closed after every simulated
+The messages are the bytes the live simulator publishes, made by the same
+serialisers (`sail_ros.message_bytes`: exact CDR, nothing after the last
+field). A chunk is closed after every simulated
 second (CHUNK_SECONDS), as the recorder closes one per wall-clock second of a
 real-time run, so a file cut short keeps everything before its last chunk.
 """
@@ -27,12 +28,12 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import yaml
-from rclpy.serialization import serialize_message
 
 from sail_ros import topics
 from sail_ros.analysis.deployment import DeploymentRun
-from sail_ros.bag import BagWriter, trim_cdr
+from sail_ros.bag import BagWriter
 from sail_ros.bag.qos import recorded_entry
+from sail_ros.message_bytes import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 
@@ -79,10 +80,6 @@ def simulator_parameters(
     return {name: topics.yaml_value(value) for name, value in values.items()}
 
 
-def _cdr(message, type_name: str) -> bytes:
-    return trim_cdr(serialize_message(message), type_name)
-
-
 def write_deployment_log(
     path,
     model: SailModel,
@@ -112,8 +109,13 @@ def write_deployment_log(
     Returns:
         the `BagWriter` file summaries.
     """
+    states = StateSerializer(model.coordinate_names, frame_id, with_clock=True)
     surface = SailSurface(model, shape_divisions) if shape_every else None
-    names = model.coordinate_names
+    shapes = (
+        ShapeSerializer(surface.triangles, surface.boom_stations.size, frame_id)
+        if surface
+        else None
+    )
     with BagWriter(path, overwrite=True, fsync=False) as bag:  # regenerable: no fsync cost
         bag.add_metadata(topics.PARAMETERS_METADATA, parameters)
         bag.add_metadata(
@@ -133,23 +135,13 @@ def write_deployment_log(
                 bag.flush()
                 chunk_end = (t // CHUNK_SECONDS + 1) * CHUNK_SECONDS
             stamp = topics.stamp_ns(LOG_EPOCH_NS, float(t))
-            messages = topics.state_messages(stamp, run.sample(i), names, frame_id, with_clock=True)
+            messages = states.serialize(stamp, run.sample(i))
             if shape_every and i % shape_every == 0:
                 vertices = surface.vertices(run.q[i], run.lengths[i])
                 booms = surface.boom_lines(run.q[i], run.lengths[i])
-                messages.append(
-                    (
-                        topics.SHAPE,
-                        topics.shape(stamp, vertices, surface.triangles, booms, frame_id),
-                    )
-                )
-            for topic, message in messages:
-                bag.write(
-                    topics.absolute(topic),
-                    _cdr(message, topics.TOPICS[topic].type_name),
-                    log_time_ns=stamp,
-                    publish_time_ns=stamp,
-                )
+                messages.append((topics.SHAPE, shapes.serialize(stamp, vertices, booms)))
+            for topic, data in messages:
+                bag.write(topics.absolute(topic), data, log_time_ns=stamp, publish_time_ns=stamp)
             if progress is not None:
                 progress(float(t))
     return bag.close()

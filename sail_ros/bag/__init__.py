@@ -11,11 +11,11 @@ Split as rosbag2 splits it:
   only module here that needs rclpy; import it explicitly);
 - `reader`: `BagReader`, messages back as (topic, type_name, data,
   log_time_ns, publish_time_ns), also from files cut short by a crash;
-- `definitions`: message definition text and type hashes of installed types;
-- `cdr`: `trim_cdr`, exact CDR bytes of a locally serialised message.
+- `definitions`: message definition text and type hashes of installed types.
+
+Messages are stored as given: exact CDR bytes (`sail_ros.message_bytes.serialize`).
 """
 
-from sail_ros.bag.cdr import trim_cdr
 from sail_ros.bag.definitions import (
     DefinitionNotFoundError,
     MessageDefinition,
@@ -48,6 +48,5 @@ __all__ = [
     "message_definition",
     "parse_qos_profiles",
     "qos_profiles_yaml",
-    "trim_cdr",
     "type_hash",
 ]

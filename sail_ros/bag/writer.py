@@ -7,7 +7,7 @@ rosbag2 `metadata.yaml` (version 9, `metadata`) once closed. Given a path
 ending in `.mcap`, it writes that one file. Each file is an `McapFile`
 (`mcap_storage`: schemas, channels, chunks, fsync, the rosbag2 record).
 
-Example (`cdr` from `rclpy.serialization.serialize_message`)::
+Example (`cdr` from `sail_ros.message_bytes.serialize`)::
 
     with BagWriter("run1", compression="zstd") as bag:
         bag.add_topic("/sail/boom_state", "sensor_msgs/msg/JointState")
@@ -184,10 +184,10 @@ class BagWriter:
     ) -> None:
         """Append one message.
 
-        Under rmw_fastrtps, `rclpy.serialization.serialize_message` returns
-        its size estimate: the CDR bytes plus unused trailing bytes. ROS,
-        rosbag2 and mcap_ros2 ignore them; rosbags rejects such a message
-        ("CDR message size mismatch"). Bytes from a raw subscription are exact.
+        Strict readers reject bytes past the message's last field (rosbags:
+        "CDR message size mismatch"), which `rclpy.serialization.serialize_message`
+        leaves under rmw_fastrtps: give `sail_ros.message_bytes.serialize`'s
+        bytes, or a raw subscription's (exact).
 
         Args:
             topic: a topic declared with `add_topic`.
