@@ -1,17 +1,23 @@
 """Figure helpers: the PNG and layout checks the tool tests share, and the plot modules'
 small rules."""
 
+import dataclasses
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 from matplotlib.image import imread
 
+from sail_ros.analysis.montecarlo import input_unit, load_study, run_sample, summarize
+from sail_ros.model import SailParameters
 from sail_ros.plots.common import break_lines, figure, fit_width, save
 from sail_ros.plots.histories import equal_groups, tip_deflections_figure
 from sail_ros.plots.sail3d import exaggeration_for, true_box_height
 
 pytestmark = pytest.mark.model
+
+CONFIG = Path(__file__).resolve().parents[1] / "config"
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -129,3 +135,49 @@ def test_equal_groups_merge_identical_series_only():
     t = np.linspace(0, 1, 50)
     columns = np.column_stack([np.sin(t), np.cos(t), np.sin(t), np.cos(t) + 1e-3])
     assert equal_groups(columns) == [[0, 2], [1], [3]]
+
+
+def test_montecarlo_figures_count_whole_samples_and_give_the_input_unit(tmp_path, figure_checks):
+    """Five samples of the reference study (few modes), drawn as `sail-ros montecarlo`
+    draws them: whole numbers on the histograms' count axes, the unit of the most
+    influential input on its axis."""
+    from sail_ros.tools.montecarlo import _figures
+
+    study = dataclasses.replace(load_study(CONFIG / "study_reference.yaml"), samples=5)
+    sail = SailParameters(n_boom_modes=2, n_membrane_modes=3).to_dict()
+    rows = [run_sample((study, index, sail)) for index in range(study.samples)]
+    summary = summarize(study, rows)
+    paths = _figures(study, rows, summary, tmp_path)
+    assert [p.name for p in paths] == ["envelopes.png", "peaks.png", "influence.png"]
+    # five dots on the scatter: fewer pixels drawn than a page of lines
+    checks = {p.stem: assert_figure(p, figure_checks, min_drawn=0.02) for p in paths}
+    for panel in checks["peaks"].panels.values():
+        assert panel.ylabel == "samples" and panel.yticks
+        assert all(tick == round(tick) for tick in panel.yticks), panel.yticks
+    (influence,) = checks["influence"].panels.values()
+    name = summary.influence[0][0]
+    assert influence.xlabel == f"{name} [{input_unit(name)}]"
+    assert all(panel.lines == ("median",) for panel in checks["envelopes"].panels.values())
+
+
+@pytest.mark.parametrize(
+    ("name", "unit"),
+    [
+        ("initial_tip_deflection.a", "m"),
+        ("rate.b", "-"),
+        ("jam_boom", "-"),
+        ("jam_fraction", "-"),
+        ("boom_bending_stiffness", "N m^2"),
+        ("membrane_prestress", "Pa"),
+        ("mass_damping", "1/s"),
+    ],
+)
+def test_every_study_input_has_its_unit(name, unit):
+    assert input_unit(name) == unit
+
+
+def test_parameter_units_are_the_ones_the_docstring_states():
+    stated = dict(re.findall(r"^\s+(\w+): .*?\[([^\]]+)\]", SailParameters.__doc__, re.M))
+    assert set(SailParameters.UNITS) == set(SailParameters.field_names())
+    for name in SailParameters.field_names():
+        assert SailParameters.UNITS[name] == stated.get(name, "-"), name

@@ -47,6 +47,20 @@ class SailParameters:
     mass_damping: float = 0.0
     stiffness_damping: float = 0.0
 
+    # unit of each field, as the Attributes above state it (figures and tables label with it)
+    UNITS = {
+        "sail_side": "m",
+        "boom_bending_stiffness": "N m^2",
+        "boom_linear_density": "kg/m",
+        "membrane_thickness": "m",
+        "membrane_density": "kg/m^3",
+        "membrane_prestress": "Pa",
+        "boom_axial_load": "N",
+        "n_boom_modes": "-",
+        "n_membrane_modes": "-",
+        "mass_damping": "1/s",
+        "stiffness_damping": "s",
+    }
     # fields that must be > 0; the others must be >= 0 (mode counts >= 1)
     _POSITIVE = ("sail_side", "boom_bending_stiffness", "boom_linear_density")
     _MODE_COUNTS = ("n_boom_modes", "n_membrane_modes")
