@@ -48,7 +48,7 @@ def peaks_figure(peaks, path, title: str = ""):
         ax.set_title(f"boom {boom}")
         ax.set_xlabel("peak |tip deflection| [mm]")
         ax.set_ylabel("samples")
-        ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts are whole
+        ax.yaxis.set_major_locator(MaxNLocator(nbins="auto", integer=True))  # whole counts
     fit_width(fig.suptitle("Peak tip deflections" + (f"\n{title}" if title else "")))
     fig.tight_layout()
     return save(fig, path)

@@ -19,7 +19,8 @@ def wrapped_phase(frequencies, g, top: float = PHASE_TOP) -> tuple[np.ndarray, n
     NaN point where it wraps, so that a line breaks there instead of crossing the panel.
 
     Unwrapped, the phase of an undamped plant falls by 180 deg at every pole (python-
-    control draws -6480 deg for the default sail). The default window (-270, 90]
+    control's bode_plot draws the default sail's tip force a to tip deflection a
+    down to -7740 deg). The default window (-270, 90]
     holds the lags of a structure whole: 0 and -180 (a mode's two sides, exactly,
     when undamped) lie inside it, not on its edge where round-off would flip them.
     """
