@@ -74,6 +74,15 @@ def ros_env(tmp_path_factory) -> dict[str, str]:
 
 
 @pytest.fixture
+def figure_checks():
+    """{path: FigureCheck} of every figure saved during the test (`figure_check.checking`)."""
+    from sail_ros.plots.figure_check import checking
+
+    with checking() as checks:
+        yield checks
+
+
+@pytest.fixture
 def ros_context():
     """A private rclpy context on the test domain, shut down after the test."""
     context = rclpy.Context()

@@ -8,7 +8,7 @@ import yaml
 from rclpy.serialization import deserialize_message
 from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
-from test_tool_figures import assert_png
+from test_tool_figures import assert_figure
 
 from sail_ros import topics
 from sail_ros.analysis.scenario import load_scenario, reference_scenario
@@ -67,7 +67,7 @@ def test_every_shipped_scenario_loads():
         assert np.all(lengths > 0) and np.all(np.isfinite(rates)), path
 
 
-def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
+def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys, figure_checks):
     scenario = tmp_path / "short.yaml"
     scenario.write_text(SHORT)
     log = tmp_path / "logs" / "short.mcap"
@@ -128,7 +128,29 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys):
         assert sum(1 for _ in reader.messages()) == sum(counts.values())  # 110
 
     for name in ("deployment_snapshots", "tip_deflections", "boom_lengths"):
-        assert_png(tmp_path / "fig" / f"{name}.png")
+        assert_figure(tmp_path / "fig" / f"{name}.png", figure_checks)
+
+
+def test_figures_of_the_loaded_scenario_fit_its_description_and_show_every_boom(
+    tmp_path, figure_checks
+):
+    """config/scenario_loaded.yaml (few modes): its long description wraps inside each
+    figure; booms a and b deploy at one rate from different lengths, so the rate panel
+    has one line for both and the length panel one for each."""
+    figures = tmp_path / "fig"
+    argv = ["--scenario", str(CONFIG / "scenario_loaded.yaml"), "--figures", str(figures),
+            "--rate", "10", "--set", "n_boom_modes=2", "--set", "n_membrane_modes=3"]  # fmt: skip
+    assert deploy.main(argv) == 0
+    checks = {
+        name: assert_figure(figures / f"{name}.png", figure_checks)
+        for name in ("deployment_snapshots", "tip_deflections", "boom_lengths")
+    }
+    lengths, rates = checks["boom_lengths"].panels.values()
+    assert lengths.lines == ("boom a", "boom b", "boom c", "boom d")
+    assert rates.lines == ("booms a, b", "boom c", "boom d")
+    (tips,) = checks["tip_deflections"].panels.values()
+    assert tips.lines == ("boom a", "boom b", "boom c", "boom d")
+    assert tips.ylabel == "tip deflection [mm]" and rates.ylabel == "extension rate [m/s]"
 
 
 @pytest.mark.parametrize(

@@ -5,10 +5,12 @@ import control
 import numpy as np
 import pytest
 import scipy.io
+from test_tool_figures import assert_figure
 
 from sail_ros.analysis.plant import frequency_response, linear_plant, poles
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.model.loads import INPUT_NAMES, OUTPUT_NAMES
+from sail_ros.plots.plant import wrapped_phase
 from sail_ros.tools.plant import main
 
 pytestmark = pytest.mark.model
@@ -16,13 +18,16 @@ pytestmark = pytest.mark.model
 DAMPED = ["--set", "mass_damping=0.02", "--set", "stiffness_damping=1e-3"]
 
 
-def test_plant_writes_matrices_that_python_control_loads_with_equal_poles(tmp_path, capsys):
+def test_plant_writes_matrices_that_python_control_loads_with_equal_poles(
+    tmp_path, capsys, figure_checks
+):
     npz, mat, png = tmp_path / "p.npz", tmp_path / "p.mat", tmp_path / "bode.png"
     code = main(["--lengths", "20", "22", "20", "22", "--rates", "0.05", *DAMPED,
                  "--npz", str(npz), "--mat", str(mat), "--figure", str(png)])  # fmt: skip
     assert code == 0
-    out = capsys.readouterr().out
-    assert "80 states, 8 inputs, 8 outputs" in out and f"wrote {png}" in out
+    captured = capsys.readouterr()
+    assert "80 states, 8 inputs, 8 outputs" in captured.out and f"wrote {png}" in captured.out
+    assert captured.err == ""  # damped: no warning
 
     saved = np.load(npz)
     assert list(saved["input_names"]) == list(INPUT_NAMES)
@@ -37,7 +42,17 @@ def test_plant_writes_matrices_that_python_control_loads_with_equal_poles(tmp_pa
     theirs = system.poles()
     key = lambda s: (round(s.imag, 6), round(s.real, 9))  # noqa: E731
     assert np.allclose(sorted(ours, key=key), sorted(theirs, key=key), rtol=1e-9, atol=1e-12)
-    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+    assert saved["poles_on_imaginary_axis"] == 0 and str(saved["note"]) == ""
+    assert saved["mass_damping_1_s"] == 0.02 and matlab["stiffness_damping_s"] == 1e-3
+
+    # booms a, c (20 m) respond alike, and b, d (22 m): one line each, in every panel
+    check = assert_figure(png, figure_checks)
+    for panel in check.panels.values():
+        assert len(panel.lines) == 2
+    magnitude = check.panels["tip force -> tip deflection (same boom)"]
+    assert magnitude.lines == ("booms a, c", "booms b, d")
+    phases = [p for name, p in check.panels.items() if name.startswith("panel")]
+    assert [p.ylim for p in phases] == [(-285.0, 105.0)] * 2
 
 
 def test_poles_carry_the_rayleigh_damping_ratio_and_the_response_its_dc_gain():
@@ -54,6 +69,45 @@ def test_poles_carry_the_rayleigh_damping_ratio_and_the_response_its_dc_gain():
     assert response[list(OUTPUT_NAMES).index("tip_deflection_b"), column].real == pytest.approx(
         model.tip_deflections(static)[1], rel=1e-6
     )
+
+
+def test_an_undamped_plant_says_so_in_one_line_in_its_files_and_its_figure(
+    tmp_path, capsys, figure_checks
+):
+    npz, mat, png = tmp_path / "p.npz", tmp_path / "p.mat", tmp_path / "bode.png"
+    small = ["--set", "n_boom_modes=2", "--set", "n_membrane_modes=2"]  # 16 modes
+    assert main([*small, "--npz", str(npz), "--mat", str(mat), "--figure", str(png)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("warning: 16 of 16 modes have their poles ")
+    assert "--set mass_damping=ALPHA --set stiffness_damping=BETA" in err
+    assert "docs/model.md §12" in err
+    saved, matlab = np.load(npz), scipy.io.loadmat(mat)
+    assert saved["poles_on_imaginary_axis"] == 16 and matlab["poles_on_imaginary_axis"] == 16
+    assert f"warning: {saved['note']}\n" == err
+    assert str(matlab["note"][0]) == str(saved["note"])
+    assert saved["mass_damping_1_s"] == 0.0 and saved["stiffness_damping_s"] == 0.0
+
+    check = assert_figure(png, figure_checks)
+    assert all(len(p.lines) == 1 for p in check.panels.values())  # four booms alike
+    assert check.panels["tip force -> tip deflection (same boom)"].lines == ("booms a, b, c, d",)
+    phases = [p for name, p in check.panels.items() if name.startswith("panel")]
+    assert [p.ylim for p in phases] == [(-285.0, 105.0)] * 2
+
+
+def test_the_phase_is_wrapped_into_one_turn_and_breaks_where_it_wraps():
+    f = np.geomspace(0.01, 10.0, 400)
+    lag = np.linspace(0.0, -700.0, f.size)  # a phase falling two turns
+    frequencies, phase = wrapped_phase(f, np.exp(1j * np.radians(lag)))
+    finite = np.isfinite(phase)
+    assert np.all((phase[finite] > -270.0) & (phase[finite] <= 90.0 + 1e-9))
+    assert np.sum(~finite) == 2  # it wraps at -270 and -630
+    assert np.array_equal(np.isnan(frequencies), ~finite)
+    turns = (phase[finite] - lag) / 360.0  # the same angle: whole turns apart
+    np.testing.assert_allclose(turns, np.round(turns), atol=1e-12)
+    np.testing.assert_array_equal(frequencies[finite], f)
+    # an undamped response is real: 0 or -180 exactly, never flipping to +180
+    _, real = wrapped_phase(f[:3], np.array([2.0, -3.0, -1e-300]))
+    assert real.tolist() == [0.0, -180.0, -180.0]
 
 
 @pytest.mark.parametrize(

@@ -5,7 +5,7 @@ import csv
 import numpy as np
 import pytest
 from rclpy.serialization import serialize_message
-from test_tool_figures import assert_png
+from test_tool_figures import assert_figure, assert_png
 
 from sail_ros import topics
 from sail_ros.bag import BagWriter
@@ -14,7 +14,7 @@ from sail_ros.tools import deploy, report
 
 pytestmark = pytest.mark.model
 
-FIGURES = ("tip_deflections", "boom_lengths", "modal_energies")
+FIGURES = ("tip_deflections", "root_moments", "boom_lengths", "modal_energies")
 
 
 @pytest.fixture(scope="module")
@@ -30,15 +30,21 @@ def _rows(path):
     return list(csv.DictReader(path.open()))
 
 
-def test_report_of_a_deploy_log(deploy_log, tmp_path, capsys):
+def test_report_of_a_deploy_log(deploy_log, tmp_path, capsys, figure_checks):
     out = tmp_path / "report"
     assert report.main([str(deploy_log), "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "sail parameters recorded in the log" in text
     assert "real-time factor not available" in text
-    for name in FIGURES:
-        assert_png(out / f"{name}.png")
+    checks = {name: assert_figure(out / f"{name}.png", figure_checks) for name in FIGURES}
     assert not (out / "real_time_factor.png").exists()
+    # boom a bent: b and d move alike (one line), c apart
+    for name in ("tip_deflections", "root_moments"):
+        (panel,) = checks[name].panels.values()
+        assert panel.lines == ("boom a", "booms b, d", "boom c")
+    booms, quadrants, total = checks["modal_energies"].panels.values()
+    assert booms.lines == ("boom a", "booms b, d", "boom c")
+    assert quadrants.lines == ("membranes ab, da", "membranes bc, cd")
 
     states = _rows(out / "states.csv")
     assert len(states) == 101 and float(states[-1]["t_s"]) == pytest.approx(4.0)
@@ -72,12 +78,22 @@ def test_report_of_a_log_cut_at_60_percent(deploy_log, tmp_path, capsys):
     assert len(_rows(out / "energies.csv")) == len(states)
 
 
-def _live_style_log(path, params, count=30):
+def _live_style_log(path, params, count=30, reset_at=None, time_scale=None):
     """What the recorder writes from a live simulator: stamps from a wall-clock
-    epoch, /diagnostics with the integrator status, no parameters record."""
+    epoch, /diagnostics with the integrator status, no parameters record.
+
+    With `reset_at` (a sample index) boom c's deflection grows by 2 % a sample and a
+    reset at that sample sets it back: a fresh sample with the stamp of the one
+    before, as a live simulator publishes it. With `time_scale`, /diagnostics says so
+    every 5 samples, with the measurement window (0 before the first measurement)."""
     model = SailModel(params)
     epoch = 1_700_000_000_000_000_000
-    q = model.mode_state("c", 0.02)
+    q0 = model.mode_state("c", 0.02)
+    samples = [(i, i) for i in range(count)]  # (stamp index, samples since start or reset)
+    if reset_at is not None:
+        samples = [(i, i) for i in range(reset_at + 1)]
+        samples += [(i, i - reset_at) for i in range(reset_at, count)]
+    every = 10 if time_scale is None else 5
     with BagWriter(path) as bag:
         for topic, kind in (
             (topics.absolute(topics.BOOM_STATE), "sensor_msgs/msg/JointState"),
@@ -86,8 +102,9 @@ def _live_style_log(path, params, count=30):
             (topics.DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray"),
         ):
             bag.add_topic(topic, kind)
-        for i in range(count):
+        for n, (i, age) in enumerate(samples):
             stamp = topics.stamp_ns(epoch, 0.1 * i)
+            q = q0 * (1.0 + 0.02 * age) if reset_at is not None else q0
             lengths, rates = np.full(4, 20.0), np.zeros(4)
             messages = [
                 (topics.BOOM_STATE, topics.boom_state(stamp, lengths, rates)),
@@ -97,22 +114,20 @@ def _live_style_log(path, params, count=30):
                     topics.tip_deflection(stamp, model.tip_deflections(q), np.zeros(4)),
                 ),
             ]
-            if i % 10 == 0:
-                messages.append(
-                    (
-                        topics.DIAGNOSTICS,
-                        topics.diagnostics(
-                            stamp,
-                            "OK",
-                            "running",
-                            {
-                                "real_time_factor": 0.98 + 0.01 * i / 10,
-                                "step_time_ms": 0.4,
-                                "sim_time_s": 0.1 * i,
-                            },
-                        ),
-                    )
-                )
+            if n % every == 0:
+                values = {
+                    "real_time_factor": 0.98 + 0.01 * i / 10,
+                    "step_time_ms": 0.4,
+                    "sim_time_s": 0.1 * i,
+                }
+                if time_scale is not None:
+                    values["time_scale"] = time_scale
+                    values["real_time_factor_window_s"] = 1.0 if n else 0.0
+                    values["real_time_factor"] = time_scale * (0.997 + 0.001 * (n // every % 3))
+                    if n == 0:
+                        values["real_time_factor"] = 0.0  # not measured yet
+                message = topics.diagnostics(stamp, "OK", "running", values)
+                messages.append((topics.DIAGNOSTICS, message))
             for topic, message in messages:
                 bag.write(topics.absolute(topic), serialize_message(message), log_time_ns=stamp)
 
@@ -136,6 +151,39 @@ def test_report_of_a_live_style_log_with_diagnostics(tmp_path, capsys):
     energies = _rows(out / "energies.csv")
     total = SailModel(params).energy(SailModel(params).mode_state("c", 0.02), np.zeros(20), 20.0)
     assert float(energies[5]["boom_c_J"]) == pytest.approx(total, rel=1e-9)
+
+
+def test_report_of_a_live_log_with_a_reset_and_a_time_scale(tmp_path, capsys, figure_checks):
+    """Every time history breaks at the reset instead of drawing a vertical stroke; the
+    real-time factor is drawn against the time scale asked for (2), measured values
+    only, on a y-range that shows their 0.2 % variation."""
+    params = SailParameters(n_boom_modes=2, n_membrane_modes=3)
+    log = tmp_path / "live.mcap"
+    _live_style_log(log, params, reset_at=15, time_scale=2.0)
+    out = tmp_path / "report"
+    argv = [str(log), "--out", str(out), "--set", "n_boom_modes=2", "--set", "n_membrane_modes=3"]
+    assert report.main(argv) == 0
+    # 7 statuses, the first before any measurement (its 0 is no factor)
+    assert "min 1.99, max 2 over 6 diagnostics messages" in capsys.readouterr().out
+
+    tips = assert_figure(out / "tip_deflections.png", figure_checks)
+    (panel,) = tips.panels.values()
+    assert panel.lines == ("booms a, b, d", "boom c") and panel.segments == (2, 2)
+    energies = assert_figure(out / "modal_energies.png", figure_checks)
+    for panel in energies.panels.values():
+        assert set(panel.segments) == {2}, panel
+    # zeros cannot be drawn on the log axis: the legend says so
+    booms = next(iter(energies.panels.values()))
+    assert booms.lines == ("booms a, b, d (0 J throughout)", "boom c")
+    assert_figure(out / "boom_lengths.png", figure_checks)
+
+    rtf = assert_figure(out / "real_time_factor.png", figure_checks, min_height=200)
+    (panel,) = rtf.panels.values()
+    assert panel.lines == ("achieved", "time scale asked for (2)")
+    low, high = panel.ylim
+    measured = [float(r["real_time_factor"]) for r in _rows(out / "real_time_factor.csv")][1:]
+    assert low < min(measured) and max(max(measured), 2.0) < high
+    assert high - low < 0.1  # the variation (0.004) fills a visible part of the axis
 
 
 def test_report_rejects_what_is_not_a_log(tmp_path, capsys):

@@ -181,6 +181,19 @@ def _scenario_document(spec, folder: Path) -> dict:
     return copy.deepcopy(document)
 
 
+def input_unit(name: str) -> str:
+    """The unit of a study input (a dispersion key or a jam input): a
+    `SailParameters` field's own, m for `initial_tip_deflection.<boom>`, "-" for a
+    rate factor, the jammed boom's index (-1: none, 0..3: a..d) and the fraction of
+    its travel at which it jams."""
+    head = name.partition(".")[0]
+    if head == "initial_tip_deflection":
+        return "m"
+    if head in ("rate", "jam_boom", "jam_fraction"):
+        return "-"
+    return SailParameters.unit(name)
+
+
 def _check_key(key: str, scenario: dict) -> None:
     head, _, boom = key.partition(".")
     if not boom and key in FLOAT_FIELDS:

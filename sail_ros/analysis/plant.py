@@ -3,6 +3,8 @@
 `linear_plant` wraps `SailModel.state_space` with the names of its inputs,
 outputs and states; `poles` lists its modes (frequency, damping ratio) and
 `frequency_response` evaluates `C (jw I - A)^-1 B + D` on a frequency grid.
+`undamped_note` says when poles lie on the imaginary axis (the default sail has
+no damping) and how to set some.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ class LinearPlant:
         lengths: boom lengths [m] (4,); rates: extension rates [m/s] (4,).
         input_names, output_names, state_names: one name per column / row / state.
         input_units, output_units: their units.
+        mass_damping, stiffness_damping: the Rayleigh alpha [1/s] and beta [s] of
+            the sail the plant was built from.
     """
 
     A: np.ndarray
@@ -38,9 +42,12 @@ class LinearPlant:
     state_names: tuple[str, ...]
     input_units: tuple[str, ...] = INPUT_UNITS
     output_units: tuple[str, ...] = OUTPUT_UNITS
+    mass_damping: float = 0.0
+    stiffness_damping: float = 0.0
 
     def arrays(self) -> dict:
-        """Everything as arrays (for `.npz` and MATLAB `.mat`)."""
+        """Everything as arrays (for `.npz` and MATLAB `.mat`), with the damping and,
+        when poles lie on the imaginary axis, their count and a note saying so."""
         return {
             "A": self.A,
             "B": self.B,
@@ -53,6 +60,10 @@ class LinearPlant:
             "output_names": np.array(self.output_names),
             "output_units": np.array(self.output_units),
             "state_names": np.array(self.state_names),
+            "mass_damping_1_s": self.mass_damping,
+            "stiffness_damping_s": self.stiffness_damping,
+            "poles_on_imaginary_axis": len(imaginary_axis_poles(self)),
+            "note": undamped_note(self),
         }
 
 
@@ -63,7 +74,10 @@ def linear_plant(model: SailModel, lengths, rates=0.0) -> LinearPlant:
     A, B, C, D = model.state_space(lengths, rates)
     names = model.coordinate_names
     states = tuple(names) + tuple(f"d/dt {name}" for name in names)
-    return LinearPlant(A, B, C, D, lengths, rates, INPUT_NAMES, OUTPUT_NAMES, states)
+    return LinearPlant(
+        A, B, C, D, lengths, rates, INPUT_NAMES, OUTPUT_NAMES, states,
+        mass_damping=model.params.mass_damping, stiffness_damping=model.params.stiffness_damping,
+    )  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,3 +116,27 @@ def frequency_response(plant: LinearPlant, omega) -> np.ndarray:
     for k, w in enumerate(omega):
         response[k] = plant.C @ np.linalg.solve(1j * w * identity - plant.A, plant.B) + plant.D
     return response
+
+
+def imaginary_axis_poles(plant: LinearPlant, tolerance: float = 1e-9) -> list[Pole]:
+    """The poles (Im s >= 0) within `tolerance` times the largest |s| of the imaginary
+    axis: undamped modes, to round-off."""
+    listed = poles(plant)
+    largest = max((p.omega for p in listed), default=0.0)
+    return [p for p in listed if abs(p.s.real) <= tolerance * largest]
+
+
+def undamped_note(plant: LinearPlant) -> str:
+    """One line saying that poles lie on the imaginary axis and how to damp the sail,
+    or "" when none does."""
+    marginal = imaginary_axis_poles(plant)
+    if not marginal:
+        return ""
+    return (
+        f"{len(marginal)} of {len(poles(plant))} modes have their poles on the imaginary "
+        f"axis (mass_damping = {plant.mass_damping:g} 1/s, stiffness_damping = "
+        f"{plant.stiffness_damping:g} s): an undamped mode's response is unbounded at its "
+        "frequency and its phase jumps by 180 deg there; set Rayleigh damping "
+        "C_d = alpha M + beta K with --set mass_damping=ALPHA --set stiffness_damping=BETA "
+        "(docs/model.md §12)"
+    )

@@ -14,7 +14,7 @@ from pathlib import Path
 import yaml
 
 import sail_ros.model.yaml_values as yaml_values
-from sail_ros.model.fields import check_fields, setting
+from sail_ros.model.fields import check_fields, setting, spec_of
 
 MAX_BOOM_MODES = 30  # beyond, the cantilever functions' evaluation and the integrals cost more
 MAX_MEMBRANE_MODES = 100  # than the model is worth
@@ -23,22 +23,8 @@ MAX_MEMBRANE_MODES = 100  # than the model is worth
 @dataclasses.dataclass(frozen=True)
 class SailParameters:
     """Parameters of the four-boom, four-quadrant sail: one declaration per field, with
-    its unit and range (`fields.setting`), from which its check, the simulator's ROS
-    parameters `sail.<field>`, the tools' `--set` help and the docs table come.
-
-    Attributes:
-        sail_side: side `a` of the square sail [m]; full boom length a/sqrt(2).
-        boom_bending_stiffness: boom `EI` [N m^2].
-        boom_linear_density: boom mass per length `rho_B` [kg/m].
-        membrane_thickness: film thickness `h` [m].
-        membrane_density: film density `rho` [kg/m^3]; areal density rho h.
-        membrane_prestress: isotropic film prestress `sigma` [Pa]; N0 = sigma h.
-        boom_axial_load: axial compression `P` on each boom [N].
-        n_boom_modes: cantilever modes per boom `n_B`.
-        n_membrane_modes: clamped-triangle modes per quadrant `n_M`.
-        mass_damping: Rayleigh `alpha` [1/s] of `C_d = alpha M + beta K`.
-        stiffness_damping: Rayleigh `beta` [s]; a mode of frequency omega then has the
-            damping ratio `alpha / (2 omega) + beta omega / 2`.
+    its unit, range and meaning (`fields.setting`), from which its check, the simulator's
+    ROS parameters `sail.<field>`, the tools' `--set` help and the docs table come.
     """
 
     sail_side: float = setting(
@@ -105,6 +91,12 @@ class SailParameters:
         return self.membrane_prestress * self.membrane_thickness
 
     # (de)serialisation --------------------------------------------------
+    @classmethod
+    def unit(cls, name: str) -> str:
+        """The unit of field `name` ("-" for a pure number), from its declaration."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        return spec_of(fields[name]).unit
+
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
         return tuple(f.name for f in dataclasses.fields(cls))

@@ -13,7 +13,7 @@ import numpy as np
 from matplotlib import cm
 
 from sail_ros.model.shape import SailSurface
-from sail_ros.plots.common import figure, save, styled
+from sail_ros.plots.common import figure, fit_width, save, styled
 from sail_ros.plots.sail3d import (
     CMAP,
     draw_sail,
@@ -89,14 +89,16 @@ def snapshots_figure(
     for ax in axes.flat[len(times) :]:
         ax.set_visible(False)
     heading = f"{title}\n" if title else ""
-    fig.suptitle(
+    suptitle = fig.suptitle(
         f"{heading}deflection w drawn {exaggeration:g}x true scale "
         "(tick labels true: x, y in m, w in mm); booms black",
         fontsize=10,
     )
-    fig.subplots_adjust(
-        left=0.02, right=0.86, bottom=0.03, top=0.86 if rows > 1 else 0.76, wspace=0.22, hspace=0.1
-    )
+    fit_width(suptitle)
+    # the panels start below the title however many lines it wrapped to
+    title_in = suptitle.get_window_extent(fig.canvas.get_renderer()).height / fig.dpi
+    top = 1.0 - (title_in + 0.5) / fig.get_figheight()
+    fig.subplots_adjust(left=0.02, right=0.86, bottom=0.03, top=top, wspace=0.22, hspace=0.1)
     bar = fig.colorbar(
         cm.ScalarMappable(norm=norm, cmap=CMAP), ax=axes.ravel().tolist(), shrink=0.7, pad=0.07
     )

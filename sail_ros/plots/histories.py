@@ -8,7 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from sail_ros.plots.common import BOOM_COLOURS, QUADRANT_COLOURS, figure, save, styled
+from sail_ros.plots.common import (
+    BOOM_COLOURS,
+    QUADRANT_COLOURS,
+    break_lines,
+    figure,
+    fit_width,
+    save,
+    styled,
+)
 
 TIME_LABEL = "simulation time t [s]"
 BOOMS = tuple(BOOM_COLOURS)
@@ -18,8 +26,9 @@ BOOMS = tuple(BOOM_COLOURS)
 def tip_deflections_figure(t, tips, path, title: str = "", time_label: str = TIME_LABEL):
     """Boom-tip deflections [m, drawn in mm] of booms a..d against time [s]; tips (k, 4)."""
     fig, ax = figure(6.4, 3.4)
-    tips = np.asarray(tips)
-    for group in equal_groups(tips):
+    groups = equal_groups(tips)
+    t, tips = break_lines(t, tips)
+    for group in groups:
         ax.plot(
             t,
             1e3 * tips[:, group[0]],
@@ -29,7 +38,7 @@ def tip_deflections_figure(t, tips, path, title: str = "", time_label: str = TIM
         )
     ax.set_xlabel(time_label)
     ax.set_ylabel("tip deflection [mm]")
-    ax.set_title(_title("Boom-tip deflections", title))
+    _set_title(ax, "Boom-tip deflections", title)
     ax.legend(ncols=4, loc="upper right", frameon=False)
     ax.margins(x=0)
     _headroom(ax)
@@ -43,14 +52,15 @@ def root_moments_figure(t, moments, path, title: str = "", time_label: str = TIM
     """Root bending moments [N m] of booms a..d against time [s]; moments (k, 4). The
     moment series converges slowly with n_B, so the title states it when known."""
     fig, ax = figure(6.4, 3.4)
-    moments = np.asarray(moments)
-    for group in equal_groups(moments):
+    groups = equal_groups(moments)
+    t, moments = break_lines(t, moments)
+    for group in groups:
         colour = BOOM_COLOURS[BOOMS[group[0]]]
         ax.plot(t, moments[:, group[0]], color=colour, lw=1.2, label=_boom_label(group))
     ax.set_xlabel(time_label)
     ax.set_ylabel("root bending moment [N m]")
     modes = f" (n_B = {n_boom_modes})" if n_boom_modes else ""
-    ax.set_title(_title(f"Boom root moments{modes}", title))
+    _set_title(ax, f"Boom root moments{modes}", title)
     ax.legend(ncols=4, loc="upper right", frameon=False)
     ax.margins(x=0)
     _headroom(ax)
@@ -61,18 +71,21 @@ def root_moments_figure(t, moments, path, title: str = "", time_label: str = TIM
 @styled
 def boom_lengths_figure(t, lengths, rates, path, title: str = "", time_label: str = TIME_LABEL):
     """Boom lengths [m] and extension rates [m/s] of booms a..d against time [s];
-    lengths and rates (k, 4). Booms that move alike share one line."""
+    lengths and rates (k, 4). Booms whose curve is the same share one line in that
+    panel (equal rates but different lengths: one rate line, four length lines)."""
     fig, (top, bottom) = figure(6.4, 4.6, nrows=2, sharex=True)
-    lengths, rates = np.asarray(lengths), np.asarray(rates)
-    for group in equal_groups(np.concatenate([lengths, rates])):
-        style = {"color": BOOM_COLOURS[BOOMS[group[0]]], "lw": 1.3}
-        top.plot(t, lengths[:, group[0]], label=_boom_label(group), **style)
-        bottom.plot(t, rates[:, group[0]], **style)
+    groups = [equal_groups(lengths), equal_groups(rates)]
+    t, lengths, rates = break_lines(t, lengths, rates)
+    for ax, values, panel_groups in zip((top, bottom), (lengths, rates), groups, strict=True):
+        for group in panel_groups:
+            colour = BOOM_COLOURS[BOOMS[group[0]]]
+            ax.plot(t, values[:, group[0]], color=colour, lw=1.3, label=_boom_label(group))
     top.set_ylabel("boom length L [m]")
     bottom.set_ylabel("extension rate [m/s]")
     bottom.set_xlabel(time_label)
-    top.set_title(_title("Boom lengths and extension rates", title))
-    top.legend(ncols=2, loc="best", frameon=False)
+    _set_title(top, "Boom lengths and extension rates", title)
+    for ax in (top, bottom) if groups[0] != groups[1] else (top,):
+        ax.legend(ncols=2, loc="best", frameon=False)
     top.margins(x=0)
     fig.tight_layout()
     return save(fig, path)
@@ -94,28 +107,29 @@ def energies_figure(
         time_label: label of the time axis.
     """
     fig, axes = figure(6.4, 6.0, nrows=3, sharex=True)
-    booms, quadrants = np.asarray(booms), np.asarray(quadrants)
-    for group in equal_groups(booms):
+    boom_groups, quadrant_groups = equal_groups(booms), equal_groups(quadrants)
+    t, booms, quadrants, total = break_lines(t, booms, quadrants, total)
+    for group in boom_groups:
         axes[0].plot(
             t,
             booms[:, group[0]],
             color=BOOM_COLOURS[BOOMS[group[0]]],
             lw=1.2,
-            label=_boom_label(group),
+            label=_boom_label(group) + _zero_note(booms, group),
         )
     names = tuple(QUADRANT_COLOURS)
-    for group in equal_groups(quadrants):
+    for group in quadrant_groups:
         label = ", ".join(names[k] for k in group)
         axes[1].plot(
             t,
             quadrants[:, group[0]],
             color=QUADRANT_COLOURS[names[group[0]]],
             lw=1.2,
-            label=f"membrane{'s' if len(group) > 1 else ''} {label}",
+            label=f"membrane{'s' if len(group) > 1 else ''} {label}" + _zero_note(quadrants, group),
         )
     axes[2].plot(t, total, color="k", lw=1.3, label="total")
     # from zero: a conserved energy must look flat, not magnify its round-off
-    axes[2].set_ylim(0.0, 1.15 * max(float(np.max(total)), 1e-300))
+    axes[2].set_ylim(0.0, 1.15 * max(float(np.nanmax(total)), 1e-300))
     for ax, values in zip(axes[:2], (booms, quadrants), strict=True):
         if np.any(values > 0):  # all-zero groups (nothing moved) stay on a linear axis
             ax.set_yscale("log")
@@ -124,31 +138,65 @@ def energies_figure(
         ax.legend(ncols=4, loc="best", frameon=False, fontsize=7)
         ax.margins(x=0)
     axes[2].set_xlabel(time_label)
-    axes[0].set_title(
-        _title("Mechanical energy by coordinate group (log) and in total (linear)", title)
-    )
+    _set_title(axes[0], "Mechanical energy by coordinate group (log) and in total (linear)", title)
     fig.tight_layout()
     return save(fig, path)
 
 
 @styled
-def real_time_factor_figure(t, factor, path, title: str = "", time_label: str = TIME_LABEL):
-    """Achieved real-time factor (simulated s per wall s) against time [s]."""
+def real_time_factor_figure(
+    t, factor, path, title: str = "", time_label: str = TIME_LABEL, time_scale=None
+):
+    """Achieved real-time factor (simulated s per wall s) against time [s], with the
+    time scale asked for (`time_scale`: one value or one per sample; <= 0 is as fast
+    as possible, drawn as no line). The y-range fits the values, so that a factor
+    that stays within a per cent of its time scale shows how it varies."""
     fig, ax = figure(6.4, 3.0)
-    ax.plot(t, factor, color="k", lw=1.2, marker=".", ms=3)
-    ax.axhline(1.0, color="tab:red", lw=0.8, ls="--", label="real time")
+    scale = np.broadcast_to(np.nan if time_scale is None else time_scale, np.shape(factor))
+    t, factor, scale = break_lines(t, factor, scale)
+    ax.plot(t, factor, color="k", lw=1.2, marker=".", ms=3, label="achieved")
+    shown = [factor]
+    if time_scale is not None:
+        paced = np.where(scale > 0, scale, np.nan)
+        if np.any(np.isfinite(paced)):
+            values = np.unique(paced[np.isfinite(paced)])
+            what = f"{values[0]:g}" if values.size == 1 else "as set"
+            ax.plot(t, paced, color="tab:red", lw=0.9, ls="--", drawstyle="steps-post",
+                    label=f"time scale asked for ({what})")  # fmt: skip
+            shown.append(paced)
+        if np.any(scale <= 0):
+            ax.plot([], [], ls="", label="time scale <= 0: as fast as possible")
     ax.set_xlabel(time_label)
     ax.set_ylabel("real-time factor [-]")
-    ax.set_title(_title("Achieved real-time factor (from /diagnostics)", title))
-    ax.legend(loc="lower right", frameon=False)
-    ax.set_ylim(bottom=0.0)
+    _set_title(ax, "Achieved real-time factor (from /diagnostics)", title)
+    values = np.concatenate([np.ravel(v) for v in shown])
+    values = values[np.isfinite(values)]
+    if values.size:
+        low, high = float(values.min()), float(values.max())
+        # at least 2 % of the level: round-off of a steady factor is not magnified
+        span = max(high - low, 0.02 * max(abs(high), 1e-3))
+        middle = 0.5 * (low + high)
+        ax.set_ylim(middle - 0.65 * span, middle + 0.85 * span)  # room for the legend
+    ax.ticklabel_format(axis="y", useOffset=False)
+    ax.legend(loc="upper right", ncols=2, frameon=False)
     ax.margins(x=0)
     fig.tight_layout()
     return save(fig, path)
 
 
-def _title(what: str, detail: str) -> str:
-    return f"{what}\n{detail}" if detail else what
+def _zero_note(values, group) -> str:
+    """A legend note for a group whose energy is 0 throughout while another's is not:
+    the log axis cannot draw it."""
+    drawn = np.nan_to_num(values)
+    if np.any(drawn[:, group[0]] != 0) or not np.any(drawn > 0):
+        return ""
+    return " (0 J throughout)"
+
+
+def _set_title(ax, what: str, detail: str) -> None:
+    """`what`, and `detail` (the run) on the next line, wrapped to the figure's width."""
+    ax.set_title(f"{what}\n{detail}" if detail else what)
+    fit_width(ax.title)
 
 
 def _headroom(ax, fraction: float = 0.2) -> None:

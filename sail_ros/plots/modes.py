@@ -20,7 +20,7 @@ from matplotlib import cm
 from matplotlib.collections import LineCollection
 
 from sail_ros.model.shape import SailSurface
-from sail_ros.plots.common import figure, save, styled
+from sail_ros.plots.common import figure, fit_width, save, styled
 from sail_ros.plots.sail3d import CMAP, draw_sail, symmetric_norm
 
 VIEWS = ("map", "3d")
@@ -129,16 +129,22 @@ def mode_shapes_figure(
         else "L = " + ", ".join(f"{v:.4g}" for v in lengths) + " m (a, b, c, d)"
     )
     what = "booms as strips, seen from +z" if view == "map" else "booms black"
-    fig.suptitle(
-        f"First {len(shapes)} distinct mode shapes, {shown}\n{what}; w normalised to max |w| = 1",
-        fontsize=10,
+    fit_width(
+        fig.suptitle(
+            f"First {len(shapes)} distinct mode shapes, {shown}\n{what}; "
+            "w normalised to max |w| = 1",
+            fontsize=10,
+        )
     )
     if view == "3d":
         fig.subplots_adjust(left=0.02, right=0.86, bottom=0.03, top=0.84, wspace=0.15, hspace=0.18)
     else:
         fig.subplots_adjust(left=0.1, right=0.86, bottom=0.1, top=0.82, wspace=0.15, hspace=0.3)
     bar = fig.colorbar(
-        cm.ScalarMappable(norm=norm, cmap=CMAP), ax=axes.ravel().tolist(), shrink=0.7, pad=0.03
+        cm.ScalarMappable(norm=norm, cmap=CMAP),
+        ax=axes.ravel().tolist(),
+        shrink=0.7,
+        pad=0.07 if view == "3d" else 0.03,  # clear of the last column's z axis
     )
     bar.set_label("w / max|w|")
     return save(fig, path)

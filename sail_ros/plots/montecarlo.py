@@ -4,8 +4,9 @@ influential input against the peak."""
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
-from sail_ros.plots.common import BOOM_COLOURS, figure, save, styled
+from sail_ros.plots.common import BOOM_COLOURS, figure, fit_width, save, styled
 
 BOOMS = "abcd"
 
@@ -27,8 +28,11 @@ def envelopes_figure(t, tips, path, title: str = ""):
     for ax in axes[1]:
         ax.set_xlabel("t [s]")
     axes[0, 0].legend(loc="upper right", frameon=False)
-    fig.suptitle(
-        f"Tip-deflection envelopes over {tips.shape[0]} samples" + (f"\n{title}" if title else "")
+    fit_width(
+        fig.suptitle(
+            f"Tip-deflection envelopes over {tips.shape[0]} samples"
+            + (f"\n{title}" if title else "")
+        )
     )
     fig.tight_layout()
     return save(fig, path)
@@ -44,18 +48,20 @@ def peaks_figure(peaks, path, title: str = ""):
         ax.set_title(f"boom {boom}")
         ax.set_xlabel("peak |tip deflection| [mm]")
         ax.set_ylabel("samples")
-    fig.suptitle("Peak tip deflections" + (f"\n{title}" if title else ""))
+        ax.yaxis.set_major_locator(MaxNLocator(nbins="auto", integer=True))  # whole counts
+    fit_width(fig.suptitle("Peak tip deflections" + (f"\n{title}" if title else "")))
     fig.tight_layout()
     return save(fig, path)
 
 
 @styled
-def influence_figure(values, peaks, name: str, rho: float, path):
-    """The most influential input against the peak |tip deflection| [mm]."""
+def influence_figure(values, peaks, name: str, rho: float, path, unit: str | None = None):
+    """The most influential input (in `unit`) against the peak |tip deflection| [mm]."""
     fig, ax = figure(6.0, 4.0)
     ax.scatter(values, 1e3 * np.asarray(peaks), s=8, alpha=0.6, color="tab:blue")
-    ax.set_xlabel(name)
+    ax.set_xlabel(f"{name} [{unit}]" if unit else name)
     ax.set_ylabel("peak |tip deflection|, all booms [mm]")
     ax.set_title(f"Most influential input: {name} (Spearman rho = {rho:+.3f})")
+    fit_width(ax.title)
     fig.tight_layout()
     return save(fig, path)

@@ -10,7 +10,7 @@ from matplotlib import cm
 from matplotlib.colors import LogNorm
 from matplotlib.lines import Line2D
 
-from sail_ros.plots.common import figure, save, styled
+from sail_ros.plots.common import figure, fit_width, save, styled
 
 RATE_CMAP = "viridis"
 LOCI_CMAP = "plasma"
@@ -81,7 +81,9 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
             )
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_xscale("log")
-        ax.set_yscale("symlog", linthresh=threshold, linscale=0.5)
+        # linscale 1: +-threshold sit a decade's height from 0, as far apart as the
+        # other labels (closer, they run into each other on a short panel)
+        ax.set_yscale("symlog", linthresh=threshold, linscale=1.0)
         ax.set_title(f"L = {length:.4g} m")
         ax.set_xlabel("membrane prestress $\\sigma$ [Pa]")
     for ax in axes[:, 0]:
@@ -99,10 +101,12 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
         handles.append(Line2D([], [], color="k", ls=":", label="rate 0"))
     handles.append(Line2D([], [], ls="", marker="o", mfc="w", mec="k", label="critical prestress"))
     fig.legend(handles=handles, loc="center right", frameon=False)
-    fig.suptitle(
-        "Frozen-length stability (seed Eq. 3)\nlargest real part of the eigenvalues; "
-        "> 0 is unstable",
-        fontsize=10,
+    fit_width(
+        fig.suptitle(
+            "Frozen-length stability (seed Eq. 3)\nlargest real part of the eigenvalues; "
+            "> 0 is unstable",
+            fontsize=10,
+        )
     )
     right = 1.0 - 1.9 / fig.get_figwidth()  # room for the legend
     fig.subplots_adjust(
@@ -123,7 +127,7 @@ def map_figure(sweeps, path, sail_prestress: float | None = None):
     rows = math.ceil(len(lengths) / columns)
     fig, axes = figure(
         3.4 * columns + 0.8, 3.2 * rows + 0.8, nrows=rows, ncols=columns, squeeze=False,
-        sharey=True,
+        sharey=True, layout="constrained",
     )  # fmt: skip
     curves = critical_curves(sweeps)
     for ax, length in zip(axes.flat, lengths, strict=False):
@@ -161,9 +165,11 @@ def map_figure(sweeps, path, sail_prestress: float | None = None):
         Line2D([], [], color="k", marker="o", ms=3, label="critical prestress"),
         Line2D([], [], color="0.3", ls="--", label="sail's prestress"),
     ]
-    fig.legend(handles=handles, loc="lower center", ncols=4, frameon=False)
-    fig.suptitle("Stability map (seed Eq. 3, frozen length, constant rate)", fontsize=10)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    # below the panels, in as many rows as the figure's width needs
+    columns_legend = 4 if columns > 1 else 2
+    fig.legend(handles=handles, loc="outside lower center", ncols=columns_legend, frameon=False)
+    title = fig.suptitle("Stability map (seed Eq. 3, frozen length, constant rate)", fontsize=10)
+    fit_width(title)
     return save(fig, path)
 
 
@@ -208,6 +214,7 @@ def loci_figure(
     if critical is not None:
         title += f"\ncritical prestress {critical:.4g} Pa"
     ax.set_title(title)
+    fit_width(ax.title)
     bar = fig.colorbar(cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, pad=0.02)
     bar.set_label("membrane prestress $\\sigma$ [Pa]")
     fig.tight_layout()

@@ -32,6 +32,7 @@ from tqdm import tqdm
 from sail_ros.analysis.execution import run_cases
 from sail_ros.analysis.montecarlo import (
     csv_text,
+    input_unit,
     load_study,
     run_sample,
     sample_scenario,
@@ -153,7 +154,9 @@ def _figures(study, rows, summary, out: Path) -> list[Path]:
         name, rho = summary.influence[0]
         values = np.array([row[name] for row in good], dtype=float)
         peak = np.array([row["peak_tip_m"] for row in good])
-        written.append(influence_figure(values, peak, name, rho, out / "influence.png"))
+        written.append(
+            influence_figure(values, peak, name, rho, out / "influence.png", unit=input_unit(name))
+        )
     return written
 
 

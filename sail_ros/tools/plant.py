@@ -21,7 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
-from sail_ros.analysis.plant import frequency_response, linear_plant, poles
+from sail_ros.analysis.plant import (
+    frequency_response,
+    imaginary_axis_poles,
+    linear_plant,
+    poles,
+    undamped_note,
+)
 from sail_ros.cli import PHYSICS_DOC
 from sail_ros.model import SailModel
 from sail_ros.tools.common import (
@@ -109,6 +115,9 @@ def _plant(args) -> int:
     unstable = [p for p in poles(plant) if p.s.real > 1e-9 * max(p.omega, 1.0)]
     if unstable:
         print(f"  {len(unstable)} pole(s) with a positive real part: the frozen plant is unstable")
+    note = undamped_note(plant)
+    if note:
+        print(f"warning: {note}", file=sys.stderr)
 
     written = []
     if args.npz:
@@ -139,6 +148,11 @@ def _plant(args) -> int:
             f"{params.n_boom_modes}, n_M = {params.n_membrane_modes}, alpha = "
             f"{params.mass_damping:g} 1/s, beta = {params.stiffness_damping:g} s"
         )
+        if note:
+            title += (
+                f"\nundamped: {len(imaginary_axis_poles(plant))} modes with poles on the "
+                "imaginary axis, |G| unbounded at them"
+            )
         written.append(
             bode_figure(omega, frequency_response(plant, omega), plant, args.figure, title)
         )

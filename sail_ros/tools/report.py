@@ -400,6 +400,8 @@ def _real_time_factor(log, out: Path, time_label: str, title: str) -> list[Path]
         return []
     t = log.seconds(stamps)
     factor = _floats(values["real_time_factor"])
+    if "real_time_factor_window_s" in values:  # 0: no measurement yet (the value reads 0)
+        factor[_floats(values["real_time_factor_window_s"]) <= 0] = np.nan
     finite = factor[np.isfinite(factor)]
     if finite.size:
         print(
@@ -413,7 +415,12 @@ def _real_time_factor(log, out: Path, time_label: str, title: str) -> list[Path]
     return [
         _write_csv(out / "real_time_factor.csv", header, columns),
         real_time_factor_figure(
-            t, factor, out / "real_time_factor.png", title=title, time_label=time_label
+            t,
+            factor,
+            out / "real_time_factor.png",
+            title=title,
+            time_label=time_label,
+            time_scale=_floats(values["time_scale"]) if "time_scale" in values else None,
         ),
     ]
 
