@@ -53,6 +53,7 @@ from sail_ros.runtime.ticker import Ticker
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
+SWITCH_INTERVAL_S = 0.0005  # the interpreter's switch interval in the simulator's process
 SPECS = [ParamSpec.of(name, field) for name, field in PARAMETERS.items()]
 
 
@@ -295,6 +296,9 @@ def main(argv=None) -> int:
 
 
 def _simulate(_namespace, stop) -> int:
+    # The ticks' thread must not wait Python's default 5 ms for the interpreter while the
+    # executor's thread takes a burst of commands (1000 a second: overruns at 5 ms).
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
     node = SimNode()
     # What start-up built (the model's integrals, rclpy's objects) lives as long as
     # the node: out of the collector's way, a collection no longer pauses a tick

@@ -229,28 +229,68 @@ def _moving_deploy(target: float, now: BoomState, rules: Rules, duration: float 
             2.0 * float(np.max(np.abs(now.rates))) / policy.max_acceleration,
         )
         candidates = [base * GROWTH**k for k in range(-DURATION_STEPS_DOWN, DURATION_STEPS_UP)]
-    reason = ""
-    for length in candidates:
-        profile = WaypointProfile(
-            [now.t, now.t + length],
-            [np.asarray(now.lengths, dtype=float), np.full(4, target)],
-            start_rates=now.rates,
+    lengths, rates = np.asarray(now.lengths, dtype=float), np.asarray(now.rates, dtype=float)
+    fits = _cubic_fits(lengths, rates, target, np.asarray(candidates), rules)
+    # the quickest that fits (checked once more as every motion is), or the longest, whose
+    # check says why none fits
+    length = candidates[int(np.argmax(fits))] if fits.any() else candidates[-1]
+    profile = WaypointProfile(
+        [now.t, now.t + length], [lengths, np.full(4, target)], start_rates=rates
+    )
+    try:
+        rules.check(rules.policy.check_motion, profile, rules.sail)
+    except CommandError as error:
+        tried = (
+            f"{duration:g} s"
+            if duration is not None
+            else f"{candidates[0]:.3g} to {candidates[-1]:.3g} s"
         )
-        try:
-            rules.check(rules.policy.check_motion, profile, rules.sail)
-        except CommandError as error:
-            reason = str(error)
-            continue
-        return profile
-    tried = (
-        f"{duration:g} s"
-        if duration is not None
-        else f"{candidates[0]:.3g} to {candidates[-1]:.3g} s"
+        raise CommandError(
+            f"no deployment to {target:g} m from the current motion within the "
+            f"limits (durations {tried}; e.g. {error})"
+        ) from None
+    return profile
+
+
+def _cubic_fits(lengths, rates, target: float, durations, rules: Rules) -> np.ndarray:
+    """For each duration T [s] (d,), whether the cubic from `lengths` [m] and `rates`
+    [m/s] (4,) to rest at `target` [m] in T keeps every boom within the limits, from its
+    exact extremes: with s = (t - t0) / T, L = a0 + a1 s + a2 s^2 + a3 s^3 (a1 = v0 T),
+    the rate `L'(s) / T` is largest at an end or at its vertex, the acceleration
+    `L''(s) / T^2` at an end, and the lengths at the ends or where the rate is 0."""
+    T = durations[:, None]  # (d, 1) against the 4 booms
+    a0, a1 = lengths[None, :], rates[None, :] * T
+    a2 = 3.0 * (target - a0) - 2.0 * a1
+    a3 = 2.0 * (a0 - target) + a1
+    policy = rules.policy
+    slack = 1.0 + TOLERANCE
+    acceleration = np.maximum(np.abs(2 * a2), np.abs(2 * a2 + 6 * a3)) / T**2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = np.where(a3 != 0, -a2 / (3 * a3), -1.0)
+        inside = (vertex > 0) & (vertex < 1)
+        peak_rate = np.where(inside, np.abs(a1 + a2 * vertex), 0.0) / T
+        rate = np.maximum(np.abs(rates)[None, :], peak_rate)
+        # where the rate is 0: a1 + 2 a2 s + 3 a3 s^2 = 0
+        root = np.sqrt(np.maximum(a2 * a2 - 3 * a1 * a3, 0.0))
+        stationary = [(-a2 + sign * root) / (3 * a3) for sign in (1.0, -1.0)]
+    low = np.minimum(a0, target)
+    high = np.maximum(a0, target)
+    for s in stationary:
+        ok = np.isfinite(s) & (s > 0) & (s < 1)
+        s = np.where(ok, s, 0.0)
+        value = a0 + a1 * s + a2 * s**2 + a3 * s**3
+        low, high = (
+            np.where(ok, np.minimum(low, value), low),
+            np.where(ok, np.maximum(high, value), high),
+        )
+    shortest, longest = policy.length_range(rules.sail)
+    fits = (
+        (low >= shortest / slack)
+        & (high <= longest * slack)
+        & (rate <= policy.max_rate * slack)
+        & (acceleration <= policy.max_acceleration * slack)
     )
-    raise CommandError(
-        f"no deployment to {target:g} m from the current motion within the "
-        f"limits (durations {tried}; e.g. {reason})"
-    )
+    return fits.all(axis=1)
 
 
 class LoadChange(NamedTuple):

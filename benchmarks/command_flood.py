@@ -1,0 +1,148 @@
+"""A flood of commands at the simulator: does it keep real time, and does every command
+end counted?
+
+Starts `sail_sim` as a process (default settings, real time) and, from a node in
+this process, publishes commands at a fixed rate for a phase each:
+
+- `valid`: deploy commands to alternating targets (10.2 m, 10.4 m, ...), each valid;
+- `malformed`: deploy commands to NaN, each rejected.
+
+Per phase it prints: commands sent; their outcomes as the simulator's /diagnostics
+count them (accepted, superseded, rejected) and whether they add up to what was
+sent; overruns; and the largest wall-time gap between two /sail/boom_state samples
+as the simulator published them (DDS source timestamps; the issue's bound is two
+state periods, 40 ms at 50 Hz).
+
+    python benchmarks/command_flood.py                       # 1000/s, 10 s per phase
+    python benchmarks/command_flood.py --rate 500 --seconds 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+from sail_ros import topics
+from sail_ros.messages import status as key
+
+COUNTS = (key.ACCEPTED, key.SUPERSEDED, key.REJECTED, key.IGNORED)
+
+
+class Observer(Node):
+    """Publishes the commands; keeps the statuses and when each state was published."""
+
+    def __init__(self, context):
+        super().__init__("flood_observer", context=context)
+        self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
+        self.published_ns: list[int] = []
+        self.statuses: list[dict] = []
+        self.create_subscription(
+            JointState,
+            topics.BOOM_STATE,
+            lambda message, info: self.published_ns.append(info["source_timestamp"]),
+            topics.STATE_QOS,
+        )
+        self.create_subscription(
+            DiagnosticArray,
+            topics.DIAGNOSTICS,
+            lambda message: self.statuses.append(topics.diagnostic_values(message)),
+            topics.DIAGNOSTICS_QOS,
+        )
+
+
+def spin_for(executor, seconds: float) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.005)
+
+
+def phase(observer, executor, kind: str, rate: float, seconds: float) -> dict:
+    """Publish `kind` commands at `rate` per second for `seconds`; what the simulator did."""
+    spin_for(executor, 1.2)  # a status from before the phase
+    before = dict(observer.statuses[-1])
+    first_state = len(observer.published_ns)
+    sent, start = 0, time.monotonic()
+    while (now := time.monotonic()) < start + seconds:
+        due = int((now - start) * rate)
+        while sent < due:
+            target = math.nan if kind == "malformed" else 10.2 + 0.2 * (sent % 5)
+            observer.deploy.publish(Float64(data=target))
+            sent += 1
+        executor.spin_once(timeout_sec=0.0005)
+    spin_for(executor, 2.5)  # the last commands answered, a status after them
+    after = observer.statuses[-1]
+    outcomes = {name: int(after[name]) - int(before[name]) for name in COUNTS}
+    stamps = observer.published_ns[first_state:]
+    gap_ms = max((b - a) / 1e6 for a, b in zip(stamps[:-1], stamps[1:], strict=True))
+    return {
+        "sent": sent,
+        "outcomes": outcomes,
+        "overruns": int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]),
+        "largest_gap_ms": gap_ms,
+    }
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rate", type=float, default=1000.0, help="commands per second (1000)")
+    parser.add_argument("--seconds", type=float, default=10.0, help="length of a phase [s]")
+    args = parser.parse_args()
+    domain = 100 + os.getpid() % 100
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    log = tempfile.NamedTemporaryFile("w+", suffix=".log", delete=False)
+    sim = subprocess.Popen(
+        [sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args", "-p", "shape_rate_hz:=5.0"],
+        env=env,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain)
+    observer = Observer(context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(observer)
+    try:
+        deadline = time.monotonic() + 30.0
+        while not (observer.statuses and observer.deploy.get_subscription_count() >= 1):
+            if time.monotonic() > deadline:
+                raise SystemExit(f"the simulator did not come up; see {log.name}")
+            executor.spin_once(timeout_sec=0.1)
+        print(
+            f"{args.rate:g} commands/s for {args.seconds:g} s per phase (simulator log: {log.name})"
+        )
+        print(f"  {'phase':<10}{'sent':>7}{'accepted':>10}{'superseded':>12}{'rejected':>10}"
+              f"{'add up':>8}{'overruns':>10}{'largest gap [ms]':>18}")  # fmt: skip
+        for kind in ("valid", "malformed"):
+            found = phase(observer, executor, kind, args.rate, args.seconds)
+            outcomes = found["outcomes"]
+            adds_up = sum(outcomes.values()) == found["sent"]
+            print(
+                f"  {kind:<10}{found['sent']:>7}{outcomes[key.ACCEPTED]:>10}"
+                f"{outcomes[key.SUPERSEDED]:>12}{outcomes[key.REJECTED]:>10}"
+                f"{'yes' if adds_up else 'NO':>8}{found['overruns']:>10}"
+                f"{found['largest_gap_ms']:>18.1f}"
+            )
+    finally:
+        executor.remove_node(observer)
+        observer.destroy_node()
+        rclpy.try_shutdown(context=context)
+        sim.send_signal(signal.SIGINT)
+        sim.wait(20)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
