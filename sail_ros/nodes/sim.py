@@ -36,7 +36,7 @@ import traceback
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.event_handler import SubscriptionEventCallbacks
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from std_srvs.srv import SetBool, Trigger
 
@@ -109,18 +109,29 @@ class SimNode(Node):
         )
         self.failed = threading.Event()  # the integration thread raised: the node must end
         self.run.realtime_priority = self._schedule_ticks()
-        # Each command topic is taken twice (topics.COMMAND_QOS): a transient-local
-        # subscription does not match a volatile publisher, which is as meant, not news.
-        quiet = SubscriptionEventCallbacks(incompatible_qos=lambda event: None)
+        # Commands are taken by a lean node of their own on a thread of its own: rclpy
+        # rebuilds its wait set of every entity of an executor for each message taken,
+        # and at 1000 commands a second this node's (parameter services, publishers'
+        # event handlers) cost more than a core. No event handlers: each command topic is
+        # taken twice (topics.COMMAND_QOS), and a transient-local subscription that does
+        # not match a volatile publisher is as meant, not news.
+        self._commands = Node(
+            f"{NODE_NAME}_commands",
+            context=self.context,
+            namespace=self.get_namespace(),
+            start_parameter_services=False,
+        )
+        quiet = SubscriptionEventCallbacks(use_default_callbacks=False)
         for name in topics.COMMAND_TOPICS:
             for qos in topics.COMMAND_INTAKE_QOS:
-                self.create_subscription(
+                self._commands.create_subscription(
                     topics.TOPICS[name].message_type,
                     name,
                     lambda message, info, name=name: self._receive(name, message, info),
                     qos,
                     event_callbacks=quiet,
                 )
+        self._intake = CommandThread(self._commands)
         self.create_service(Trigger, topics.RESET_SERVICE, self._on_reset)
         self.create_service(SetBool, topics.PAUSE_SERVICE, self._on_pause)
         self.add_on_set_parameters_callback(self._check_parameters)
@@ -265,6 +276,7 @@ class SimNode(Node):
 
     def close(self) -> None:
         """Stop integrating and give subscribers time to acknowledge what was published."""
+        self._intake.stop()
         self._ticker.stop()
         self.run.finish()
         deadline = time.monotonic() + ACK_TIMEOUT_S
@@ -273,8 +285,40 @@ class SimNode(Node):
             publisher.wait_for_all_acked(Duration(nanoseconds=int(remaining * 1e9)))
 
     def destroy_node(self) -> None:
+        self._intake.stop()
         self._ticker.stop()
+        self._commands.destroy_node()
         super().destroy_node()
+
+
+class CommandThread:
+    """Serves `node` (the command subscriptions) with an executor on a thread of its own
+    until `stop`."""
+
+    def __init__(self, node: Node):
+        self._node = node
+        self._executor = SingleThreadedExecutor(context=node.context)
+        self._executor.add_node(node)
+        self._stopping = threading.Event()
+        self._wake = node.create_guard_condition(lambda: None)  # ends a wait at once
+        self._thread = threading.Thread(target=self._serve, name="sail_sim commands", daemon=True)
+        self._thread.start()
+
+    def _serve(self) -> None:
+        try:
+            while not self._stopping.is_set() and self._node.context.ok():
+                self._executor.spin_once(timeout_sec=1.0)
+        except ExternalShutdownException:
+            pass
+
+    def stop(self) -> None:
+        if self._stopping.is_set():
+            return
+        self._stopping.set()
+        self._wake.trigger()
+        self._thread.join()
+        self._executor.remove_node(self._node)
+        self._executor.shutdown()
 
 
 def _parser() -> argparse.ArgumentParser:

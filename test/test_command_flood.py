@@ -1,0 +1,71 @@
+"""A flood of commands at a simulator process: 1000 valid deploy commands a second, then
+1000 malformed ones, 2 s each (benchmarks/command_flood.py runs 10 s each). The
+simulator keeps real time (at most one overrun a phase, no gap between two published
+states over two state periods) and every command ends counted: accepted, superseded
+or rejected, adding up to what was sent."""
+
+import math
+import time
+
+import pytest
+from std_msgs.msg import Float64
+
+from sail_ros import topics
+from sail_ros.messages import status as key
+
+pytestmark = pytest.mark.multiprocess
+
+RATE = 1000.0  # commands per second
+PHASE_S = 2.0
+STATE_PERIOD_S = 0.02  # the default 50 Hz
+
+
+def flood(operator, targets) -> int:
+    """Publish deploy commands to `targets(i)` at RATE for PHASE_S; how many were sent."""
+    sent, start = 0, time.monotonic()
+    while (now := time.monotonic()) < start + PHASE_S:
+        while sent < int((now - start) * RATE):
+            operator.deploy.publish(Float64(data=targets(sent)))
+            sent += 1
+        operator.spinner.spin_once(timeout_sec=0.0005)
+    return sent
+
+
+@pytest.mark.parametrize(
+    ("kind", "targets"),
+    [("valid", lambda i: 10.2 + 0.2 * (i % 5)), ("malformed", lambda i: math.nan)],
+)
+def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operator, kind, targets):
+    states = []
+    operator.create_subscription(
+        topics.TOPICS[topics.BOOM_STATE].message_type,
+        topics.BOOM_STATE,
+        lambda message, info: states.append(info["source_timestamp"]),
+        topics.STATE_QOS,
+    )
+    processes("sim", parameters={"diagnostics_rate_hz": 4.0})
+    operator.wait_for_simulator()
+    before = operator.wait_for_status(lambda s: True, 5.0, "a status before the flood")
+    first = len(states)
+    sent = flood(operator, targets)
+    after = operator.wait_for_status(
+        lambda s: (
+            sum(int(s[name]) for name in (key.ACCEPTED, key.SUPERSEDED, key.REJECTED)) >= sent
+        ),
+        10.0,
+        "every command counted",
+    )
+    outcomes = {
+        name: int(after[name]) - int(before[name])
+        for name in (key.ACCEPTED, key.SUPERSEDED, key.REJECTED)
+    }
+    assert sum(outcomes.values()) == sent, outcomes
+    if kind == "valid":
+        assert outcomes[key.REJECTED] == 0 and outcomes[key.ACCEPTED] >= 1, outcomes
+    else:
+        assert outcomes[key.REJECTED] == sent, outcomes
+    assert int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]) <= 1
+    published = states[first:]
+    gaps = [(b - a) / 1e9 for a, b in zip(published[:-1], published[1:], strict=True)]
+    assert len(published) > 0.8 * PHASE_S / STATE_PERIOD_S
+    assert max(gaps) <= 2 * STATE_PERIOD_S, f"a {max(gaps) * 1e3:.1f} ms gap between two states"
