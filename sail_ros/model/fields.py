@@ -175,16 +175,24 @@ def help_line(name: str, field: dataclasses.Field) -> str:
     return f"{name}{unit} (default {default_of(field)!r}{within}{choices}): {spec.doc}"
 
 
-def markdown_table(cls, prefix: str = "") -> str:
-    """The fields of `cls` as a Markdown table: name, default, unit, range, meaning."""
-    lines = ["| name | default | unit | range | meaning |", "|---|---|---|---|---|"]
-    for field in fields_of(cls):
+def markdown_table(named_fields, writable: bool = False) -> str:
+    """Fields as a Markdown table: name, default, unit, range, (writable,) meaning.
+
+    Args:
+        named_fields: `(name, field)` pairs, e.g. `((f.name, f) for f in fields_of(cls))`.
+        writable: add a column saying whether a ROS parameter may change at run time.
+    """
+    header = ["name", "default", "unit", "range", *(["writable"] if writable else []), "meaning"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for name, field in named_fields:
         spec = spec_of(field)
         limits = range_text(spec).replace("|", "\\|")
         if spec.sizes:
-            limits = f"{' or '.join(map(str, spec.sizes))} values, each {limits}".rstrip(", each")
-        lines.append(
-            f"| `{prefix}{field.name}` | {default_of(field)!r} | {spec.unit or '–'} | "
-            f"{limits or '–'} | {spec.doc} |"
-        )
+            each = f", each {limits}" if limits else ""
+            limits = f"{' or '.join(map(str, spec.sizes))} values{each}"
+        cells = [f"`{name}`", f"{default_of(field)!r}", spec.unit or "–", limits or "–"]
+        if writable:
+            cells.append("no" if spec.read_only else "yes")
+        cells.append(spec.doc.replace("|", "\\|"))
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)

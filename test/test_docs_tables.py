@@ -1,0 +1,17 @@
+"""Documentation tables generated from the field tables stay equal to them."""
+
+from pathlib import Path
+
+import pytest
+
+from sail_ros.model.fields import markdown_table
+from sail_ros.runtime.config import PARAMETERS
+
+pytestmark = pytest.mark.model
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_simulator_parameter_table_is_the_generated_one():
+    text = (ROOT / "msg_docs/README.md").read_text()
+    assert markdown_table(PARAMETERS.items(), writable=True) in text
