@@ -27,6 +27,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
@@ -102,7 +103,12 @@ def main() -> int:
     args = parser.parse_args()
     domain = 100 + os.getpid() % 100
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    log = tempfile.NamedTemporaryFile("w+", suffix=".log", delete=False)
+    log_path = Path(tempfile.gettempdir()) / f"command_flood_{os.getpid()}.log"
+    with log_path.open("w") as log:
+        return _run(args, domain, env, log)
+
+
+def _run(args, domain: int, env: dict, log) -> int:
     sim = subprocess.Popen(
         [sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args", "-p", "shape_rate_hz:=5.0"],
         env=env,
