@@ -55,6 +55,29 @@ def pytest_collection_modifyitems(items):
         tiers = [name for name in TIERS if item.get_closest_marker(name)]
         if len(tiers) != 1:
             raise pytest.UsageError(f"{item.nodeid}: needs exactly one of {TIERS}, has {tiers}")
+        item.user_properties.append(("tier", tiers[0]))
+
+
+_TIER_SECONDS: dict[str, float] = {}
+_STARTED = time.monotonic()
+
+
+def pytest_runtest_logreport(report):
+    """Wall time per tier: setup, call and teardown of its tests."""
+    tier = dict(report.user_properties).get("tier")
+    if tier is not None:
+        _TIER_SECONDS[tier] = _TIER_SECONDS.get(tier, 0.0) + report.duration
+
+
+def pytest_terminal_summary(terminalreporter):
+    """The suite's wall time and each tier's, printed by the test command (the README's
+    suite budget is 240 s on 2 cores)."""
+    tiers = ", ".join(
+        f"{tier} {_TIER_SECONDS[tier]:.0f} s" for tier in TIERS if tier in _TIER_SECONDS
+    )
+    terminalreporter.write_line(
+        f"suite wall time {time.monotonic() - _STARTED:.0f} s ({tiers}) on {os.cpu_count()} cores"
+    )
 
 
 @pytest.fixture(scope="session")
