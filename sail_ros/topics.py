@@ -466,6 +466,9 @@ def diagnostic_values(array: DiagnosticArray, node: str = SIM_NODE) -> dict[str,
 
 ACCEPTED, REJECTED, IGNORED = "accepted", "rejected", "ignored"
 SUPERSEDED = "superseded"  # a newer command replaced it before it started
+# value of an accepted load command's answer: the four values held from then on
+# ("[0.002, 0.0, 0.0, 0.0]", Pa or N), so a log tells every load from the answers alone
+LOADS_HELD = "loads_held"
 _OUTCOME_LEVELS = {
     ACCEPTED: DiagnosticStatus.OK,
     REJECTED: DiagnosticStatus.ERROR,
@@ -484,7 +487,8 @@ class CommandAnswer(NamedTuple):
         message: the plan ("deploy to 12 m: ...") or the reason.
         source_timestamp_ns: when its publisher wrote it [ns, the publisher's clock].
         sequence: the publisher's sequence number of the command.
-        values: further key/value pairs (t_start_s, t_end_s of an accepted motion).
+        values: further key/value pairs (t_start_s, t_end_s of an accepted motion;
+            t_start_s and LOADS_HELD of an accepted load).
     """
 
     topic: str

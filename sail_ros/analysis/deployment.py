@@ -210,19 +210,21 @@ def converge(
         model.params.replace(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes)
     )
     q0, qd0 = scenario.initial_state(model)
-    initial = (_carried_over(q0, model, finer), _carried_over(qd0, model, finer))
+    initial = (carried_over(q0, model, finer), carried_over(qd0, model, finer))
     rerun = run_deployment(finer, scenario, run.t, max_step, progress, initial)
     coarse, fine = run.peaks, rerun.peaks
     return Convergence(
         n_boom_modes,
         n_membrane_modes,
         fine,
-        _relative_change(coarse.tip_deflection.value, fine.tip_deflection.value),
-        _relative_change(coarse.root_moment.value, fine.root_moment.value),
+        relative_change(coarse.tip_deflection.value, fine.tip_deflection.value),
+        relative_change(coarse.root_moment.value, fine.root_moment.value),
     )
 
 
-def _carried_over(values, model: SailModel, finer: SailModel) -> np.ndarray:
+def carried_over(values, model: SailModel, finer: SailModel) -> np.ndarray:
+    """Coordinates (or velocities) of `model` as those of `finer`, a model with more
+    modes: by name, the new ones 0 (the bases are nested)."""
     index = {name: i for i, name in enumerate(finer.coordinate_names)}
     carried = np.zeros(finer.n)
     for name, value in zip(model.coordinate_names, values, strict=True):
@@ -230,5 +232,5 @@ def _carried_over(values, model: SailModel, finer: SailModel) -> np.ndarray:
     return carried
 
 
-def _relative_change(coarse, fine) -> np.ndarray:
+def relative_change(coarse, fine) -> np.ndarray:
     return np.divide(fine - coarse, fine, out=np.zeros_like(fine), where=fine != 0)

@@ -59,6 +59,7 @@ class LogSeries:
             key as text lists, or None when the log has no /diagnostics.
         scenario: the scenario document of a `sail-ros deploy` log (its
             `sail_deploy_scenario` record), or None.
+        namespace: the simulator's namespace in the log ("/", "/sat2").
     """
 
     path: Path
@@ -73,6 +74,7 @@ class LogSeries:
     moments: JointSeries | None
     diagnostics: tuple[np.ndarray, dict[str, list[str]]] | None
     scenario: dict | None = None
+    namespace: str = "/"  # the simulator's, whose topics were read
 
     def seconds(self, stamp_ns) -> np.ndarray:
         """Stamps [ns] on the log's time axis [s]."""
@@ -183,6 +185,7 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
         moments=series[topics.ROOT_MOMENT],
         diagnostics=status,
         scenario=scenario,
+        namespace=namespace,
     )
 
 

@@ -197,6 +197,67 @@ class WaypointProfile:
         )
 
 
+class SampledProfile:
+    """Booms through sampled lengths and rates (a log's boom states): on each interval
+    the cubic Hermite through the lengths and rates at its ends, so lengths and rates
+    are continuous and exact at the samples; before the first and after the last sample
+    the booms hold.
+
+    Args:
+        times: strictly increasing sample times [s] (k,), at least 2.
+        lengths: lengths [m] (k, 4).
+        rates: rates [m/s] (k, 4).
+    """
+
+    def __init__(self, times, lengths, rates):
+        self.times = np.asarray(times, dtype=float)
+        self.lengths = np.asarray(lengths, dtype=float)
+        self.rates = np.asarray(rates, dtype=float)
+        k = self.times.size
+        if k < 2 or np.any(np.diff(self.times) <= 0) or not np.all(np.isfinite(self.times)):
+            raise ValueError("times must hold at least 2 finite, strictly increasing values")
+        if self.lengths.shape != (k, 4) or self.rates.shape != (k, 4):
+            raise ValueError(
+                f"lengths and rates must have shape ({k}, 4), got {self.lengths.shape}, "
+                f"{self.rates.shape}"
+            )
+        if not (np.all(np.isfinite(self.lengths)) and np.all(self.lengths > 0)):
+            raise ValueError("lengths must be finite and > 0")
+        self._zero = np.zeros(4)
+        # intervals over which nothing moves (equal lengths, zero rates at both ends)
+        still = (self.rates[:-1] == 0) & (self.rates[1:] == 0)
+        still &= self.lengths[:-1] == self.lengths[1:]
+        self._still = np.all(still, axis=1)
+
+    @property
+    def t_end(self) -> float:
+        return float(self.times[-1])
+
+    def __call__(self, t):
+        if t <= self.times[0]:
+            return self.lengths[0], self._zero, self._zero
+        if t >= self.times[-1]:
+            return self.lengths[-1], self._zero, self._zero
+        i = int(np.searchsorted(self.times, t, side="right")) - 1
+        h = self.times[i + 1] - self.times[i]
+        s = (t - self.times[i]) / h
+        y0, y1 = self.lengths[i], self.lengths[i + 1]
+        d0, d1 = self.rates[i] * h, self.rates[i + 1] * h
+        lengths = (2 * s**3 - 3 * s**2 + 1) * y0 + (s**3 - 2 * s**2 + s) * d0
+        lengths += (3 * s**2 - 2 * s**3) * y1 + (s**3 - s**2) * d1
+        rates = (6 * s**2 - 6 * s) * y0 + (3 * s**2 - 4 * s + 1) * d0
+        rates += (6 * s - 6 * s**2) * y1 + (3 * s**2 - 2 * s) * d1
+        accelerations = (12 * s - 6) * y0 + (6 * s - 4) * d0 + (6 - 12 * s) * y1 + (6 * s - 2) * d1
+        return lengths, rates / h, accelerations / h**2
+
+    def is_static(self, t0, t1) -> bool:
+        first = int(np.searchsorted(self.times, t0, side="right")) - 1
+        last = int(np.searchsorted(self.times, t1, side="left"))
+        if last <= 0 or first >= self.times.size - 1:
+            return True  # wholly before the first or after the last sample
+        return bool(np.all(self._still[max(first, 0) : min(last, self._still.size)]))
+
+
 class JammedProfile:
     """A profile whose booms jam: each stops dead where it first reaches its
     `stop_lengths` [m] (a length it never reaches: no jam), then holds.

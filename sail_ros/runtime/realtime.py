@@ -267,7 +267,10 @@ class RealTimeRun:
             except CommandError as error:
                 self._answer(batch[index], topics.REJECTED, str(error), {}, "warning")
                 continue
-            self._accepted(batch[index], change.summary, {"t_start_s": f"{sim.t_model:.9f}"})
+            # the loads now held, all four: a log then tells the loads from the answers
+            held = sim.pressures if batch[index].topic == topics.PRESSURE_CMD else sim.tip_forces
+            values = {"t_start_s": f"{sim.t_model:.9f}", topics.LOADS_HELD: _numbers(held)}
+            self._accepted(batch[index], change.summary, values)
 
     def _rejected(self, pending: Pending, error: CommandError) -> None:
         self.sim.count_rejection(error)
@@ -483,3 +486,8 @@ class RealTimeRun:
 def _time_or_none(t: float) -> float:
     """A simulation time [s] for the status: -1.0 for none (nan, -inf)."""
     return round(t, 9) if math.isfinite(t) else -1.0
+
+
+def _numbers(values) -> str:
+    """Numbers as one line of text, every digit kept: "[0.002, 0.0, 0.0, 0.0]"."""
+    return "[" + ", ".join(repr(float(v)) for v in values) + "]"

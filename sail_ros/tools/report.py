@@ -13,8 +13,9 @@ up to its last complete record) and writes into `--out`:
   from /diagnostics (an offline run has none; the report says so);
 - peaks.csv: each boom's peak |tip deflection| and |root moment| with its time,
   interpolated between the logged samples with the logged rates (cubic
-  Hermite), with what the sampling cannot follow; for a `sail-ros deploy` log
-  also the true peaks of a rerun of its recorded scenario and, unless
+  Hermite), with what the sampling cannot follow; then the true peaks of a
+  rerun (of a `sail-ros deploy` log's recorded scenario; of a live log's logged
+  motion, loads and state, `analysis.log_rerun`) and, unless
   `--no-convergence`, of a rerun with twice the modes (a warning when a peak
   moves by more than 1 %).
 
@@ -34,9 +35,15 @@ from pathlib import Path
 
 import numpy as np
 
-from sail_ros.analysis.deployment import converge, finer_mode_counts, run_deployment
+from sail_ros.analysis.deployment import (
+    carried_over,
+    finer_mode_counts,
+    relative_change,
+    run_deployment,
+)
 from sail_ros.analysis.energy import group_energies
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE, log_peaks
+from sail_ros.analysis.log_rerun import rerun_log
 from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.scenario import scenario_from_dict
 from sail_ros.cli import PHYSICS_DOC
@@ -230,13 +237,8 @@ def _peaks(args, log, out: Path) -> Path:
             "up to " + ", ".join(f"{100 * v:.2g} %" for v in share) + " of the peak root "
             "moments a..d, which may be off by that much between samples"
         )
-    if log.scenario is not None and model is not None:
+    if model is not None:
         rows += _rerun_peaks(args, log, model)
-    else:
-        print(
-            "  true peaks and their convergence with the mode counts come from an offline run: "
-            "this log records no scenario (`sail-ros deploy --convergence` runs one)"
-        )
     path = out / "peaks.csv"
     header = ["source", "n_boom_modes", "n_membrane_modes", *PEAK_COLUMNS]
     _write_csv(path, header, zip(*rows, strict=True))
@@ -256,39 +258,67 @@ def _peak_row(source: str, params, peaks) -> list:
 
 
 def _rerun_peaks(args, log, model) -> list[list]:
-    """Rerun a deploy log's scenario at its mode counts (true peaks; how well the rerun
-    reproduces the logged tips) and, unless --no-convergence, with twice the modes."""
-    scenario = scenario_from_dict(log.scenario)
-    t = log.seconds(log.tips.stamp_ns) if log.tips is not None else None
-    if t is None or not log.simulation_time:
+    """The log run again (a deploy log's recorded scenario; a live log's logged motion,
+    loads and state, `analysis.log_rerun`): its true peaks, how well it reproduces the
+    logged tips, and unless --no-convergence how its peaks move with twice the modes."""
+    try:
+        if log.scenario is not None:
+            what, rerun = "the recorded scenario", _scenario_rerun(log)
+        else:
+            what, rerun = "the logged motion, loads and state", rerun_log
+        peaks, agreement, runs = rerun(log, model)
+    except ValueError as error:
+        print(f"  true peaks need a rerun of the log, which is not possible: {error}")
         return []
-    step = float(log.parameters.get("max_model_step", "0.05")) if log.parameters else 0.05
-    run = run_deployment(model, scenario, t, max_step=step)
-    agreement = np.abs(run.tips - log.tips.position).max() / max(
-        float(np.abs(log.tips.position).max()), 1e-300
-    )
+    runs = f" ({runs} runs: resets)" if runs > 1 else ""
     print(
-        f"  a rerun of the recorded scenario reproduces the logged tips to {agreement:.2g} of "
-        "their peak; its true peaks (taken inside every integration step):"
+        f"  a rerun of {what}{runs} reproduces the logged tips to {agreement:.2g} of their "
+        "peak; its true peaks (taken inside every integration step):"
     )
-    rows = [_peak_row("rerun", model.params, run.peaks)]
+    rows = [_peak_row("rerun", model.params, peaks)]
     if args.no_convergence:
-        print_peak_table(run.peaks, indent="    ")
+        print_peak_table(peaks, indent="    ")
         return rows
     finer = finer_mode_counts(model.params)
-    convergence = converge(model, scenario, run, *finer, max_step=step)
+    finer_model = SailModel(model.params.replace(n_boom_modes=finer[0], n_membrane_modes=finer[1]))
+    more = rerun(log, finer_model, carried_from=model)[0]
+    tip = relative_change(peaks.tip_deflection.value, more.tip_deflection.value)
+    moment = relative_change(peaks.root_moment.value, more.root_moment.value)
     label = f"  change at ({finer[0]}, {finer[1]}) modes [%]"
-    changes = (label, convergence.tip_change, convergence.moment_change)
-    print_peak_table(run.peaks, changes, indent="    ")
-    finer_params = model.params.replace(n_boom_modes=finer[0], n_membrane_modes=finer[1])
-    rows.append(_peak_row("rerun, more modes", finer_params, convergence.peaks))
-    if convergence.largest() > CONVERGENCE_WARNING:
+    print_peak_table(peaks, (label, tip, moment), indent="    ")
+    rows.append(_peak_row("rerun, more modes", finer_model.params, more))
+    largest = float(np.max(np.abs(np.concatenate([tip, moment]))))
+    if largest > CONVERGENCE_WARNING:
         print(
             f"warning: peaks not converged: with (n_B, n_M) = {finer} they move by up to "
-            f"{100 * convergence.largest():.3g} %; raise n_boom_modes and n_membrane_modes",
+            f"{100 * largest:.3g} %; raise n_boom_modes and n_membrane_modes",
             file=sys.stderr,
         )
     return rows
+
+
+def _scenario_rerun(log):
+    """A rerun of a deploy log's scenario, as `log_rerun.rerun_log` runs a live log:
+    `(log, model, carried_from=None) -> (peaks, agreement, runs)`."""
+    scenario = scenario_from_dict(log.scenario)
+    if log.tips is None or not log.simulation_time:
+        raise ValueError("the log holds no tip deflections on simulation time")
+    t = log.seconds(log.tips.stamp_ns)
+    step = float(log.parameters.get("max_model_step", "0.05")) if log.parameters else 0.05
+
+    def rerun(log, model, carried_from=None):
+        initial = None
+        if carried_from is not None:
+            initial = tuple(
+                carried_over(values, carried_from, model)
+                for values in scenario.initial_state(carried_from)
+            )
+        run = run_deployment(model, scenario, t, max_step=step, initial=initial)
+        logged = log.tips.position
+        agreement = np.abs(run.tips - logged).max() / max(float(np.abs(logged).max()), 1e-300)
+        return run.peaks, float(agreement), 1
+
+    return rerun
 
 
 def _recorded_parameters(log):
