@@ -33,6 +33,15 @@ class SailParameters:
         mass_damping: Rayleigh `alpha` [1/s] of `C_d = alpha M + beta K` (>= 0).
         stiffness_damping: Rayleigh `beta` [s] (>= 0); a mode of frequency omega
             then has the damping ratio `alpha / (2 omega) + beta omega / 2`.
+        free_hub: the hub heaves and tilts (model.md §13); False: clamped, and the
+            four fields below are ignored.
+        hub_mass: hub mass `m_h` without stowed material [kg] (>= 0).
+        hub_inertia_x: hub moment of inertia `J_x` about its x axis (boom a)
+            through its centre [kg m^2] (>= 0).
+        hub_inertia_y: `J_y` about its y axis (boom b) [kg m^2] (>= 0).
+        stowed_mass_on_hub: the hub carries the booms and film not yet deployed,
+            so the total mass is constant; boom lengths above `a / sqrt(2)` are
+            then refused.
     """
 
     sail_side: float = 100.0
@@ -46,14 +55,24 @@ class SailParameters:
     n_membrane_modes: int = 6
     mass_damping: float = 0.0
     stiffness_damping: float = 0.0
+    free_hub: bool = False
+    hub_mass: float = 100.0
+    hub_inertia_x: float = 100.0
+    hub_inertia_y: float = 100.0
+    stowed_mass_on_hub: bool = True
 
     # fields that must be > 0; the others must be >= 0 (mode counts >= 1)
     _POSITIVE = ("sail_side", "boom_bending_stiffness", "boom_linear_density")
     _MODE_COUNTS = ("n_boom_modes", "n_membrane_modes")
+    _BOOLEANS = ("free_hub", "stowed_mass_on_hub")
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
+            if field.name in self._BOOLEANS:
+                if not isinstance(value, bool):
+                    raise ValueError(f"{field.name} must be true or false, got {value!r}")
+                continue
             if field.name in self._MODE_COUNTS:
                 if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                     raise ValueError(f"{field.name} must be an integer >= 1, got {value!r}")
@@ -83,6 +102,17 @@ class SailParameters:
     def membrane_tension(self) -> float:
         """N0 = sigma h [N/m]."""
         return self.membrane_prestress * self.membrane_thickness
+
+    @property
+    def total_mass(self) -> float:
+        """Hub, four full booms and the whole film [kg]: `m_h + 4 rho_B L_f + 2 rho_M L_f^2`
+        (the free hub's constant `M[z, z]` with stowed material on the hub)."""
+        full = self.full_boom_length
+        return (
+            self.hub_mass
+            + 4.0 * self.boom_linear_density * full
+            + 2.0 * self.membrane_areal_density * full**2
+        )
 
     # (de)serialisation --------------------------------------------------
     @classmethod
