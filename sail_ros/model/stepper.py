@@ -26,7 +26,9 @@ forces `Q = B_u u` of the inputs (model.md §12) add `- C_d qd + Q` to `pd`:
   round-off and a step is one matrix-vector product. Rayleigh damping is
   classical (`V^T C_d V` diagonal), so each mode is a damped oscillator with
   its own exact 2 x 2 propagator; a load held over the step moves the
-  equilibrium to `K^-1 Q`, about which the same propagator acts.
+  equilibrium to `K^-1 Q`, about which the same propagator acts; a rigid-body
+  mode (`lam = 0` exactly, a free hub) has no equilibrium and takes the load as
+  `eta + h etad + h^2 f / 2`.
 
 Accuracy is set by the step: `h <= max_step` (default 0.05 s) and `h * omega_r <= 2` where
 `omega_r` (`resolved_frequency`) is by default the system's own bound at the
@@ -81,6 +83,11 @@ class LinearSystem(Protocol):
     def assemble_inputs(self, lengths) -> np.ndarray:
         """`B_u` (n, number of inputs): generalised forces per unit input at `lengths`
         (4 checked values)."""
+
+    def modes_of(self, M: np.ndarray, K: np.ndarray):
+        """`(lam, V)`: eigenvalues `omega^2` and `M`-orthonormal modes of `(K, M)` at rest
+        (`scipy.linalg.eigh(K, M)` for a structure held in place); rigid-body modes, if
+        any, with `lam` exactly 0 (a free hub, model.md §13.6)."""
 
 
 class IntegrationError(RuntimeError):
@@ -423,30 +430,40 @@ class SailStepper:
                 self._static_cache.clear()
             cached = self._exact_propagator(lengths, h)
             self._static_cache[key] = cached
-        propagator, V, lam = cached
+        propagator, V, lam, VtM = cached
         x = np.concatenate([self._q, self._p])
         n = self.system.n
+        rigid = lam == 0.0  # rigid-body modes: no equilibrium (model.md §13.10)
         if force is None:
             x = propagator @ x
-        else:  # about the equilibrium q_s = K^-1 Q (p_s = 0: nothing moves there)
+        elif not rigid.any():  # about the equilibrium q_s = K^-1 Q (p_s = 0: nothing moves)
             shift = np.zeros(2 * n)
             shift[:n] = V @ ((V.T @ force) / lam)
             x = shift + propagator @ (x - shift)
+        else:  # elastic modes about their equilibrium; rigid ones accelerate uniformly
+            elastic = ~rigid
+            modal = V.T @ force
+            shift = np.zeros(2 * n)
+            shift[:n] = V[:, elastic] @ (modal[elastic] / lam[elastic])
+            x = shift + propagator @ (x - shift)
+            x[:n] += V[:, rigid] @ (0.5 * h * h * modal[rigid])  # eta += h^2 f / 2
+            x[n:] += VtM[rigid].T @ (h * modal[rigid])  # etad += h f
         return x[:n], x[n:]
 
     def _exact_propagator(self, lengths, h):
         """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M), with the
-        mode matrix `V` and eigenvalues `lam` (omega^2).
+        mode matrix `V`, eigenvalues `lam` (omega^2) and `V^T M`.
 
         With V^T M V = I and K V = M V diag(lam): eta = V^T M q, etad = V^T p. Undamped,
         eta(h) = c eta + s etad, etad(h) = -lam s eta + c etad, where
-        c = cos(sqrt(lam) h), s = sin(sqrt(lam) h) / sqrt(lam) (cosh/sinh for
-        lam < 0, a buckled mode). Damped (`V^T C_d V = diag(d)`), each mode's
-        2 x 2 propagator is exp(h [[0, 1], [-lam, -d]]).
+        c = cos(sqrt(lam) h), s = sin(sqrt(lam) h) / sqrt(lam) (-> h at lam = 0, a
+        rigid-body mode; cosh/sinh for lam < 0, a buckled mode). Damped
+        (`V^T C_d V = diag(d)`), each mode's 2 x 2 propagator is
+        exp(h [[0, 1], [-lam, -d]]).
         """
         zero = np.zeros(4)
         M, K, C_d = self.system.assemble((MASS, STIFFNESS, STRUCTURAL_DAMPING), lengths, zero, zero)
-        lam, V = scipy.linalg.eigh(K, M)
+        lam, V = self.system.modes_of(M, K)
         d = np.einsum("ij,ik,kj->j", V, C_d, V)  # diag(V^T C_d V): classical damping
         if np.any(d):
             generator = np.zeros((lam.size, 2, 2))
@@ -471,4 +488,4 @@ class SailStepper:
         P[:n, n:] = (V * s) @ V.T
         P[n:, :n] = (VtM.T * sd) @ VtM
         P[n:, n:] = (VtM.T * cd) @ V.T
-        return P, V, lam
+        return P, V, lam, VtM
