@@ -15,6 +15,8 @@ import scipy.integrate
 import scipy.linalg
 from scipy.optimize import brentq
 
+from sail_ros.analysis.modes import modal_analysis
+from sail_ros.analysis.plant import frequency_response, linear_plant, poles
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.assembly import (
     DAMPING,
@@ -316,6 +318,27 @@ def test_hub_wrench_reaches_the_hub_through_loads_and_the_schedule():
     assert q[-1, h.start] == pytest.approx(0.5 * a[0], rel=0.05)
     sample = model.sample(1.0, np.full(4, 12.0), np.zeros(4), q[-1], 2 * q[-1])
     np.testing.assert_array_equal(sample.hub, np.concatenate([q[-1, h], 2 * q[-1, h]]))
+
+
+def test_modal_analysis_and_plant_carry_the_hub():
+    model = SailModel(free(n_boom_modes=2, n_membrane_modes=2, mass_damping=0.01))
+    modes = modal_analysis(model, 12.0)
+    assert np.array_equal(modes.omega[:3], np.zeros(3)) and modes.groups[0] == (0, 3)
+    np.testing.assert_allclose(modes.omega, model.natural_frequencies(12.0), rtol=1e-12)
+    plant = linear_plant(model, 12.0)
+    assert plant.input_names == model.input_names and len(plant.input_units) == 11
+    assert plant.output_names == model.output_names and len(plant.output_units) == 14
+    assert plant.input_units[8:] == ("N", "N m", "N m")
+    assert plant.output_units[8:] == ("m", "rad", "rad", "m/s", "rad/s", "rad/s")
+    assert plant.state_names[model.n - 3] == "hub_heave"
+    assert [p.omega for p in poles(plant)[:6]] == [0.0] * 6
+    # a torque tau_x: the tilt theta_x(s) = tau_x / (s^2 J_x,eff) at low frequency
+    w = 1e-3
+    response = frequency_response(plant, [w])[0]
+    tilt = response[model.output_names.index("hub_tilt_x"), model.input_names.index("hub_torque_x")]
+    M, _ = model.mass_and_stiffness(12.0)
+    J = 1.0 / np.linalg.inv(M[model.hub_slice, model.hub_slice])[1, 1]
+    assert (-(w**2) * tilt).real == pytest.approx(1.0 / J, rel=1e-3)
 
 
 def test_hold_loads_are_the_rates_of_the_in_plane_and_spin_momenta():

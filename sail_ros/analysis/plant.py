@@ -1,7 +1,8 @@
-"""The sail as a linear plant at frozen boom lengths and rates (model.md §12).
+"""The sail as a linear plant at frozen boom lengths and rates (model.md §12, §13).
 
 `linear_plant` wraps `SailModel.state_space` with the names of its inputs,
-outputs and states; `poles` lists its modes (frequency, damping ratio) and
+outputs and states (8 and 8, or 11 and 14 with a free hub, whose outputs hold
+double integrators); `poles` lists its modes (frequency, damping ratio) and
 `frequency_response` evaluates `C (jw I - A)^-1 B + D` on a frequency grid.
 """
 
@@ -13,7 +14,6 @@ import numpy as np
 
 from sail_ros.model import SailModel
 from sail_ros.model.layout import per_boom
-from sail_ros.model.loads import INPUT_NAMES, INPUT_UNITS, OUTPUT_NAMES, OUTPUT_UNITS
 
 
 @dataclasses.dataclass(frozen=True)
@@ -36,8 +36,8 @@ class LinearPlant:
     input_names: tuple[str, ...]
     output_names: tuple[str, ...]
     state_names: tuple[str, ...]
-    input_units: tuple[str, ...] = INPUT_UNITS
-    output_units: tuple[str, ...] = OUTPUT_UNITS
+    input_units: tuple[str, ...]
+    output_units: tuple[str, ...]
 
     def arrays(self) -> dict:
         """Everything as arrays (for `.npz` and MATLAB `.mat`)."""
@@ -63,7 +63,19 @@ def linear_plant(model: SailModel, lengths, rates=0.0) -> LinearPlant:
     A, B, C, D = model.state_space(lengths, rates)
     names = model.coordinate_names
     states = tuple(names) + tuple(f"d/dt {name}" for name in names)
-    return LinearPlant(A, B, C, D, lengths, rates, INPUT_NAMES, OUTPUT_NAMES, states)
+    return LinearPlant(
+        A,
+        B,
+        C,
+        D,
+        lengths,
+        rates,
+        model.input_names,
+        model.output_names,
+        states,
+        model.input_units,
+        model.output_units,
+    )
 
 
 @dataclasses.dataclass(frozen=True)
