@@ -323,12 +323,13 @@ def _variable(motion, constants: Constants, name: str):
 
 
 class _PolynomialBatch:
-    """The values of several `Polynomial`s: every distinct monomial in the kinematic
+    """Several `Polynomial`s times the 0/1 matrix `weights` (functions, columns) that
+    sends them to integrals of outputs: every distinct monomial in the kinematic
     variables once, as `prod_i v_i^e_i` over an exponent table, then one matrix
-    product whose factors hold the constants (and the powers of `Lf`)."""
+    product with the factors (constants, powers of `Lf`) folded into `weights`."""
 
-    def __init__(self, functions):
-        self.functions = functions
+    def __init__(self, functions, weights: np.ndarray):
+        self.functions, self.weights = functions, weights
         self.names = sorted(
             {name for f in functions for _, p in f.monomials for name in p} - {"Lf"}
         )
@@ -343,18 +344,18 @@ class _PolynomialBatch:
         self._cache = (None, None, None)  # constants, motion type -> (factors, rows)
 
     def __call__(self, motion, constants: Constants) -> np.ndarray:
-        """(functions, 4)."""
+        """(4, columns): the weight of each column for each of the 4 components."""
         if self._cache[0] is not constants or self._cache[1] is not type(motion):
             factors = np.zeros((len(self.functions), len(self._keys)))
             for i, row, factor, lf_power in self._entries:
                 constant = getattr(constants, self.functions[i].constant)
                 factors[i, row] += constant * factor * constants.full_boom_length**lf_power
             rows = [motion._fields.index(name) for name in self.names]
-            self._cache = (constants, type(motion), (factors, rows))
-        factors, rows = self._cache[2]
+            self._cache = (constants, type(motion), (factors.T @ self.weights, rows))
+        weights, rows = self._cache[2]
         variables = np.array(motion)[rows]  # (names, 4)
         monomials = np.prod(variables[None, :, :] ** self.exponents[:, :, None], axis=1)
-        return factors @ monomials
+        return monomials.T @ weights
 
 
 # The gyroscopic `G` of a term feeds G, and G - G^T feeds C and the canonical damping.
@@ -589,9 +590,8 @@ class _Component:
         if entries is not None:
             self.integrals = self.integrals[:, entries]
         self.targets = targets  # (4, entries): flat system index of every block entry
+        self.signs = signs  # (4, entries) or None: +-1 of every entry as it lands
         self.signed = signs is not None
-        if self.signed:  # one copy per component, each entry with its sign: (4, integrals, entries)
-            self.integrals = self.integrals[None, :, :] * signs[:, None, :]
 
     def selection(self, outputs: tuple[str, ...]):
         """`(functions, weights, integrals)`: the distinct coefficient functions that feed
@@ -609,22 +609,23 @@ class _Component:
             if row.any():
                 rows[term.coefficient] = rows.get(term.coefficient, 0.0) + row
         functions = tuple(rows)
-        if functions and all(isinstance(f, Polynomial) for f in functions):
-            functions = _PolynomialBatch(functions)
         weights = np.array(list(rows.values())).reshape(len(rows), select[0].size)
-        if not self.signed:
-            return functions, weights, self.integrals
-        by_output = weights.reshape(len(rows), len(outputs), len(self._column))
-        used = np.flatnonzero(by_output.any(axis=(0, 1)))
-        weights = by_output[:, :, used]
-        return functions, weights.reshape(len(rows), -1 if rows else 0), self.integrals[:, used]
+        integrals = self.integrals
+        if self.signed:  # (a coupling to the hub) only the integrals the outputs use
+            by_output = weights.reshape(len(rows), len(outputs), len(self._column))
+            used = np.flatnonzero(by_output.any(axis=(0, 1)))
+            weights = by_output[:, :, used].reshape(len(rows), len(outputs) * used.size)
+            integrals = self.integrals[used]
+        if functions and all(isinstance(f, Polynomial) for f in functions):
+            functions = _PolynomialBatch(functions, weights)
+        return functions, weights, integrals
 
     def values(self, motion, constants: Constants, selection, k: int) -> np.ndarray:
         """Entries of every block of every requested output, flat, component-major."""
-        weights, integrals = self._weights(motion, constants, selection), selection[2]
+        values = self._weights(motion, constants, selection).reshape(4 * k, -1) @ selection[2]
         if self.signed:
-            return (weights.reshape(4, k, -1) @ integrals).ravel()
-        return (weights.reshape(4 * k, -1) @ integrals).ravel()
+            return (values.reshape(4, k, -1) * self.signs[:, None, :]).ravel()
+        return values.ravel()
 
     def blocks(self, motion, constants: Constants, selection, k: int) -> np.ndarray:
         """Every block of every requested output, (k, 4, size, size), output-major."""
@@ -635,7 +636,7 @@ class _Component:
         """(4, outputs x integrals): the coefficient of each integral in each output."""
         functions, weights, _ = selection
         if isinstance(functions, _PolynomialBatch):
-            return functions(motion, constants).T @ weights
+            return functions(motion, constants)
         if not functions:
             return np.zeros((4, weights.shape[1]))
         coefficients = np.array([function(motion, constants) for function in functions]).T
@@ -820,7 +821,7 @@ class SystemAssembler:
             weights=np.concatenate([values, plan.constant_values]),
             minlength=k * size,
         ).reshape(k, size)
-        border = Border(flat[:, : 3 * n].reshape(k, 3, n), flat[:, 3 * n :].reshape(k, n_e, 3))
+        border = Border(flat, n, n_e)
         low_rank = None
         if plan.damped:
             mass = border.rows[plan.outputs.index(MASS)]
@@ -832,7 +833,7 @@ class SystemAssembler:
             boom_blocks[:keep],
             quadrant_blocks[:keep],
             self.blocks,
-            Border(border.rows[:keep], border.columns[:keep]),
+            Border(flat[:keep], n, n_e),
             low_rank,
         )
 

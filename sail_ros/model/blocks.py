@@ -18,9 +18,10 @@ A free hub (model.md §13) couples to every coordinate: its three rows and
 columns are a `Border`, dense against the blocks. The mean-axes damping adds
 `-c U W^-1 U^T` on the elastic coordinates (`LowRank`, `U = M_qh`,
 `W = M_hh`), which the solve carries as three more border rows
-(`W v - U^T u = 0`, then `-c U v` in the elastic rows). The membranes are
-eliminated as before, border columns and all, which leaves a
-`(4 n_B + b)` bordered system on the booms and the border.
+(`W v - U^T u = 0`, then `-c U v` in the elastic rows). The border's columns
+go through the block solve with the right-hand side (membranes eliminated,
+then the booms, one factorisation for all of them), which leaves a small
+`b x b` system for the border itself.
 """
 
 from __future__ import annotations
@@ -52,12 +53,21 @@ class BlockLayout:
         self.membrane_slots = slots[:, 2 * nb :]  # (4, n_M), in quadrant order, contiguous
 
 
-class Border(NamedTuple):
-    """The hub's rows and columns of `k` matrices: `rows` (k, 3, n) against every
-    coordinate (the hub block included), `columns` (k, n_e, 3) of the elastic rows."""
+class Border:
+    """The hub's rows and columns of `k` matrices, held flat (k, 3 n + 3 n_e): `rows`
+    (k, 3, n) against every coordinate (the hub block included), then `columns`
+    (k, n_e, 3) of the elastic rows."""
 
-    rows: np.ndarray
-    columns: np.ndarray
+    def __init__(self, flat: np.ndarray, n: int, n_elastic: int):
+        self.flat, self.n, self.n_elastic = flat, n, n_elastic
+
+    @property
+    def rows(self) -> np.ndarray:
+        return self.flat[..., : 3 * self.n].reshape(*self.flat.shape[:-1], 3, self.n)
+
+    @property
+    def columns(self) -> np.ndarray:
+        return self.flat[..., 3 * self.n :].reshape(*self.flat.shape[:-1], self.n_elastic, 3)
 
 
 class LowRank(NamedTuple):
@@ -133,35 +143,46 @@ class BlockMatrices:
     def solve_shifted(self, taus: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """`u_j = (A_0 + tau_j A_1 + tau_j^2 A_2)^-1 rhs_j` for complex `taus` (p,) and
         `rhs` (p, n): the membrane blocks eliminated quadrant by quadrant, then the
-        boom coordinates (and the border, with a free hub) solved; returns (p, n)
-        complex."""
-        where = self.where
-        nb = self.booms.shape[-1]
-        nbc = where.n_boom_coordinates
+        boom coordinates solved; with a border, its columns are solved for alongside
+        the right-hand side (one factorisation), and the border from the small system
+        left, `(Z - F S^-1 E) u_b = r_b - F S^-1 r`; returns (p, n) complex."""
         powers = taus[:, None] ** _POWERS  # (p, 3): 1, tau, tau^2
         booms = _combine(powers, self.booms[:3])  # (p, 4, n_B, n_B)
         quadrants = _combine(powers, self.quadrants[:3])  # (p, 4, n~, n~)
-        p, first, second = taus.size, slice(0, nb), slice(nb, 2 * nb)
-        columns, rows, corner, border_rhs = self._border(powers, rhs)  # b border coordinates
-        b = corner.shape[-1]
+        if self.border is None:
+            return self._solve_blocks(booms, quadrants, rhs[..., None])[..., 0]
+        n_e = self.where.n_elastic
+        columns, rows, corner, border_rhs = self._border(powers, rhs)  # E, F, Z, r_b
+        solved = self._solve_blocks(
+            booms, quadrants, np.concatenate([rhs[:, :n_e, None], columns], axis=-1)
+        )
+        u_border = np.linalg.solve(
+            corner - rows @ solved[..., 1:], border_rhs[..., None] - rows @ solved[..., :1]
+        )
+        u_elastic = solved[..., :1] - solved[..., 1:] @ u_border
+        return np.concatenate([u_elastic[..., 0], u_border[:, :3, 0]], axis=1)
+
+    def _solve_blocks(self, booms, quadrants, rhs):
+        """`S^-1 rhs` on the elastic coordinates, `rhs` (p, n_e, m): each quadrant's
+        membrane eliminated, then the `4 n_B` boom coordinates solved."""
+        where = self.where
+        nb = self.booms.shape[-1]
+        nbc = where.n_boom_coordinates
+        p, m = rhs.shape[0], rhs.shape[-1]
         edge, inner = slice(0, 2 * nb), slice(2 * nb, None)
-        # membrane block: [S_mb | S_m,border | r_m] -> S_mm^-1 [S_mb | S_m,border | r_m]
-        membrane_rhs = rhs[:, where.membrane_slots][..., None]  # (p, 4, n_M, 1)
-        membrane_border = columns[:, where.membrane_slots]  # (p, 4, n_M, b)
+        # membrane block: [S_mb | r_m] -> S_mm^-1 [S_mb | r_m]
+        membrane_rhs = rhs[:, where.membrane_slots]  # (p, 4, n_M, m)
         eliminated = np.linalg.solve(
             quadrants[:, :, inner, inner],
-            np.concatenate([quadrants[:, :, inner, edge], membrane_border, membrane_rhs], axis=-1),
+            np.concatenate([quadrants[:, :, inner, edge], membrane_rhs], axis=-1),
         )
-        to_edge, to_border, to_rhs = (
-            eliminated[..., : 2 * nb],
-            eliminated[..., 2 * nb : 2 * nb + b],
-            eliminated[..., -1:],
-        )
+        to_edge, to_rhs = eliminated[..., : 2 * nb], eliminated[..., 2 * nb :]
         coupling = quadrants[:, :, edge, inner]  # S_bm
         schur = quadrants[:, :, edge, edge] - coupling @ to_edge
-        boom_rhs_part = (coupling @ to_rhs)[..., 0]
+        boom_rhs_part = coupling @ to_rhs  # (p, 4, 2 n_B, m)
         # Quadrant q spans booms q (first) and q + 1 (second): boom b's diagonal block
         # gathers quadrant b's first and quadrant b - 1's second block.
+        first, second = slice(0, nb), slice(nb, 2 * nb)
         grid = np.zeros((p, 4, 4, nb, nb), dtype=complex)  # (boom row, boom column) blocks
         grid[:, _BOOMS, _BOOMS] = (
             booms + schur[:, :, first, first] + schur[:, _PREVIOUS, second, second]
@@ -169,36 +190,22 @@ class BlockMatrices:
         grid[:, _BOOMS, _NEXT] = schur[:, :, first, second]
         grid[:, _NEXT, _BOOMS] = schur[:, :, second, first]
         system = grid.transpose(0, 1, 3, 2, 4).reshape(p, nbc, nbc)
-        boom_rhs = rhs[:, :nbc].reshape(p, 4, nb) - (
+        boom_rhs = rhs[:, :nbc].reshape(p, 4, nb, m) - (
             boom_rhs_part[:, :, first] + boom_rhs_part[:, _PREVIOUS, second]
         )
-        boom_rhs = boom_rhs.reshape(p, nbc, 1)
-        if b:
-            system, boom_rhs = _bordered(
-                system, boom_rhs, columns, rows, corner, border_rhs, coupling, eliminated, where
-            )
-        solution = np.linalg.solve(system, boom_rhs)  # (p, 4 n_B + b, 1)
-        u_boom, u_border = solution[:, :nbc], solution[:, nbc:]
-        u_edge = u_boom[:, where.quadrant_boom_slots]  # (p, 4, 2 n_B, 1)
-        u_membrane = to_rhs[..., 0] - (to_edge @ u_edge)[..., 0]
-        if b:
-            u_membrane -= (to_border @ u_border[:, None])[..., 0]
-        parts = [u_boom[..., 0], u_membrane.reshape(p, -1)]
-        if self.border is not None:
-            parts.append(u_border[:, :3, 0])
-        return np.concatenate(parts, axis=1)
+        u_boom = np.linalg.solve(system, boom_rhs.reshape(p, nbc, m))  # (p, 4 n_B, m)
+        u_edge = u_boom[:, where.quadrant_boom_slots]  # (p, 4, 2 n_B, m)
+        u_membrane = to_rhs - to_edge @ u_edge
+        return np.concatenate([u_boom, u_membrane.reshape(p, -1, m)], axis=1)
 
     def _border(self, powers, rhs):
         """The border of the shifted matrices: its columns on the elastic rows
         (p, n_e, b), its rows on the elastic columns (p, b, n_e), the corner
-        (p, b, b) and its right-hand side (p, b): b = 0 (clamped hub), 3 (the hub's
-        rows) or 6 (and the low-rank part's three)."""
+        (p, b, b) and its right-hand side (p, b): b = 3 (the hub's rows) or 6 (and
+        the low-rank part's three)."""
         p, n_e = powers.shape[0], self.where.n_elastic
-        if self.border is None:
-            empty = np.zeros((p, n_e, 0), dtype=complex)
-            return empty, empty.transpose(0, 2, 1), np.zeros((p, 0, 0), complex), rhs[:, :0]
-        hub_rows = _combine(powers, self.border.rows[:3])  # (p, 3, n)
-        columns = _combine(powers, self.border.columns[:3])  # (p, n_e, 3)
+        shifted = Border(_combine(powers, self.border.flat[:3]), self.where.n, n_e)
+        hub_rows, columns = shifted.rows, shifted.columns  # (p, 3, n), (p, n_e, 3)
         rows, corner, border_rhs = hub_rows[:, :, :n_e], hub_rows[:, :, n_e:], rhs[:, n_e:]
         if self.low_rank is not None:  # aux v: W v - U^T u = 0; elastic rows - c(tau) U v
             U, W = self.low_rank.U, self.low_rank.W
@@ -215,38 +222,6 @@ class BlockMatrices:
             )
             border_rhs = np.concatenate([border_rhs, np.zeros((p, 3))], axis=1)
         return columns, rows, corner, border_rhs
-
-
-def _bordered(system, boom_rhs, columns, rows, corner, border_rhs, coupling, eliminated, where):
-    """The boom system (p, 4 n_B, 4 n_B) and its right-hand side (p, 4 n_B, 1) with the
-    border appended, the membranes eliminated from it too: `(p, 4 n_B + b, ...)`.
-
-    `columns`, `rows`: the border against the elastic coordinates; `coupling` the
-    quadrants' boom-membrane blocks `S_bm` and `eliminated` `S_mm^-1 [S_mb | E_m | r_m]`."""
-    p, nbc = boom_rhs.shape[0], where.n_boom_coordinates
-    nb, b = nbc // 4, corner.shape[-1]
-    first, second = slice(0, nb), slice(nb, 2 * nb)
-    to_edge, to_border = eliminated[..., : 2 * nb], eliminated[..., 2 * nb : 2 * nb + b]
-    to_rhs = eliminated[..., -1:]
-    membrane_rows = rows[:, :, where.membrane_slots].transpose(0, 2, 1, 3)  # (p, 4, b, n_M)
-    # boom rows, border columns: E_b - S_bm S_mm^-1 E_m, gathered onto each boom
-    edge_border = coupling @ to_border  # (p, 4, 2 n_B, b)
-    boom_border = columns[:, :nbc].reshape(p, 4, nb, b) - (
-        edge_border[:, :, first] + edge_border[:, _PREVIOUS, second]
-    )
-    # border rows, boom columns: F_b - F_m S_mm^-1 S_mb
-    border_edge = membrane_rows @ to_edge  # (p, 4, b, 2 n_B)
-    border_boom = rows[:, :, :nbc].reshape(p, b, 4, nb) - (
-        border_edge[..., first] + border_edge[:, _PREVIOUS][..., second]
-    ).transpose(0, 2, 1, 3)
-    reduced_corner = corner - (membrane_rows @ to_border).sum(axis=1)
-    reduced_rhs = border_rhs - (membrane_rows @ to_rhs)[..., 0].sum(axis=1)
-    bordered = np.empty((p, nbc + b, nbc + b), dtype=complex)
-    bordered[:, :nbc, :nbc] = system
-    bordered[:, :nbc, nbc:] = boom_border.reshape(p, nbc, b)
-    bordered[:, nbc:, :nbc] = border_boom.reshape(p, b, nbc)
-    bordered[:, nbc:, nbc:] = reduced_corner
-    return bordered, np.concatenate([boom_rhs, reduced_rhs[..., None]], axis=1)
 
 
 def _combine(powers: np.ndarray, blocks: np.ndarray) -> np.ndarray:
