@@ -555,7 +555,9 @@ class SailModel:
         """The highest angular frequency [rad/s] a time step must resolve at these
         lengths: the first cantilever frequency of the shortest bare boom,
         `beta_1^2 sqrt(EI / rho_B) / L_min^2`, an upper bound of the dominant
-        boom-bending frequency (the membrane only adds mass to a boom)."""
+        boom-bending frequency (the membrane only adds mass to a boom); with a free
+        hub 4.39 times that (`FREE_HUB_FREQUENCY_FACTOR`: a light hub pins a boom's
+        root, model.md §13.7)."""
         return self._cantilever_constant / float(np.min(lengths)) ** 2
 
     # time integration ----------------------------------------------------------
