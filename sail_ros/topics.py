@@ -216,9 +216,19 @@ def yaml_value(value) -> str:
     return text.removesuffix("\n...\n").strip()
 
 
+# a free hub's fields (docs/model.md §13.8): written only when the hub is free, so a clamped
+# sail's parameters are the ones it always had
+HUB_FIELDS = ("free_hub", "hub_mass", "hub_inertia_x", "hub_inertia_y", "stowed_mass_on_hub")
+
+
 def flat_sail_parameters(params: SailParameters) -> dict[str, object]:
-    """`sail.<field>` -> value: the sail as the simulator's parameters."""
-    return {SAIL_PREFIX + name: value for name, value in params.to_dict().items()}
+    """`sail.<field>` -> value: the sail as the simulator's parameters (the hub's fields
+    only with a free hub; absent, they take their defaults)."""
+    return {
+        SAIL_PREFIX + name: value
+        for name, value in params.to_dict().items()
+        if params.free_hub or name not in HUB_FIELDS
+    }
 
 
 def sail_parameters_from_flat(values: Mapping[str, object]) -> SailParameters:

@@ -139,6 +139,14 @@ def test_quadrant_integrals_equal_sums_over_every_point_of_the_rule(n_boom_modes
         "sxi_sxi": gram(s_xi, s_xi),
         "seta_seta": gram(s_eta, s_eta),
         "s_mean": s @ w,
+        "xi_s": s @ (xi * w),
+        "eta_s": s @ (eta * w),
+        "ra_mean": ra @ w,
+        "xi_ra": ra @ (xi * w),
+        "eta_ra": ra @ (eta * w),
+        "rb_mean": rb @ w,
+        "xi_rb": rb @ (xi * w),
+        "eta_rb": rb @ (eta * w),
     }
     built = quadrant_integrals.__wrapped__(n_boom_modes, n_membrane_modes, order)
     for name, value in expected.items():

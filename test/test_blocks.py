@@ -18,20 +18,27 @@ ACCELERATIONS = np.array([0.01, -0.02, 0.0, 0.03])
 SIZES = [(1, 1), (2, 3), (3, 7), (6, 2)]
 
 
-def _model(n_boom_modes, n_membrane_modes):
+# a free hub (docs/model.md §13) borders the blocks; with mass damping also a rank-3 part
+HUBS = {
+    "clamped": {},
+    "free hub": dict(free_hub=True, mass_damping=0.0),
+    "free hub, mean-axes damping": dict(free_hub=True, hub_mass=30.0, stowed_mass_on_hub=False),
+}
+
+
+def _model(n_boom_modes, n_membrane_modes, **hub):
+    fields = dict(mass_damping=0.02, stiffness_damping=5e-4) | hub
     return SailModel(
-        SailParameters(
-            n_boom_modes=n_boom_modes,
-            n_membrane_modes=n_membrane_modes,
-            mass_damping=0.02,
-            stiffness_damping=5e-4,
-        )
+        SailParameters(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes, **fields)
     )
 
 
+@pytest.mark.parametrize("hub", HUBS.values(), ids=HUBS.keys())
 @pytest.mark.parametrize(("n_boom_modes", "n_membrane_modes"), SIZES)
-def test_blocks_add_up_to_the_assembled_matrices_and_act_like_them(n_boom_modes, n_membrane_modes):
-    model = _model(n_boom_modes, n_membrane_modes)
+def test_blocks_add_up_to_the_assembled_matrices_and_act_like_them(
+    n_boom_modes, n_membrane_modes, hub
+):
+    model = _model(n_boom_modes, n_membrane_modes, **hub)
     motion = (LENGTHS, RATES, ACCELERATIONS)
     full = model.assemble(_STEP_MATRICES, *motion)
     blocks = model.assemble_blocks(_STEP_MATRICES, *motion)
@@ -50,10 +57,13 @@ def test_blocks_add_up_to_the_assembled_matrices_and_act_like_them(n_boom_modes,
         assert np.abs(residual).max() < 1e-12 * np.abs(rhs).max() * np.abs(systems).max()
 
 
-def test_moving_steps_by_blocks_and_in_full_agree(monkeypatch):
-    model = _model(3, 7)
+@pytest.mark.parametrize("hub", HUBS.values(), ids=HUBS.keys())
+def test_moving_steps_by_blocks_and_in_full_agree(monkeypatch, hub):
+    model = _model(3, 7, **hub)
     profile = CycloidalProfile(10.0, 14.0, 8.0)
     loads = ([2e-3, 0.0, 1e-3, 0.0], [0.0, 0.05, 0.0, 0.0])
+    if model.free_hub:
+        loads += ([0.5, 0.1, -0.2],)
     runs = []
     for threshold in (model.n, model.n + 1):  # by blocks, then in full
         monkeypatch.setattr(stepper_module, "BLOCK_SOLVE_MIN_COORDINATES", threshold)

@@ -280,8 +280,12 @@ def test_loaded_damped_deployment_matches_a_tight_reference():
         (lambda m: m.root_moments(np.zeros(3), 10.0), "q must have 40 values"),
         (lambda m: m.input_matrix(-1.0), "lengths must be > 0"),
         (
-            lambda m: m.simulate(StaticProfile(10.0), 1.0, loads=(1.0, 2.0, 3.0)),
+            lambda m: m.simulate(StaticProfile(10.0), 1.0, loads=(1.0, 2.0, 3.0, 4.0)),
             "loads must be None, a pair",
+        ),
+        (  # a triple carries a hub wrench (docs/model.md §13.8), which a clamped hub refuses
+            lambda m: m.simulate(StaticProfile(10.0), 1.0, loads=(1.0, 2.0, 3.0)),
+            "hub_wrench = 3.0: the hub is clamped (free_hub = False)",
         ),
         (
             lambda m: m.simulate(StaticProfile(10.0), 1.0, loads=lambda t: (math.inf, 0.0)),

@@ -4,7 +4,9 @@ Free vibration of Eq. 2 with all rates zero is the generalised eigenproblem
 
     K v = omega^2 M v,        v^T M v = 1,
 
-solved densely (`scipy.linalg.eigh`). The sail's four-fold symmetry makes
+solved densely (`SailModel.normal_modes`; with a free hub the three rigid-body
+modes come first at exactly 0 rad/s, the elastic ones from the reduced problem
+of docs/model.md §13.6). The sail's four-fold symmetry makes
 some frequencies double; `group_multiplicities` collects equal frequencies
 and `representative_shapes` picks one reproducible vector per group.
 """
@@ -15,7 +17,6 @@ import dataclasses
 import time
 
 import numpy as np
-import scipy.linalg
 
 from sail_ros.model import SailModel, SailParameters
 
@@ -46,7 +47,8 @@ class Modes:
     Attributes:
         lengths: boom lengths [m] (a, b, c, d).
         omega: natural frequencies [rad/s], ascending; a buckled mode
-            (omega^2 < 0) appears as -sqrt(-omega^2).
+            (omega^2 < 0) appears as -sqrt(-omega^2); a free hub's three
+            rigid-body modes as 0.0.
         vectors: mode vectors as columns (n, n), `V^T M V = I`.
         groups: (first index, multiplicity) per distinct frequency.
     """
@@ -60,8 +62,7 @@ class Modes:
 def modal_analysis(model: SailModel, lengths) -> Modes:
     """All natural frequencies and mode vectors at `lengths` [m] (scalar or 4 values)."""
     lengths = np.broadcast_to(np.asarray(lengths, dtype=float), (4,)).copy()
-    M, K = model.mass_and_stiffness(lengths)
-    omega2, vectors = scipy.linalg.eigh(K, M)
+    omega2, vectors = model.normal_modes(lengths)
     omega = np.sign(omega2) * np.sqrt(np.abs(omega2))
     return Modes(lengths, omega, vectors, group_multiplicities(omega))
 

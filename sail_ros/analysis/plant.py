@@ -1,7 +1,8 @@
-"""The sail as a linear plant at frozen boom lengths and rates (model.md §12).
+"""The sail as a linear plant at frozen boom lengths and rates (model.md §12, §13).
 
 `linear_plant` wraps `SailModel.state_space` with the names of its inputs,
-outputs and states; `poles` lists its modes (frequency, damping ratio) and
+outputs and states (8 and 8, or 11 and 14 with a free hub, whose outputs hold
+double integrators); `poles` lists its modes (frequency, damping ratio) and
 `frequency_response` evaluates `C (jw I - A)^-1 B + D` on a frequency grid.
 `undamped_note` says when poles lie on the imaginary axis (the default sail has
 no damping) and how to set some.
@@ -15,7 +16,6 @@ import numpy as np
 
 from sail_ros.model import SailModel
 from sail_ros.model.layout import per_boom
-from sail_ros.model.loads import INPUT_NAMES, INPUT_UNITS, OUTPUT_NAMES, OUTPUT_UNITS
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,8 +40,8 @@ class LinearPlant:
     input_names: tuple[str, ...]
     output_names: tuple[str, ...]
     state_names: tuple[str, ...]
-    input_units: tuple[str, ...] = INPUT_UNITS
-    output_units: tuple[str, ...] = OUTPUT_UNITS
+    input_units: tuple[str, ...]
+    output_units: tuple[str, ...]
     mass_damping: float = 0.0
     stiffness_damping: float = 0.0
 
@@ -75,9 +75,20 @@ def linear_plant(model: SailModel, lengths, rates=0.0) -> LinearPlant:
     names = model.coordinate_names
     states = tuple(names) + tuple(f"d/dt {name}" for name in names)
     return LinearPlant(
-        A, B, C, D, lengths, rates, INPUT_NAMES, OUTPUT_NAMES, states,
-        mass_damping=model.params.mass_damping, stiffness_damping=model.params.stiffness_damping,
-    )  # fmt: skip
+        A,
+        B,
+        C,
+        D,
+        lengths,
+        rates,
+        model.input_names,
+        model.output_names,
+        states,
+        model.input_units,
+        model.output_units,
+        mass_damping=model.params.mass_damping,
+        stiffness_damping=model.params.stiffness_damping,
+    )
 
 
 @dataclasses.dataclass(frozen=True)

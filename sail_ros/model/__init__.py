@@ -4,9 +4,11 @@
 
 A one-way chain, each module importing only those above it:
 
-- `layout`: booms, quadrants, coordinate slices and names, `per_boom`;
+- `layout`: the coordinates as named groups (booms, quadrants, a free hub), their
+  slices and names, `per_boom`;
 - `basis`, `integrals`: basis functions and the reference integrals (§2, §5);
-- `assembly`: the matrices of Eq. 2 as a table of named terms, lifted (§5, §6);
+- `assembly`: the matrices of Eq. 2 as a table of named terms, lifted (§5, §6), with a
+  free hub's terms (§13);
 - `parameters`, `sail_model`: `SailParameters` and `SailModel`;
 - `stepper`, `sampling`, `integrate`: time integration against a narrow
   `LinearSystem` (the matrices at a boom motion), which `SailModel` is; the

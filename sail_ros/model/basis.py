@@ -39,6 +39,22 @@ def cantilever_roots(n: int) -> np.ndarray:
     return roots
 
 
+@functools.cache
+def pinned_free_root() -> float:
+    """The first non-zero root `b` of `tan(b) = tanh(b)` (3.92660): a beam pinned at one
+    end and free at the other vibrates at `b^2 sqrt(EI / rho_B) / L^2`. Solved as
+    `sin(b) - cos(b) tanh(b) = 0` in `(pi, 3 pi / 2)`."""
+    return float(
+        brentq(
+            lambda b: np.sin(b) - np.cos(b) * np.tanh(b),
+            np.pi + 1e-3,
+            1.5 * np.pi,
+            xtol=1e-15,
+            rtol=4 * np.finfo(float).eps,
+        )
+    )
+
+
 def _cantilever_constants(b: np.ndarray) -> tuple[np.ndarray, ...]:
     """`(b, s, c, e^-b)` of `cantilever_modes` for the roots `b` (any shape)."""
     eb = np.exp(-b)

@@ -13,9 +13,20 @@ membrane block is eliminated on its own, which leaves a `4 n_B x 4 n_B`
 system on the boom coordinates (the Schur complement). At (20, 20) that is a
 third of the arithmetic of the dense `n x n` solve, and nothing is gathered
 out of a full matrix.
+
+A free hub (model.md §13) couples to every coordinate: its three rows and
+columns are a `Border`, dense against the blocks. The mean-axes damping adds
+`-c U W^-1 U^T` on the elastic coordinates (`LowRank`, `U = M_qh`,
+`W = M_hh`), which the solve carries as three more border rows
+(`W v - U^T u = 0`, then `-c U v` in the elastic rows). The border's columns
+go through the block solve with the right-hand side (membranes eliminated,
+then the booms, one factorisation for all of them), which leaves a small
+`b x b` system for the border itself.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,10 +39,12 @@ _PREVIOUS = (_BOOMS - 1) % 4  # the quadrant whose second boom is boom b
 
 
 class BlockLayout:
-    """Where the component blocks of a layout sit (the booms' coordinates come first)."""
+    """Where the component blocks of a layout sit (the booms' coordinates come first,
+    the hub's, if free, last)."""
 
     def __init__(self, layout: Layout):
         self.n = layout.n
+        self.n_elastic = layout.n_elastic
         nb = layout.n_boom_modes
         self.n_boom_coordinates = 4 * nb
         slots = np.stack([layout.quadrant_slots(q) for q in QUADRANTS])  # (4, n~)
@@ -40,23 +53,68 @@ class BlockLayout:
         self.membrane_slots = slots[:, 2 * nb :]  # (4, n_M), in quadrant order, contiguous
 
 
+class Border:
+    """The hub's rows and columns of `k` matrices, held flat (k, 3 n + 3 n_e): `rows`
+    (k, 3, n) against every coordinate (the hub block included), then `columns`
+    (k, n_e, 3) of the elastic rows."""
+
+    def __init__(self, flat: np.ndarray, n: int, n_elastic: int):
+        self.flat, self.n, self.n_elastic = flat, n, n_elastic
+
+    @property
+    def rows(self) -> np.ndarray:
+        return self.flat[..., : 3 * self.n].reshape(*self.flat.shape[:-1], 3, self.n)
+
+    @property
+    def columns(self) -> np.ndarray:
+        return self.flat[..., 3 * self.n :].reshape(*self.flat.shape[:-1], self.n_elastic, 3)
+
+
+class LowRank(NamedTuple):
+    """`-coefficients[i] U W^-1 U^T` on the elastic block of matrix `i`: `U` (n_e, 3),
+    `W` (3, 3) symmetric positive definite (the mean-axes damping: `U = M_qh`,
+    `W = M_hh`, coefficient alpha)."""
+
+    coefficients: np.ndarray
+    U: np.ndarray
+    W: np.ndarray
+
+
 class BlockMatrices:
     """`k` matrices held as boom blocks `(k, 4, n_B, n_B)` and quadrant blocks
-    `(k, 4, n~, n~)` (what `SystemAssembler.evaluate_blocks` returns)."""
+    `(k, 4, n~, n~)` (what `SystemAssembler.evaluate_blocks` returns), with a free
+    hub's `border` and the mean-axes damping's `low_rank` part."""
 
-    def __init__(self, booms: np.ndarray, quadrants: np.ndarray, where: BlockLayout):
+    def __init__(
+        self,
+        booms: np.ndarray,
+        quadrants: np.ndarray,
+        where: BlockLayout,
+        border: Border | None = None,
+        low_rank: LowRank | None = None,
+    ):
         self.booms = booms
         self.quadrants = quadrants
         self.where = where
+        self.border = border
+        self.low_rank = low_rank
 
     def dense(self) -> np.ndarray:
         """The matrices added up, `(k, n, n)` (for checks; the step never needs them)."""
         k, n, nb = self.booms.shape[0], self.where.n, self.booms.shape[-1]
+        n_e = self.where.n_elastic
         out = np.zeros((k, n, n))
         for b in range(4):
             out[:, b * nb : (b + 1) * nb, b * nb : (b + 1) * nb] += self.booms[:, b]
         for q, slots in enumerate(self.where.quadrant_slots):
             out[:, slots[:, None], slots[None, :]] += self.quadrants[:, q]
+        if self.border is not None:
+            out[:, n_e:, :] = self.border.rows
+            out[:, :n_e, n_e:] = self.border.columns
+        if self.low_rank is not None:
+            U, W = self.low_rank.U, self.low_rank.W
+            correction = U @ np.linalg.solve(W, U.T)
+            out[:, :n_e, :n_e] -= self.low_rank.coefficients[:, None, None] * correction
         return out
 
     def matvec(self, x: np.ndarray) -> np.ndarray:
@@ -69,33 +127,62 @@ class BlockMatrices:
         on_booms = (self.booms @ x[:, :nbc].reshape(k, 4, nb, 1))[..., 0]
         on_quadrants = (self.quadrants @ x[:, where.quadrant_slots][..., None])[..., 0]
         on_booms += on_quadrants[:, :, :nb] + on_quadrants[:, _PREVIOUS, nb : 2 * nb]
-        return np.concatenate(
-            [on_booms.reshape(k, nbc), on_quadrants[:, :, 2 * nb :].reshape(k, -1)], axis=1
-        )
+        parts = [on_booms.reshape(k, nbc), on_quadrants[:, :, 2 * nb :].reshape(k, -1)]
+        if self.border is None:
+            return np.concatenate(parts, axis=1)
+        n_e = where.n_elastic
+        elastic = np.concatenate(parts, axis=1)
+        elastic += (self.border.columns @ x[:, n_e:, None])[..., 0]
+        if self.low_rank is not None:
+            U, W = self.low_rank.U, self.low_rank.W
+            projected = np.linalg.solve(W, U.T @ x[:, :n_e].T)  # (3, k)
+            elastic -= self.low_rank.coefficients[:, None] * (U @ projected).T
+        hub = (self.border.rows @ x[..., None])[..., 0]
+        return np.concatenate([elastic, hub], axis=1)
 
     def solve_shifted(self, taus: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """`u_j = (A_0 + tau_j A_1 + tau_j^2 A_2)^-1 rhs_j` for complex `taus` (p,) and
         `rhs` (p, n): the membrane blocks eliminated quadrant by quadrant, then the
-        boom coordinates solved; returns (p, n) complex."""
-        where = self.where
-        nb = self.booms.shape[-1]
-        nbc = where.n_boom_coordinates
+        boom coordinates solved; with a border, its columns are solved for alongside
+        the right-hand side (one factorisation), and the border from the small system
+        left, `(Z - F S^-1 E) u_b = r_b - F S^-1 r`; returns (p, n) complex."""
         powers = taus[:, None] ** _POWERS  # (p, 3): 1, tau, tau^2
         booms = _combine(powers, self.booms[:3])  # (p, 4, n_B, n_B)
         quadrants = _combine(powers, self.quadrants[:3])  # (p, 4, n~, n~)
+        if self.border is None:
+            return self._solve_blocks(booms, quadrants, rhs[..., None])[..., 0]
+        n_e = self.where.n_elastic
+        columns, rows, corner, border_rhs = self._border(powers, rhs)  # E, F, Z, r_b
+        solved = self._solve_blocks(
+            booms, quadrants, np.concatenate([rhs[:, :n_e, None], columns], axis=-1)
+        )
+        u_border = np.linalg.solve(
+            corner - rows @ solved[..., 1:], border_rhs[..., None] - rows @ solved[..., :1]
+        )
+        u_elastic = solved[..., :1] - solved[..., 1:] @ u_border
+        return np.concatenate([u_elastic[..., 0], u_border[:, :3, 0]], axis=1)
+
+    def _solve_blocks(self, booms, quadrants, rhs):
+        """`S^-1 rhs` on the elastic coordinates, `rhs` (p, n_e, m): each quadrant's
+        membrane eliminated, then the `4 n_B` boom coordinates solved."""
+        where = self.where
+        nb = self.booms.shape[-1]
+        nbc = where.n_boom_coordinates
+        p, m = rhs.shape[0], rhs.shape[-1]
         edge, inner = slice(0, 2 * nb), slice(2 * nb, None)
         # membrane block: [S_mb | r_m] -> S_mm^-1 [S_mb | r_m]
-        membrane_rhs = rhs[:, where.membrane_slots][..., None]  # (p, 4, n_M, 1)
+        membrane_rhs = rhs[:, where.membrane_slots]  # (p, 4, n_M, m)
         eliminated = np.linalg.solve(
             quadrants[:, :, inner, inner],
             np.concatenate([quadrants[:, :, inner, edge], membrane_rhs], axis=-1),
         )
-        border = quadrants[:, :, edge, inner]  # S_bm
-        schur = quadrants[:, :, edge, edge] - border @ eliminated[..., :-1]
-        boom_rhs_part = (border @ eliminated[..., -1:])[..., 0]
+        to_edge, to_rhs = eliminated[..., : 2 * nb], eliminated[..., 2 * nb :]
+        coupling = quadrants[:, :, edge, inner]  # S_bm
+        schur = quadrants[:, :, edge, edge] - coupling @ to_edge
+        boom_rhs_part = coupling @ to_rhs  # (p, 4, 2 n_B, m)
         # Quadrant q spans booms q (first) and q + 1 (second): boom b's diagonal block
         # gathers quadrant b's first and quadrant b - 1's second block.
-        p, first, second = taus.size, slice(0, nb), slice(nb, 2 * nb)
+        first, second = slice(0, nb), slice(nb, 2 * nb)
         grid = np.zeros((p, 4, 4, nb, nb), dtype=complex)  # (boom row, boom column) blocks
         grid[:, _BOOMS, _BOOMS] = (
             booms + schur[:, :, first, first] + schur[:, _PREVIOUS, second, second]
@@ -103,13 +190,38 @@ class BlockMatrices:
         grid[:, _BOOMS, _NEXT] = schur[:, :, first, second]
         grid[:, _NEXT, _BOOMS] = schur[:, :, second, first]
         system = grid.transpose(0, 1, 3, 2, 4).reshape(p, nbc, nbc)
-        boom_rhs = rhs[:, :nbc].reshape(p, 4, nb) - (
+        boom_rhs = rhs[:, :nbc].reshape(p, 4, nb, m) - (
             boom_rhs_part[:, :, first] + boom_rhs_part[:, _PREVIOUS, second]
         )
-        u_boom = np.linalg.solve(system, boom_rhs.reshape(p, nbc, 1))  # (p, 4 n_B, 1)
-        u_edge = u_boom[:, where.quadrant_boom_slots]  # (p, 4, 2 n_B, 1)
-        u_membrane = eliminated[..., -1] - (eliminated[..., :-1] @ u_edge)[..., 0]
-        return np.concatenate([u_boom[..., 0], u_membrane.reshape(p, -1)], axis=1)
+        u_boom = np.linalg.solve(system, boom_rhs.reshape(p, nbc, m))  # (p, 4 n_B, m)
+        u_edge = u_boom[:, where.quadrant_boom_slots]  # (p, 4, 2 n_B, m)
+        u_membrane = to_rhs - to_edge @ u_edge
+        return np.concatenate([u_boom, u_membrane.reshape(p, -1, m)], axis=1)
+
+    def _border(self, powers, rhs):
+        """The border of the shifted matrices: its columns on the elastic rows
+        (p, n_e, b), its rows on the elastic columns (p, b, n_e), the corner
+        (p, b, b) and its right-hand side (p, b): b = 3 (the hub's rows) or 6 (and
+        the low-rank part's three)."""
+        p, n_e = powers.shape[0], self.where.n_elastic
+        shifted = Border(_combine(powers, self.border.flat[:3]), self.where.n, n_e)
+        hub_rows, columns = shifted.rows, shifted.columns  # (p, 3, n), (p, n_e, 3)
+        rows, corner, border_rhs = hub_rows[:, :, :n_e], hub_rows[:, :, n_e:], rhs[:, n_e:]
+        if self.low_rank is not None:  # aux v: W v - U^T u = 0; elastic rows - c(tau) U v
+            U, W = self.low_rank.U, self.low_rank.W
+            c = powers @ self.low_rank.coefficients[:3]  # (p,)
+            columns = np.concatenate([columns, -c[:, None, None] * U], axis=-1)
+            rows = np.concatenate([rows, np.broadcast_to(-U.T, (p, 3, n_e))], axis=1)
+            zero = np.zeros((p, 3, 3), dtype=complex)
+            corner = np.concatenate(
+                [
+                    np.concatenate([corner, zero], axis=-1),
+                    np.concatenate([zero, np.broadcast_to(W, (p, 3, 3))], axis=-1),
+                ],
+                axis=1,
+            )
+            border_rhs = np.concatenate([border_rhs, np.zeros((p, 3))], axis=1)
+        return columns, rows, corner, border_rhs
 
 
 def _combine(powers: np.ndarray, blocks: np.ndarray) -> np.ndarray:

@@ -137,6 +137,11 @@ class BoomIntegrals:
     d1_d1: np.ndarray  # <psi' psi'^T>
     tip: np.ndarray  # psi(1), the tip values (+-2)
     root_curvature: np.ndarray  # psi''(0) (= 2 beta^2)
+    # vectors (n_B,) of the free hub (model.md §13.4)
+    psi_mean: np.ndarray  # <psi>
+    xi_psi: np.ndarray  # <xi psi>
+    r_mean: np.ndarray  # <(1-xi) psi'>
+    xi_r: np.ndarray  # <xi (1-xi) psi'>
 
 
 @dataclasses.dataclass(frozen=True)
@@ -152,6 +157,15 @@ class QuadrantIntegrals:
     sxi_sxi: np.ndarray  # <S_xi S_xi^T>
     seta_seta: np.ndarray  # <S_eta S_eta^T>
     s_mean: np.ndarray  # <S> (n~,): the work of a uniform pressure
+    # vectors (n~,) of the free hub (model.md §13.4)
+    xi_s: np.ndarray  # <xi S>
+    eta_s: np.ndarray  # <eta S>
+    ra_mean: np.ndarray  # <R_a>
+    xi_ra: np.ndarray  # <xi R_a>
+    eta_ra: np.ndarray  # <eta R_a>
+    rb_mean: np.ndarray  # <R_b>
+    xi_rb: np.ndarray  # <xi R_b>
+    eta_rb: np.ndarray  # <eta R_b>
 
 
 def _freeze(obj):
@@ -176,6 +190,10 @@ def boom_integrals(n_boom_modes: int, order: int) -> BoomIntegrals:
             d1_d1=_gram(d1, d1, w),
             tip=cantilever_modes(n_boom_modes, [1.0])[:, 0].copy(),
             root_curvature=cantilever_modes(n_boom_modes, [0.0], 2)[:, 0].copy(),
+            psi_mean=psi @ w,
+            xi_psi=psi @ (x * w),
+            r_mean=r @ w,
+            xi_r=r @ (x * w),
         )
     )
 
@@ -326,6 +344,22 @@ def quadrant_integrals(n_boom_modes: int, n_membrane_modes: int, order: int) -> 
         """The blocks on and above the diagonal, mirrored below it."""
         return _assemble(nb, nm, blocks | {k[::-1]: v.T for k, v in blocks.items() if k[0] != k[1]})
 
+    # vectors: `<f(xi) (1 - eta)^c2 S>` and the same for R_a, R_b; eta = 1 - (1 - eta)
+    u = rule.u[None, :]
+    one = slice(rule.trig.start + rule.one, rule.trig.start + rule.one + 1)
+    zeros = np.zeros(nb)
+
+    def s_vector(f, c2):
+        return np.concatenate(
+            [xe(f * a, one, 0, c2)[:, 0], xe(f, psi, 0, c2)[0], xm(f, p, 0, c2)[0]]
+        )
+
+    def ra_vector(f, c2):
+        return np.concatenate([xe(f * da, one, 1, c2)[:, 0], zeros, xm(f, p_xi, 1, c2)[0]])
+
+    def rb_vector(f, c2):
+        return np.concatenate([zeros, xe(f, dpsi, 0, c2 + 1)[0], xm(f, p_eta, 0, c2 + 1)[0]])
+
     ra_rb = _assemble(
         nb,
         nm,
@@ -384,5 +418,13 @@ def quadrant_integrals(n_boom_modes: int, n_membrane_modes: int, order: int) -> 
             s_mean=np.concatenate(
                 [xx(ones, a, 0)[0], xe(ones, psi, 0, 0)[0], xm(ones, p, 0, 0)[0]]
             ),
+            xi_s=s_vector(u, 0),
+            eta_s=s_vector(ones, 0) - s_vector(ones, 1),
+            ra_mean=ra_vector(ones, 0),
+            xi_ra=ra_vector(u, 0),
+            eta_ra=ra_vector(ones, 0) - ra_vector(ones, 1),
+            rb_mean=rb_vector(ones, 0),
+            xi_rb=rb_vector(u, 0),
+            eta_rb=rb_vector(ones, 0) - rb_vector(ones, 1),
         )
     )

@@ -71,6 +71,26 @@ class SailParameters:
         maximum=1e6,
     )  # fmt: skip
 
+    free_hub: bool = setting(
+        False, "", "the hub heaves and tilts (docs/model.md §13); false: clamped, and the four "
+        "fields below are ignored",
+    )  # fmt: skip
+    hub_mass: float = setting(
+        100.0, "kg", "hub mass m_h without stowed material", minimum=0.0, maximum=1e12
+    )
+    hub_inertia_x: float = setting(
+        100.0, "kg m^2", "hub moment of inertia J_x about its x axis (boom a) through its "
+        "centre", minimum=0.0, maximum=1e15,
+    )  # fmt: skip
+    hub_inertia_y: float = setting(
+        100.0, "kg m^2", "hub moment of inertia J_y about its y axis (boom b)", minimum=0.0,
+        maximum=1e15,
+    )  # fmt: skip
+    stowed_mass_on_hub: bool = setting(
+        True, "", "the hub carries the booms and film not yet deployed, so the total mass is "
+        "constant; boom lengths above a/sqrt(2) are then refused",
+    )  # fmt: skip
+
     def __post_init__(self):
         check_fields(self)
 
@@ -89,6 +109,17 @@ class SailParameters:
     def membrane_tension(self) -> float:
         """N0 = sigma h [N/m]."""
         return self.membrane_prestress * self.membrane_thickness
+
+    @property
+    def total_mass(self) -> float:
+        """Hub, four full booms and the whole film [kg]: `m_h + 4 rho_B L_f + 2 rho_M L_f^2`
+        (the free hub's constant `M[z, z]` with stowed material on the hub)."""
+        full = self.full_boom_length
+        return (
+            self.hub_mass
+            + 4.0 * self.boom_linear_density * full
+            + 2.0 * self.membrane_areal_density * full**2
+        )
 
     # (de)serialisation --------------------------------------------------
     @classmethod

@@ -26,7 +26,9 @@ forces `Q = B_u u` of the inputs (model.md §12) add `- C_d qd + Q` to `pd`:
   round-off and a step is one matrix-vector product. Rayleigh damping is
   classical (`V^T C_d V` diagonal), so each mode is a damped oscillator with
   its own exact 2 x 2 propagator; a load held over the step moves the
-  equilibrium to `K^-1 Q`, about which the same propagator acts.
+  equilibrium to `K^-1 Q`, about which the same propagator acts; a rigid-body
+  mode (`lam = 0` exactly, a free hub) has no equilibrium and takes the load as
+  `eta + h etad + h^2 f / 2`.
 
 Accuracy is set by the step: `h <= max_step` (default 0.05 s) and `h * omega_r <= 2` where
 `omega_r` (`resolved_frequency`) is by default the system's own bound at the
@@ -80,6 +82,11 @@ class LinearSystem(Protocol):
     def assemble_inputs(self, lengths) -> np.ndarray:
         """`B_u` (n, number of inputs): generalised forces per unit input at `lengths`
         (4 checked values)."""
+
+    def modes_of(self, M: np.ndarray, K: np.ndarray):
+        """`(lam, V)`: eigenvalues `omega^2` and `M`-orthonormal modes of `(K, M)` at rest
+        (`scipy.linalg.eigh(K, M)` for a structure held in place); rigid-body modes, if
+        any, with `lam` exactly 0 (a free hub, model.md §13.6)."""
 
 
 class IntegrationError(RuntimeError):
@@ -378,13 +385,15 @@ class SailStepper:
         fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
         rows = np.asarray(rows, dtype=float)
         if self._last_static is not None:
-            q0, p0, h, (_, V, lam, d, VtM), shift = self._last_static
-            c, s, sd, cd = _modal_propagator(lam, d, fractions[:, None] * h)
+            q0, p0, h, (_, V, lam, d, VtM), shift, rigid_force = self._last_static
+            tau = fractions[:, None] * h
+            c, s, sd, cd = _modal_propagator(lam, d, tau)
             eta0 = VtM @ (q0 - shift)  # q = shift + V eta, p = VtM^T etad, qd = V etad
             etad0 = V.T @ p0
             modes = rows @ V
-            values = rows @ shift + (c * eta0 + s * etad0) @ modes.T
-            return values, (sd * eta0 + cd * etad0) @ modes.T
+            eta = c * eta0 + s * etad0 + 0.5 * tau**2 * rigid_force
+            etad = sd * eta0 + cd * etad0 + tau * rigid_force
+            return rows @ shift + eta @ modes.T, etad @ modes.T
         q0, y_q, _, _ = self._extension
         h = self._extension_step
         start, outputs = rows @ q0, y_q @ rows.T  # (r,), (k, r)
@@ -487,24 +496,32 @@ class SailStepper:
                 self._static_cache.clear()
             cached = self._exact_propagator(lengths, h)
             self._static_cache[key] = cached
-        propagator, V, lam, _, _ = cached
+        propagator, V, lam, _, VtM = cached
         x = np.concatenate([self._q, self._p])
         n = self.system.n
-        shift = np.zeros(n)
+        shift = np.zeros(n)  # the elastic modes' equilibrium under the load
+        rigid_force = np.zeros(lam.size)  # modal force on the rigid-body modes (lam = 0)
         if force is None:
             x = propagator @ x
-        else:  # about the equilibrium q_s = K^-1 Q (p_s = 0: nothing moves there)
-            shift = V @ ((V.T @ force) / lam)
+        else:  # elastic modes about their equilibrium q_s = K^-1 Q (p_s = 0: nothing moves
+            # there); rigid ones (model.md §13.10) accelerate uniformly: eta += h^2 f / 2,
+            # etad += h f
+            rigid = lam == 0.0
+            modal = V.T @ force
+            elastic = ~rigid
+            shift = V[:, elastic] @ (modal[elastic] / lam[elastic])
+            rigid_force[rigid] = modal[rigid]
             x[:n] -= shift
             x = propagator @ x
-            x[:n] += shift
-        self._last_static = (self._q, self._p, h, cached, shift)  # for `between`
+            x[:n] += shift + V @ (0.5 * h * h * rigid_force)
+            x[n:] += VtM.T @ (h * rigid_force)
+        self._last_static = (self._q, self._p, h, cached, shift, rigid_force)  # `interpolant`
         return x[:n], x[n:]
 
     def _exact_propagator(self, lengths, h):
         """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M): the
-        propagator, the mode matrix `V`, eigenvalues `lam` (omega^2), modal damping `d`
-        and `V^T M`.
+        propagator, the mode matrix `V`, eigenvalues `lam` (omega^2; 0 for a free hub's
+        rigid-body modes), modal damping `d` and `V^T M`.
 
         With V^T M V = I and K V = M V diag(lam): eta = V^T M q, etad = V^T p, and each
         mode moves by its own 2 x 2 propagator (`_modal_propagator`); Rayleigh damping
@@ -512,7 +529,7 @@ class SailStepper:
         """
         zero = np.zeros(4)
         M, K, C_d = self.system.assemble((MASS, STIFFNESS, STRUCTURAL_DAMPING), lengths, zero, zero)
-        lam, V = scipy.linalg.eigh(K, M)
+        lam, V = self.system.modes_of(M, K)
         d = np.einsum("ij,ik,kj->j", V, C_d, V)  # diag(V^T C_d V): classical damping
         c, s, sd, cd = _modal_propagator(lam, d, h)
         VtM = V.T @ M  # eta = VtM q; q = V eta; p = VtM^T etad
