@@ -196,14 +196,24 @@ _SAMPLE_ARRAYS = ("lengths", "rates", "q", "qd", "tips", "tip_rates", "root_mome
 
 class StateSerializer:
     """Serialises `topics.state_messages(stamp_ns, sample, coordinate_names, frame_id,
-    with_clock)`: the same `(topic, bytes)` pairs, in the same order.
+    with_clock, inertial_frame_id)`: the same `(topic, bytes)` pairs, in the same order.
+    A free hub's `/sail/hub_state` (`free_hub`) is built and serialised per sample: its
+    orientation is computed, not copied.
 
     Raises:
         RuntimeError: if the serialised layout is not the one expected.
         ValueError: as for `ShapeSerializer`.
     """
 
-    def __init__(self, coordinate_names, frame_id: str = topics.FRAME_ID, with_clock=False):
+    def __init__(
+        self,
+        coordinate_names,
+        frame_id: str = topics.FRAME_ID,
+        with_clock=False,
+        free_hub: bool = False,
+        inertial_frame_id: str = topics.INERTIAL_FRAME_ID,
+    ):
+        self._hub_frames = (frame_id, inertial_frame_id) if free_hub else None
         rng = np.random.default_rng(0)
         n = len(coordinate_names)
         sample = StateSample(0.0, *(rng.uniform(-1.0, 1.0, size) for size in (4, 4, n, n, 4, 4, 4)))
@@ -245,6 +255,9 @@ class StateSerializer:
             for name, view in views:
                 view[:] = getattr(sample, name)
             messages.append((topic, bytes(buffer)))
+        if self._hub_frames is not None:
+            hub = topics.hub_state(stamp_ns, sample.hub, *self._hub_frames)
+            messages.append((topics.HUB_STATE, serialize(hub)))
         return messages
 
 

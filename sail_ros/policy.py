@@ -73,6 +73,22 @@ class Policy:
         "1/L^2, so this bounds min_length from below", minimum=1.0, maximum=1e7,
         read_only=False,
     )  # fmt: skip
+    max_hub_force: float = setting(
+        1.0, "N", "largest |force| along z a hub wrench command may set (free hub)",
+        minimum=0.0, maximum=1e6, read_only=False,
+    )  # fmt: skip
+    max_hub_torque: float = setting(
+        1.0, "N m", "largest |torque| about x or y a hub wrench command may set (free hub)",
+        minimum=0.0, maximum=1e6, read_only=False,
+    )  # fmt: skip
+    tilt_warn_rad: float = setting(
+        0.1, "rad", "a hub tilt beyond this is a warning (free hub): the small-angle model "
+        "is leaving its range", minimum=1e-6, maximum=3.0, read_only=False,
+    )  # fmt: skip
+    tilt_error_rad: float = setting(
+        0.3, "rad", "a hub tilt beyond this stops the run (free hub); above tilt_warn_rad",
+        minimum=1e-6, maximum=3.0, read_only=False,
+    )  # fmt: skip
     tip_warn_fraction: float = setting(
         0.1, "-", "a boom-tip deflection beyond this fraction of its boom's length is a "
         "warning: the linear (small-deflection) model is leaving its range", minimum=1e-6,
@@ -86,6 +102,11 @@ class Policy:
 
     def __post_init__(self):
         check_fields(self)
+        if not self.tilt_warn_rad < self.tilt_error_rad:
+            raise ValueError(
+                f"tilt_warn_rad ({self.tilt_warn_rad:g}) must be below tilt_error_rad "
+                f"({self.tilt_error_rad:g})"
+            )
         if not self.tip_warn_fraction < self.tip_error_fraction:
             raise ValueError(
                 f"tip_warn_fraction ({self.tip_warn_fraction:g}) must be below "
@@ -212,23 +233,51 @@ class Policy:
                     f"= +-{self.tip_error_fraction * length:.4g} m (boom length {length:g} m)"
                 )
 
-    def range_state(self, tips, lengths) -> tuple[str, str]:
-        """`(warning, error)` texts of tip deflections [m] at lengths [m] (4 each): "" while
-        within tip_warn_fraction / tip_error_fraction of each boom's length."""
+    def range_state(self, tips, lengths, hub=None) -> tuple[str, str]:
+        """`(warning, error)` texts of tip deflections [m] at lengths [m] (4 each) and, with
+        a free hub, of its state `hub` (z_h, theta_x, theta_y, ...: the tilt
+        `|theta|` [rad]): "" while within the warning and error limits."""
         fractions = np.abs(tips) / lengths
         k = int(np.argmax(fractions))
+        tilt = float(np.hypot(hub[1], hub[2])) if hub is not None else 0.0
         warn, stop = self.tip_warn_fraction, self.tip_error_fraction
-        if not (fractions[k] > warn or fractions[k] > stop):  # every step: no text to write
-            if np.isfinite(fractions[k]):
+        quiet = not (fractions[k] > warn or fractions[k] > stop)  # every step: no text
+        if quiet and not tilt > self.tilt_warn_rad:
+            if np.isfinite(fractions[k]) and np.isfinite(tilt):
                 return "", ""
             return "", f"state became non-finite (tip deflection of boom {BOOMS[k]})"
-        reason = (
-            f"tip deflection of boom {BOOMS[k]} is {fractions[k]:.3g} of its length "
-            f"({fractions[k] * lengths[k]:.4g} m of {lengths[k]:.4g} m)"
-        )
-        if fractions[k] > stop:
-            return "", f"{reason}, beyond tip_error_fraction {stop:g}: out of the linear range"
-        return f"{reason}, beyond tip_warn_fraction {warn:g}", ""
+        warning, error = "", ""
+        if not quiet:
+            reason = (
+                f"tip deflection of boom {BOOMS[k]} is {fractions[k]:.3g} of its length "
+                f"({fractions[k] * lengths[k]:.4g} m of {lengths[k]:.4g} m)"
+            )
+            if fractions[k] > stop:
+                error = f"{reason}, beyond tip_error_fraction {stop:g}: out of the linear range"
+            else:
+                warning = f"{reason}, beyond tip_warn_fraction {warn:g}"
+        if tilt > self.tilt_warn_rad and not error:
+            reason = f"hub tilt is {tilt:.3g} rad"
+            if tilt > self.tilt_error_rad:
+                error = f"{reason}, beyond tilt_error_rad {self.tilt_error_rad:g}: out of the "
+                error += "small-angle range"
+            elif not warning:
+                warning = f"{reason}, beyond tilt_warn_rad {self.tilt_warn_rad:g}"
+        return ("", error) if error else (warning, "")
+
+    def check_hub_wrench(self, force_z: float, torque_x: float, torque_y: float) -> None:
+        """A hub wrench [N, N m, N m] within max_hub_force and max_hub_torque."""
+        for name, value, limit, limit_name, unit in (
+            ("force.z", force_z, self.max_hub_force, "max_hub_force", "N"),
+            ("torque.x", torque_x, self.max_hub_torque, "max_hub_torque", "N m"),
+            ("torque.y", torque_y, self.max_hub_torque, "max_hub_torque", "N m"),
+        ):
+            if not np.isfinite(value):
+                raise ValueError(f"{name} = {value} {unit} is not finite")
+            if abs(value) > limit:
+                raise ValueError(
+                    f"|{name}| = {abs(value):g} {unit} exceeds {limit_name} = {limit:g} {unit}"
+                )
 
     # -- offline outputs -------------------------------------------------------------------
 

@@ -19,6 +19,7 @@ by field. Nothing here imports rclpy's `Node`.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from typing import NamedTuple
 
@@ -26,7 +27,8 @@ import numpy as np
 import yaml
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point
+from geometry_msgs.msg import Point, WrenchStamped
+from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -46,12 +48,14 @@ MODAL_STATE = "sail/modal_state"
 TIP_DEFLECTION = "sail/tip_deflection"
 ROOT_MOMENT = "sail/root_moment"
 SHAPE = "sail/shape"
+HUB_STATE = "sail/hub_state"  # a free hub only
 DIAGNOSTICS = "/diagnostics"
 CLOCK = "/clock"
 BOOM_LENGTH_CMD = "sail/boom_length_cmd"
 DEPLOY_CMD = "sail/deploy_cmd"
 PRESSURE_CMD = "sail/pressure_cmd"
 TIP_FORCE_CMD = "sail/tip_force_cmd"
+HUB_WRENCH_CMD = "sail/hub_wrench_cmd"  # a free hub only
 COMMAND_STATUS = "sail/command_status"
 RESET_SERVICE = "sail/reset"
 PAUSE_SERVICE = "sail/pause"
@@ -85,6 +89,7 @@ def absolute(name: str, namespace: str = "/") -> str:
 
 
 FRAME_ID = "sail"  # default body frame (model.md §1)
+INERTIAL_FRAME_ID = "sail_inertial"  # default inertial frame of a free hub (model.md §13)
 BOOM_JOINTS = ("boom_a", "boom_b", "boom_c", "boom_d")
 TIP_JOINTS = tuple(f"{name}_tip" for name in BOOM_JOINTS)
 ROOT_JOINTS = tuple(f"{name}_root" for name in BOOM_JOINTS)
@@ -176,6 +181,8 @@ TOPICS = {
         Topic(TIP_DEFLECTION, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
         Topic(ROOT_MOMENT, JointState, "sensor_msgs/msg/JointState", STATE_QOS),
         Topic(SHAPE, MarkerArray, "visualization_msgs/msg/MarkerArray", SHAPE_QOS),
+        Topic(HUB_STATE, Odometry, "nav_msgs/msg/Odometry", STATE_QOS),
+        Topic(HUB_WRENCH_CMD, WrenchStamped, "geometry_msgs/msg/WrenchStamped", COMMAND_QOS),
         Topic(BOOM_LENGTH_CMD, JointTrajectory, "trajectory_msgs/msg/JointTrajectory", COMMAND_QOS),
         Topic(DEPLOY_CMD, Float64, "std_msgs/msg/Float64", COMMAND_QOS),
         Topic(PRESSURE_CMD, JointState, "sensor_msgs/msg/JointState", COMMAND_QOS),
@@ -193,8 +200,10 @@ TOPICS = {
 TOPIC_QOS = {name: topic.qos for name, topic in TOPICS.items()}
 # what the simulator publishes at every state sample (and /clock with them when it runs one)
 STATE_TOPICS = (BOOM_STATE, MODAL_STATE, TIP_DEFLECTION, ROOT_MOMENT)
-# what the simulator takes commands on
+# what the simulator takes commands on (and HUB_WRENCH_CMD with a free hub)
 COMMAND_TOPICS = (BOOM_LENGTH_CMD, DEPLOY_CMD, PRESSURE_CMD, TIP_FORCE_CMD)
+# what a free hub adds: its state with every state sample, its wrench command
+HUB_TOPICS = (HUB_STATE, HUB_WRENCH_CMD)
 # ROS's record of every parameter change, with its time and node (rcl_interfaces/ParameterEvent)
 PARAMETER_EVENTS = "/parameter_events"
 # what a recorder of the simulator takes by default: everything in the table, and
@@ -320,6 +329,41 @@ def root_moment(stamp_ns_: int, moments, frame_id: str = FRAME_ID) -> JointState
     return message
 
 
+def hub_state(
+    stamp_ns_: int, hub, frame_id: str = FRAME_ID, inertial_frame_id: str = INERTIAL_FRAME_ID
+) -> Odometry:
+    """`/sail/hub_state`: a free hub's pose and twist, `hub` = (z_h [m], theta_x, theta_y
+    [rad], zd_h [m/s], thd_x, thd_y [rad/s]) (model.md §13.9): header frame
+    `inertial_frame_id`, child `frame_id`; position (0, 0, z_h); orientation the unit
+    quaternion of the rotation vector (theta_x, theta_y, 0); twist in the child frame,
+    linear (0, 0, zd_h), angular (thd_x, thd_y, 0); covariances zero (the state is
+    exact)."""
+    z, theta_x, theta_y, zd, thd_x, thd_y = (float(v) for v in hub)
+    message = Odometry(child_frame_id=frame_id)
+    message.header.stamp = stamp(stamp_ns_)
+    message.header.frame_id = inertial_frame_id
+    message.pose.pose.position.z = z
+    angle = math.hypot(theta_x, theta_y)
+    half = math.sin(0.5 * angle) / angle if angle > 0 else 0.5  # sin(r/2)/r -> 1/2
+    orientation = message.pose.pose.orientation
+    orientation.x, orientation.y = half * theta_x, half * theta_y
+    orientation.z, orientation.w = 0.0, math.cos(0.5 * angle)
+    message.twist.twist.linear.z = zd
+    message.twist.twist.angular.x, message.twist.twist.angular.y = thd_x, thd_y
+    return message
+
+
+def hub_wrench_command(
+    force_z: float, torque_x: float, torque_y: float, frame_id: str = ""
+) -> WrenchStamped:
+    """A `sail/hub_wrench_cmd`: force along z [N], torques about x and y [N m] on the hub."""
+    message = WrenchStamped()
+    message.header.frame_id = frame_id
+    message.wrench.force.z = float(force_z)
+    message.wrench.torque.x, message.wrench.torque.y = float(torque_x), float(torque_y)
+    return message
+
+
 def load_command(topic: str, values: Mapping[str, float]) -> JointState:
     """A `sail/pressure_cmd` (quadrant -> Pa) or `sail/tip_force_cmd` (boom -> N)."""
     message = JointState(name=list(values))
@@ -338,10 +382,11 @@ def state_messages(
     coordinate_names,
     frame_id: str = FRAME_ID,
     with_clock: bool = False,
+    inertial_frame_id: str = INERTIAL_FRAME_ID,
 ) -> list[tuple[str, object]]:
     """`(topic, message)` of every state topic at one sample, in publishing order:
     /clock first (if `with_clock`), then boom state, modal state, tip deflections,
-    root moments."""
+    root moments, and a free hub's state."""
     messages = [(CLOCK, clock(stamp_ns_))] if with_clock else []
     messages += [
         (BOOM_STATE, boom_state(stamp_ns_, sample.lengths, sample.rates, frame_id)),
@@ -349,6 +394,8 @@ def state_messages(
         (TIP_DEFLECTION, tip_deflection(stamp_ns_, sample.tips, sample.tip_rates, frame_id)),
         (ROOT_MOMENT, root_moment(stamp_ns_, sample.root_moments, frame_id)),
     ]
+    if sample.hub is not None:
+        messages.append((HUB_STATE, hub_state(stamp_ns_, sample.hub, frame_id, inertial_frame_id)))
     return messages
 
 

@@ -266,6 +266,7 @@ def logs(js_readers, ros_env, tmp_path_factory) -> Logs:
             code = deploy.main(
                 [
                     *("--duration", "2", "--to", "11", "--rate", "20"),
+                    *("--set", "free_hub=true", "--set", "hub_mass=20.0"),  # Odometry too
                     *("--shape-rate", "5", "--shape-divisions", "2", "--mcap"),
                     str(folders["deploy"]),
                 ]
@@ -597,8 +598,8 @@ def test_every_kind_of_log_was_made(logs):
     assert len(bag_files(logs.folders["split"])) >= 3
     assert logs.incomplete, "the killed recorder's file was finished"
     assert counts["recovered"].get(topics.absolute(topics.BOOM_STATE), 0) > 0
-    for kind in ("deploy", "replayed"):
-        for topic in [*sim_topics, topics.CLOCK]:
+    for kind in ("deploy", "replayed"):  # a free hub's run: its nav_msgs/Odometry too
+        for topic in [*sim_topics, topics.CLOCK, topics.absolute(topics.HUB_STATE)]:
             assert counts[kind].get(topic, 0) > 0, (kind, topic, counts[kind])
 
 

@@ -267,3 +267,69 @@ def test_commands_published_before_the_start_are_ignored_and_counted(model):
     assert run.status()[3][key.IGNORED] == 1
     assert run.submit(topics.DEPLOY_CMD, deploy(12.0), stale) is False  # the same again
     assert len(outputs.answers) == 1  # a repeat of a sample is not a new command
+
+
+FREE = {"sail.free_hub": True, "sail.hub_mass": 20.0, "sail.hub_inertia_x": 10.0,
+        "sail.hub_inertia_y": 10.0}  # fmt: skip
+
+
+def wrench(force_z=0.0, torque_x=0.0, torque_y=0.0, **held):
+    message = topics.hub_wrench_command(force_z, torque_x, torque_y)
+    for name, value in held.items():
+        part, axis = name.split("_")
+        setattr(getattr(message.wrench, part), axis, value)
+    return message
+
+
+def test_a_free_hub_is_in_every_sample_and_takes_its_wrench(model):
+    """The hub's state (heave, tilts and their rates) rides with every sample; a wrench
+    command moves it as Newton says (F_z = m a from rest while nothing else acts:
+    the heave after t is F t^2 / (2 m_total)); a wrench on a held axis, in another
+    frame, beyond the limits, or with a clamped hub is rejected with its reason."""
+    free = SailModel(config_from_values(FREE).sail)
+    run, clock, outputs, _ = make_run(free, **FREE, initial_hub_velocity=[0.0, 0.01, 0.0])
+    assert outputs.states[0][1].hub.tolist() == [0.0, 0.0, 0.0, 0.0, 0.01, 0.0]
+    for i, (command, reason) in enumerate(
+        [
+            (wrench(force_x=0.1), "force.x = 0.1: the hub is held in the sail plane"),
+            (wrench(torque_z=0.1), "torque.z = 0.1: the hub is held"),
+            (wrench(force_z=5.0), "|force.z| = 5 N exceeds max_hub_force = 1 N"),
+            (wrench(torque_y=math.nan), "torque.y = nan N m is not finite"),
+        ]
+    ):
+        run.submit(topics.HUB_WRENCH_CMD, command, info(i))
+        advance(run, clock, 0.02)
+        assert outputs.answers[-1].outcome == topics.REJECTED
+        assert reason in outputs.answers[-1].message
+    other = wrench(force_z=0.5)
+    other.header.frame_id = "base_link"
+    run.submit(topics.HUB_WRENCH_CMD, other, info(10))
+    advance(run, clock, 0.02)
+    assert "header.frame_id is 'base_link'" in outputs.answers[-1].message
+    run.submit(topics.HUB_WRENCH_CMD, wrench(force_z=0.5, torque_x=0.2), info(11))
+    advance(run, clock, 0.02)
+    answer = outputs.answers[-1]
+    assert answer.outcome == topics.ACCEPTED and answer.values[topics.LOADS_HELD] == (
+        "[0.5, 0.2, 0.0]"
+    )
+    assert run.sim.inputs()[8:].tolist() == [0.5, 0.2, 0.0]
+    assert run.reset() and run.sim.inputs()[8:].tolist() == [0.0, 0.0, 0.0]
+
+    clamped, clock, outputs, _ = make_run(model)
+    clamped.submit(topics.HUB_WRENCH_CMD, wrench(force_z=0.5), info(0))
+    advance(clamped, clock, 0.02)
+    assert "the hub is clamped" in outputs.answers[-1].message
+    assert outputs.states[0][1].hub is None
+
+
+def test_a_tilt_beyond_its_limit_stops_the_run(model):
+    free = SailModel(config_from_values(FREE).sail)
+    run, clock, outputs, _ = make_run(
+        free, **FREE, initial_hub_velocity=[0.0, 0.5, 0.0], tilt_warn_rad=0.05,
+        tilt_error_rad=0.1,
+    )  # fmt: skip
+    advance(run, clock, 1.0)
+    assert run.sim.state == "error" and "hub tilt is" in run.sim.error
+    assert "beyond tilt_error_rad 0.1: out of the small-angle range" in run.sim.error
+    warned = [text for severity, text in outputs.lines if "tilt_warn_rad" in text]
+    assert warned, outputs.lines

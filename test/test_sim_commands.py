@@ -404,7 +404,7 @@ def test_leaving_the_linear_range_warns_then_stops_before_anything_is_non_finite
 class NoRangeCheck:
     """A policy without the tip-deflection alarms."""
 
-    def range_state(self, tips, lengths):
+    def range_state(self, tips, lengths, hub=None):
         return "", ""
 
 
@@ -550,6 +550,7 @@ def test_every_parameter_is_described_with_unit_and_range():
                 "time_scale",
                 "realtime_priority",
                 "frame_id",
+                "inertial_frame_id",
                 "shape_divisions",
                 "max_queued_commands",
             }

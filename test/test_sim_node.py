@@ -265,3 +265,45 @@ def test_main_exits_2_on_a_bad_parameter(monkeypatch, tmp_path):
     monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path))
     assert main(["--ros-args", "-p", "max_length:=0.5"]) == 2
     assert main(["--definitely-not-an-option"]) == 2
+
+
+def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
+    """`sail.free_hub`: /sail/hub_state (nav_msgs/Odometry, sail_inertial -> sail) with
+    every state sample, its orientation the quaternion of the tilt vector; a wrench on
+    /sail/hub_wrench_cmd is answered and moves the hub; the modal state names the hub's
+    coordinates."""
+    from geometry_msgs.msg import WrenchStamped
+    from nav_msgs.msg import Odometry
+
+    sim, client, spin_until = ros(
+        **{
+            "sail.free_hub": True,
+            "sail.hub_mass": 20.0,
+            "sail.hub_inertia_x": 10.0,
+            "sail.hub_inertia_y": 10.0,
+        },  # fmt: skip
+        initial_hub_velocity=[0.0, 0.02, -0.01],
+    )
+    hubs, answers = [], []
+    client.create_subscription(Odometry, topics.HUB_STATE, hubs.append, topics.STATE_QOS)
+    client.create_subscription(
+        DiagnosticArray,
+        topics.COMMAND_STATUS,
+        lambda m: answers.append(topics.command_answer(m)),
+        topics.COMMAND_STATUS_QOS,
+    )
+    spin_until(lambda: len(hubs) > 20, 5.0, "hub states")
+    last = hubs[-1]
+    assert last.header.frame_id == "sail_inertial" and last.child_frame_id == "sail"
+    theta_x = float(np.asarray(sim.sim.sample().hub)[1])  # not the same sample: the rate
+    assert last.twist.twist.angular.x == pytest.approx(0.02, rel=0.2)
+    assert last.pose.pose.orientation.w == pytest.approx(1.0, abs=1e-3) and theta_x > 0
+    q = last.pose.pose.orientation
+    assert q.x**2 + q.y**2 + q.z**2 + q.w**2 == pytest.approx(1.0, abs=1e-12)
+    wrench = client.create_publisher(WrenchStamped, topics.HUB_WRENCH_CMD, topics.COMMAND_QOS)
+    spin_until(lambda: wrench.get_subscription_count() >= 1, 5.0, "the wrench subscription")
+    wrench.publish(topics.hub_wrench_command(0.5, 0.0, 0.0))
+    spin_until(lambda: answers, 5.0, "the answer")
+    assert answers[-1].outcome == "accepted" and answers[-1].topic == "/sail/hub_wrench_cmd"
+    spin_until(lambda: hubs[-1].twist.twist.linear.z > 0.0, 5.0, "the hub heaving up")
+    assert sim.sim.model.coordinate_names[-3:] == ["hub_heave", "hub_tilt_x", "hub_tilt_y"]

@@ -32,6 +32,8 @@ class DeploymentRun:
         root_moments: root bending moments [N m] of booms a..d, (k, 4).
         peaks: the true peaks of the whole run, per boom with their times, taken
             inside every integration step (`peaks.OutputPeaks`), not from `t`.
+        hub: a free hub's state (k, 6): z_h [m], theta_x, theta_y [rad], their rates
+            [m/s, rad/s]; None when clamped.
     """
 
     t: np.ndarray
@@ -44,6 +46,7 @@ class DeploymentRun:
     wall_seconds: float
     root_moments: np.ndarray
     peaks: Peaks | None = None
+    hub: np.ndarray | None = None
 
     @property
     def real_time_factor(self) -> float:
@@ -62,6 +65,7 @@ class DeploymentRun:
             tips=self.tips[mask],
             tip_rates=self.tip_rates[mask],
             root_moments=self.root_moments[mask],
+            hub=None if self.hub is None else self.hub[mask],
         )
 
     def sample(self, i: int) -> StateSample:
@@ -75,6 +79,7 @@ class DeploymentRun:
             self.tips[i],
             self.tip_rates[i],
             self.root_moments[i],
+            None if self.hub is None else self.hub[i],
         )
 
     def index_of(self, t: float) -> int:
@@ -147,6 +152,7 @@ def run_deployment(
         wall,
         model.root_moments(q, lengths),
         peaks.peaks,
+        np.hstack([q[:, model.hub_slice], qd[:, model.hub_slice]]) if model.free_hub else None,
     )
 
 

@@ -39,7 +39,8 @@ from sail_ros.model.shape import SailSurface
 
 LOG_EPOCH_NS = 0
 CHUNK_SECONDS = 1.0  # simulated time per MCAP chunk [s]
-# the topics of an offline run: every state sample with its /clock, and the shape
+# the topics of an offline run: every state sample with its /clock, and the shape (and a
+# free hub's state)
 LOGGED_TOPICS = (topics.CLOCK, *topics.STATE_TOPICS, topics.SHAPE)
 
 
@@ -109,7 +110,9 @@ def write_deployment_log(
     Returns:
         the `BagWriter` file summaries.
     """
-    states = StateSerializer(model.coordinate_names, frame_id, with_clock=True)
+    states = StateSerializer(
+        model.coordinate_names, frame_id, with_clock=True, free_hub=model.free_hub
+    )
     surface = SailSurface(model, shape_divisions) if shape_every else None
     shapes = (
         ShapeSerializer(surface.triangles, surface.boom_stations.size, frame_id)
@@ -125,7 +128,8 @@ def write_deployment_log(
                 "epoch_ns": str(LOG_EPOCH_NS),
             },
         )
-        for name in LOGGED_TOPICS:
+        logged = (*LOGGED_TOPICS, topics.HUB_STATE) if model.free_hub else LOGGED_TOPICS
+        for name in logged:
             if name != topics.SHAPE or shape_every:
                 topic = topics.TOPICS[name]
                 bag.add_topic(topics.absolute(name), topic.type_name, [recorded_entry(topic.qos)])

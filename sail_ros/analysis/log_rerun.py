@@ -125,7 +125,8 @@ def _applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:
     simulator accepted, from its answers on sail/command_status (the recorder takes them
     from the start, where a command's short-lived publisher may come and go unseen)."""
     status = topics.absolute(topics.COMMAND_STATUS, log.namespace)
-    loads = {topics.absolute(name, log.namespace): name for name in topics.LOAD_NAMES}
+    kinds = (*topics.LOAD_NAMES, topics.HUB_WRENCH_CMD)
+    loads = {topics.absolute(name, log.namespace): name for name in kinds}
     applied = []
     for message in BagReader(log.path).messages([status]):
         answer = topics.command_answer(deserialize_message(message.data, DiagnosticArray))
@@ -151,20 +152,25 @@ def _solar_pressure(log: LogSeries) -> float:
 def _schedule(commands, solar: float, start: float, end: float) -> LoadSchedule | None:
     """The loads of one run from `start` to `end` [s] (times from its start): the commands
     applied in it, held; a run starts unloaded but for the solar pressure."""
-    pressures, forces = np.zeros(4), np.zeros(4)
-    steps = [(0.0, pressures + solar, forces.copy())]
-    for t, topic, held in commands:
+    held = {topics.PRESSURE_CMD: np.zeros(4), topics.TIP_FORCE_CMD: np.zeros(4)}
+    held[topics.HUB_WRENCH_CMD] = np.zeros(3)
+
+    def step(t):
+        pressures, forces, wrench = held.values()
+        return (t, pressures + solar, forces.copy(), wrench.copy())
+
+    steps = [step(0.0)]
+    for t, topic, values in commands:
         if not start < t <= end:
             continue
-        if topic == topics.PRESSURE_CMD:
-            pressures = held
-        else:
-            forces = held
+        held[topic] = values
         if t - start == steps[-1][0]:
             steps.pop()
-        steps.append((t - start, pressures + solar, forces.copy()))
-    if len(steps) == 1 and not steps[0][1].any():
+        steps.append(step(t - start))
+    if len(steps) == 1 and not (steps[0][1].any() or steps[0][2].any()):
         return None
+    if not any(s[3].any() for s in steps):  # a clamped hub's schedule has no wrench
+        steps = [s[:3] for s in steps]
     return LoadSchedule(steps)
 
 

@@ -84,10 +84,18 @@ class SimNode(Node):
             self.surface.triangles, self.surface.boom_stations.size, config.frame_id
         )
         published = [*topics.STATE_TOPICS, topics.SHAPE, topics.DIAGNOSTICS, topics.COMMAND_STATUS]
+        commands = list(topics.COMMAND_TOPICS)
+        if model.free_hub:  # its state and wrench exist only then (msg_docs/hub_state.md)
+            published.append(topics.HUB_STATE)
+            commands.append(topics.HUB_WRENCH_CMD)
         if config.time_scale != 1.0:
             published.append(topics.CLOCK)
         self._states = StateSerializer(
-            model.coordinate_names, config.frame_id, with_clock=topics.CLOCK in published
+            model.coordinate_names,
+            config.frame_id,
+            with_clock=topics.CLOCK in published,
+            free_hub=model.free_hub,
+            inertial_frame_id=config.inertial_frame_id,
         )
         self._outputs = {
             name: self.create_publisher(
@@ -122,7 +130,7 @@ class SimNode(Node):
             start_parameter_services=False,
         )
         quiet = SubscriptionEventCallbacks(use_default_callbacks=False)
-        for name in topics.COMMAND_TOPICS:
+        for name in commands:
             for qos in topics.COMMAND_INTAKE_QOS:
                 self._commands.create_subscription(
                     topics.TOPICS[name].message_type,

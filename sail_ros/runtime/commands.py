@@ -335,3 +335,31 @@ def plan_load(topic: str, message, current: np.ndarray, rules: Rules) -> LoadCha
         new[known.index(name)] = rules.check(rules.policy.check_load, name, value, pressure)
     summary = ", ".join(f"{name} = {new[known.index(name)]:g} {unit}" for name in names)
     return LoadChange(new, summary + " (others held)" if len(names) < 4 else summary)
+
+
+def plan_hub_wrench(message, rules: Rules, frame_id: str, free_hub: bool) -> LoadChange:
+    """The hub wrench `(F_z [N], tau_x, tau_y [N m])` of a `sail/hub_wrench_cmd`
+    (`geometry_msgs/WrenchStamped`-like) in frame `frame_id` (or no frame).
+
+    Raises:
+        CommandError: the hub is clamped; a held axis (force.x, force.y, torque.z) is not
+            zero (the holds would absorb it without a word); another frame; a value not
+            finite or beyond max_hub_force / max_hub_torque.
+    """
+    if not free_hub:
+        raise CommandError("the hub is clamped (sail.free_hub = false): no hub wrench")
+    frame = message.header.frame_id
+    if frame not in ("", frame_id):
+        raise CommandError(f"header.frame_id is {frame!r}: give the wrench in {frame_id!r}")
+    force, torque = message.wrench.force, message.wrench.torque
+    held = {"force.x": force.x, "force.y": force.y, "torque.z": torque.z}
+    for name, value in held.items():
+        if value != 0.0:
+            raise CommandError(
+                f"{name} = {value:g}: the hub is held in the sail plane and about z (model.md "
+                "§13.1); only force.z, torque.x and torque.y act"
+            )
+    values = np.array([force.z, torque.x, torque.y], dtype=float)
+    rules.check(rules.policy.check_hub_wrench, *values)
+    summary = f"hub force_z = {values[0]:g} N, torque_x = {values[1]:g} N m, torque_y = "
+    return LoadChange(values, summary + f"{values[2]:g} N m")

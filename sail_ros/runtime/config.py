@@ -44,6 +44,12 @@ class SimSettings:
         "applies at the next reset", minimum=-1e4, maximum=1e4, read_only=False,
         sizes=(1, 4),
     )  # fmt: skip
+    initial_hub_velocity: list = setting(
+        [0.0, 0.0, 0.0], "m/s, rad/s", "the free hub's heave rate and tilt rates (zd_h, "
+        "thd_x, thd_y) at start and after sail/reset; the hub starts at the inertial frame; "
+        "a change applies at the next reset", minimum=-1e3, maximum=1e3, read_only=False,
+        sizes=(3,),
+    )  # fmt: skip
     deploy_duration: float = setting(
         0.0, "s", "duration of a sail/deploy_cmd motion; 0: the fastest within max_rate and "
         "max_acceleration", minimum=0.0, maximum=1e6, read_only=False,
@@ -86,6 +92,9 @@ class SimSettings:
         "scheduling", minimum=0, maximum=99,
     )  # fmt: skip
     frame_id: str = setting("sail", "", "frame of every published state and marker")
+    inertial_frame_id: str = setting(
+        "sail_inertial", "", "the inertial frame sail/hub_state is given in (free hub)"
+    )
     shape_divisions: int = setting(
         10, "-", "mesh subdivisions of each quadrant edge in sail/shape", minimum=1, maximum=50
     )
@@ -122,6 +131,7 @@ class SimConfig:
     settings: SimSettings
     initial_lengths: np.ndarray  # (4,) m
     initial_tip_deflection: np.ndarray  # (4,) m
+    initial_hub_velocity: np.ndarray  # (3,) m/s, rad/s, rad/s (free hub)
 
     def __getattr__(self, name):  # the settings read as the configuration's own
         if name == "settings":  # not set yet (a copy being made)
@@ -171,7 +181,8 @@ def config_from_values(values: dict) -> SimConfig:
                 f"{name} = {getattr(settings, name):g} Hz is faster than the integration "
                 f"step allows (at most 1 / integration_step = {1 / step:g} Hz)"
             )
-    return SimConfig(sail, policy, settings, lengths, tips)
+    hub = np.array(settings.initial_hub_velocity, dtype=float)
+    return SimConfig(sail, policy, settings, lengths, tips, hub)
 
 
 def _table(table, prefix: str, values: dict):

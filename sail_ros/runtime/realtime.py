@@ -262,13 +262,17 @@ class RealTimeRun:
             values = {"t_start_s": f"{plan.t_start:.9f}", "t_end_s": f"{plan.t_end:.9f}"}
             self._accepted(batch[index], plan.summary, values)
         for index in loads:
+            topic = batch[index].topic
             try:
-                change = sim.load(batch[index].topic, batch[index].message)
+                if topic == topics.HUB_WRENCH_CMD:
+                    change = sim.wrench(batch[index].message, self.config.frame_id)
+                else:
+                    change = sim.load(topic, batch[index].message)
             except CommandError as error:
                 self._answer(batch[index], topics.REJECTED, str(error), {}, "warning")
                 continue
-            # the loads now held, all four: a log then tells the loads from the answers
-            held = sim.pressures if batch[index].topic == topics.PRESSURE_CMD else sim.tip_forces
+            # the loads now held, all of the kind: a log then tells the loads from the answers
+            held = change.values
             values = {"t_start_s": f"{sim.t_model:.9f}", topics.LOADS_HELD: _numbers(held)}
             self._accepted(batch[index], change.summary, values)
 

@@ -29,6 +29,7 @@ from sail_ros.runtime.commands import (
     Plan,
     Rules,
     plan_deploy,
+    plan_hub_wrench,
     plan_load,
     plan_trajectory,
 )
@@ -73,12 +74,14 @@ class Simulation:
         self.stepper = model.stepper(
             self.motion,
             q0=model.initial_coordinates(config.initial_tip_deflection),
+            qd0=self._initial_velocities(config),
             max_step=config.max_model_step,
         )
         self.sampler = GridSampler(self.stepper, self.step_size)
         self.solar_pressure = config.solar_pressure  # [Pa] on every quadrant, on top
         self.pressures = np.zeros(4)  # commanded, per quadrant ab, bc, cd, da [Pa]
         self.tip_forces = np.zeros(4)  # commanded, per boom a..d [N]
+        self.hub_wrench = np.zeros(3)  # commanded on a free hub: F_z [N], tau_x, tau_y [N m]
         self._use_loads()
         self.steps = 0  # grid steps taken since start
         self.paused = False
@@ -147,8 +150,20 @@ class Simulation:
         return energy, load, dissipation
 
     def inputs(self) -> np.ndarray:
-        """The model's inputs now (8,): pressures [Pa] (commanded + solar), tip forces [N]."""
-        return np.concatenate([self.pressures + self.solar_pressure, self.tip_forces])
+        """The model's inputs now (8, or 11 with a free hub): pressures [Pa] (commanded +
+        solar), tip forces [N], and the hub wrench [N, N m, N m]."""
+        parts = [self.pressures + self.solar_pressure, self.tip_forces]
+        if self.model.free_hub:
+            parts.append(self.hub_wrench)
+        return np.concatenate(parts)
+
+    def _initial_velocities(self, config: SimConfig) -> np.ndarray | None:
+        """A free hub's initial heave and tilt rates, as velocities (None: at rest)."""
+        if not self.model.free_hub or not config.initial_hub_velocity.any():
+            return None
+        qd0 = np.zeros(self.model.n)
+        qd0[self.model.hub_slice] = config.initial_hub_velocity
+        return qd0
 
     def _use_loads(self) -> None:
         """Hand the loads to the stepper: held constant from the next step on (so a change
@@ -177,10 +192,13 @@ class Simulation:
         return self._within_range()
 
     def _within_range(self) -> bool:
-        """Check the tip deflections against the linear range (the policy's
-        `range_state`): set `range_warning` past the warning fraction, stop with `error`
-        past the error one, before anything absurd goes out."""
-        warning, error = self.policy.range_state(self.model.tip_deflections(self.q), self.lengths)
+        """Check the tip deflections (and a free hub's tilt) against the linear range (the
+        policy's `range_state`): set `range_warning` past the warning limit, stop with
+        `error` past the error one, before anything absurd goes out."""
+        point = self.sampler.point
+        hub = point.q[self.model.hub_slice] if self.model.free_hub else None
+        tips = self.model.tip_deflections(point.q)
+        warning, error = self.policy.range_state(tips, point.lengths, hub)
         self.range_warning = warning
         if error:
             self.error = error
@@ -194,7 +212,7 @@ class Simulation:
         self.motion = BoomMotion([StaticProfile(config.initial_lengths)] * 4)
         self.stepper.reset(
             self.model.initial_coordinates(config.initial_tip_deflection),
-            None,
+            self._initial_velocities(config),
             self.t,
             profile=self.motion,
         )
@@ -203,6 +221,7 @@ class Simulation:
         self.range_warning = ""
         self.policy = config.policy
         self.pressures, self.tip_forces = np.zeros(4), np.zeros(4)
+        self.hub_wrench = np.zeros(3)
         self._use_loads()
 
     def set_solar_pressure(self, pressure: float) -> None:
@@ -233,6 +252,25 @@ class Simulation:
             CommandError: why (counted in `rejected`); the motion is unchanged.
         """
         return self._counted(lambda: self.apply_motion(self.plan_trajectory(trajectory)))
+
+    def wrench(self, message, frame_id: str):
+        """Apply a `sail/hub_wrench_cmd` (see `plan_hub_wrench`) from `t_model` on; returns
+        the `LoadChange`.
+
+        Raises:
+            CommandError: why (counted in `rejected`); the wrench is unchanged.
+        """
+
+        def apply():
+            self._refuse_when_stopped()
+            change = plan_hub_wrench(message, self.rules, frame_id, self.model.free_hub)
+            self.hub_wrench = change.values
+            self._use_loads()
+            self.accepted += 1
+            self.last_command, self.last_command_start = change.summary, self.t_model
+            return change
+
+        return self._counted(apply)
 
     def load(self, topic: str, message):
         """Apply a `sail/pressure_cmd` or `sail/tip_force_cmd` (see `plan_load`) from
