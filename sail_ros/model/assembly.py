@@ -130,19 +130,52 @@ class Term:
 
 # Rayleigh damping enters every matrix that holds the damping
 _RAYLEIGH = (DAMPING, STRUCTURAL_DAMPING, CANONICAL_DAMPING)
+# The gyroscopic `G` of a term feeds G, and G - G^T feeds C and the canonical damping.
+_SKEW = (DAMPING, GYROSCOPIC_SKEW, CANONICAL_DAMPING)
 
-# Boom k (n_B x n_B), model.md §5: M_B, Md_B, G_B, Gd_B, N_B, K_B; §12: C_d.
+
+def _mass(name: str, integral: str, coefficient) -> tuple[Term, ...]:
+    """A term of the mass `M`, and its share `alpha M` of the Rayleigh damping."""
+    return (
+        Term(name, integral, coefficient, (MASS,)),
+        Term(
+            f"mass damping alpha {name}", integral, _times("mass_damping", coefficient), _RAYLEIGH
+        ),
+    )
+
+
+def _elastic(name: str, integral: str, coefficient) -> tuple[Term, ...]:
+    """A term of the elastic stiffness `K`, and its share `beta K` of the Rayleigh damping."""
+    return (
+        Term(name, integral, coefficient, (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL)),
+        Term(
+            f"stiffness damping beta {name}",
+            integral,
+            _times("stiffness_damping", coefficient),
+            _RAYLEIGH,
+        ),
+    )
+
+
+def _transport(name: str, integral: str, coefficient) -> tuple[Term, ...]:
+    """A term of the gyroscopic `G`, and of `G - G^T` (the same coefficient, skew)."""
+    return (
+        Term(name, integral, coefficient, (GYROSCOPIC,)),
+        Term(f"{name} - G^T", integral, coefficient, _SKEW, skew=True),
+    )
+
+
+def _times(constant: str, coefficient):
+    """The coefficient times a physical constant (a Rayleigh factor)."""
+    return lambda motion, c: getattr(c, constant) * coefficient(motion, c)
+
+
+# Boom k (n_B x n_B), model.md §5: M_B, Md_B, G_B, Gd_B, N_B, K_B; §12: C_d = alpha M + beta K
+# comes from the M and K terms (`_mass`, `_elastic`), G - G^T from G (`_transport`).
 BOOM_TERMS = (
-    Term("mass M_B", "psi_psi", lambda b, c: c.boom_linear_density * b.L, (MASS,)),
+    *_mass("mass M_B", "psi_psi", lambda b, c: c.boom_linear_density * b.L),
     Term("mass rate Md_B", "psi_psi", lambda b, c: c.boom_linear_density * b.Ld, (DAMPING,)),
-    Term(
-        "transport G_B - G_B^T",
-        "psi_r",
-        lambda b, c: c.boom_linear_density * b.Ld,
-        (DAMPING, GYROSCOPIC_SKEW, CANONICAL_DAMPING),
-        skew=True,
-    ),
-    Term("transport G_B", "psi_r", lambda b, c: c.boom_linear_density * b.Ld, (GYROSCOPIC,)),
+    *_transport("transport G_B", "psi_r", lambda b, c: c.boom_linear_density * b.Ld),
     Term(
         "transport rate Gd_B", "psi_r", lambda b, c: c.boom_linear_density * b.Ldd, (STIFFNESS_EQ,)
     ),
@@ -152,73 +185,24 @@ BOOM_TERMS = (
         lambda b, c: -c.boom_linear_density * b.Ld**2 / b.L,
         (STIFFNESS_EQ, STIFFNESS_CANONICAL),
     ),
-    Term(
-        "bending K_B",
-        "d2_d2",
-        lambda b, c: c.boom_bending_stiffness / b.L**3,
-        (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
-    ),
-    Term(
-        "axial load K_B",
-        "d1_d1",
-        lambda b, c: -c.boom_axial_load / b.L,
-        (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
-    ),
-    # Rayleigh damping alpha M_B + beta K_B (model.md §12)
-    Term(
-        "mass damping alpha M_B",
-        "psi_psi",
-        lambda b, c: c.mass_damping * c.boom_linear_density * b.L,
-        _RAYLEIGH,
-    ),
-    Term(
-        "stiffness damping beta K_B (bending)",
-        "d2_d2",
-        lambda b, c: c.stiffness_damping * c.boom_bending_stiffness / b.L**3,
-        _RAYLEIGH,
-    ),
-    Term(
-        "stiffness damping beta K_B (axial load)",
-        "d1_d1",
-        lambda b, c: -c.stiffness_damping * c.boom_axial_load / b.L,
-        _RAYLEIGH,
-    ),
+    *_elastic("bending K_B", "d2_d2", lambda b, c: c.boom_bending_stiffness / b.L**3),
+    *_elastic("axial load K_B", "d1_d1", lambda b, c: -c.boom_axial_load / b.L),
 )
 
-# Quadrant Q_ab (n~ x n~), model.md §5: M_M, Md_M, G_M, Gd_M, N_M, K_M; §12: C_d.
+# Quadrant Q_ab (n~ x n~), model.md §5: M_M, Md_M, G_M, Gd_M, N_M, K_M; §12: C_d as above.
 QUADRANT_TERMS = (
-    Term("mass M_M", "s_s", lambda q, c: c.membrane_areal_density * q.La * q.Lb, (MASS,)),
+    *_mass("mass M_M", "s_s", lambda q, c: c.membrane_areal_density * q.La * q.Lb),
     Term(
         "mass rate Md_M",
         "s_s",
         lambda q, c: c.membrane_areal_density * (q.Lda * q.Lb + q.La * q.Ldb),
         (DAMPING,),
     ),
-    Term(
-        "transport G_M - G_M^T (first boom)",
-        "s_ra",
-        lambda q, c: c.membrane_areal_density * q.Lb * q.Lda,
-        (DAMPING, GYROSCOPIC_SKEW, CANONICAL_DAMPING),
-        skew=True,
+    *_transport(
+        "transport G_M (first boom)", "s_ra", lambda q, c: c.membrane_areal_density * q.Lb * q.Lda
     ),
-    Term(
-        "transport G_M - G_M^T (second boom)",
-        "s_rb",
-        lambda q, c: c.membrane_areal_density * q.La * q.Ldb,
-        (DAMPING, GYROSCOPIC_SKEW, CANONICAL_DAMPING),
-        skew=True,
-    ),
-    Term(
-        "transport G_M (first boom)",
-        "s_ra",
-        lambda q, c: c.membrane_areal_density * q.Lb * q.Lda,
-        (GYROSCOPIC,),
-    ),
-    Term(
-        "transport G_M (second boom)",
-        "s_rb",
-        lambda q, c: c.membrane_areal_density * q.La * q.Ldb,
-        (GYROSCOPIC,),
+    *_transport(
+        "transport G_M (second boom)", "s_rb", lambda q, c: c.membrane_areal_density * q.La * q.Ldb
     ),
     Term(
         "transport rate Gd_M (first boom)",
@@ -250,36 +234,15 @@ QUADRANT_TERMS = (
         lambda q, c: -c.membrane_areal_density * q.La * q.Ldb**2 / q.Lb,
         (STIFFNESS_EQ, STIFFNESS_CANONICAL),
     ),
-    Term(
+    *_elastic(
         "tension K_M (along the first boom)",
         "sxi_sxi",
         lambda q, c: c.membrane_tension * q.Lb / q.La,
-        (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
     ),
-    Term(
+    *_elastic(
         "tension K_M (along the second boom)",
         "seta_seta",
         lambda q, c: c.membrane_tension * q.La / q.Lb,
-        (STIFFNESS_EQ, STIFFNESS, STIFFNESS_CANONICAL),
-    ),
-    # Rayleigh damping alpha M_M + beta K_M (model.md §12)
-    Term(
-        "mass damping alpha M_M",
-        "s_s",
-        lambda q, c: c.mass_damping * c.membrane_areal_density * q.La * q.Lb,
-        _RAYLEIGH,
-    ),
-    Term(
-        "stiffness damping beta K_M (along the first boom)",
-        "sxi_sxi",
-        lambda q, c: c.stiffness_damping * c.membrane_tension * q.Lb / q.La,
-        _RAYLEIGH,
-    ),
-    Term(
-        "stiffness damping beta K_M (along the second boom)",
-        "seta_seta",
-        lambda q, c: c.stiffness_damping * c.membrane_tension * q.La / q.Lb,
-        _RAYLEIGH,
     ),
 )
 
