@@ -810,7 +810,7 @@ def test_exact_step_at_rest_carries_rigid_modes_under_a_load():
 # -- check 23: the clamped hub is the code before the free hub, bit for bit ------------------------
 
 
-BEFORE_FREE_HUB = "441bfe6e98"  # main before the free hub merged
+BEFORE_FREE_HUB = "821e2348e9"  # main before the free hub merged (assembly as now)
 
 
 def test_check_23_the_clamped_hub_is_bit_for_bit_the_code_before(tmp_path):
