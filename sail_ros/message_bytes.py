@@ -40,7 +40,7 @@ from rosidl_parser.definition import (
 )
 
 from sail_ros import topics
-from sail_ros.model.sail_model import StateSample
+from sail_ros.model.record import SAMPLE_FIELDS, StateSample
 
 _LITTLE_ENDIAN_CDR = b"\x00\x01"  # encapsulation header rclpy writes on little-endian hosts
 _HEADER_SIZE = 4  # encapsulation kind and options; CDR alignment counts from after it
@@ -190,8 +190,9 @@ class ShapeSerializer:
         return bytes(buffer)
 
 
-# the arrays of a sample the state messages carry, each in exactly one of them
-_SAMPLE_ARRAYS = ("lengths", "rates", "q", "qd", "tips", "tip_rates", "root_moments")
+# the fields of a sample the JointState messages carry, each in exactly one of them (a
+# free hub's Odometry is built per sample)
+_SAMPLE_ARRAYS = tuple(f for f in SAMPLE_FIELDS if f.per in ("boom", "coordinate"))
 
 
 class StateSerializer:
@@ -216,7 +217,10 @@ class StateSerializer:
         self._hub_frames = (frame_id, inertial_frame_id) if free_hub else None
         rng = np.random.default_rng(0)
         n = len(coordinate_names)
-        sample = StateSample(0.0, *(rng.uniform(-1.0, 1.0, size) for size in (4, 4, n, n, 4, 4, 4)))
+        sizes = {"boom": 4, "coordinate": n}
+        sample = StateSample(
+            0.0, **{f.name: rng.uniform(-1.0, 1.0, sizes[f.per]) for f in _SAMPLE_ARRAYS}
+        )
         stamp = _STAMP.pack(*divmod(_TEMPLATE_STAMP_NS, 10**9))
         self._layouts = []  # (topic, template, stamp offset, [(array name, offset)])
         placed = []
@@ -228,7 +232,7 @@ class StateSerializer:
             if len(stamps) != 1:
                 raise RuntimeError(f"{topic}: {len(stamps)} stamps found, expected 1")
             arrays = []
-            for name in _SAMPLE_ARRAYS:
+            for name in (f.name for f in _SAMPLE_ARRAYS):
                 pattern = np.ascontiguousarray(getattr(sample, name), dtype="<f8").tobytes()
                 offsets = _all_offsets(template, pattern)
                 if len(offsets) == 1:
@@ -242,7 +246,7 @@ class StateSerializer:
                 for name, offset in arrays
             ]
             self._layouts.append((topic, buffer, stamps[0], views))
-        if sorted(placed) != sorted(_SAMPLE_ARRAYS):
+        if sorted(placed) != sorted(f.name for f in _SAMPLE_ARRAYS):
             raise RuntimeError(f"state messages: arrays found {placed}, expected each once")
 
     def serialize(self, stamp_ns: int, sample: StateSample) -> list[tuple[str, bytes]]:

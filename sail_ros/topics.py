@@ -37,7 +37,7 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros.model import SailParameters, yaml_values
-from sail_ros.model.sail_model import StateSample
+from sail_ros.model.record import StateSample
 
 # -- names ------------------------------------------------------------------------------------
 # Relative, so a node's namespace (`--ros-args -r __ns:=/sat2`) moves them all;

@@ -15,7 +15,7 @@ import numpy as np
 from sail_ros.analysis.scenario import Scenario
 from sail_ros.model import SailModel
 from sail_ros.model.peaks import OutputPeaks, Peaks
-from sail_ros.model.sail_model import StateSample
+from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
 
 
@@ -24,29 +24,23 @@ class DeploymentRun:
     """States of one run at the output times.
 
     Attributes:
-        t: output times [s], (k,).
-        lengths, rates: boom lengths [m] and extension rates [m/s], (k, 4).
-        q, qd: generalised coordinates [m] and velocities [m/s], (k, n).
-        tips, tip_rates: boom-tip deflections [m] and their rates [m/s], (k, 4).
+        states: the state record (`record.StateSample`) with each field over the
+            output times: `t` (k,) [s], `lengths`, `rates`, `tips`, `tip_rates`,
+            `root_moments` (k, 4), `q`, `qd` (k, n), a free hub's `hub` (k, 6) or None;
+            each is an attribute of the run too (`run.tips`).
         wall_seconds: wall time of the integration [s].
-        root_moments: root bending moments [N m] of booms a..d, (k, 4).
         peaks: the true peaks of the whole run, per boom with their times, taken
             inside every integration step (`peaks.OutputPeaks`), not from `t`.
-        hub: a free hub's state (k, 6): z_h [m], theta_x, theta_y [rad], their rates
-            [m/s, rad/s]; None when clamped.
     """
 
-    t: np.ndarray
-    lengths: np.ndarray
-    rates: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    tips: np.ndarray
-    tip_rates: np.ndarray
+    states: StateSample
     wall_seconds: float
-    root_moments: np.ndarray
     peaks: Peaks | None = None
-    hub: np.ndarray | None = None
+
+    def __getattr__(self, name):
+        if name in StateSample._fields:
+            return getattr(self.states, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     @property
     def real_time_factor(self) -> float:
@@ -55,32 +49,11 @@ class DeploymentRun:
 
     def subset(self, mask) -> DeploymentRun:
         """The run at the output times selected by `mask` (boolean or indices)."""
-        return dataclasses.replace(
-            self,
-            t=self.t[mask],
-            lengths=self.lengths[mask],
-            rates=self.rates[mask],
-            q=self.q[mask],
-            qd=self.qd[mask],
-            tips=self.tips[mask],
-            tip_rates=self.tip_rates[mask],
-            root_moments=self.root_moments[mask],
-            hub=None if self.hub is None else self.hub[mask],
-        )
+        return dataclasses.replace(self, states=take(self.states, mask))
 
     def sample(self, i: int) -> StateSample:
         """The state at output time `i`."""
-        return StateSample(
-            float(self.t[i]),
-            self.lengths[i],
-            self.rates[i],
-            self.q[i],
-            self.qd[i],
-            self.tips[i],
-            self.tip_rates[i],
-            self.root_moments[i],
-            None if self.hub is None else self.hub[i],
-        )
+        return take(self.states, i)
 
     def index_of(self, t: float) -> int:
         """Index of the output time nearest to `t` [s]."""
@@ -141,19 +114,7 @@ def run_deployment(
     motion = [scenario.profile(ti) for ti in t]
     lengths = np.array([m[0] for m in motion], dtype=float)
     rates = np.array([m[1] for m in motion], dtype=float)
-    return DeploymentRun(
-        t,
-        lengths,
-        rates,
-        q,
-        qd,
-        model.tip_deflections(q),
-        model.tip_deflections(qd),
-        wall,
-        model.root_moments(q, lengths),
-        peaks.peaks,
-        np.hstack([q[:, model.hub_slice], qd[:, model.hub_slice]]) if model.free_hub else None,
-    )
+    return DeploymentRun(model.sample(t, lengths, rates, q, qd), wall, peaks.peaks)
 
 
 @dataclasses.dataclass(frozen=True)

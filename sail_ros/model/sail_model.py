@@ -12,8 +12,6 @@ the mean axes, and `u` ends with the hub wrench `F_z, tau_x, tau_y`.
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 import scipy.linalg
 
@@ -58,26 +56,8 @@ from sail_ros.model.loads import (
     inputs,
 )
 from sail_ros.model.parameters import SailParameters
+from sail_ros.model.record import StateSample
 from sail_ros.model.stepper import SailStepper
-
-
-class StateSample(NamedTuple):
-    """The state at time `t` [s]: boom lengths [m] and rates [m/s], coordinates q [m]
-    and velocities qd [m/s], tip deflections [m] and their rates [m/s] (relative to
-    the hub), root bending moments [N m]; with a free hub `hub` (6,) = `z_h` [m],
-    `theta_x`, `theta_y` [rad], `zd_h` [m/s], `thd_x`, `thd_y` [rad/s] (None when
-    clamped)."""
-
-    t: float
-    lengths: np.ndarray
-    rates: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    tips: np.ndarray
-    tip_rates: np.ndarray
-    root_moments: np.ndarray
-    hub: np.ndarray | None = None
-
 
 # A free hub turns a boom's root from clamped into guided (hub heaving) or pinned (hub
 # tilting) when light: the pinned-free frequency is the highest, (3.92660 / 1.87510)^2 =
@@ -641,15 +621,25 @@ class SailModel:
         """
         return np.asarray(q) @ self._tip_rows.T
 
-    def sample(self, t: float, lengths, rates, q, qd) -> StateSample:
-        """The state at `t` [s] with its tip deflections, their rates and the root
-        moments, and a free hub's state `(z_h, theta_x, theta_y, zd_h, thd_x, thd_y)`."""
-        tips, tip_rates = self.tip_deflections(q), self.tip_deflections(qd)
-        moments = self.root_moments(q, lengths)
+    def sample(self, t, lengths, rates, q, qd) -> StateSample:
+        """The state at `t` [s] with its tip deflections, their rates, the root moments
+        and a free hub's state `(z_h, theta_x, theta_y, zd_h, thd_x, thd_y)`; for a series
+        (`t` (k,), the others with the times first) the record of arrays."""
+        q, qd = np.asarray(q), np.asarray(qd)
         hub = None
         if self.free_hub:
-            hub = np.concatenate([np.asarray(q)[self.hub_slice], np.asarray(qd)[self.hub_slice]])
-        return StateSample(t, lengths, rates, q, qd, tips, tip_rates, moments, hub)
+            hub = np.concatenate([q[..., self.hub_slice], qd[..., self.hub_slice]], axis=-1)
+        return StateSample(
+            t=t,
+            lengths=lengths,
+            rates=rates,
+            q=q,
+            qd=qd,
+            tips=self.tip_deflections(q),
+            tip_rates=self.tip_deflections(qd),
+            root_moments=self.root_moments(q, lengths),
+            hub=hub,
+        )
 
     def mode_state(self, boom: str = "a", tip_deflection: float = 0.1) -> np.ndarray:
         """Coordinates with boom `boom` bent in its first cantilever mode, all else 0.

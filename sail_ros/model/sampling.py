@@ -26,10 +26,8 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
 
-import numpy as np
-
+from sail_ros.model.record import StepperState
 from sail_ros.model.stepper import SailStepper
 
 # A grid interval whose motion starts or ends within this fraction of the interval
@@ -40,15 +38,8 @@ from sail_ros.model.stepper import SailStepper
 STATIC_MARGIN = 1e-4
 
 
-@dataclass(frozen=True)
-class GridPoint:
-    """The state at a grid time `t` [s]: boom lengths [m] and rates [m/s], `q`, `qd`."""
-
-    t: float
-    lengths: np.ndarray
-    rates: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
+# the state at a grid time: t [s], boom lengths [m] and rates [m/s], q, qd
+GridPoint = StepperState
 
 
 class GridSampler:

@@ -23,7 +23,7 @@ from typing import Protocol
 from sail_ros import topics
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel
-from sail_ros.model.sail_model import StateSample
+from sail_ros.model.record import StateSample
 from sail_ros.runtime.commands import CommandError
 from sail_ros.runtime.config import SimConfig
 from sail_ros.runtime.diagnosis import Observations, diagnose
