@@ -167,7 +167,7 @@ def main(argv=None) -> int:
             (to_client, arrival - log_time),
         ):
             store.setdefault(message["topic"], []).append(value * 1e-6)
-    print(f"\nsimulator publish -> Foxglove client, default rates, {args.seconds:g} s, booms moving")
+    print(f"\nsimulator publish -> Foxglove client, default rates, {args.seconds:g} s, moving")
     for label, store in (
         ("publish -> client", total),
         ("publish -> bridge (DDS)", to_bridge),
