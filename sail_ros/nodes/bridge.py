@@ -284,6 +284,7 @@ class Bridge(Node):
                 message_backlog_size=self.config["client_queue"],
             )
         except RuntimeError as error:  # foxglove-sdk's error for a bind that failed
+            self._release_server_log()
             raise OSError(f"cannot listen on {address}:{self.config['port']}: {error}") from None
         self.url = f"ws://{address}:{self.server.port}"
         self.get_logger().info(f"serving on {self.url}")
@@ -526,6 +527,9 @@ class Bridge(Node):
         self.server.stop()
         for topic, count in sorted(self.served.items()):
             self.get_logger().info(f"  {topic}: {count} messages served")
+        self._release_server_log()
+
+    def _release_server_log(self) -> None:
         for name in ("foxglove", "foxglove_py"):
             logging.getLogger(name).removeHandler(self._server_log)
 
