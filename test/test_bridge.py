@@ -252,7 +252,9 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     js_readers,  # noqa: F811
     tmp_path,
 ):
-    # big shapes, often: the stalled client's socket and queue fill within the stall
+    # big shapes, often (190 kB at 25 Hz): the stalled client's socket buffers (small: it
+    # stalls before it read anything, so the kernel did not grow them) and its queue fill
+    # early in the stall; the reading client takes the state only
     processes("sim", parameters={"shape_divisions": 20, "shape_rate_hz": 25.0})
     served = processes(
         "bridge", "--port", "0", "--client-queue", "32", "--diagnostics-period-s", "0.5"
@@ -270,8 +272,9 @@ def test_a_client_that_stops_reading_loses_messages_alone(
         topics.DIAGNOSTICS_QOS,
     )
     operator.wait_for_simulator(subscribers=2)  # the simulator and the bridge
-    reading = {"topics": SIM_TOPICS, "steps": [{"wait": 4.0}]}
-    stalling = {"topics": SIM_TOPICS, "steps": [{"wait": 0.5}, {"stall": 3.0}, {"wait": 0.3}]}
+    state = [topics.absolute(name) for name in topics.STATE_TOPICS]
+    reading = {"topics": SIM_TOPICS, "subscribe": state, "steps": [{"wait": 4.0}]}
+    stalling = {"topics": SIM_TOPICS, "steps": [{"stall": 3.0}, {"wait": 0.5}]}
     fast = run_client(js_readers, url, reading, tmp_path / "fast.json")
     slow = run_client(js_readers, url, stalling, tmp_path / "slow.json")
     operator.spin_for(4.5)
@@ -280,25 +283,35 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     spin_until(operator.spinner, lambda: bridge_status, 5.0, "the bridge's status")
     operator.spin_for(0.6)
 
-    # the reading client got every state sample in order, without a gap
+    # the reading client got every state sample in order, never held up for the stall
     arrivals = [int(m["arrival_ns"]) for m in fast_result["messages"]
                 if m["topic"] == "/sail/boom_state"]  # fmt: skip
     gaps = [(b - a) * 1e-9 for a, b in zip(arrivals, arrivals[1:], strict=False)]
-    assert len(arrivals) > 150 and max(gaps) < 0.3, (len(arrivals), max(gaps))
+    worst = max(range(len(gaps)), key=gaps.__getitem__)
+    assert len(arrivals) > 100 and gaps[worst] < 1.0, (
+        f"{len(arrivals)} samples; {gaps[worst]:.2f} s without one "
+        f"{(arrivals[worst] - arrivals[0]) * 1e-9:.2f} s after the first"
+    )
     stamps = [int(m["stamp_ns"]) for m in fast_result["messages"]
               if m["topic"] == "/sail/boom_state"]  # fmt: skip
     assert all(b - a == 20_000_000 for a, b in zip(stamps, stamps[1:], strict=False))
     # the stalled one lost some, and the bridge said so
-    slow_stamps = [int(m["stamp_ns"]) for m in slow_result["messages"]
-                   if m["topic"] == "/sail/boom_state"]  # fmt: skip
-    assert any(b - a > 20_000_000 for a, b in zip(slow_stamps, slow_stamps[1:], strict=False))
+    # the stalled one lost over a second of them (what was queued when it stalled), and
+    # the bridge said so
+    lost = len(arrivals) - slow_result["received"].get("/sail/boom_state", 0)
+    assert lost > 50, slow_result["received"]
     assert "reads slower than the traffic" in served.log()
     assert int(bridge_status[-1][bridge.SLOW_REPORTS]) >= 1
-    # and the simulator kept real time all along
-    factors = [
-        float(topics.diagnostic_values(array)["real_time_factor"])
-        for array in operator.diagnostics
+    # and the simulator kept real time: no window held up (a wait for the stalled client
+    # would take seconds), and over the run within 2 % (it catches up after a late tick)
+    statuses = [
+        (topics.diagnostic_values(array), published)
+        for array, published in zip(operator.diagnostics, operator.published_ns, strict=True)
         if topics.diagnostic_values(array)
     ]
-    assert factors and all(0.98 < f < 1.02 for f in factors[1:]), factors
+    factors = [float(values["real_time_factor"]) for values, _ in statuses[1:]]
+    assert len(factors) >= 4 and min(factors) > 0.5, factors
+    (first, first_ns), (last, last_ns) = statuses[1], statuses[-1]
+    span = float(last["sim_time_s"]) - float(first["sim_time_s"])
+    assert span / ((last_ns - first_ns) * 1e-9) == pytest.approx(1.0, abs=0.02), factors
     stop(served)

@@ -5,7 +5,7 @@
 //   node bridge_client.mjs URL OUT.json STEPS.json
 //
 // Connects, waits for the channels of STEPS.topics (a list of names) to be advertised,
-// subscribes to every channel, then runs STEPS.steps in order:
+// subscribes to every channel (or those of STEPS.subscribe), then runs STEPS.steps in order:
 //   {"wait": seconds}
 //   {"publish": {"topic", "type", "value"}}       advertise (once per topic), encode, send
 //   {"publish_hex": {"topic", "type", "hex"}}     the same with these bytes as they are
@@ -74,6 +74,9 @@ client.on("advertise", (channels) => {
       continue;
     }
     out.channels.push(channel);
+    if (plan.subscribe !== undefined && !plan.subscribe.includes(channel.topic)) {
+      continue;
+    }
     const id = client.subscribe(channel.id);
     readers.set(id, { topic: channel.topic, reader: new MessageReader(definitions(channel.schema)) });
   }
