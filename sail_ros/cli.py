@@ -29,6 +29,7 @@ TOOLS = {
     "bag": "sail_ros.tools.bag:main",
     "recorder": "sail_ros.nodes.recorder:main",
     "replay": "sail_ros.nodes.replay:main",
+    "bridge": "sail_ros.nodes.bridge:main",
     "sim": "sail_ros.nodes.sim:main",
     "send": "sail_ros.tools.send:main",
     "watch": "sail_ros.tools.watch:main",

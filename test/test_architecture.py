@@ -107,6 +107,7 @@ PIP_ONLY = {
     "distributed": "distributed",
     "pyarrow": "pyarrow",
     "bokeh": "bokeh",
+    "foxglove": "foxglove-sdk",
 }
 
 

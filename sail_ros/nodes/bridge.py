@@ -1,0 +1,606 @@
+"""Node `sail_bridge`: the simulator live in Foxglove, over the Foxglove WebSocket protocol.
+
+Subscribes (raw, no deserialisation) to one simulator's topics and serves
+each as a channel of a Foxglove WebSocket server (`foxglove-sdk`), every
+channel from the start, whether or not the simulator runs yet: message
+encoding `cdr`, schema encoding
+`ros2msg` with the schema text the recorder writes into the log
+(`sail_ros.bag.message_definition`), the received CDR bytes unchanged, under
+the topic's absolute name. A Foxglove layout therefore opens on a live run
+and on its MCAP log alike.
+
+Clients may publish on the command topics (client publish, encoding `cdr`):
+bytes that decode as the topic's type are published on DDS unchanged, so the
+simulator checks them as any DDS command and answers on
+`sail/command_status`, which the bridge serves too; anything else is refused
+with a status message to the clients and a log line, and counted. The
+simulator's `sail/pause` and `sail/reset` services are offered as protocol
+services (request and response in CDR).
+
+A client that reads slower than the traffic never holds anything up: the
+server queues at most `client_queue` messages for each client and drops that
+client's oldest when its queue is full (foxglove-sdk's per-client queue). The
+server reports such a client in its own log (at most once every 30 s);
+the bridge logs the report as a warning naming the client's address and counts
+it on /diagnostics (`slow_client_reports`).
+
+By default the server listens on 127.0.0.1 only. Another address exposes the
+sail to everyone who can reach that port: the protocol has no
+authentication, and any client can command the booms and the loads, pause
+and reset (msg_docs/bridge.md).
+
+SIGINT/SIGTERM: close the server, exit 0. A bad parameter or option: exit 2.
+A port already in use: exit 1.
+
+    sail-ros bridge
+    sail-ros bridge --port 8766 --namespace /sat2
+    sail-ros bridge --ros-args -r __ns:=/sat2
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import ipaddress
+import logging
+import re
+import sys
+import threading
+import time
+
+import foxglove
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from foxglove import MessageSchema, Schema, Service, ServiceSchema
+from foxglove.websocket import Capability, StatusLevel
+from rcl_interfaces.msg import ParameterEvent
+from rclpy.event_handler import PublisherEventCallbacks
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.logging import get_logger
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message, serialize_message
+from std_srvs.srv import SetBool, Trigger
+
+from sail_ros import topics
+from sail_ros.bag import message_definition
+from sail_ros.bag.definitions import PRIMITIVE_TYPES, find_interface_file, full_type_name
+from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
+from sail_ros.ros.parameters import (
+    ConfigError,
+    ParamSpec,
+    declare,
+    make_parser,
+    node_options,
+    overrides,
+)
+
+NODE_NAME = "sail_bridge"
+# Every topic it may serve, with its type: the simulator's (topics.TOPICS) and ROS's record
+# of parameter changes, as the recorder takes them by default. Known types let every
+# channel exist before the server starts: foxglove-sdk 0.30.3 can advertise a channel
+# added while a client is connected before it takes subscriptions to it, and refuses
+# the client's subscription then ("Unknown channel ID").
+SERVABLE = {
+    **{name: (topic.message_type, topic.type_name) for name, topic in topics.TOPICS.items()},
+    topics.PARAMETER_EVENTS: (ParameterEvent, "rcl_interfaces/msg/ParameterEvent"),
+}
+# Reliable, as every publisher of these topics (a best-effort command would not reach the
+# simulator either); volatile: what comes from now on.
+SUBSCRIPTION_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,  # messages DDS keeps for the bridge while it is busy
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+SERVICE_TIMEOUT_S = 5.0  # a protocol service call waits this long for the simulator
+MESSAGE_ENCODING = "cdr"
+SCHEMA_ENCODING = "ros2msg"
+# foxglove-sdk's report of a client whose queue is full (its log, target send_lossy)
+_OUTBOX_FULL = re.compile(r"outbox for client (\S+) full")
+# the simulator's services, offered over the protocol: name -> (service class, type name)
+SERVICES = {
+    topics.PAUSE_SERVICE: (SetBool, "std_srvs/srv/SetBool"),
+    topics.RESET_SERVICE: (Trigger, "std_srvs/srv/Trigger"),
+}
+
+SPECS = [
+    ParamSpec(
+        "port",
+        8765,
+        "TCP port of the WebSocket server (8765 is Foxglove's default); 0: any free port "
+        "(the log says which)",
+        minimum=0,
+        maximum=65535,
+    ),
+    ParamSpec(
+        "address",
+        "127.0.0.1",
+        "IP address the server listens on: 127.0.0.1 serves this machine only; any other "
+        "(0.0.0.0: every interface) lets everyone who reaches the port watch the sail and "
+        "command it, without authentication",
+    ),
+    ParamSpec(
+        "topics",
+        list(topics.RECORDED_TOPICS),
+        "topics served, among the simulator's topics and /parameter_events (relative names "
+        "are in the bridge's namespace)",
+    ),
+    ParamSpec(
+        "client_publish",
+        True,
+        "let clients publish on the command topics (deploy, boom length trajectory, "
+        "pressures, tip forces) and call sail/pause and sail/reset",
+    ),
+    ParamSpec(
+        "client_queue",
+        1024,
+        "messages queued for each client [messages]; a client that reads slower than the "
+        "traffic loses its oldest queued messages (about 4 s of the default traffic)",
+        minimum=16,
+        maximum=1_000_000,
+    ),
+    ParamSpec(
+        "diagnostics_period_s",
+        1.0,
+        "period of the bridge's status on /diagnostics [s]",
+        minimum=0.1,
+        maximum=3600.0,
+    ),
+]
+
+# the bridge's status on /diagnostics (msg_docs/bridge.md)
+STATUS_SUFFIX = ": websocket"
+CLIENTS = "clients"  # clients subscribed to at least one channel
+CHANNELS = "channels"  # topics served
+SERVED = "messages_served"  # messages handed to the server, since start
+CLIENT_COMMANDS = "client_commands"  # client messages published on DDS, since start
+REFUSED = "refused_client_messages"  # client messages or channels refused, since start
+LAST_REFUSAL = "last_refusal"
+SERVICE_CALLS = "service_calls"  # protocol service calls answered, since start
+SLOW_REPORTS = "slow_client_reports"  # the server's reports of a client's full queue
+SLOW_CLIENTS = "slow_clients"  # the addresses it reported
+
+
+def service_definitions(type_name: str) -> tuple[str, str]:
+    """The request and response schema texts of the service `pkg/srv/Type`, as
+    `<Type>_Request` and `<Type>_Response` messages: its `.srv` file split at `---`.
+
+    Raises:
+        DefinitionNotFoundError: the service is not installed.
+        ValueError: a field is itself a message (not needed by the services served,
+            whose fields are all primitive).
+    """
+    text = find_interface_file(full_type_name(type_name), ".srv").read_text()
+    request, response = re.split(r"^---[ \t]*$\n?", text, maxsplit=1, flags=re.MULTILINE)
+    for part in (request, response):
+        for line in part.splitlines():
+            field_type = line.split("#", 1)[0].split()[:1]
+            base = re.sub(r"(<=\d+)?(\[.*\])?$", "", field_type[0]) if field_type else ""
+            if base and base not in PRIMITIVE_TYPES:
+                raise ValueError(f"{type_name}: field type {base} is not primitive")
+    return request, response
+
+
+class _ServerLog(logging.Handler):
+    """foxglove-sdk's own log lines (its server, in Rust, logs through Python's logging)
+    into the node's log; its reports of a client's full queue to `on_slow_client`."""
+
+    def __init__(self, logger, on_slow_client):
+        super().__init__(logging.INFO)
+        self._logger = logger
+        self._on_slow_client = on_slow_client
+
+    def emit(self, record: logging.LogRecord) -> None:
+        text = record.getMessage()
+        slow = _OUTBOX_FULL.search(text)
+        if slow:
+            self._on_slow_client(slow.group(1))
+        elif record.levelno >= logging.ERROR:
+            self._logger.error(f"foxglove server: {text}")
+        elif record.levelno >= logging.WARNING:
+            self._logger.warning(f"foxglove server: {text}")
+        else:
+            self._logger.info(f"foxglove server: {text}")
+
+
+class Bridge(Node):
+    """The `sail_bridge` node and its WebSocket server (listening once constructed).
+
+    Args:
+        parameter_overrides: initial parameter values (besides --ros-args).
+        context: the rclpy context (default: the global one).
+        namespace: the node's namespace (default: from --ros-args, else "/").
+
+    Raises:
+        ConfigError: a parameter has a value the bridge cannot use.
+        OSError: the server cannot listen on the address and port.
+    """
+
+    def __init__(self, parameter_overrides=(), context=None, namespace=None):
+        super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
+        self.config = declare(self, SPECS)
+        address = self.config["address"]
+        try:
+            loopback = ipaddress.ip_address(address).is_loopback
+        except ValueError:
+            raise ConfigError(f"address: {address!r} is not an IP address") from None
+        served = self._served_topics(self.config["topics"])
+        self._lock = threading.Lock()  # the counts: executor, server and service threads
+        self.counts = {
+            SERVED: 0,
+            CLIENT_COMMANDS: 0,
+            REFUSED: 0,
+            SERVICE_CALLS: 0,
+            SLOW_REPORTS: 0,
+        }
+        self.served: dict[str, int] = {}  # topic -> messages handed to the server
+        self.last_refusal = ""
+        self.slow_clients: set[str] = set()
+        self._subscribers: dict[int, set[int]] = {}  # client id -> channel ids
+        self._channels: dict[str, foxglove.Channel] = {}  # served topic -> channel
+        # client channels accepted for publishing: (client id, channel id) -> topic
+        self._client_channels: dict[tuple[int, int], str] = {}
+        # The simulator also listens transient local on each command topic
+        # (topics.COMMAND_QOS), which a volatile publisher does not match, as meant.
+        quiet = PublisherEventCallbacks(incompatible_qos=lambda event: None)
+        self._commands = {
+            self.resolve_topic_name(name): (
+                topics.TOPICS[name],
+                self.create_publisher(
+                    topics.TOPICS[name].message_type,
+                    name,
+                    topics.COMMAND_QOS,
+                    event_callbacks=quiet,
+                ),
+            )
+            for name in topics.COMMAND_TOPICS
+        }
+        self._service_clients = {
+            name: self.create_client(kind, name) for name, (kind, _) in SERVICES.items()
+        }
+        self._status = self.create_publisher(
+            DiagnosticArray, topics.DIAGNOSTICS, topics.DIAGNOSTICS_QOS
+        )
+
+        self._server_log = self._capture_server_log()
+        self.foxglove_context = foxglove.Context()
+        for name in served:
+            self._serve(name)
+        capabilities = []
+        services = []
+        if self.config["client_publish"]:
+            capabilities = [Capability.ClientPublish, Capability.Services]
+            services = [self._service(name) for name in SERVICES]
+        try:
+            self.server = foxglove.start_server(
+                name=self.get_fully_qualified_name(),
+                host=address,
+                port=self.config["port"],
+                capabilities=capabilities,
+                server_listener=_Listener(self),
+                supported_encodings=[MESSAGE_ENCODING],
+                services=services,
+                context=self.foxglove_context,
+                message_backlog_size=self.config["client_queue"],
+            )
+        except RuntimeError as error:  # foxglove-sdk's error for a bind that failed
+            self._release_server_log()
+            raise OSError(f"cannot listen on {address}:{self.config['port']}: {error}") from None
+        self.url = f"ws://{address}:{self.server.port}"
+        self.get_logger().info(f"serving on {self.url}")
+        if not loopback:
+            self.get_logger().warning(
+                f"listening on {address}: everyone who reaches port {self.server.port} can "
+                "watch the sail and command it (booms, loads, pause, reset); the protocol has "
+                "no authentication"
+            )
+        self.create_timer(self.config["diagnostics_period_s"], self._publish_status)
+
+    def _served_topics(self, names: list[str]) -> list[str]:
+        """The names of SERVABLE that `names` (relative or absolute) mean here.
+
+        Raises:
+            ConfigError: a name is not a topic the bridge can serve.
+        """
+        known = {self.resolve_topic_name(name): name for name in SERVABLE}
+        chosen = []
+        for name in names:
+            try:
+                resolved = self.resolve_topic_name(name)
+            except Exception:  # rclpy raises several kinds for a bad name
+                resolved = None
+            if resolved not in known:
+                raise ConfigError(
+                    f"topics: {name!r} is not a topic of the simulator in namespace "
+                    f"{self.get_namespace()!r} (they are: {', '.join(sorted(known))})"
+                )
+            chosen.append(known[resolved])
+        return list(dict.fromkeys(chosen))
+
+    def _capture_server_log(self) -> _ServerLog:
+        """Route foxglove-sdk's log (set before its server starts: the SDK reads the
+        levels once) into the node's log."""
+        handler = _ServerLog(self.get_logger(), self._on_slow_client)
+        for name in ("foxglove", "foxglove_py"):
+            logger = logging.getLogger(name)
+            logger.setLevel(logging.INFO)
+            logger.propagate = False
+            logger.addHandler(handler)
+        return handler
+
+    # -- serving the simulator's topics (executor thread) -------------------------------------
+
+    def _serve(self, name: str) -> None:
+        """A channel for topic `name` (of SERVABLE), fed by a raw subscription."""
+        message_type, type_name = SERVABLE[name]
+        topic = self.resolve_topic_name(name)
+        definition = message_definition(type_name)  # the recorder's schema
+        channel = foxglove.Channel(
+            topic,
+            schema=Schema(
+                name=type_name, encoding=definition.encoding, data=definition.text.encode()
+            ),
+            message_encoding=MESSAGE_ENCODING,
+            context=self.foxglove_context,
+        )
+        self._channels[topic] = channel
+        self.served[topic] = 0
+        self.create_subscription(
+            message_type,
+            name,
+            functools.partial(self._forward, topic, channel.base),
+            SUBSCRIPTION_QOS,
+            raw=True,
+        )
+
+    def _forward(self, topic: str, channel, data: bytes, info: dict) -> None:
+        if len(data) % 4:
+            # DDS pads every message to a 4-byte boundary on the way between processes
+            # (what the recorder logs), but not one that stays in this process: the
+            # bridge's own status and the commands it publishes
+            data += bytes(4 - len(data) % 4)
+        # log time: DDS's reception time, as the recorder's log time
+        channel.log(data, info.get("received_timestamp") or time.time_ns())
+        with self._lock:
+            self.counts[SERVED] += 1
+            self.served[topic] += 1
+
+    # -- clients (the server's threads) ---------------------------------------------------------
+
+    def on_subscribe(self, client_id: int, channel_id: int) -> None:
+        with self._lock:
+            self._subscribers.setdefault(client_id, set()).add(channel_id)
+
+    def on_unsubscribe(self, client_id: int, channel_id: int) -> None:
+        with self._lock:
+            channels = self._subscribers.get(client_id, set())
+            channels.discard(channel_id)
+            if not channels:
+                self._subscribers.pop(client_id, None)
+
+    def on_client_advertise(self, client_id: int, channel) -> None:
+        """A client's channel: accepted if it is a command topic of the simulator in CDR of
+        the topic's type; else refused (its messages are then dropped, counted)."""
+        try:
+            topic = self.resolve_topic_name(channel.topic)
+        except Exception:  # rclpy raises several kinds for a bad name
+            topic = channel.topic
+        command = self._commands.get(topic)
+        reason = None
+        if command is None:
+            reason = f"not a command topic (commands: {', '.join(sorted(self._commands))})"
+        elif _full_type_or_none(channel.schema_name) != command[0].type_name:
+            reason = f"schema {channel.schema_name!r}, expected {command[0].type_name}"
+        elif channel.encoding != MESSAGE_ENCODING:
+            reason = f"encoding {channel.encoding!r}, expected {MESSAGE_ENCODING}"
+        if reason is not None:
+            self._refuse(f"client {client_id} may not publish on {channel.topic}: {reason}")
+            return
+        with self._lock:
+            self._client_channels[(client_id, channel.id)] = topic
+        self.get_logger().info(f"client {client_id} publishes on {topic}")
+
+    def on_client_unadvertise(self, client_id: int, channel_id: int) -> None:
+        with self._lock:
+            self._client_channels.pop((client_id, channel_id), None)
+
+    def on_message_data(self, client_id: int, channel_id: int, data: bytes) -> None:
+        """A client's command: published on DDS unchanged if it decodes as its type."""
+        with self._lock:
+            topic = self._client_channels.get((client_id, channel_id))
+        if topic is None:
+            self._refuse(
+                f"client {client_id}: message on channel {channel_id} dropped (channel refused)",
+                quiet=True,
+            )
+            return
+        spec, publisher = self._commands[topic]
+        try:
+            deserialize_message(data, spec.message_type)
+        except Exception as error:  # rclpy's RMWError: the bytes are not that message
+            reason = str(error).split(",", 1)[0]
+            self._refuse(f"client {client_id}: {len(data)} bytes on {topic} are not a "
+                         f"{spec.type_name} in CDR ({reason})")  # fmt: skip
+            return
+        publisher.publish(data)
+        with self._lock:
+            self.counts[CLIENT_COMMANDS] += 1
+
+    def _refuse(self, text: str, quiet: bool = False) -> None:
+        with self._lock:
+            self.counts[REFUSED] += 1
+            self.last_refusal = text
+        if not quiet:
+            self.get_logger().warning(f"refused: {text}")
+            self.server.publish_status(text, StatusLevel.Error)
+
+    def _on_slow_client(self, address: str) -> None:
+        with self._lock:
+            self.counts[SLOW_REPORTS] += 1
+            self.slow_clients.add(address)
+        self.get_logger().warning(
+            f"client {address} reads slower than the traffic: its queue of "
+            f"{self.config['client_queue']} messages is full and its oldest messages are "
+            "dropped (reported at most every 30 s)"
+        )
+
+    # -- services over the protocol -------------------------------------------------------------
+
+    def _service(self, name: str) -> Service:
+        kind, type_name = SERVICES[name]
+        request, response = service_definitions(type_name)
+
+        def schema(suffix: str, text: str) -> MessageSchema:
+            return MessageSchema(
+                encoding=MESSAGE_ENCODING,
+                schema=Schema(
+                    name=type_name + suffix, encoding=SCHEMA_ENCODING, data=text.encode()
+                ),
+            )
+
+        return Service(
+            topics.absolute(name, self.get_namespace()),
+            schema=ServiceSchema(
+                type_name,
+                request=schema("_Request", request),
+                response=schema("_Response", response),
+            ),
+            handler=functools.partial(self._call, name),
+        )
+
+    def _call(self, name: str, request) -> bytes:
+        """A protocol service call (a server thread): the simulator's service, its answer in
+        CDR. An exception is the call's failure, its text sent to the client."""
+        kind, _ = SERVICES[name]
+        client = self._service_clients[name]
+        if request.encoding != MESSAGE_ENCODING:
+            raise ValueError(f"request encoding {request.encoding!r}, expected {MESSAGE_ENCODING}")
+        message = deserialize_message(request.payload, kind.Request)
+        if not client.service_is_ready():
+            raise RuntimeError(f"{client.srv_name}: the simulator does not offer it (running?)")
+        done = threading.Event()
+        future = client.call_async(message)
+        future.add_done_callback(lambda _: done.set())
+        if not done.wait(SERVICE_TIMEOUT_S):
+            future.cancel()
+            raise TimeoutError(f"{client.srv_name}: no answer within {SERVICE_TIMEOUT_S} s")
+        with self._lock:
+            self.counts[SERVICE_CALLS] += 1
+        self.get_logger().info(f"client {request.client_id} called {client.srv_name}")
+        return serialize_message(future.result())
+
+    # -- status -----------------------------------------------------------------------------
+
+    def status_values(self) -> dict[str, str]:
+        """The key/value pairs of the bridge's status (msg_docs/bridge.md)."""
+        with self._lock:
+            return {
+                "url": self.url,
+                CLIENTS: str(len(self._subscribers)),
+                CHANNELS: str(len(self._channels)),
+                **{key: str(value) for key, value in self.counts.items()},
+                SLOW_CLIENTS: " ".join(sorted(self.slow_clients)),
+                LAST_REFUSAL: self.last_refusal,
+            }
+
+    def _publish_status(self) -> None:
+        values = self.status_values()
+        slow = int(values[SLOW_REPORTS]) > 0
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.WARN if slow else DiagnosticStatus.OK,
+            name=self.get_fully_qualified_name().lstrip("/") + STATUS_SUFFIX,
+            message=(
+                f"{values[CLIENTS]} client(s); slow clients lost messages: {values[SLOW_CLIENTS]}"
+                if slow
+                else f"{values[CLIENTS]} client(s), {values[CHANNELS]} channel(s)"
+            ),
+            hardware_id=NODE_NAME,
+        )
+        status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self.get_clock().now().to_msg()
+        self._status.publish(array)
+
+    def close(self) -> None:
+        """Stop the server (clients see the connection close), say what was served and
+        release the SDK's log."""
+        self.server.stop()
+        for topic, count in sorted(self.served.items()):
+            self.get_logger().info(f"  {topic}: {count} messages served")
+        self._release_server_log()
+
+    def _release_server_log(self) -> None:
+        for name in ("foxglove", "foxglove_py"):
+            logging.getLogger(name).removeHandler(self._server_log)
+
+
+def _full_type_or_none(type_name: str) -> str | None:
+    try:
+        return full_type_name(type_name)
+    except ValueError:
+        return None
+
+
+class _Listener:
+    """foxglove-sdk's server callbacks (`foxglove.websocket.ServerListener`), to the bridge."""
+
+    def __init__(self, bridge: Bridge):
+        self._bridge = bridge
+
+    def on_subscribe(self, client, channel) -> None:
+        self._bridge.on_subscribe(client.id, channel.id)
+
+    def on_unsubscribe(self, client, channel) -> None:
+        self._bridge.on_unsubscribe(client.id, channel.id)
+
+    def on_client_advertise(self, client, channel) -> None:
+        self._bridge.on_client_advertise(client.id, channel)
+
+    def on_client_unadvertise(self, client, client_channel_id: int) -> None:
+        self._bridge.on_client_unadvertise(client.id, client_channel_id)
+
+    def on_message_data(self, client, client_channel_id: int, data: bytes) -> None:
+        self._bridge.on_message_data(client.id, client_channel_id, data)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = make_parser("sail-ros bridge", __doc__.split("\n\n")[0], SPECS)
+    parser.add_argument(
+        "--namespace",
+        default=None,
+        help="the simulator's namespace, e.g. /sat2 (the same as --ros-args -r __ns:=/sat2)",
+    )
+    return parser
+
+
+def main(argv=None) -> int:
+    """`sail-ros bridge [options] [--ros-args ...]`; returns the exit code."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    return run_node(NODE_NAME, _parser(), argv, _bridge)
+
+
+def _bridge(args, stop) -> int:
+    namespace = args.namespace
+    if namespace is not None and not namespace.startswith("/"):
+        namespace = "/" + namespace
+    try:
+        bridge = Bridge(overrides(args, SPECS), namespace=namespace)
+    except OSError as error:
+        get_logger(NODE_NAME).error(str(error))
+        return 1
+    executor = SingleThreadedExecutor()
+    executor.add_node(bridge)
+    try:
+        serve_until_stopped(executor, bridge, stop)
+        if stop.received:
+            bridge.get_logger().info(f"{stop.received}: closing the server")
+    finally:
+        bridge.close()
+        executor.remove_node(bridge)
+        with bounded_teardown():
+            bridge.destroy_node()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
