@@ -22,7 +22,8 @@ def test_a_namespace_moves_every_channel_but_the_global_ones(ros_context):
         served = set(node.served)
         assert served == {topics.absolute(name, "/sat2") for name in SERVABLE}
         assert "/sat2/sail/boom_state" in served and "/diagnostics" in served
-        assert set(node._commands) == {f"/sat2/{name}" for name in topics.COMMAND_TOPICS}
+        commands = (*topics.COMMAND_TOPICS, topics.HUB_WRENCH_CMD)
+        assert set(node._commands) == {f"/sat2/{name}" for name in commands}
         assert node.url.startswith("ws://127.0.0.1:") and not node.url.endswith(":0")
     finally:
         node.close()

@@ -253,7 +253,7 @@ class Bridge(Node):
                     event_callbacks=quiet,
                 ),
             )
-            for name in topics.COMMAND_TOPICS
+            for name in (*topics.COMMAND_TOPICS, topics.HUB_WRENCH_CMD)
         }
         self._service_clients = {
             name: self.create_client(kind, name) for name, (kind, _) in SERVICES.items()
