@@ -180,3 +180,26 @@ def test_every_parameter_declares_its_unit():
     assert units["sail_side"] == "m" and units["n_boom_modes"] == "-"
     flags = {"free_hub", "stowed_mass_on_hub"}  # true or false: no unit
     assert all(unit for name, unit in units.items() if name not in flags), units
+
+
+def test_the_free_hub_scenario_draws_its_attitude_heave_and_holds(tmp_path, figure_checks):
+    """config/scenario_free_hub.yaml: booms a and c deploy alike, b and d not, so the
+    holds push along y only (F_x = 0, F_y up to ~1 N) and the pressure's centre, off the
+    hub once boom d jams, tilts it about x; every panel drawn clear of the others."""
+    from sail_ros.analysis.deployment import hold_reactions, output_times, run_deployment
+    from sail_ros.analysis.scenario import load_scenario
+    from sail_ros.model import SailModel
+    from sail_ros.plots.histories import hub_attitude_figure
+
+    scenario = load_scenario(CONFIG / "scenario_free_hub.yaml")
+    model = SailModel(SailParameters().replace(**scenario.sail))
+    run = run_deployment(model, scenario, output_times(scenario.duration, 20.0))
+    holds = hold_reactions(model, scenario.profile, run.t)
+    assert np.all(holds[:, 0] == 0.0) and 0.5 < np.abs(holds[:, 1]).max() < 2.0
+    assert np.all(holds[run.t > 15.0] == 0.0)  # nothing moves after 15 s
+    tilt_x = run.hub[:, 1]
+    assert abs(tilt_x[-1]) > 10 * np.abs(run.hub[:, 2]).max()  # about x, and growing
+    assert run.peaks.hub.value[1] == pytest.approx(abs(tilt_x[-1]), rel=1e-6)
+    path = hub_attitude_figure(run.t, run.hub, holds, tmp_path / "hub.png", scenario.description)
+    check = assert_figure(path, figure_checks)
+    assert len(check.panels) >= 3

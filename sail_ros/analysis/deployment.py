@@ -117,6 +117,13 @@ def run_deployment(
     return DeploymentRun(model.sample(t, lengths, rates, q, qd), wall, peaks.peaks)
 
 
+def hold_reactions(model: SailModel, profile, t) -> np.ndarray:
+    """What a free hub's holds supply at times `t` [s] (k,) while `profile` moves the
+    booms (`SailModel.hold_loads`): (k, 3) of F_x, F_y [N] in the inertial x-y plane
+    and tau_z [N m] about the body z axis; zero with point-symmetric motion."""
+    return np.array([model.hold_loads(*profile(float(ti))) for ti in np.asarray(t)])
+
+
 @dataclasses.dataclass(frozen=True)
 class Convergence:
     """How a run's peaks move when the mode counts grow (`converge`).

@@ -315,7 +315,7 @@ def run_sample(case) -> dict:
         with np.errstate(over="ignore", invalid="ignore"):
             energy = model.energy(run.q[-1], run.qd[-1], run.lengths[-1])
             margin = float(model.eigenvalues(run.lengths[-1], run.rates[-1]).real.max())
-        tips, moments = run.peaks  # true peaks, from inside every step
+        tips, moments, _ = run.peaks  # true peaks, from inside every step
         if not (np.all(np.isfinite(tips.value)) and math.isfinite(energy)):
             raise ValueError("the state became non-finite")
         for k, boom in enumerate(BOOMS):

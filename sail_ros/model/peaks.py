@@ -36,10 +36,13 @@ class Peak(NamedTuple):
 
 
 class Peaks(NamedTuple):
-    """Peak |tip deflection| [m] and |root moment| [N m] of each boom, with times."""
+    """Peak |tip deflection| [m] and |root moment| [N m] of each boom, with times; with a
+    free hub `hub`: peak |z_h| [m], |theta_x|, |theta_y| and the tilt
+    `sqrt(theta_x^2 + theta_y^2)` [rad] (None when clamped)."""
 
     tip_deflection: Peak
     root_moment: Peak
+    hub: Peak | None = None
 
 
 class PeakSearch:
@@ -107,7 +110,8 @@ def hermite_extrema(t, y, yd) -> tuple[np.ndarray, np.ndarray]:
 
 class OutputPeaks:
     """A `SailStepper` observer (`SailModel.simulate(..., observer=...)`): the peak
-    |tip deflection| and |root moment| of each boom over every step, with times.
+    |tip deflection| and |root moment| of each boom over every step, with times, and a
+    free hub's heave, tilts and tilt magnitude.
 
     Samples are gathered over several steps and searched together (`FLUSH_SAMPLES`):
     numpy's cost per call, not the arithmetic, is what a step's few samples cost.
@@ -125,8 +129,13 @@ class OutputPeaks:
         self.model = model
         self.peak_phase = float(peak_phase)
         self.max_spacing = float(max_spacing)
-        self.rows = model.output_rows  # (8, n): tips, then EI psi''(0) on each boom
-        self._search = PeakSearch(8)  # tips a..d, root moments a..d
+        # (8, n): tips, then EI psi''(0) on each boom; a free hub's z_h, theta_x, theta_y
+        self.rows = model.output_rows
+        self.free_hub = bool(model.free_hub)
+        if self.free_hub:
+            self.rows = np.vstack([self.rows, np.eye(model.n)[model.hub_slice]])
+        # tips a..d, root moments a..d, then z_h, theta_x, theta_y and the tilt
+        self._search = PeakSearch(12 if self.free_hub else 8)
         self._start = None  # (t, lengths, rates) at the start of the next step
         self._pending: list[tuple] = []  # steps sampled, not yet searched
         self._pending_samples = 0
@@ -179,9 +188,11 @@ class OutputPeaks:
         t, y, yd, fractions = (np.concatenate(part) for part in (t, y, yd, fractions))
         h, *ends = (np.repeat(np.array(part), counts, axis=0) for part in motion)
         lengths, rates = _hermite_motion(fractions, h, *ends)
-        moments = y[:, 4:] / lengths**2
-        y[:, 4:] = moments
-        yd[:, 4:] = yd[:, 4:] / lengths**2 - 2.0 * rates * moments / lengths
+        moments = y[:, 4:8] / lengths**2
+        y[:, 4:8] = moments
+        yd[:, 4:8] = yd[:, 4:8] / lengths**2 - 2.0 * rates * moments / lengths
+        if self.free_hub:
+            y, yd = _with_tilt(y, yd)
         self._search.add(t, y, yd)
         self.samples += t.size
         self._pending, self._pending_samples = [], 0
@@ -191,9 +202,22 @@ class OutputPeaks:
         """The peaks so far: of the tip deflections [m] and root moments [N m]."""
         self._flush()
         value, time = self._search.value, self._search.time
+        hub = Peak(value[8:].copy(), time[8:].copy()) if self.free_hub else None
         return Peaks(
-            Peak(value[:4].copy(), time[:4].copy()), Peak(value[4:].copy(), time[4:].copy())
+            Peak(value[:4].copy(), time[:4].copy()),
+            Peak(value[4:8].copy(), time[4:8].copy()),
+            hub,
         )
+
+
+def _with_tilt(y, yd):
+    """`y`, `yd` with a last column: the tilt `|theta| = sqrt(theta_x^2 + theta_y^2)` of
+    columns 9 and 10, and its rate `(theta . thetad) / |theta|` (0 where untilted)."""
+    theta, thetad = y[:, 9:11], yd[:, 9:11]
+    tilt = np.hypot(theta[:, 0], theta[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = np.where(tilt > 0.0, np.sum(theta * thetad, axis=1) / tilt, 0.0)
+    return np.column_stack([y, tilt]), np.column_stack([yd, rate])
 
 
 @functools.lru_cache(maxsize=64)

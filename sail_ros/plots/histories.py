@@ -184,6 +184,55 @@ def real_time_factor_figure(
     return save(fig, path)
 
 
+@styled
+def hub_attitude_figure(t, hub, holds, path, title: str = "", time_label: str = TIME_LABEL):
+    """A free hub against time [s]: its tilts theta_x, theta_y [rad, drawn in deg], its
+    heave z_h [m, drawn in mm] and what its in-plane and spin holds supply.
+
+    Args:
+        t: times [s], (k,).
+        hub: (k, 6) z_h [m], theta_x, theta_y [rad] and their rates (`StateSample.hub`).
+        holds: (k, 3) F_x, F_y [N] and tau_z [N m] (`deployment.hold_reactions`), or None.
+        path: output file.
+        title: the run, under the figure's title.
+        time_label: label of the time axis.
+    """
+    rows = 3 if holds is not None else 2
+    fig, axes = figure(6.4, 2.0 + 1.6 * rows, nrows=rows, sharex=True)
+    t, hub, *rest = break_lines(t, hub, *(() if holds is None else (holds,)))
+    tilts = np.degrees(hub[:, 1:3])
+    axes[0].plot(t, tilts[:, 0], color="tab:blue", lw=1.2, label="theta_x (about boom a)")
+    axes[0].plot(t, tilts[:, 1], color="tab:orange", lw=1.2, label="theta_y (about boom b)")
+    tilt = np.hypot(tilts[:, 0], tilts[:, 1])
+    axes[0].plot(t, tilt, color="k", lw=0.9, ls="--", label="tilt |theta|")
+    axes[0].set_ylabel("hub tilt [deg]")
+    axes[1].plot(t, 1e3 * hub[:, 0], color="k", lw=1.2, label="heave z_h")
+    axes[1].set_ylabel("hub heave [mm]")
+    if holds is not None:
+        force = axes[2]
+        force.plot(t, rest[0][:, 0], color="tab:green", lw=1.2, label="F_x")
+        force.plot(t, rest[0][:, 1], color="tab:purple", lw=1.2, label="F_y")
+        force.set_ylabel("hold force [N]")
+        lines = force.get_lines()
+        if np.any(np.nan_to_num(rest[0][:, 2]) != 0):
+            torque = force.twinx()
+            torque.plot(t, rest[0][:, 2], color="tab:red", lw=1.0, ls="--", label="tau_z")
+            torque.set_ylabel("spin hold torque [N m]", color="tab:red")
+            lines += torque.get_lines()
+        else:
+            lines.append(force.plot([], [], ls="", label="tau_z = 0 throughout")[0])
+        force.legend(lines, [line.get_label() for line in lines], ncols=3, loc="best",
+                     frameon=False)  # fmt: skip
+    for ax in axes[:2]:
+        ax.legend(ncols=3, loc="best", frameon=False)
+    for ax in axes:
+        ax.margins(x=0)
+    axes[-1].set_xlabel(time_label)
+    _set_title(axes[0], "Free hub: attitude, heave and hold reactions", title)
+    fig.tight_layout()
+    return save(fig, path)
+
+
 def _zero_note(values, group) -> str:
     """A legend note for a group whose energy is 0 throughout while another's is not:
     the log axis cannot draw it."""
