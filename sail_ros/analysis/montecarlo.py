@@ -314,7 +314,7 @@ def run_sample(case) -> dict:
         run = run_deployment(model, scenario, t_eval)
         with np.errstate(over="ignore", invalid="ignore"):
             energy = model.energy(run.q[-1], run.qd[-1], run.lengths[-1])
-            margin = float(model.eigenvalues(run.lengths[-1], run.rates[-1]).real.max())
+            margin = float(model.elastic_eigenvalues(run.lengths[-1], run.rates[-1]).real.max())
         tips, moments, _ = run.peaks  # true peaks, from inside every step
         if not (np.all(np.isfinite(tips.value)) and math.isfinite(energy)):
             raise ValueError("the state became non-finite")

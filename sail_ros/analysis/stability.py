@@ -39,6 +39,7 @@ import scipy.linalg
 
 from sail_ros.analysis.execution import run_cases
 from sail_ros.model import SailModel, SailParameters
+from sail_ros.model.sail_model import without_rigid
 
 INSTABILITY_RTOL = 1e-9
 BISECTION_RTOL = 1e-4  # relative width of the final prestress bracket
@@ -67,10 +68,12 @@ class FrozenSystem:
         self._MK0 = scipy.linalg.cho_solve(factor, K0)
         self._MK1 = scipy.linalg.cho_solve(factor, K1) - self._MK0
         self.n = slack.n
+        self.free_hub = slack.free_hub
 
     def eigenvalues(self, prestress: float) -> np.ndarray:
         """Eigenvalues [1/s] of `A = [-M^-1 C, -M^-1 K_eq; I, 0]` at `prestress` [Pa],
-        sorted as `SailModel.eigenvalues` sorts them."""
+        sorted as `SailModel.eigenvalues` sorts them (with a free hub's six rigid-body
+        ones)."""
         n = self.n
         A = np.zeros((2 * n, 2 * n))
         A[:n, :n] = -(self._MC0 + prestress * self._MC1)
@@ -95,8 +98,10 @@ def frozen_eigenvalues(
 
 
 def growth(params, length, rate, prestress) -> tuple[float, float]:
-    """`(max Re(lambda), max |lambda|)` [1/s] of the frozen system."""
-    eigenvalues = frozen_eigenvalues(params, length, rate, prestress)
+    """`(max Re(lambda), max |lambda|)` [1/s] of the frozen system, a free hub's six
+    rigid-body eigenvalues left out (`without_rigid`)."""
+    eigenvalues = without_rigid(frozen_eigenvalues(params, length, rate, prestress),
+                                params.free_hub)  # fmt: skip
     return float(eigenvalues.real.max()), float(np.abs(eigenvalues).max())
 
 

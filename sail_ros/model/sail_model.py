@@ -66,6 +66,18 @@ from sail_ros.model.stepper import SailStepper
 FREE_HUB_FREQUENCY_FACTOR = float((pinned_free_root() / cantilever_roots(1)[0]) ** 2)
 
 
+def without_rigid(eigenvalues, free_hub: bool) -> np.ndarray:
+    """`eigenvalues` of Eq. 3 without the six smallest in modulus when the hub is free:
+    its rigid-body modes, 0 at rest, slow while the booms move (the mass and tilt
+    inertia change; model.md §13.6), far below the first elastic frequency. They are no
+    vibration, so stability studies leave them out; the order is kept."""
+    eigenvalues = np.asarray(eigenvalues)
+    if not free_hub:
+        return eigenvalues
+    rigid = np.argsort(np.abs(eigenvalues), kind="stable")[:6]
+    return np.delete(eigenvalues, rigid)
+
+
 def boom_frequency_bound(params: SailParameters, length: float) -> float:
     """The highest frequency [rad/s] a time step must resolve on a boom of `length` [m]:
     its `cantilever_frequency`, times FREE_HUB_FREQUENCY_FACTOR with a free hub."""
@@ -337,6 +349,11 @@ class SailModel:
         else:
             eig = np.linalg.eigvals(self.state_matrix(lengths, rates, 0.0))
         return eig[np.lexsort((eig.real, eig.imag))]
+
+    def elastic_eigenvalues(self, lengths, rates=0.0) -> np.ndarray:
+        """`eigenvalues` without a free hub's six rigid-body ones (`without_rigid`): those
+        a stability criterion judges (model.md §13.6)."""
+        return without_rigid(self.eigenvalues(lengths, rates), self.free_hub)
 
     def structural_damping(self, lengths) -> np.ndarray:
         """The Rayleigh damping [N s/m] at these lengths: `C_d = alpha M + beta K`, with
