@@ -353,6 +353,26 @@ def hub_state(
     return message
 
 
+def hub_from_odometry(message: Odometry) -> np.ndarray:
+    """The inverse of `hub_state`: `(z_h, theta_x, theta_y, zd_h, thd_x, thd_y)` from a
+    `/sail/hub_state`, the tilts the rotation vector of its orientation."""
+    orientation = message.pose.pose.orientation
+    sine = math.hypot(orientation.x, orientation.y)  # sin(r/2); z is 0
+    angle = 2.0 * math.atan2(sine, orientation.w)
+    scale = angle / sine if sine > 0 else 2.0  # r / sin(r/2) -> 2
+    twist = message.twist.twist
+    return np.array(
+        [
+            message.pose.pose.position.z,
+            scale * orientation.x,
+            scale * orientation.y,
+            twist.linear.z,
+            twist.angular.x,
+            twist.angular.y,
+        ]
+    )
+
+
 def hub_wrench_command(
     force_z: float, torque_x: float, torque_y: float, frame_id: str = ""
 ) -> WrenchStamped:

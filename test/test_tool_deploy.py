@@ -295,3 +295,29 @@ def test_convergence_needs_more_modes(capsys):
     assert "must grow from the run's (n_B, n_M) = (4, 6)" in capsys.readouterr().err
     assert deploy.main(["--convergence", "8"]) == 2
     assert "--convergence takes no value or two (N_B N_M)" in capsys.readouterr().err
+
+
+def test_a_free_hubs_log_gives_back_its_attitude(tmp_path):
+    """`deploy --mcap` of config/scenario_free_hub.yaml: the log reader's hub series (from
+    each /sail/hub_state's pose and twist, the tilts from the quaternion) is the run's
+    hub state at every stamp to 1e-12, tilts of several degrees included."""
+    from sail_ros.analysis.deployment import run_deployment
+    from sail_ros.analysis.log_series import read_log
+
+    path = tmp_path / "hub.mcap"
+    scenario_file = CONFIG / "scenario_free_hub.yaml"
+    assert deploy.main(["--scenario", str(scenario_file), "--rate", "10", "--mcap", str(path)]) == 0
+    log = read_log(path)
+    scenario = load_scenario(scenario_file)
+    model = SailModel(SailParameters().replace(**scenario.sail))
+    run = run_deployment(model, scenario, log.seconds(log.hub[0]))
+    assert log.hub[1].shape == (201, 6) and np.degrees(np.abs(log.hub[1][:, 1]).max()) > 4.0
+    np.testing.assert_allclose(log.hub[1], run.hub, rtol=0, atol=1e-12 * np.abs(run.hub).max())
+
+
+@pytest.mark.parametrize("tilt", [(0.0, 0.0), (1e-9, -2e-9), (0.3, -0.4), (2.0, 1.0)])
+def test_hub_state_messages_give_back_the_hubs_state(tilt):
+    """`topics.hub_from_odometry` inverts `topics.hub_state`, from 1e-9 rad to 2.2 rad."""
+    hub = np.array([0.25, *tilt, -0.01, 0.02, -0.03])
+    message = topics.hub_state(5, hub)
+    np.testing.assert_allclose(topics.hub_from_odometry(message), hub, rtol=1e-14, atol=1e-17)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
+from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
@@ -57,6 +58,8 @@ class LogSeries:
         boom, tips, modal, moments: the state topics (None when absent).
         diagnostics: stamps [ns] (k,) and the integrator status values per
             key as text lists, or None when the log has no /diagnostics.
+        hub: a free hub's `/sail/hub_state` as stamps [ns] (k,) and (k, 6) values
+            (`StateSample.hub`: z_h [m], theta_x, theta_y [rad], their rates), or None.
         scenario: the scenario document of a `sail-ros deploy` log (its
             `sail_deploy_scenario` record), or None.
         namespace: the simulator's namespace in the log ("/", "/sat2").
@@ -75,6 +78,7 @@ class LogSeries:
     diagnostics: tuple[np.ndarray, dict[str, list[str]]] | None
     scenario: dict | None = None
     namespace: str = "/"  # the simulator's, whose topics were read
+    hub: tuple[np.ndarray, np.ndarray] | None = None
 
     def seconds(self, stamp_ns) -> np.ndarray:
         """Stamps [ns] on the log's time axis [s]."""
@@ -150,12 +154,16 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
                     ) from None
     joints: dict[str, list] = {name: [] for name in STATE_TOPICS}
     diagnostics: list[DiagnosticArray] = []
+    hub: list[Odometry] = []
     counts: dict[str, int] = {}
-    wanted = [*state_topics, topics.DIAGNOSTICS]
+    hub_topic = topics.absolute(topics.HUB_STATE, namespace)
+    wanted = [*state_topics, topics.DIAGNOSTICS, hub_topic]
     for message in reader.messages(topics=wanted):
         counts[message.topic] = counts.get(message.topic, 0) + 1
         if message.topic == topics.DIAGNOSTICS:
             diagnostics.append(deserialize_message(message.data, DiagnosticArray))
+        elif message.topic == hub_topic:
+            hub.append(deserialize_message(message.data, Odometry))
         else:
             name = state_topics[message.topic]
             joints[name].append(deserialize_message(message.data, JointState))
@@ -186,7 +194,16 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
         diagnostics=status,
         scenario=scenario,
         namespace=namespace,
+        hub=_hub_series(hub),
     )
+
+
+def _hub_series(messages) -> tuple[np.ndarray, np.ndarray] | None:
+    if not messages:
+        return None
+    messages.sort(key=lambda m: _stamp_ns(m.header))
+    stamps = np.array([_stamp_ns(m.header) for m in messages], dtype=np.int64)
+    return stamps, np.array([topics.hub_from_odometry(m) for m in messages])
 
 
 def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) -> int | None:
