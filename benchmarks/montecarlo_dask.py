@@ -1,11 +1,13 @@
 """Benchmark of Monte Carlo studies on Dask: 1000 samples of the reference deployment.
 
 Prints, on this machine: the wall time of the study on a local cluster of 1 and
-of 2 worker processes (one thread each) and the speed-up; the time of one sample
-called directly; Dask's overhead per case (an empty case through the cluster,
-and the study's wall time per sample beyond the direct cost); and the cluster
-size (workers like these) that a 100 000-sample study needs to finish in ten
-minutes.
+of 2 worker processes (one thread each) and the speed-up, with the cases batched
+(`execution.batch_size`) and one case per task; the time of one sample called
+directly; a sample's cost split into building its model, integrating, its outputs
+and the rest (transport: the worker-seconds per sample beyond the sample's own);
+Dask's overhead per case (an empty case through the cluster); whether the rows are
+the same from 1 and 2 workers; and the cluster size (workers like these) that a
+100 000-sample study needs to finish in ten minutes.
 
     python benchmarks/montecarlo_dask.py [--samples 1000]
 """
@@ -50,7 +52,9 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=1000)
     args = parser.parse_args()
 
-    from sail_ros.analysis.execution import run_cases
+    import numpy as np
+
+    from sail_ros.analysis.execution import batch_size, run_cases
     from sail_ros.analysis.montecarlo import run_sample, study_from_dict
     from sail_ros.model import SailParameters
     from sail_ros.tools.cluster import dask_client
@@ -66,29 +70,43 @@ def main() -> None:
         assert not row["error"], row["error"]
     direct = (time.perf_counter() - started) / 20
 
-    walls = {}
-    for workers in (1, 2):
+    walls, rows = {}, {}
+    for workers, batch in ((1, None), (2, None), (2, 1)):
         with dask_client(workers=workers) as client:
             client.run(run_sample, cases[0])  # warm every worker: integrals built once each
             started = time.perf_counter()
-            outcome = run_cases(run_sample, cases, client)
-            walls[workers] = time.perf_counter() - started
+            outcome = run_cases(run_sample, cases, client, batch=batch)
+            walls[workers, batch] = time.perf_counter() - started
+            rows[workers, batch] = outcome.results
             assert not any(r["error"] for r in outcome.results)
-            if workers == 2:
+            if workers == 2 and batch is None:
                 started = time.perf_counter()
-                run_cases(empty, list(range(2000)), client)
+                run_cases(empty, list(range(2000)), client, batch=1)
                 empty_per_case = (time.perf_counter() - started) / 2000
 
-    per_sample_1 = walls[1] / args.samples
+    def public(results):
+        return [{k: v for k, v in r.items() if not k.startswith("_")} for r in results]
+
+    same = public(rows[1, None]) == public(rows[2, None]) == public(rows[2, 1])
+    split = np.mean([r["_seconds"] for r in rows[2, None]], axis=0)
+    per_worker_sample = 2 * walls[2, None] / args.samples
+    batched = batch_size(args.samples, 2)
     print(f"samples                      {args.samples} (reference deployment, n_B, n_M = 4, 6)")
     print(f"one sample, called directly  {1e3 * direct:.1f} ms")
-    print(f"1 worker                     {walls[1]:.1f} s  ({1e3 * per_sample_1:.1f} ms/sample)")
-    print(f"2 workers                    {walls[2]:.1f} s  (speed-up {walls[1] / walls[2]:.2f}x)")
-    print(f"Dask overhead per case       {1e3 * (per_sample_1 - direct):.2f} ms in the study "
-          f"(1 worker), {1e3 * empty_per_case:.2f} ms for an empty case (2 workers)")  # fmt: skip
-    needed = 100_000 * per_sample_1 / 600.0
+    print(f"1 worker                     {walls[1, None]:.1f} s  "
+          f"({1e3 * walls[1, None] / args.samples:.1f} ms/sample)")  # fmt: skip
+    print(f"2 workers                    {walls[2, None]:.1f} s  (speed-up "
+          f"{walls[1, None] / walls[2, None]:.2f}x; {batched} samples per task)")  # fmt: skip
+    print(f"2 workers, 1 sample per task {walls[2, 1]:.1f} s")
+    print(f"a sample on 2 workers [ms]   build {1e3 * split[0]:.1f}, integrate "
+          f"{1e3 * split[1]:.1f}, outputs {1e3 * split[2]:.1f}, transport and the rest "
+          f"{1e3 * (per_worker_sample - split.sum()):.1f} (worker-time per sample "
+          f"{1e3 * per_worker_sample:.1f})")  # fmt: skip
+    print(f"Dask overhead per task       {1e3 * empty_per_case:.2f} ms (an empty case, 2 workers)")
+    print(f"rows from 1 and 2 workers, batched or not: {'identical' if same else 'DIFFERENT'}")
+    needed = 100_000 * walls[1, None] / args.samples / 600.0
     print(f"100 000 samples in 10 min    about {needed:.0f} workers like these "
-          f"({100_000 * per_sample_1 / 3600:.1f} worker-hours)")  # fmt: skip
+          f"({100_000 * walls[1, None] / args.samples / 3600:.1f} worker-hours)")  # fmt: skip
 
 
 if __name__ == "__main__":

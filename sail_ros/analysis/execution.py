@@ -6,6 +6,13 @@ Dask `Client` it is given (a local cluster, or a scheduler anywhere) and
 returns the results in case order, so where a case ran never shows in the
 result. Without a client the cases run in this process, one after another.
 
+On a cluster the cases go in batches, one task each (`batch_size`): a task
+costs the scheduler, the client and the worker a few milliseconds of Python
+each, and its arguments are pickled per task, so a study's shared parts (its
+scenario document, the base parameters), which every case holds, travel once
+per batch instead of once per case. A batch's results come back together;
+the progress callback counts its cases.
+
 A case function reports its own failures as data (a row with an error),
 so one bad case never stops a study. Ctrl-C cancels what has not finished
 and returns what has (`Outcome.interrupted`).
@@ -13,8 +20,13 @@ and returns what has (`Outcome.interrupted`).
 
 from __future__ import annotations
 
+import functools
+import math
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
+
+MAX_BATCH = 20  # cases per task at most: the progress bar still moves every few seconds
+TASKS_PER_WORKER = 8  # at least this many tasks per worker: the load stays balanced
 
 
 class Outcome(NamedTuple):
@@ -25,11 +37,23 @@ class Outcome(NamedTuple):
     interrupted: bool
 
 
+def batch_size(cases: int, workers: int) -> int:
+    """Cases per task: as many as leave `TASKS_PER_WORKER` tasks per worker, at most
+    `MAX_BATCH`, at least 1."""
+    return max(1, min(MAX_BATCH, math.ceil(cases / (TASKS_PER_WORKER * max(workers, 1)))))
+
+
+def run_batch(function: Callable, cases: Sequence) -> list:
+    """`function(case)` for each of `cases`, in order: one task's work."""
+    return [function(case) for case in cases]
+
+
 def run_cases(
     function: Callable,
     cases: Sequence,
     client=None,
     progress: Callable[[int], None] | None = None,
+    batch: int | None = None,
 ) -> Outcome:
     """`function(case)` for every case.
 
@@ -37,7 +61,9 @@ def run_cases(
         function: a picklable, module-level function of one case.
         cases: the cases (picklable).
         client: a `dask.distributed.Client`, or None to run here.
-        progress: called with 1 after each finished case.
+        progress: called with the number of cases finished, after each finished batch
+            (each case when run here).
+        batch: cases per task on a cluster; default `batch_size` for its workers.
     """
     results: list = [None] * len(cases)
     if client is None:
@@ -52,14 +78,24 @@ def run_cases(
 
     from dask.distributed import as_completed
 
-    # pure=False: equal cases are still separate runs (no result sharing by hash)
-    futures = client.map(function, list(cases), pure=False)
-    index_of = {future.key: index for index, future in enumerate(futures)}
+    cases = list(cases)
+    if batch is None:
+        batch = batch_size(len(cases), len(client.scheduler_info()["workers"]))
+    starts = range(0, len(cases), batch)
+    # pure=False: equal batches are still separate runs (no result sharing by hash)
+    futures = client.map(
+        functools.partial(run_batch, function),
+        [cases[start : start + batch] for start in starts],
+        pure=False,
+    )
+    start_of = {future.key: start for future, start in zip(futures, starts, strict=True)}
     try:
         for future in as_completed(futures):
-            results[index_of[future.key]] = future.result()
+            done = future.result()
+            start = start_of[future.key]
+            results[start : start + len(done)] = done
             if progress is not None:
-                progress(1)
+                progress(len(done))
     except KeyboardInterrupt:
         client.cancel(futures)
         return Outcome(results, True)

@@ -33,6 +33,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +64,9 @@ OUTPUTS = (
     "final_energy_J",
     "stability_margin_1_s",
 )
+# with a free hub: its peak heave and tilt (OutputPeaks), columns only when a sample has them
+HUB_OUTPUTS = ("peak_hub_heave_m", "peak_hub_heave_time_s", "peak_hub_tilt_rad",
+               "peak_hub_tilt_time_s")  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -304,6 +308,7 @@ def run_sample(case) -> dict:
     study, index, base_sail = case
     row: dict = {"sample": index}
     try:
+        started = time.perf_counter()
         inputs = sample_inputs(study, index)
         row.update(inputs)
         document = sample_scenario(study, index, inputs)
@@ -311,7 +316,9 @@ def run_sample(case) -> dict:
         params = SailParameters.from_dict({**base_sail, **scenario.sail})
         model = SailModel(params)
         t_eval = output_times(scenario.duration, study.output_rate_hz)
+        built = time.perf_counter()
         run = run_deployment(model, scenario, t_eval)
+        integrated = time.perf_counter()
         with np.errstate(over="ignore", invalid="ignore"):
             energy = model.energy(run.q[-1], run.qd[-1], run.lengths[-1])
             margin = float(model.elastic_eigenvalues(run.lengths[-1], run.rates[-1]).real.max())
@@ -326,9 +333,17 @@ def run_sample(case) -> dict:
         row["peak_tip_m"] = float(tips.value.max())
         row["final_energy_J"] = float(energy)
         row["stability_margin_1_s"] = margin
+        if run.peaks.hub is not None:
+            hub = run.peaks.hub  # z_h, theta_x, theta_y, tilt
+            row["peak_hub_heave_m"] = float(hub.value[0])
+            row["peak_hub_heave_time_s"] = float(hub.time_s[0])
+            row["peak_hub_tilt_rad"] = float(hub.value[3])
+            row["peak_hub_tilt_time_s"] = float(hub.time_s[3])
         row["error"] = ""
-        row["_tips"] = run.tips.astype(np.float32)  # for the envelopes, not the CSV
+        # for the envelopes and the benchmark's cost split [s], not the CSV
+        row["_tips"] = run.tips.astype(np.float32)
         row["_t"] = run.t
+        row["_seconds"] = (built - started, integrated - built, time.perf_counter() - integrated)
     except Exception as error:  # a sample that fails is a row, not a crashed study
         row["error"] = f"{type(error).__name__}: {error}".replace("\n", " ")
     return row
@@ -397,13 +412,16 @@ def summarize(study: Study, rows: list[dict], base_sail: dict, worst: int = 5) -
     )
 
 
-def csv_columns(study: Study) -> list[str]:
-    return ["sample", *study.input_names, *OUTPUTS, "error"]
+def csv_columns(study: Study, rows=()) -> list[str]:
+    """The CSV's columns: the sample, its inputs, the outputs (a free hub's when a row
+    has them) and the error."""
+    hub = HUB_OUTPUTS if any(r is not None and HUB_OUTPUTS[0] in r for r in rows) else ()
+    return ["sample", *study.input_names, *OUTPUTS, *hub, "error"]
 
 
 def csv_text(study: Study, rows: list[dict]) -> str:
     """The rows as CSV, floats in full (repr), samples in index order."""
-    columns = csv_columns(study)
+    columns = csv_columns(study, rows)
     lines = [",".join(columns)]
     for row in sorted((r for r in rows if r is not None), key=lambda r: r["sample"]):
         cells = []
