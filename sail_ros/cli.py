@@ -77,17 +77,22 @@ def parse_arguments(parser: argparse.ArgumentParser, args, namespace=None):
     """
     parsed, extras = parser.parse_known_args(args, namespace)
     if extras:
-        options = _option_strings(parser, parsed)
         unknown = next((item for item in extras if item.startswith("-")), "")
-        # options share their "--": a higher bar than for names
-        close = nearest(unknown.partition("=")[0], options, 0.75) if unknown else None
-        hint = f" (did you mean {close!r}?)" if close else ""
+        name = unknown.partition("=")[0]
+        hint = ""
+        if name in _option_strings(parser, None):  # an option of the tool after its command
+            hint = f" ({name} goes before the command)"
+        elif name:
+            # options share their "--": a higher bar than for names
+            close = nearest(name, _option_strings(parser, parsed), 0.75)
+            hint = f" (did you mean {close!r}?)" if close else ""
         parser.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
     return parsed
 
 
 def _option_strings(parser: argparse.ArgumentParser, parsed) -> set[str]:
-    """The long options of `parser` and of the subcommand parsers `parsed` chose."""
+    """The long options of `parser` and of the subcommand parsers `parsed` chose (None:
+    of `parser` alone)."""
     found = set()
     for action in parser._actions:
         found.update(option for option in action.option_strings if option.startswith("--"))

@@ -61,6 +61,23 @@ class Configuration:
         """`the simulator's limits (defaults; --set NAME=VALUE changes them)`."""
         return f"the simulator's limits ({self.policy_source}; --set NAME=VALUE changes them)"
 
+    def check(self, method, *args, **kwargs):
+        """`method(*args, **kwargs)`, a check of the policy; its ValueError says where the
+        limits came from."""
+        try:
+            return method(*args, **kwargs)
+        except ValueError as error:
+            raise ValueError(f"{error}; {self.limits_note()}") from None
+
+    def per_boom(self, values, option: str) -> list[float]:
+        """An option's boom lengths [m]: one for all booms or four (a b c d), each within
+        [min_length, max_length] (`Policy.check_lengths`)."""
+        if len(values) not in (1, 4):
+            raise ValueError(f"{option} takes 1 or 4 values, got {len(values)}")
+        lengths = list(values) * (4 // len(values))
+        self.check(self.policy.check_lengths, lengths, option, self.sail)
+        return [float(v) for v in values]
+
 
 def set_values(args: argparse.Namespace) -> dict:
     """`--set NAME=VALUE` items as {name: value}; ValueError names a malformed one."""
@@ -109,8 +126,9 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
         f"--set {k}={v}" for k, v in policy_changes.items()
     ]
     source = ", ".join(filter(None, sources)) or "defaults"
-    policy.check_sail(sail)
-    return Configuration(sail, policy, source)
+    config = Configuration(sail, policy, source)
+    config.check(policy.check_sail, sail)
+    return config
 
 
 def _policy_section(path) -> dict:

@@ -336,14 +336,15 @@ def _check_options(args, duration: float, snapshots) -> None:
 
 def _output_size(args, duration: float, n: int, extra: int) -> None:
     """Refuse, before anything is allocated, a run whose outputs would not fit
-    (`Policy.check_output`), naming the estimate."""
-    rows = output_count(duration, 1.0 / args.every)
-    samples = rows + (output_count(duration, args.rate) + extra if args.mcap or args.figures else 0)
+    (`Policy.check_output`), naming the estimate; `n` coordinates, `extra` more times."""
+    samples = output_count(duration, 1.0 / args.every)
+    what = f"the run over {duration:g} s (a table row every {args.every:g} s"
+    if args.mcap or args.figures:
+        samples += output_count(duration, args.rate) + extra
+        what += f", {args.rate:g} Hz for --mcap/--figures"
     Policy.check_output(
-        samples, sample_bytes(n), f"the run over {duration:g} s (a table row every "
-        f"{args.every:g} s" + (f", {args.rate:g} Hz for --mcap/--figures)" if samples > rows
-                               else ")"),
-    )  # fmt: skip
+        samples, sample_bytes(n), what + ")", "a shorter duration, a longer --every, a lower --rate"
+    )
 
 
 def _deploy(args) -> int:
@@ -356,8 +357,8 @@ def _deploy(args) -> int:
     finer = None
     if args.convergence is not None:
         finer = finer_mode_counts(params, *args.convergence)
-    _output_size(args, duration, 4 * sum(finer or (params.n_boom_modes, params.n_membrane_modes)),
-                 len(snapshots))  # fmt: skip
+    counts = finer or (params.n_boom_modes, params.n_membrane_modes)
+    _output_size(args, duration, 4 * sum(counts), len(snapshots))
     table_times = np.unique(np.append(np.arange(0.0, duration, args.every), duration))
     grid = output_times(duration, args.rate)
     if args.mcap or args.figures:
@@ -366,14 +367,11 @@ def _deploy(args) -> int:
         t_eval = table_times
 
     model = SailModel(params)
-    try:
-        with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
-            result = run_deployment(
-                model, scenario, t_eval, args.max_step, lambda t: bar.update(t - bar.n),
-                policy=policy,
-            )  # fmt: skip
-    except ValueError as error:
-        raise ValueError(f"{error}; {config.limits_note()}") from None
+    with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
+        progress = lambda t: bar.update(t - bar.n)  # noqa: E731
+        result = config.check(
+            run_deployment, model, scenario, t_eval, args.max_step, progress, policy=policy
+        )
     if result.warning:
         print(
             f"warning: {result.warning} (the simulator's diagnostics turn WARN here)",

@@ -18,15 +18,12 @@ up to its last complete record) and writes into `--out`:
   `--no-convergence`, of a rerun with twice the modes (a warning when a peak
   moves by more than 1 %).
 
-`--config`/`--set` describe the sail only for a log without recorded parameters.
-
-    sail-ros report run1/run1_0.mcap --out run1_report
-    sail-ros report out/reference.mcap --out out/reference_report --no-convergence
+`--config`/`--set` describe the sail only for a log without recorded parameters; the
+limits of a rerun are those the log recorded, changed by `--set`.
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 import functools
 import sys
@@ -39,9 +36,10 @@ from sail_ros.analysis.energy import group_energies
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE, log_peaks
 from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.scenario import scenario_from_dict
-from sail_ros.cli import PHYSICS_DOC
-from sail_ros.model import SailModel
+from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.model import SailModel, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
+from sail_ros.outputs import staged
 from sail_ros.plots.histories import (
     boom_lengths_figure,
     energies_figure,
@@ -49,6 +47,7 @@ from sail_ros.plots.histories import (
     root_moments_figure,
     tip_deflections_figure,
 )
+from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
     add_sail_options,
     describe_parameters,
@@ -56,6 +55,7 @@ from sail_ros.tools.common import (
     print_written,
     run,
     sail_parameters,
+    set_values,
 )
 
 # first columns of real_time_factor.csv; any other status values follow by name
@@ -71,9 +71,25 @@ DIAGNOSTIC_COLUMNS = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="sail-ros report", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+EXAMPLES = (
+    "sail-ros deploy --t-end 6 --rate 25 --mcap out/short.mcap",
+    "sail-ros report out/short.mcap --out out/short_report",
+    "sail-ros report out/short.mcap --out out/short_report --no-convergence",
+    "sail-ros report out/run1 --namespace /sat1",
+)
+WRITES = (
+    "into --out DIR: states.csv, tip_deflections.png, root_moments.png, boom_lengths.png, "
+    "energies.csv, modal_energies.png, real_time_factor.csv, real_time_factor.png (those "
+    "the log has data for), peaks.csv; the folder is built under a temporary name and "
+    "moved into place when all is written (an existing folder keeps its other files)."
+)
+
+
+def build_parser() -> ToolParser:
+    parser = ToolParser(
+        prog="sail-ros report",
+        description=__doc__.split("\n\n")[0],
+        epilog=help_epilog(EXAMPLES, WRITES, __doc__.split("\n\n", 1)[1]),
     )
     parser.add_argument("log", type=Path, help="MCAP file or rosbag2 folder")
     parser.add_argument(
@@ -119,11 +135,22 @@ def _report(args) -> int:
         raise ValueError(f"log {str(args.log)!r} does not exist")
     log = read_log(args.log, args.namespace)
     out = args.out or Path(f"{args.log.stem if args.log.is_file() else args.log.name}_report")
-    out.mkdir(parents=True, exist_ok=True)
+    with staged(out, "--out") as folder:
+        folder.mkdir()
+        stopped = _write_report(args, log, folder)
+        written = sorted(path.relative_to(folder) for path in folder.rglob("*") if path.is_file())
+    print_written(out / path for path in written)
+    if stopped:
+        print(f"error: {stopped}; the report holds the rest", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _write_report(args, log, out: Path) -> str:
+    """Write the report's files into `out`; the alarm of a rerun that stopped, or ""."""
     time_label = (
         "simulation time t [s]" if log.simulation_time else "time since the first sample [s]"
     )
-
     print(f"Log {args.log}")
     if log.incomplete:
         print(
@@ -133,7 +160,6 @@ def _report(args) -> int:
         )
     for topic, count in sorted(log.topic_counts.items()):
         print(f"  {topic}: {count} messages")
-    written = []
 
     if log.tips is not None:
         t = log.seconds(log.tips.stamp_ns)
@@ -141,14 +167,12 @@ def _report(args) -> int:
             f"  tip deflections: {t[0]:.3f} .. {t[-1]:.3f} s, peak |tip| "
             f"{1e3 * np.abs(log.tips.position).max():.3f} mm"
         )
-        written.append(
-            tip_deflections_figure(
-                t,
-                log.tips.position,
-                out / "tip_deflections.png",
-                title=args.log.name,
-                time_label=time_label,
-            )
+        tip_deflections_figure(
+            t,
+            log.tips.position,
+            out / "tip_deflections.png",
+            title=args.log.name,
+            time_label=time_label,
         )
     if log.moments is not None and log.moments.effort.size:
         t = log.seconds(log.moments.stamp_ns)
@@ -157,35 +181,30 @@ def _report(args) -> int:
             f"  root moments: peak |M| {np.abs(log.moments.effort).max():.4g} N m"
             + (f" (n_B = {params.n_boom_modes})" if params else "")
         )
-        written.append(
-            root_moments_figure(
-                t,
-                log.moments.effort,
-                out / "root_moments.png",
-                title=args.log.name,
-                time_label=time_label,
-                n_boom_modes=params.n_boom_modes if params else None,
-            )
+        root_moments_figure(
+            t,
+            log.moments.effort,
+            out / "root_moments.png",
+            title=args.log.name,
+            time_label=time_label,
+            n_boom_modes=params.n_boom_modes if params else None,
         )
     if log.boom is not None:
         t = log.seconds(log.boom.stamp_ns)
         print(f"  boom lengths: {log.boom.position.min():.3f} .. {log.boom.position.max():.3f} m")
-        written.append(
-            boom_lengths_figure(
-                t,
-                log.boom.position,
-                log.boom.velocity,
-                out / "boom_lengths.png",
-                title=args.log.name,
-                time_label=time_label,
-            )
+        boom_lengths_figure(
+            t,
+            log.boom.position,
+            log.boom.velocity,
+            out / "boom_lengths.png",
+            title=args.log.name,
+            time_label=time_label,
         )
-    written.append(_write_states(log, out / "states.csv"))
-    written.append(_peaks(args, log, out))
-    written += _energies(args, log, out, time_label)
-    written += _real_time_factor(log, out, time_label, args.log.name)
-    print_written(written)
-    return 0
+    _write_states(log, out / "states.csv")
+    stopped = _peaks(args, log, out)
+    _energies(args, log, out, time_label)
+    _real_time_factor(log, out, time_label, args.log.name)
+    return stopped
 
 
 PEAK_COLUMNS = [
@@ -201,9 +220,10 @@ PEAK_COLUMNS = [
 CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
 
 
-def _peaks(args, log, out: Path) -> Path:
+def _peaks(args, log, out: Path) -> str:
     """Each boom's peaks: from the log's samples, and for a deploy log from reruns of its
-    scenario (the same mode counts, then twice as many); one row each in peaks.csv."""
+    scenario (the same mode counts, then twice as many); one row each in peaks.csv.
+    Returns the alarm of a rerun that left the linear range ("" if none did)."""
     params = _recorded_parameters(log) or sail_parameters(args)
     model = SailModel(params)
     if log.modal is not None and log.modal.names != model.coordinate_names:
@@ -230,17 +250,18 @@ def _peaks(args, log, out: Path) -> Path:
             "up to " + ", ".join(f"{100 * v:.2g} %" for v in share) + " of the peak root "
             "moments a..d, which may be off by that much between samples"
         )
+    stopped = ""
     if log.scenario is not None and model is not None:
-        rows += _rerun_peaks(args, log, model)
+        reruns, stopped = _rerun_peaks(args, log, model)
+        rows += reruns
     else:
         print(
             "  true peaks and their convergence with the mode counts come from an offline run: "
             "this log records no scenario (`sail-ros deploy --convergence` runs one)"
         )
-    path = out / "peaks.csv"
     header = ["source", "n_boom_modes", "n_membrane_modes", *PEAK_COLUMNS]
-    _write_csv(path, header, zip(*rows, strict=True))
-    return path
+    _write_csv(out / "peaks.csv", header, zip(*rows, strict=True))
+    return stopped
 
 
 def _peak_row(source: str, params, peaks) -> list:
@@ -255,15 +276,22 @@ def _peak_row(source: str, params, peaks) -> list:
     return cells
 
 
-def _rerun_peaks(args, log, model) -> list[list]:
+def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
     """Rerun a deploy log's scenario at its mode counts (true peaks; how well the rerun
-    reproduces the logged tips) and, unless --no-convergence, with twice the modes."""
+    reproduces the logged tips) and, unless --no-convergence, with twice the modes; the
+    rows, and the alarm of a rerun that left the linear range ("")."""
     scenario = scenario_from_dict(log.scenario)
     t = log.seconds(log.tips.stamp_ns) if log.tips is not None else None
     if t is None or not log.simulation_time:
-        return []
+        return [], ""
+    policy = _rerun_policy(args, log)
     step = float(log.parameters.get("max_model_step", "0.05")) if log.parameters else 0.05
-    run = run_deployment(model, scenario, t, max_step=step)
+    try:
+        run = run_deployment(model, scenario, t, max_step=step, policy=policy)
+    except ValueError as error:
+        raise ValueError(f"the recorded scenario: {error}") from None
+    if run.alarm:
+        return [], f"the rerun of the recorded scenario: {run.alarm}"
     agreement = np.abs(run.tips - log.tips.position).max() / max(
         float(np.abs(log.tips.position).max()), 1e-300
     )
@@ -274,9 +302,13 @@ def _rerun_peaks(args, log, model) -> list[list]:
     rows = [_peak_row("rerun", model.params, run.peaks)]
     if args.no_convergence:
         print_peak_table(run.peaks, indent="    ")
-        return rows
+        return rows, ""
     finer = finer_mode_counts(model.params)
-    convergence = converge(model, scenario, run, *finer, max_step=step)
+    try:
+        convergence = converge(model, scenario, run, *finer, max_step=step, policy=policy)
+    except OutOfRangeError as error:
+        print_peak_table(run.peaks, indent="    ")
+        return rows, str(error)
     label = f"  change at ({finer[0]}, {finer[1]}) modes [%]"
     changes = (label, convergence.tip_change, convergence.moment_change)
     print_peak_table(run.peaks, changes, indent="    ")
@@ -288,7 +320,19 @@ def _rerun_peaks(args, log, model) -> list[list]:
             f"{100 * convergence.largest():.3g} %; raise n_boom_modes and n_membrane_modes",
             file=sys.stderr,
         )
-    return rows
+    return rows, ""
+
+
+def _rerun_policy(args, log) -> Policy:
+    """The limits a rerun keeps: those the log recorded (the simulator's parameters of
+    the same names), changed by --set."""
+    recorded = {
+        name: yaml_values.load(log.parameters[name])
+        for name in Policy.field_names()
+        if log.parameters and name in log.parameters
+    }
+    changes = {k: v for k, v in set_values(args).items() if k in Policy.field_names()}
+    return Policy(**{**recorded, **changes})
 
 
 def _recorded_parameters(log):
