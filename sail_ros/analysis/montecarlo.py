@@ -82,26 +82,32 @@ DISTRIBUTION_SECTIONS = {
     "normal": Section(
         "distribution: normal",
         "Normal: `mean` and standard deviation `std`.",
-        (key("mean", "number", "", "mean, in the input's unit"),
+        (key("distribution", "text", "", "`normal`"),
+         key("mean", "number", "", "mean, in the input's unit"),
          key("std", "number", "", "standard deviation, in the input's unit", minimum=0.0)),
     ),
     "uniform": Section(
         "distribution: uniform",
         "Uniform over [low, high].",
-        (key("low", "number", "", "lowest value, in the input's unit"),
+        (key("distribution", "text", "", "`uniform`"),
+         key("low", "number", "", "lowest value, in the input's unit"),
          key("high", "number", "", "highest value (>= low), in the input's unit")),
     ),
     "lognormal": Section(
         "distribution: lognormal",
         "Lognormal: `median` and `sigma`, the standard deviation of the log.",
-        (key("median", "number", "", "median, in the input's unit", minimum=0.0,
+        (key("distribution", "text", "", "`lognormal`"),
+         key("median", "number", "", "median, in the input's unit", minimum=0.0,
              above_minimum=True),
          key("sigma", "number", "-", "standard deviation of the natural log", minimum=0.0)),
     ),
 }  # fmt: skip
 SECTIONS = (STUDY, JAM, *DISTRIBUTION_SECTIONS.values())
-DISTRIBUTIONS = {kind: tuple(k.name for k in section.keys)
-                 for kind, section in DISTRIBUTION_SECTIONS.items()}  # fmt: skip
+# kind -> its two parameters
+DISTRIBUTIONS = {
+    kind: tuple(k.name for k in section.keys if k.name != "distribution")
+    for kind, section in DISTRIBUTION_SECTIONS.items()
+}
 ENVELOPE_BYTES = 4 * 4 + 8  # a sample's tips (float32, 4 booms) and time, kept per output time
 FLOAT_FIELDS = tuple(
     name
@@ -291,7 +297,7 @@ def _distribution(spec, where: str) -> Distribution:
     kind = spec["distribution"]
     section = DISTRIBUTION_SECTIONS[kind]
     try:
-        section.check_keys(spec, where, extra=("distribution",))
+        section.check_keys(spec, where)
     except ValueError:
         names = DISTRIBUTIONS[kind]
         raise ValueError(
@@ -300,6 +306,7 @@ def _distribution(spec, where: str) -> Distribution:
     a, b = (
         check_number(spec[entry.name], f"{where}.{entry.name}", entry.spec)
         for entry in section.keys
+        if entry.name != "distribution"
     )
     if kind == "uniform" and not a <= b:
         raise ValueError(f"{where}: uniform needs low <= high, got {a} > {b}")

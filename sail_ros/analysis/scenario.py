@@ -135,7 +135,6 @@ PROFILES = {
         (
             key("type", "text", "", TYPE_DOC),
             key("lengths", "booms", "m", "the lengths", **POSITIVE),
-            STOP_AT,
         ),
     ),
 }  # fmt: skip
@@ -259,6 +258,8 @@ def scenario_from_dict(document, labels: dict | None = None) -> Scenario:
                 f"scenario.initial.mode_state: boom must be one of a, b, c, d, got {boom!r}"
             )
         check_number(tip, f"scenario.initial.mode_state.{boom}", INITIAL["mode_state"].spec)
+    for name in ("q0", "qd0"):  # the values now; the names and counts with the model
+        _coordinate_values(initial.get(name), f"scenario.initial.{name}", INITIAL[name].spec)
     snapshots = body.get("snapshots", np.linspace(0.0, duration, 6).tolist())
     times = check_times(snapshots, "scenario.snapshots", SCENARIO["snapshots"].spec)
     for i, t in enumerate(times):
@@ -389,36 +390,45 @@ def _profile(spec, where: str):
 
 
 def _waypoint_lengths(value, where: str, spec) -> list:
-    """Per waypoint one length [m] for all booms or 4, each checked and named."""
+    """Per waypoint one length [m] for all booms or 4, each checked and named; as one
+    length per waypoint, or 4 per waypoint if any has 4."""
     if not isinstance(value, list) or not value:
         raise ValueError(f"{where} must be a list of lengths, one per time, got {value!r}")
-    return [
-        check_each(item, f"{where}[{i}]", BOOMS, spec).tolist()
-        if isinstance(item, list)
-        else check_number(item, f"{where}[{i}]", spec)
-        for i, item in enumerate(value)
-    ]
+    checked = [check_each(item, f"{where}[{i}]", BOOMS, spec) for i, item in enumerate(value)]
+    if any(isinstance(item, list) for item in value):
+        return [item.tolist() for item in checked]
+    return [float(item[0]) for item in checked]
+
+
+def _coordinate_values(spec, where: str, unit_spec) -> list[tuple[object, float]]:
+    """(name or index, value) of a mapping of coordinate names or a list of values, each
+    value checked and named by its place."""
+    if spec is None:
+        return []
+    if isinstance(spec, dict):
+        return [(name, check_number(v, f"{where}.{name}", unit_spec)) for name, v in spec.items()]
+    if not isinstance(spec, list):
+        raise ValueError(f"{where} must be a mapping of coordinate names or a list, got {spec!r}")
+    return [(i, check_number(v, f"{where}[{i}]", unit_spec)) for i, v in enumerate(spec)]
 
 
 def _coordinates(spec, model: SailModel, where: str) -> np.ndarray:
     values = np.zeros(model.n)
-    if spec is None:
-        return values
+    entries = _coordinate_values(spec, where, INITIAL["q0"].spec)
     if isinstance(spec, dict):
         names = model.coordinate_names
-        for name, value in spec.items():
+        for name, value in entries:
             if name not in names:
                 raise ValueError(
                     f"{where}: unknown coordinate {name!r}; coordinates are "
                     f"{names[0]} ... {names[-1]} (SailModel.coordinate_names)"
                 )
-            values[names.index(name)] = check_number(value, f"{where}.{name}", INITIAL["q0"].spec)
-        return values
-    if not isinstance(spec, list) or len(spec) != model.n:
-        raise ValueError(
-            f"{where} must be a mapping of coordinate names or {model.n} finite "
-            f"values (n_B = {model.n_boom_modes}, n_M = {model.n_membrane_modes}), "
-            f"got {len(spec) if hasattr(spec, '__len__') else spec!r} values"
-        )
-    return np.array([check_number(v, f"{where}[{i}]", INITIAL["q0"].spec)
-                     for i, v in enumerate(spec)])  # fmt: skip
+            values[names.index(name)] = value
+    elif spec is not None:
+        if len(entries) != model.n:
+            raise ValueError(
+                f"{where} must be a mapping of coordinate names or {model.n} values (n_B = "
+                f"{model.n_boom_modes}, n_M = {model.n_membrane_modes}), got {len(entries)}"
+            )
+        values[:] = [value for _, value in entries]
+    return values

@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 
 from sail_ros.cli import nearest
-from sail_ros.model.fields import Spec, check_value, range_text
+from sail_ros.model.fields import Spec, check_value, range_text, table_cell
 
 REQUIRED = "required"
 BOOM_NAMES = ("a", "b", "c", "d")
@@ -69,12 +69,12 @@ class Section:
     def __getitem__(self, name: str) -> Key:
         return next(k for k in self.keys if k.name == name)
 
-    def check_keys(self, mapping, where: str, extra: tuple[str, ...] = ()) -> dict:
+    def check_keys(self, mapping, where: str) -> dict:
         """`mapping` if it is a mapping of known keys holding every required one;
         ValueError naming `where` and the key otherwise."""
         if not isinstance(mapping, dict):
             raise ValueError(f"{where} must be a mapping, got {mapping!r}")
-        known = [k.name for k in self.keys] + list(extra)
+        known = [k.name for k in self.keys]
         unknown = [name for name in mapping if name not in known]
         if unknown:
             close = nearest(str(unknown[0]), known)
@@ -101,10 +101,11 @@ class Section:
             "|---|---|---|---|---|---|",
         ]
         for entry in self.keys:
-            limits = range_text(entry.spec).replace("|", "\\|")
+            limits = table_cell(range_text(entry.spec))
             lines.append(
                 f"| `{entry.name}` | {KINDS[entry.kind]} | {entry.spec.unit or '–'} | "
-                f"{_default_text(entry)} | {limits or '–'} | {entry.spec.doc} |"
+                f"{_default_text(entry)} | {limits or '–'} | "
+                f"{table_cell(entry.spec.doc)} |"
             )
         return "\n".join(lines)
 

@@ -175,16 +175,21 @@ def help_line(name: str, field: dataclasses.Field) -> str:
     return f"{name}{unit} (default {default_of(field)!r}{within}{choices}): {spec.doc}"
 
 
+def table_cell(text: str) -> str:
+    """`text` for a cell of a Markdown table: its `|` escaped."""
+    return text.replace("|", "\\|")
+
+
 def markdown_table(cls, prefix: str = "") -> str:
     """The fields of `cls` as a Markdown table: name, default, unit, range, meaning."""
     lines = ["| name | default | unit | range | meaning |", "|---|---|---|---|---|"]
     for field in fields_of(cls):
         spec = spec_of(field)
-        limits = range_text(spec).replace("|", "\\|")
+        limits = table_cell(range_text(spec))
         if spec.sizes:
             limits = f"{' or '.join(map(str, spec.sizes))} values, each {limits}".rstrip(", each")
         lines.append(
             f"| `{prefix}{field.name}` | {default_of(field)!r} | {spec.unit or '–'} | "
-            f"{limits or '–'} | {spec.doc} |"
+            f"{limits or '–'} | {table_cell(spec.doc)} |"
         )
     return "\n".join(lines)

@@ -31,7 +31,12 @@ from sail_ros.analysis.deployment import (
     run_deployment,
     sample_bytes,
 )
-from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
+from sail_ros.analysis.scenario import (
+    REFERENCE,
+    check_scenario,
+    load_scenario,
+    scenario_from_dict,
+)
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
@@ -367,11 +372,14 @@ def _deploy(args) -> int:
         t_eval = table_times
 
     model = SailModel(params)
+    try:  # what the scenario names with the model: its coordinates
+        scenario.initial_state(model)
+    except ValueError as error:
+        raise ValueError(f"{args.scenario or 'the reference deployment'}: {error}") from None
+    config.check(check_scenario, scenario, model, policy)
     with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
         progress = lambda t: bar.update(t - bar.n)  # noqa: E731
-        result = config.check(
-            run_deployment, model, scenario, t_eval, args.max_step, progress, policy=policy
-        )
+        result = run_deployment(model, scenario, t_eval, args.max_step, progress, policy=policy)
     if result.warning:
         print(
             f"warning: {result.warning} (the simulator's diagnostics turn WARN here)",
