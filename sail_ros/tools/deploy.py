@@ -418,8 +418,10 @@ def _deploy(args) -> int:
 
         try:
             written.append(_write_log(args, model, result, grid, scenario, policy))
-        except BagWriteError as error:
-            print(f"error: --mcap: {error}", file=sys.stderr)
+        except BagWriteError as error:  # named by the output, not its temporary name
+            reason = error.error.strerror or error.error
+            print(f"error: --mcap {args.mcap}: cannot write: {reason}; nothing written",
+                  file=sys.stderr)  # fmt: skip
             return 1
     if args.figures:
         written += _write_figures(args.figures, model, result, snapshots, description)
