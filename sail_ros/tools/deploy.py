@@ -218,7 +218,7 @@ def _policy_line(policy: Policy, low: float, high: float) -> str:
     )
 
 
-def _print_table(run_result, table_times, description, config, duration) -> None:
+def _print_table(run_result, table_times, description, config) -> None:
     rows = [run_result.index_of(t) for t in table_times if t <= run_result.t[-1] + 1e-9]
     lengths = run_result.lengths[rows]
     equal = np.allclose(lengths, lengths[:, :1])
@@ -378,8 +378,9 @@ def _deploy(args) -> int:
         raise ValueError(f"{args.scenario or 'the reference deployment'}: {error}") from None
     config.check(check_scenario, scenario, model, policy)
     with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
-        progress = lambda t: bar.update(t - bar.n)  # noqa: E731
-        result = run_deployment(model, scenario, t_eval, args.max_step, progress, policy=policy)
+        result = run_deployment(
+            model, scenario, t_eval, args.max_step, lambda t: bar.update(t - bar.n), policy=policy
+        )
     if result.warning:
         print(
             f"warning: {result.warning} (the simulator's diagnostics turn WARN here)",
@@ -406,7 +407,7 @@ def _deploy(args) -> int:
     if args.json:
         print(json.dumps(_json_report(result, config, description, convergence), indent=2))
     elif args.summary or not (args.mcap or args.figures):
-        _print_table(result, table_times, description, config, duration)
+        _print_table(result, table_times, description, config)
         _print_peaks(result.peaks, params, convergence)
     warning = _convergence_warning(convergence) if convergence is not None else ""
     if warning:
