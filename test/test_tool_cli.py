@@ -169,7 +169,7 @@ def test_help_names_the_files_written(tmp_path, monkeypatch):
             assert name in helps[tool], (tool, name)
     assert "mode_shapes.png" in helps["modes"] and "--npz FILE and --mat FILE" in helps["plant"]
     log = tmp_path / "run.mcap"
-    argv = ["--t-end", "2", "--rate", "10", "--mcap", str(log), "--figures", str(tmp_path / "f")]
+    argv = ["--t-end", "2", "--rate", "10", "--mcap", str(log)]
     assert deploy.main(argv) == 0
     assert report.main([str(log), "--out", str(tmp_path / "r"), "--no-convergence"]) == 0
     for path in (tmp_path / "r").iterdir():
