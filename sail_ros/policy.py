@@ -172,12 +172,17 @@ class Policy:
         """Per-boom constant extension rates [m/s] (4), each within max_rate."""
         rates = np.asarray(rates, dtype=float)
         for boom, rate in zip(BOOMS, rates, strict=True):
-            if not abs(rate) <= self.max_rate * (1.0 + TOLERANCE):
-                raise ValueError(
-                    f"{what} of boom {boom} = {rate:g} m/s is outside [-max_rate, max_rate] = "
-                    f"[{-self.max_rate:g}, {self.max_rate:g}] m/s"
-                )
+            self.check_rate(float(rate), f"{what} of boom {boom}")
         return rates
+
+    def check_rate(self, rate: float, what: str) -> float:
+        """A constant extension rate [m/s] within [-max_rate, max_rate]."""
+        if not abs(rate) <= self.max_rate * (1.0 + TOLERANCE):
+            raise ValueError(
+                f"{what} = {rate:g} m/s is outside [-max_rate, max_rate] = "
+                f"[{-self.max_rate:g}, {self.max_rate:g}] m/s"
+            )
+        return float(rate)
 
     def check_motion(self, profile, sail: SailParameters, booms=range(4), what: str = "") -> None:
         """A motion (a profile with `extremes()`) of the booms at indices `booms`: its
@@ -211,13 +216,20 @@ class Policy:
         """A pressure [Pa] (`pressure`) or tip force [N] named `name`, within its limit."""
         unit, limit_name = ("Pa", "max_pressure") if pressure else ("N", "max_tip_force")
         limit = self.max_pressure if pressure else self.max_tip_force
-        value = float(value)
-        if not math.isfinite(value):
-            raise ValueError(f"{name} = {value} {unit} is not finite")
+        value = self.finite_load(name, value, pressure)
         if abs(value) > limit:
             raise ValueError(
                 f"|{name}| = {abs(value):g} {unit} exceeds {limit_name} = {limit:g} {unit}"
             )
+        return value
+
+    @staticmethod
+    def finite_load(name: str, value: float, pressure: bool) -> float:
+        """A pressure [Pa] (`pressure`) or tip force [N] named `name`, if finite (what a
+        client can check without knowing the simulator's limits)."""
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"{name} = {value} {'Pa' if pressure else 'N'} is not finite")
         return value
 
     # -- alarms of a run -------------------------------------------------------------------
@@ -282,13 +294,18 @@ class Policy:
     # -- offline outputs -------------------------------------------------------------------
 
     @staticmethod
-    def check_output(samples: int, bytes_per_sample: int, what: str) -> None:
+    def check_output(
+        samples: int,
+        bytes_per_sample: int,
+        what: str,
+        fewer: str = "a shorter duration or a lower output rate",
+    ) -> None:
         """An offline output of `samples` samples must fit in MAX_OUTPUT_BYTES; refused
-        with the estimate before anything is allocated."""
+        with the estimate before anything is allocated (`fewer`: how to ask for less)."""
         size = float(samples) * bytes_per_sample
         if size > MAX_OUTPUT_BYTES:
             raise ValueError(
                 f"{what}: {samples:.4g} samples would take {size / 2**30:.3g} GiB, more than "
                 f"the {MAX_OUTPUT_BYTES / 2**30:g} GiB an offline output may hold (fewer "
-                "samples: a shorter duration or a lower output rate)"
+                f"samples: {fewer})"
             )

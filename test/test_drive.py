@@ -119,10 +119,15 @@ def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_pa
     too_much = tool(ros_env, "send", "tip-force", "--booms", "a", "--values", "5")
     assert too_much.returncode == 1
     assert "|boom_a| = 5 N exceeds max_tip_force = 1 N" in too_much.stdout
-    pressed = tool(ros_env, "send", "pressure", "--quadrants", "ab", "cd", "--values", "2e-3")
+    pressed = tool(
+        ros_env, "send", "pressure", "--quadrants", "ab", "cd", "--values", "2e-3", "2e-3"
+    )
     assert pressed.returncode == 0, pressed.stderr
     bad = tool(ros_env, "send", "pressure", "--quadrants", "ab", "--values", "1", "2")
-    assert bad.returncode == 2 and "--values: one value, or one per name (1), got 2" in bad.stderr
+    assert bad.returncode == 2
+    assert "--values: one per name of --quadrants (1: ab), or one with --quadrants all; got 2" in (
+        bad.stderr
+    )
     time.sleep(2.0)
     view = watch(ros_env)
     assert view["root_moment_N_m"]["b"] > 0.0  # the force bends boom b towards +z

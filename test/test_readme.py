@@ -109,6 +109,8 @@ def test_readme_runs_top_to_bottom(tmp_path, ros_env):
     assert "rejected, as it should be" in output
     assert "simulator and recorder stopped cleanly" in output  # scripts/main.sh
     assert "lowest frequencies at full deployment" in output  # the Python example printed
+    stored = re.search(r"simulator parameters stored: \d+ \(.*\)", output)  # as quoted
+    assert stored and stored.group(0) in (tree / "README.md").read_text(), stored
     assert (tree / "out" / "run1" / "metadata.yaml").is_file()
     assert (tree / "out" / "run1_report").is_dir()
     status = subprocess.run(

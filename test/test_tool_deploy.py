@@ -85,6 +85,11 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys, figur
                 "--figures",
                 str(tmp_path / "fig"),
                 "--summary",
+                # its quick moves are beyond the simulator's default limits
+                "--set",
+                "max_rate=2",
+                "--set",
+                "max_acceleration=7",
             ]
         )
         == 0
@@ -179,7 +184,7 @@ def test_figures_of_the_loaded_scenario_fit_its_description_and_show_every_boom(
         ),
         (
             "scenario: {duration: -1.0, profile: {type: static, lengths: 5.0}}",
-            "scenario.duration must be > 0, got -1.0",
+            "scenario.duration must be > 0 s, got -1.0",
         ),
         (
             "scenario: {duration: 5.0, profile: {type: static, lengths: 5.0}, "

@@ -115,7 +115,7 @@ def test_the_phase_is_wrapped_into_one_turn_and_breaks_where_it_wraps():
     [
         (["--lengths", "1", "2"], "--lengths takes 1 or 4 values, got 2"),
         (["--rates", "0", "0", "0"], "--rates takes 1 or 4 values, got 3"),
-        (["--lengths", "-3"], "lengths must be > 0"),
+        (["--lengths", "-3"], "--lengths of boom a = -3 m is outside [min_length, max_length]"),
         (["--count", "0"], "--count must be in [1, 80]"),
         (["--band", "2", "1"], "--band needs 0 < F_MIN < F_MAX"),
         (["--set", "mass_damping=-1"], "mass_damping must be in [0, 1e+06] 1/s, got -1"),

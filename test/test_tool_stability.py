@@ -133,7 +133,7 @@ def test_serial_and_dask_sweeps_agree():
         (["--prestress", "10", "1"], "--prestress needs 0 < MIN < MAX [Pa], got 10 1"),
         (["--points", "1"], "--points must be >= 2, got 1"),
         (["--workers", "0", "--rates", "0.1"], "--workers must be >= 1, got 0"),
-        (["--lengths", "-5"], "lengths must be > 0 [m], got [-5.0]"),
+        (["--lengths", "-5"], "--lengths = -5 m is outside [min_length, max_length] = [1, 70.71"),
     ],
     ids=["range", "points", "workers", "length"],
 )

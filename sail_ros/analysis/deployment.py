@@ -1,22 +1,28 @@
 """An offline deployment run: the sail's state on a time grid under a scenario.
 
-The same integration as the live simulator (`SailModel.simulate`, the
-exponential-midpoint stepper of `sail_ros.model.stepper`), run as fast as
-the machine allows; the wall time gives the achieved real-time factor.
+The same integration as the live simulator (the exponential-midpoint stepper of
+`sail_ros.model.stepper`), run as fast as the machine allows; the wall time
+gives the achieved real-time factor. The same policy too (`sail_ros.policy`): a
+scenario the simulator would refuse is refused before the run, and a run whose
+tip deflections leave the linear range stops there with the simulator's alarm,
+keeping what it computed before.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 
 import numpy as np
 
-from sail_ros.analysis.scenario import Scenario
-from sail_ros.model import SailModel
+from sail_ros.analysis.scenario import Scenario, check_scenario
+from sail_ros.model import IntegrationError, SailModel
+from sail_ros.model.loads import input_function
 from sail_ros.model.peaks import OutputPeaks, Peaks
 from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
+from sail_ros.policy import OutOfRangeError, Policy
 
 
 @dataclasses.dataclass(frozen=True)
@@ -31,11 +37,17 @@ class DeploymentRun:
         wall_seconds: wall time of the integration [s].
         peaks: the true peaks of the whole run, per boom with their times, taken
             inside every integration step (`peaks.OutputPeaks`), not from `t`.
+        warning: the first time a tip deflection passed the policy's
+            tip_warn_fraction, as the simulator's diagnostics say it ("" if never).
+        alarm: why the run stopped before the end ("" if it did not): the simulator's
+            alarm (`Policy.range_state`, or a non-finite state); `t` ends before it.
     """
 
     states: StateSample
     wall_seconds: float
     peaks: Peaks | None = None
+    warning: str = ""
+    alarm: str = ""
 
     def __getattr__(self, name):
         if name in StateSample._fields:
@@ -60,17 +72,53 @@ class DeploymentRun:
         return int(np.argmin(np.abs(self.t - t)))
 
 
+def sample_bytes(n: int) -> int:
+    """Memory an output time of a run of `n` coordinates takes [bytes]: its time,
+    coordinates, velocities and 20 per-boom values, twice (the selections the log and
+    the figures make)."""
+    return 2 * 8 * (1 + 2 * n + 20)
+
+
+def output_count(duration: float, rate_hz: float) -> int:
+    """How many times a uniform grid of `rate_hz` [Hz] over [0, duration] [s] holds."""
+    if not rate_hz > 0:
+        raise ValueError(f"output rate must be > 0 Hz, got {rate_hz!r}")
+    return math.floor(duration * rate_hz + 1e-9) + 1
+
+
 def output_times(duration: float, rate_hz: float, extra=()) -> np.ndarray:
     """A uniform grid of `rate_hz` [Hz] over [0, duration] [s], with the end and
     the `extra` times [s] merged in."""
-    if not rate_hz > 0:
-        raise ValueError(f"output rate must be > 0 Hz, got {rate_hz!r}")
-    count = int(np.floor(duration * rate_hz + 1e-9))
-    grid = np.arange(count + 1) / rate_hz
+    grid = np.arange(output_count(duration, rate_hz)) / rate_hz
     merged = np.concatenate([grid, [duration], np.asarray(list(extra), dtype=float)])
     # merge times closer than 1 us: they are the same sample
     merged = np.unique(np.round(merged, 6))
     return merged[(merged >= 0.0) & (merged <= duration)]
+
+
+class RangeWatch:
+    """Sees every step of a run: the true peaks (`peaks.OutputPeaks`), and the tip
+    deflections against the policy's linear range at the step's end, as the simulator
+    checks its samples (`Policy.range_state`): the first warning is kept, an error
+    stops the run (`OutOfRangeError`, the simulator's alarm text with the time)."""
+
+    def __init__(self, model: SailModel, policy: Policy):
+        self.model, self.policy = model, policy
+        self.peaks = OutputPeaks(model)
+        self.warning = ""
+
+    def start(self, stepper) -> None:
+        self.peaks.start(stepper)
+
+    def after_step(self, stepper) -> None:
+        self.peaks.after_step(stepper)
+        lengths, model = stepper.boom_motion()[0], self.model
+        hub = stepper.q[model.hub_slice] if model.free_hub else None
+        warning, error = self.policy.range_state(model.tip_deflections(stepper.q), lengths, hub)
+        if error:
+            raise OutOfRangeError(f"integration stopped at t = {stepper.t:.6g} s: {error}")
+        if warning and not self.warning:
+            self.warning = f"at t = {stepper.t:.6g} s: {warning}"
 
 
 def run_deployment(
@@ -80,6 +128,7 @@ def run_deployment(
     max_step: float = DEFAULT_MAX_STEP,
     progress=None,
     initial=None,
+    policy: Policy | None = None,
 ) -> DeploymentRun:
     """Integrate the scenario and sample it at `t_eval` [s] (and at its load switches,
     which thereby fall on step boundaries); the peaks of the tips and root moments
@@ -92,29 +141,55 @@ def run_deployment(
         max_step: largest integration step [s].
         progress: optional callable `progress(t)` after each output time.
         initial: `(q0, qd0)` instead of the scenario's initial state for `model`.
+        policy: the limits and alarms (default: the simulator's defaults).
+
+    Raises:
+        ValueError: the scenario asks what the policy refuses (`check_scenario`).
+
+    A run that leaves the linear range or becomes non-finite stops: the result holds
+    the output times before, and `alarm` says why.
     """
+    policy = Policy() if policy is None else policy
+    check_scenario(scenario, model, policy)
     q0, qd0 = scenario.initial_state(model) if initial is None else initial
+    t_eval = np.asarray(t_eval, dtype=float)
+    if (
+        t_eval.ndim != 1
+        or np.any(np.diff(t_eval) < 0)
+        or not (t_eval.size and t_eval[0] >= 0.0 and t_eval[-1] <= scenario.duration)
+    ):
+        raise ValueError(
+            f"output times must increase within [0, duration = {scenario.duration:g} s], "
+            f"got {t_eval!r}"
+        )
     if scenario.loads is not None:
         switches = [t for t in scenario.loads.switch_times if 0.0 < t < scenario.duration]
-        t_eval = np.union1d(np.asarray(t_eval, dtype=float), switches)
-    peaks = OutputPeaks(model)
+        t_eval = np.union1d(t_eval, switches)
+    watch = RangeWatch(model, policy)
+    stepper = model.stepper(
+        scenario.profile, q0=q0, qd0=qd0, max_step=max_step,
+        inputs=input_function(scenario.loads, model.free_hub), on_step=watch.after_step,
+    )  # fmt: skip
+    watch.start(stepper)
+    q, qd = np.empty((t_eval.size, model.n)), np.empty((t_eval.size, model.n))
+    kept, alarm = t_eval.size, ""
     started = time.perf_counter()
-    t, q, qd = model.simulate(
-        scenario.profile,
-        scenario.duration,
-        q0,
-        qd0,
-        t_eval=t_eval,
-        loads=scenario.loads,
-        progress=progress,
-        max_step=max_step,
-        observer=peaks,
-    )
+    for i, t in enumerate(t_eval):
+        try:
+            stepper.advance(t)
+        except (OutOfRangeError, IntegrationError) as error:
+            kept, alarm = i, str(error)
+            break
+        q[i], qd[i] = stepper.q, stepper.qd
+        if progress is not None:
+            progress(t)
     wall = time.perf_counter() - started
-    motion = [scenario.profile(ti) for ti in t]
-    lengths = np.array([m[0] for m in motion], dtype=float)
-    rates = np.array([m[1] for m in motion], dtype=float)
-    return DeploymentRun(model.sample(t, lengths, rates, q, qd), wall, peaks.peaks)
+    t, q, qd = t_eval[:kept], q[:kept], qd[:kept]
+    lengths, rates = np.empty((kept, 4)), np.empty((kept, 4))
+    for i, ti in enumerate(t):
+        lengths[i], rates[i] = scenario.profile(ti)[:2]
+    states = model.sample(t, lengths, rates, q, qd)
+    return DeploymentRun(states, wall, watch.peaks.peaks, watch.warning, alarm)
 
 
 def hold_reactions(model: SailModel, profile, t) -> np.ndarray:
@@ -173,19 +248,28 @@ def converge(
     n_membrane_modes: int,
     max_step: float = DEFAULT_MAX_STEP,
     progress=None,
+    policy: Policy | None = None,
 ) -> Convergence:
     """Rerun `scenario` with more modes and compare the peaks with `run`'s (of `model`).
 
     The finer model starts from the same initial deflection: the cantilever and
     triangle functions of the coarser model are the first ones of the finer (the
     bases are nested), so its coordinates carry over by name and the new ones start
-    at 0."""
+    at 0.
+
+    Raises:
+        OutOfRangeError: the rerun left the linear range (its alarm).
+    """
     finer = SailModel(
         model.params.replace(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes)
     )
     q0, qd0 = scenario.initial_state(model)
     initial = (carried_over(q0, model, finer), carried_over(qd0, model, finer))
-    rerun = run_deployment(finer, scenario, run.t, max_step, progress, initial)
+    rerun = run_deployment(finer, scenario, run.t, max_step, progress, initial, policy)
+    if rerun.alarm:
+        raise OutOfRangeError(
+            f"the rerun at (n_B, n_M) = ({n_boom_modes}, {n_membrane_modes}): {rerun.alarm}"
+        )
     coarse, fine = run.peaks, rerun.peaks
     return Convergence(
         n_boom_modes,

@@ -12,8 +12,8 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
   ns since LOG_EPOCH_NS = 0, the Unix epoch, so t = 0 s is
   1970-01-01T00:00:00Z and a stamp divided by 1e9 is the simulation time [s];
 - metadata `sail_sim_parameters`: the simulator's parameter names
-  (`sail.<field>`, `initial_lengths`, ...) with values as one-line YAML, as
-  the recorder stores them;
+  (`sail.<field>`, the policy's limits, `initial_lengths`, ...) with values as
+  one-line YAML, as the recorder stores them;
 - metadata `sail_deploy_scenario`: the scenario as YAML and the epoch.
 
 The messages are the bytes the live simulator publishes, made by the same
@@ -25,6 +25,7 @@ real-time run, so a file cut short keeps everything before its last chunk.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import yaml
@@ -36,6 +37,7 @@ from sail_ros.bag.qos import recorded_entry
 from sail_ros.message_bytes import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
+from sail_ros.policy import Policy
 
 LOG_EPOCH_NS = 0
 CHUNK_SECONDS = 1.0  # simulated time per MCAP chunk [s]
@@ -52,6 +54,7 @@ def simulator_parameters(
     shape_rate_hz: float,
     max_step: float,
     shape_divisions: int,
+    policy: Policy | None = None,
     frame_id: str = topics.FRAME_ID,
 ) -> dict[str, str]:
     """The run's settings under the simulator's parameter names, values as YAML text.
@@ -61,10 +64,12 @@ def simulator_parameters(
     step [s]: the state sample interval, at most `max_step`; the offline
     integrator steps to every sample, so `max_model_step` is the same (the
     simulator with these values takes the same steps). `time_scale` 0.0
-    means "as fast as possible", which an offline run is.
+    means "as fast as possible", which an offline run is. The policy's limits are
+    those the run kept (default: the simulator's defaults).
     """
     step = min(float(max_step), 1.0 / state_rate_hz)
     values = topics.flat_sail_parameters(model.params)
+    values.update(dataclasses.asdict(Policy() if policy is None else policy))
     values.update(
         {
             "initial_lengths": [float(v) for v in run.lengths[0]],

@@ -1,6 +1,7 @@
 """Monte Carlo deployments: a base scenario, dispersed inputs, one run per sample.
 
-A study file (see config/study_reference.yaml)::
+A study file (see config/study_reference.yaml; every key, unit, default and range
+in docs/scenarios.md, made from the sections here)::
 
     study:
       description: free text
@@ -25,7 +26,10 @@ travel. Distributions: `normal` (mean, std), `uniform` (low, high),
 Every sample's inputs come from its own generator, seeded by (study seed,
 sample index), so a sample gives the same numbers wherever and in whatever
 order it runs. A sample is written out as an ordinary scenario file
-(`sample_scenario`): `sail-ros deploy` reruns it to the same numbers.
+(`sample_scenario`): `sail-ros deploy` reruns it to the same numbers. Every
+sample keeps the simulator's policy (`run_deployment`): a draw that asks what the
+simulator would refuse, or a run that leaves the linear range, is a row with its
+error.
 """
 
 from __future__ import annotations
@@ -38,18 +42,74 @@ from pathlib import Path
 
 import numpy as np
 
-from sail_ros.analysis.deployment import output_times, run_deployment
+from sail_ros.analysis.deployment import output_count, output_times, run_deployment
 from sail_ros.analysis.scenario import BOOMS, scenario_from_dict
+from sail_ros.analysis.schema import Section, check_number, key
 from sail_ros.model import SailModel, SailParameters, yaml_values
+from sail_ros.policy import OutOfRangeError, Policy
 
-DISTRIBUTIONS = {
-    "normal": ("mean", "std"),
-    "uniform": ("low", "high"),
-    "lognormal": ("median", "sigma"),
-}
-STUDY_KEYS = {
-    "description", "samples", "seed", "scenario", "output_rate_hz", "dispersions", "jam",
+STUDY = Section(
+    "study",
+    "A study file holds one section, `study:`.",
+    (
+        key("description", "text", "", "free text; the summary and figures show it",
+            default=""),
+        key("samples", "integer", "-", "how many samples to run", minimum=1),
+        key("seed", "integer", "-", "seed of every sample's generator (with the sample's "
+            "index)", default=0, minimum=0),
+        key("scenario", "file or mapping", "", "the base scenario: a scenario file (relative "
+            "to the study file) or a scenario mapping (`scenario:` and `sail:`)"),
+        key("output_rate_hz", "number", "Hz", "samples of each run's time histories",
+            default=10.0, minimum=0.0, above_minimum=True, maximum=1000.0),
+        key("dispersions", "mapping", "", "input -> distribution (below): a float field of "
+            "`SailParameters`, `initial_tip_deflection.<boom>` [m] (the boom bent in its "
+            "first mode), `rate.<boom>` [-] (a factor on that boom's deployment rate: its "
+            "cycloidal profile runs in duration / factor)", default=None, absent="none"),
+        key("jam", "mapping", "", "a jammed boom (`study.jam`, below)", default=None,
+            absent="no jams"),
+    ),
+)  # fmt: skip
+JAM = Section(
+    "study.jam",
+    "With `probability`, one boom (drawn uniformly) stops dead at `fraction` of its travel "
+    "(its base profile must be cycloidal).",
+    (
+        key("probability", "number", "-", "chance that a sample jams a boom", minimum=0.0,
+            maximum=1.0),
+        key("fraction", "distribution", "-", "where along its travel the boom jams"),
+    ),
+)  # fmt: skip
+DISTRIBUTION_SECTIONS = {
+    "normal": Section(
+        "distribution: normal",
+        "Normal: `mean` and standard deviation `std`.",
+        (key("distribution", "text", "", "`normal`"),
+         key("mean", "number", "", "mean, in the input's unit"),
+         key("std", "number", "", "standard deviation, in the input's unit", minimum=0.0)),
+    ),
+    "uniform": Section(
+        "distribution: uniform",
+        "Uniform over [low, high].",
+        (key("distribution", "text", "", "`uniform`"),
+         key("low", "number", "", "lowest value, in the input's unit"),
+         key("high", "number", "", "highest value (>= low), in the input's unit")),
+    ),
+    "lognormal": Section(
+        "distribution: lognormal",
+        "Lognormal: `median` and `sigma`, the standard deviation of the log.",
+        (key("distribution", "text", "", "`lognormal`"),
+         key("median", "number", "", "median, in the input's unit", minimum=0.0,
+             above_minimum=True),
+         key("sigma", "number", "-", "standard deviation of the natural log", minimum=0.0)),
+    ),
 }  # fmt: skip
+SECTIONS = (STUDY, JAM, *DISTRIBUTION_SECTIONS.values())
+# kind -> its two parameters
+DISTRIBUTIONS = {
+    kind: tuple(k.name for k in section.keys if k.name != "distribution")
+    for kind, section in DISTRIBUTION_SECTIONS.items()
+}
+ENVELOPE_BYTES = 4 * 4 + 8  # a sample's tips (float32, 4 booms) and time, kept per output time
 FLOAT_FIELDS = tuple(
     name
     for name in SailParameters.field_names()
@@ -118,38 +178,24 @@ def load_study(path) -> Study:
 def study_from_dict(document, folder: Path = Path(".")) -> Study:
     if not isinstance(document, dict) or set(document) != {"study"}:
         raise ValueError("expected a mapping with one section 'study'")
-    body = document["study"]
-    if not isinstance(body, dict):
-        raise ValueError(f"study must be a mapping, got {body!r}")
-    unknown = sorted(set(body) - STUDY_KEYS)
-    if unknown:
-        raise ValueError(f"study: unknown key(s) {', '.join(map(repr, unknown))}")
-    samples = body.get("samples")
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
-        raise ValueError(f"study.samples must be an integer >= 1, got {samples!r}")
-    seed = body.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"study.seed must be an integer >= 0, got {seed!r}")
-    rate = body.get("output_rate_hz", 10.0)
-    if not isinstance(rate, (int, float)) or not math.isfinite(rate) or rate <= 0:
-        raise ValueError(f"study.output_rate_hz must be > 0, got {rate!r}")
-    scenario = _scenario_document(body.get("scenario"), folder)
+    body = STUDY.check_keys(document["study"], "study")
+    samples = STUDY.number(body, "samples", "study")
+    seed = STUDY.number(body, "seed", "study")
+    rate = STUDY.number(body, "output_rate_hz", "study")
+    scenario = _scenario_document(body["scenario"], folder)
     dispersions = body.get("dispersions") or {}
     if not isinstance(dispersions, dict):
         raise ValueError(f"study.dispersions must be a mapping, got {dispersions!r}")
     checked = {}
-    for key in sorted(dispersions):
-        _check_key(key, scenario)
-        checked[key] = _distribution(dispersions[key], f"study.dispersions.{key}")
+    for name in sorted(dispersions):
+        _check_key(name, scenario)
+        checked[name] = _distribution(dispersions[name], f"study.dispersions.{name}")
     probability, fraction = 0.0, None
     jam = body.get("jam")
     if jam is not None:
-        if not isinstance(jam, dict) or set(jam) - {"probability", "fraction"}:
-            raise ValueError(f"study.jam takes probability and fraction, got {jam!r}")
-        probability = jam.get("probability")
-        if not isinstance(probability, (int, float)) or not 0.0 <= probability <= 1.0:
-            raise ValueError(f"study.jam.probability must be in [0, 1], got {probability!r}")
-        fraction = _distribution(jam.get("fraction"), "study.jam.fraction")
+        JAM.check_keys(jam, "study.jam")
+        probability = JAM.number(jam, "probability", "study.jam")
+        fraction = _distribution(jam["fraction"], "study.jam.fraction")
         _cycloidal_booms(scenario, "study.jam")
     study = Study(
         str(body.get("description", "")),
@@ -163,6 +209,32 @@ def study_from_dict(document, folder: Path = Path(".")) -> Study:
     )
     sample_scenario(study, 0)  # the base scenario with the first draw must be valid
     return study
+
+
+def check_study(study: Study, base_sail: dict, policy: Policy) -> None:
+    """What the study asks before it runs: its base scenario within the policy
+    (`scenario.check_scenario`, as every sample is checked), and its outputs within the
+    memory an offline output may hold (`Policy.check_output`: the envelopes kept of every
+    sample).
+
+    Raises:
+        ValueError: naming the value and its limit, or the estimate.
+    """
+    from sail_ros.analysis.scenario import check_scenario
+
+    scenario = scenario_from_dict(study.scenario)
+    model = SailModel(SailParameters.from_dict({**base_sail, **scenario.sail}))
+    try:
+        check_scenario(scenario, model, policy)
+    except ValueError as error:
+        raise ValueError(f"study.scenario: {error}") from None
+    times = output_count(scenario.duration, study.output_rate_hz) + 1  # the end merged in
+    Policy.check_output(
+        study.samples * times,
+        ENVELOPE_BYTES,
+        f"{study.samples} samples of {times} output times each",
+        "fewer samples, a shorter duration or a lower output_rate_hz",
+    )
 
 
 def _scenario_document(spec, folder: Path) -> dict:
@@ -227,21 +299,19 @@ def _distribution(spec, where: str) -> Distribution:
             f"got {spec!r}"
         )
     kind = spec["distribution"]
-    names = DISTRIBUTIONS[kind]
-    if set(spec) != {"distribution", *names}:
-        raise ValueError(f"{where}: a {kind} distribution takes {', '.join(names)}, got {spec!r}")
-    a, b = spec[names[0]], spec[names[1]]
-    for name, value in zip(names, (a, b), strict=True):
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, (int, float))
-            or not math.isfinite(value)
-        ):
-            raise ValueError(f"{where}.{name} must be a finite number, got {value!r}")
-    if kind == "normal" and b < 0 or kind == "lognormal" and (a <= 0 or b < 0):
+    section = DISTRIBUTION_SECTIONS[kind]
+    try:
+        section.check_keys(spec, where)
+    except ValueError:
+        names = DISTRIBUTIONS[kind]
         raise ValueError(
-            f"{where}: impossible {kind} distribution {names[0]} = {a}, {names[1]} = {b}"
-        )
+            f"{where}: a {kind} distribution takes {', '.join(names)}, got {spec!r}"
+        ) from None
+    a, b = (
+        check_number(spec[entry.name], f"{where}.{entry.name}", entry.spec)
+        for entry in section.keys
+        if entry.name != "distribution"
+    )
     if kind == "uniform" and not a <= b:
         raise ValueError(f"{where}: uniform needs low <= high, got {a} > {b}")
     return Distribution(kind, float(a), float(b))
@@ -273,10 +343,10 @@ def sample_scenario(study: Study, index: int, inputs: dict | None = None) -> dic
     if per_boom and "type" in profile:
         profile = {b: copy.deepcopy(profile) for b in BOOMS}
         body["profile"] = profile
-    for key, value in inputs.items():
-        head, _, boom = key.partition(".")
-        if key in FLOAT_FIELDS:
-            sail[key] = value
+    for name, value in inputs.items():
+        head, _, boom = name.partition(".")
+        if name in FLOAT_FIELDS:
+            sail[name] = value
         elif head == "initial_tip_deflection":
             initial = body.setdefault("initial", {}) or {}
             body["initial"] = initial
@@ -304,8 +374,10 @@ def sample_scenario(study: Study, index: int, inputs: dict | None = None) -> dic
 def run_sample(case) -> dict:
     """One sample, as a row: its index, inputs and outputs, or its error (never raises).
 
-    `case` = (study, index, base sail parameters as a dict)."""
-    study, index, base_sail = case
+    `case` = (study, index, base sail parameters as a dict[, the policy: by default the
+    simulator's])."""
+    study, index, base_sail, *policy = case
+    policy = policy[0] if policy else Policy()
     row: dict = {"sample": index}
     try:
         started = time.perf_counter()
@@ -317,8 +389,10 @@ def run_sample(case) -> dict:
         model = SailModel(params)
         t_eval = output_times(scenario.duration, study.output_rate_hz)
         built = time.perf_counter()
-        run = run_deployment(model, scenario, t_eval)
+        run = run_deployment(model, scenario, t_eval, policy=policy)
         integrated = time.perf_counter()
+        if run.alarm:
+            raise OutOfRangeError(run.alarm)
         with np.errstate(over="ignore", invalid="ignore"):
             energy = model.energy(run.q[-1], run.qd[-1], run.lengths[-1])
             margin = float(model.elastic_eigenvalues(run.lengths[-1], run.rates[-1]).real.max())

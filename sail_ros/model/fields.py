@@ -175,6 +175,11 @@ def help_line(name: str, field: dataclasses.Field) -> str:
     return f"{name}{unit} (default {default_of(field)!r}{within}{choices}): {spec.doc}"
 
 
+def table_cell(text: str) -> str:
+    """`text` for a cell of a Markdown table: its `|` escaped."""
+    return text.replace("|", "\\|")
+
+
 def markdown_table(named_fields, writable: bool = False) -> str:
     """Fields as a Markdown table: name, default, unit, range, (writable,) meaning.
 
@@ -186,13 +191,13 @@ def markdown_table(named_fields, writable: bool = False) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for name, field in named_fields:
         spec = spec_of(field)
-        limits = range_text(spec).replace("|", "\\|")
+        limits = table_cell(range_text(spec))
         if spec.sizes:
             each = f", each {limits}" if limits else ""
             limits = f"{' or '.join(map(str, spec.sizes))} values{each}"
         cells = [f"`{name}`", f"{default_of(field)!r}", spec.unit or "–", limits or "–"]
         if writable:
             cells.append("no" if spec.read_only else "yes")
-        cells.append(spec.doc.replace("|", "\\|"))
+        cells.append(table_cell(spec.doc))
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)

@@ -13,6 +13,7 @@ matplotlib.use("Agg")  # files only; never a window
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from sail_ros.outputs import staged  # noqa: E402
 from sail_ros.plots.figure_check import record  # noqa: E402
 
 BOOM_COLOURS = {"a": "tab:blue", "b": "tab:orange", "c": "tab:green", "d": "tab:red"}
@@ -93,10 +94,13 @@ def break_lines(t, *columns):
 
 
 def save(fig, path) -> Path:
-    """Write `fig` as PNG to `path` (folders created) and release it."""
+    """Write `fig` as PNG to `path` (folders created; whole or not at all:
+    `outputs.staged`) and release it."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    record(fig, path, DPI)  # measured for the tests when they ask (figure_check.checking)
-    fig.savefig(path, dpi=DPI, metadata={"Software": "sail_ros"})
-    plt.close(fig)
+    try:
+        record(fig, path, DPI)  # measured for the tests when they ask (figure_check.checking)
+        with staged(path) as building:
+            fig.savefig(building, dpi=DPI, format="png", metadata={"Software": "sail_ros"})
+    finally:
+        plt.close(fig)
     return path

@@ -18,6 +18,8 @@ import numpy as np
 from matplotlib.legend import Legend
 from matplotlib.text import Text
 
+from sail_ros import outputs
+
 
 @dataclasses.dataclass(frozen=True)
 class Panel:
@@ -72,13 +74,21 @@ _recorders: list[dict[Path, FigureCheck]] = []
 
 @contextlib.contextmanager
 def checking():
-    """Within the block, every figure saved is measured; yields {path: FigureCheck}."""
+    """Within the block, every figure saved is measured; yields {path: FigureCheck}, the
+    path where the figure ends up (an output built under a temporary name moves)."""
     checks: dict[Path, FigureCheck] = {}
+
+    def follow(built: Path, final: Path) -> None:
+        for path in [p for p in checks if p == built or built in p.parents]:
+            checks[final / path.relative_to(built)] = checks.pop(path)
+
     _recorders.append(checks)
+    outputs.MOVED.append(follow)
     try:
         yield checks
     finally:
         _recorders.remove(checks)
+        outputs.MOVED.remove(follow)
 
 
 def record(fig, path, dpi: float) -> None:

@@ -96,7 +96,8 @@ def exaggeration_for(max_height_m: float, extent: float, fraction: float = 0.35)
 
 def _round_ticks(extent: float) -> list[float]:
     """-s, 0, s with s a round number just below `extent` [m]."""
-    decade = 10.0 ** np.floor(np.log10(extent))
-    step = max(v * decade for v in (1.0, 2.0, 5.0) if v * decade <= extent * 0.95)
-    step = float(np.floor(extent * 0.95 / step) * step)
+    room = extent * 0.95
+    decade = 10.0 ** np.floor(np.log10(room))  # of the room, so that 1 x decade fits it
+    step = max(v * decade for v in (1.0, 2.0, 5.0) if v * decade <= room)
+    step = float(np.floor(room / step) * step)
     return [-step, 0.0, step]

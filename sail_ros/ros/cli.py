@@ -25,6 +25,7 @@ from rclpy.logging import get_logger
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
+from sail_ros.cli import nearest, parse_arguments
 from sail_ros.early_signals import RECEIVED as EARLY_SIGNALS
 from sail_ros.model import yaml_values
 from sail_ros.model.fields import ConfigError
@@ -32,8 +33,8 @@ from sail_ros.model.fields import ConfigError
 
 def suggestion(name: str, known) -> str:
     """The text " (did you mean 'x'?)" for the known name x closest to `name`, or ""."""
-    close = difflib.get_close_matches(name, sorted(known), n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    close = nearest(name, known)
+    return f" (did you mean {close!r}?)" if close else ""
 
 
 def check_params_files(ros_argv: list[str], node_name: str) -> None:
@@ -85,7 +86,7 @@ def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[st
         own_args = remove_ros_args(ros_argv)[1:]
     except (_rclpy.RCLInvalidROSArgsError, _rclpy.UnknownROSArgsError) as error:
         parser.error(f"invalid ROS arguments: {error} (options of the tool go before --ros-args)")
-    return parser.parse_args(own_args), ros_argv
+    return parse_arguments(parser, own_args), ros_argv
 
 
 class StopSignals:

@@ -15,6 +15,7 @@ with this publisher's sequence number.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 
@@ -27,6 +28,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
 from sail_ros.ros.cli import bounded_teardown, parse_command_line
+from sail_ros.tools.common import stdout_closed
+from sail_ros.tools.domains import LAST_DOMAIN
 
 # Once the answers the diagnostics counted arrived, the watcher takes more until none
 # came for this long [s]: the rest of the history arrives within milliseconds.
@@ -212,6 +215,32 @@ class SimClient(Node):
                 self.latest["diagnostics_values"] = {p.key: p.value for p in status.values}
 
 
+def add_domain_option(parser) -> None:
+    parser.add_argument(
+        "--domain-id",
+        type=int,
+        help=f"DDS domain of the simulator, 0 to {LAST_DOMAIN} (default: ROS_DOMAIN_ID, else 0)",
+    )
+
+
+def check_domain(domain_id: int | None) -> None:
+    """The domain of --domain-id, else of ROS_DOMAIN_ID, must be one Fast DDS has ports
+    for (0 to LAST_DOMAIN); ValueError naming it (rclpy would raise, or Fast DDS print
+    raw errors and go on)."""
+    if domain_id is None:
+        text = os.environ.get("ROS_DOMAIN_ID", "").strip()
+        if not text:
+            return
+        name, value = f"ROS_DOMAIN_ID={text!r}", int(text) if text.isdigit() else None
+    else:
+        name, value = f"--domain-id {domain_id}", domain_id
+    if value is None or not 0 <= value <= LAST_DOMAIN:
+        raise ValueError(
+            f"{name}: a DDS domain must be an integer in [0, {LAST_DOMAIN}] (the domains Fast "
+            "DDS has ports for)"
+        )
+
+
 def init_context(ros_argv: list[str], domain_id: int | None):
     """An rclpy context for a client: ROS arguments, a domain, no signal handlers of its own
     (the tool decides how Ctrl-C ends it)."""
@@ -237,7 +266,11 @@ def run_client(prog: str, parser, argv, name: str, body, check=None, watch: bool
         args, ros_argv = parse_command_line(parser, prog, argv)
     except SystemExit as exit_:
         return exit_.code if isinstance(exit_.code, int) else 2
-    problem = check(args) if check is not None else None
+    try:
+        check_domain(args.domain_id)
+        problem = check(args) if check is not None else None
+    except ValueError as error:
+        problem = str(error)
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
@@ -250,6 +283,10 @@ def run_client(prog: str, parser, argv, name: str, body, check=None, watch: bool
         return 1
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:
+        if stdout_closed():  # `sail-ros watch --json | head`: end as Unix tools do
+            return 128 + signal.SIGPIPE
+        raise
     finally:
         client.close()
         with bounded_teardown():

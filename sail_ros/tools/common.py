@@ -1,37 +1,86 @@
-"""Options shared by the tools: which sail, and how to print it."""
+"""What the tools share: which sail and which limits, how a run ends, how outputs are written.
+
+The sail comes from `--config` and `--set`; so do the limits (`sail_ros.policy.Policy`:
+the simulator's, with the same names), so an offline run refuses what the simulator
+refuses, in the same words. `run` turns a user's mistake into one line and exit
+code 2 and ends quietly when the reader of stdout goes away (`| head`).
+"""
 
 from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
+import io
+import os
+import select
+import signal
 import sys
 from pathlib import Path
 
 import yaml
 
+from sail_ros.cli import nearest
 from sail_ros.model import SailParameters, yaml_values
+from sail_ros.outputs import staged
+from sail_ros.policy import OutOfRangeError, Policy
+
+SET_HELP = (
+    "a sail parameter or a limit, as the simulator's `-p NAME:=VALUE`: e.g. --set "
+    "n_boom_modes=10, --set max_length=100 (repeatable; docs/scenarios.md lists them)"
+)
 
 
 def add_sail_options(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("sail")
+    group = parser.add_argument_group("sail and limits")
     group.add_argument(
         "--config",
         metavar="YAML",
-        help="sail parameters file (keys of SailParameters, at top level or under `sail:`); "
+        help="sail parameters file (keys of SailParameters, at top level or under `sail:`), "
+        "or the simulator's params file (config/sim.yaml: its sail and its limits); "
         "default: the built-in defaults (config/sail.yaml)",
     )
-    group.add_argument(
-        "--set",
-        metavar="KEY=VALUE",
-        action="append",
-        default=[],
-        help="override one parameter, e.g. --set n_boom_modes=10 (repeatable)",
-    )
+    group.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help=SET_HELP)
 
 
-def sail_parameters(args: argparse.Namespace) -> SailParameters:
-    """Parameters from --config and --set; ValueError names a bad key or value."""
-    params = SailParameters.from_yaml(args.config) if args.config else SailParameters()
+@dataclasses.dataclass(frozen=True)
+class Configuration:
+    """The sail and the limits a tool runs with.
+
+    Attributes:
+        sail: the sail's parameters.
+        policy: the limits and alarms (the simulator's).
+        policy_source: where the limits' values came from, for messages.
+    """
+
+    sail: SailParameters
+    policy: Policy
+    policy_source: str
+
+    def limits_note(self) -> str:
+        """`the simulator's limits (defaults; --set NAME=VALUE changes them)`."""
+        return f"the simulator's limits ({self.policy_source}; --set NAME=VALUE changes them)"
+
+    def check(self, method, *args, **kwargs):
+        """`method(*args, **kwargs)`, a check of the policy; its ValueError says where the
+        limits came from."""
+        try:
+            return method(*args, **kwargs)
+        except ValueError as error:
+            raise ValueError(f"{error}; {self.limits_note()}") from None
+
+    def per_boom(self, values, option: str) -> list[float]:
+        """An option's boom lengths [m]: one for all booms or four (a b c d), each within
+        [min_length, max_length] (`Policy.check_lengths`)."""
+        if len(values) not in (1, 4):
+            raise ValueError(f"{option} takes 1 or 4 values, got {len(values)}")
+        lengths = list(values) * (4 // len(values))
+        self.check(self.policy.check_lengths, lengths, option, self.sail)
+        return [float(v) for v in values]
+
+
+def set_values(args: argparse.Namespace) -> dict:
+    """`--set NAME=VALUE` items as {name: value}; ValueError names a malformed one."""
     changes = {}
     for item in args.set:
         key, separator, text = item.partition("=")
@@ -41,9 +90,62 @@ def sail_parameters(args: argparse.Namespace) -> SailParameters:
             changes[key.strip()] = yaml_values.load(text)
         except yaml.YAMLError:
             raise ValueError(f"--set {key.strip()}: {text!r} is not a value") from None
-    if changes:
-        params = SailParameters.from_dict({**params.to_dict(), **changes})
-    return params
+    return changes
+
+
+def configuration(args: argparse.Namespace, sail_section: dict | None = None, where: str = ""):
+    """The `Configuration` of --config and --set (and of `sail_section`, a scenario's
+    `sail:` overrides, named `where` in errors: --set > it > --config > defaults).
+
+    Raises:
+        ValueError: a bad file, name or value (the message names it).
+    """
+    changes = set_values(args)
+    policy_names, sail_names = set(Policy.field_names()), set(SailParameters.field_names())
+    for name in changes:
+        if name not in policy_names | sail_names:
+            close = nearest(name, policy_names | sail_names)
+            hint = f" (did you mean {close!r}?)" if close else ""
+            raise ValueError(
+                f"--set: unknown parameter {name!r}{hint}; sail parameters: "
+                f"{', '.join(sorted(sail_names))}; limits: {', '.join(Policy.field_names())}"
+            )
+    file_sail = SailParameters.from_yaml(args.config).to_dict() if args.config else {}
+    sail_changes = {k: v for k, v in changes.items() if k in sail_names}
+    sail = SailParameters.from_dict({**file_sail, **sail_changes})
+    if sail_section:
+        overrides = {k: v for k, v in sail_section.items() if k not in sail_changes}
+        try:
+            sail = SailParameters.from_dict({**file_sail, **overrides, **sail_changes})
+        except ValueError as error:
+            raise ValueError(f"{where or 'sail section'}: {error}") from None
+    file_policy = _policy_section(args.config) if args.config else {}
+    policy_changes = {k: v for k, v in changes.items() if k in policy_names}
+    policy = Policy(**{**file_policy, **policy_changes})
+    sources = [f"{args.config}" if file_policy else ""] + [
+        f"--set {k}={v}" for k, v in policy_changes.items()
+    ]
+    source = ", ".join(filter(None, sources)) or "defaults"
+    config = Configuration(sail, policy, source)
+    config.check(policy.check_sail, sail)
+    return config
+
+
+def _policy_section(path) -> dict:
+    """The limits in a simulator params file (`<node>: ros__parameters: {max_rate: ..}`)."""
+    document = yaml_values.load_file(path, "config")
+    names = set(Policy.field_names())
+    if isinstance(document, dict):
+        for body in document.values():
+            if isinstance(body, dict) and isinstance(body.get("ros__parameters"), dict):
+                parameters = body["ros__parameters"]
+                return {k: v for k, v in parameters.items() if k in names}
+    return {}
+
+
+def sail_parameters(args: argparse.Namespace) -> SailParameters:
+    """The sail of --config and --set (`configuration(args).sail`)."""
+    return configuration(args).sail
 
 
 def describe_parameters(params: SailParameters) -> str:
@@ -69,11 +171,24 @@ def describe_parameters(params: SailParameters) -> str:
 
 
 def run(main_body, args) -> int:
-    """Run a tool body. A user's mistake becomes one line and exit code 2: a
-    ValueError (a bad value, file or option, named by the message), or an OSError
-    from a path given (a missing file, an unwritable folder)."""
+    """Run a tool body and return its exit code.
+
+    A user's mistake becomes one line and exit code 2: a ValueError (a bad value,
+    file or option, named by the message), or an OSError from a path given (a
+    missing file, an unwritable folder). A run that left the model's range
+    (`OutOfRangeError`, the simulator's alarm) is one line and exit code 1. When
+    the reader of stdout goes away (`sail-ros report ... | head`) the tool ends
+    as Unix tools do on SIGPIPE: no message, exit code 141.
+    """
     try:
         return main_body(args) or 0
+    except BrokenPipeError:
+        if stdout_closed():
+            return 128 + signal.SIGPIPE
+        raise
+    except OutOfRangeError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -83,16 +198,38 @@ def run(main_body, args) -> int:
         return 2
 
 
+def stdout_closed() -> bool:
+    """True if stdout is a pipe whose reader has gone (poll says POLLERR on its write
+    end); stdout then points at /dev/null, so the interpreter's last flush does not
+    complain."""
+    try:
+        descriptor = sys.stdout.fileno()
+    except (OSError, ValueError, io.UnsupportedOperation):  # not a file (a test's buffer)
+        return False
+    poller = select.poll()
+    poller.register(descriptor, select.POLLOUT)
+    if not any(events & (select.POLLERR | select.POLLHUP) for _, events in poller.poll(0)):
+        return False
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, descriptor)
+    os.close(devnull)
+    return True
+
+
 def write_csv_rows(path: Path, rows: list[dict]) -> None:
-    """One CSV row per dict (the first dict's keys are the header); makes the folder."""
-    for folder in (path.parent, *path.parent.parents):
-        if folder.exists() and not folder.is_dir():
-            raise ValueError(f"cannot write '{path}': '{folder}' is a file, not a folder")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as stream:
+    """One CSV row per dict (the first dict's keys are the header); makes the folder;
+    whole or not at all (`outputs.staged`)."""
+    with staged(path) as building, building.open("w", newline="") as stream:
         writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
+
+
+def write_text(path: Path, text: str) -> Path:
+    """`text` into `path`, whole or not at all (`outputs.staged`)."""
+    with staged(path) as building:
+        building.write_text(text)
+    return Path(path)
 
 
 def print_written(paths) -> None:

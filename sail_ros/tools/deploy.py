@@ -3,24 +3,19 @@
 By default all booms extend along the cycloidal profile from `--from` to
 `--to` metres in `--duration` seconds and boom `--boom` starts bent in its
 first mode with tip deflection `--tip`; `--scenario FILE` runs any scenario
-instead (per-boom cycloidal or waypoint profiles, any initial state; see
-config/scenario_reference.yaml). Prints the boom-tip deflections against
-time and the true peaks of each boom's tip deflection and root moment with
-their times (taken inside every integration step, not from the printed
-times); `--convergence` reruns with more modes and says how far each peak
-moves; `--json` prints it all as one JSON object. Writes an MCAP log with the
-live simulator's topics (`--mcap`) and figures (`--figures`).
-
-    sail-ros deploy --summary
-    sail-ros deploy --convergence
-    sail-ros deploy --json --convergence 10 10
-    sail-ros deploy --scenario config/scenario_staggered.yaml --mcap run.mcap --figures out/
+instead (per-boom cycloidal or waypoint profiles, any initial state, loads;
+docs/scenarios.md). Prints the boom-tip deflections against time and the true
+peaks of each boom's tip deflection and root moment with their times (taken
+inside every integration step, not from the printed times); `--convergence`
+reruns with more modes and says how far each peak moves; `--json` prints it
+all as one JSON object. Writes an MCAP log with the live simulator's topics
+(`--mcap`) and figures (`--figures`).
 """
 
 from __future__ import annotations
 
-import argparse
 import copy
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -31,38 +26,68 @@ from tqdm import tqdm
 from sail_ros.analysis.deployment import (
     converge,
     finer_mode_counts,
+    output_count,
     output_times,
     run_deployment,
+    sample_bytes,
 )
-from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
-from sail_ros.cli import PHYSICS_DOC
-from sail_ros.model import SailModel, SailParameters
+from sail_ros.analysis.scenario import (
+    REFERENCE,
+    check_scenario,
+    load_scenario,
+    scenario_from_dict,
+)
+from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.model import SailModel
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
+from sail_ros.outputs import staged
+from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
     add_sail_options,
+    configuration,
     describe_parameters,
     print_peak_table,
     print_written,
     run,
-    sail_parameters,
 )
 
 LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
 CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
+FIGURES = ("deployment_snapshots.png", "tip_deflections.png", "boom_lengths.png")
+EXAMPLES = (
+    "sail-ros deploy --summary",
+    "sail-ros deploy --convergence",
+    "sail-ros deploy --json --convergence 10 10",
+    "sail-ros deploy --to 30 --duration 60 --figures out/deploy_30m",
+    "sail-ros deploy --scenario config/scenario_staggered.yaml --mcap out/staggered.mcap "
+    "--figures out/staggered",
+    "sail-ros deploy --scenario config/scenario_loaded.yaml --set max_tip_force=0.5",
+)
+NOTES = """The limits are the simulator's (min_length, max_length, max_rate, max_acceleration,
+max_pressure, max_tip_force, tip_error_fraction; --set NAME=VALUE changes them): a
+scenario outside them is refused with exit code 2 and nothing written. A run whose tip
+deflection passes tip_error_fraction of its boom's length stops there with the
+simulator's alarm, writes what it computed up to there and exits with 1."""
+WRITES = (
+    "--mcap FILE: a .mcap file, or a bag folder FILE/ with FILE_0.mcap and metadata.yaml; "
+    f"--figures DIR: {', '.join('DIR/' + name for name in FIGURES)}. Each output is "
+    "written whole or not at all (built under a temporary name)."
+)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="sail-ros deploy", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+def build_parser() -> ToolParser:
+    parser = ToolParser(
+        prog="sail-ros deploy",
+        description=__doc__.split("\n\n")[1],
+        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
     )
     add_sail_options(parser)
     parser.add_argument(
         "--scenario",
         type=Path,
         metavar="YAML",
-        help="scenario file (profiles per boom, initial state, snapshot times; "
-        "see config/scenario_reference.yaml); its `sail:` section overrides "
-        "--config, --set overrides both",
+        help="scenario file (profiles per boom, initial state, loads, snapshot times; "
+        "docs/scenarios.md); its `sail:` section overrides --config, --set overrides both",
     )
     scenario = parser.add_argument_group(
         "reference scenario (docs/model.md §9), without --scenario"
@@ -99,8 +124,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--json",
         action="store_true",
-        help="print one JSON object (peaks per boom with times, parameters, mode counts, "
-        "wall time, convergence) instead of the table",
+        help="print one JSON object (peaks per boom with times, parameters, limits, mode "
+        "counts, wall time, convergence) instead of the table",
     )
     output = parser.add_argument_group("output")
     output.add_argument(
@@ -134,7 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--figures",
         type=Path,
         metavar="DIR",
-        help="write DIR/deployment_snapshots.png, DIR/tip_deflections.png and DIR/boom_lengths.png",
+        help=f"write {', '.join('DIR/' + name for name in FIGURES)}",
     )
     output.add_argument(
         "--snapshots",
@@ -178,28 +203,28 @@ def _scenario(args):
         f"boom {boom} tip {tip:g} m at t = 0"
     )
     body["description"] = text
-    return scenario_from_dict(document), text
+    labels = {"profile": "--from/--to/--duration", "initial": "--boom/--tip"}
+    try:
+        return scenario_from_dict(document, labels), text
+    except ValueError as error:  # the options' values, named as the file would name them
+        raise ValueError(f"the reference deployment of the options: {error}") from None
 
 
-def _parameters(args, scenario) -> SailParameters:
-    """--set > the scenario's `sail:` section > --config > defaults."""
-    params = sail_parameters(args)
-    if scenario.sail:
-        explicit = {item.partition("=")[0].strip() for item in args.set}
-        overrides = {k: v for k, v in scenario.sail.items() if k not in explicit}
-        try:
-            params = SailParameters.from_dict({**params.to_dict(), **overrides})
-        except ValueError as error:
-            raise ValueError(f"scenario sail section: {error}") from None
-    return params
+def _policy_line(policy: Policy, low: float, high: float) -> str:
+    return (
+        f"  limits (simulator's)    L in [{low:g}, {high:.4g}] m, |rate| <= {policy.max_rate:g} "
+        f"m/s, |accel.| <= {policy.max_acceleration:g} m/s^2, |tip| < "
+        f"{policy.tip_error_fraction:g} L (warning {policy.tip_warn_fraction:g} L)"
+    )
 
 
-def _print_table(run_result, table_times, description, params, wall, duration) -> None:
-    rows = [run_result.index_of(t) for t in table_times]
+def _print_table(run_result, table_times, description, config) -> None:
+    rows = [run_result.index_of(t) for t in table_times if t <= run_result.t[-1] + 1e-9]
     lengths = run_result.lengths[rows]
     equal = np.allclose(lengths, lengths[:, :1])
     print(f"Deployment: {description}")
-    print(describe_parameters(params))
+    print(describe_parameters(config.sail))
+    print(_policy_line(config.policy, *config.policy.length_range(config.sail)))
     print()
     label = "L [m]" if equal else "L_a [m]"
     print(f"  {'t [s]':>7}{label:>9}   tip deflection [mm]: {'a':>9}{'b':>10}{'c':>10}{'d':>10}")
@@ -210,7 +235,11 @@ def _print_table(run_result, table_times, description, params, wall, duration) -
             + "".join(f"{1e3 * v:10.3f}" for v in tips)
         )
     print()
-    print(f"  {duration:g} s simulated in {wall:.3f} s wall ({duration / wall:.0f}x real time)")
+    simulated, wall = float(run_result.t[-1]), run_result.wall_seconds
+    print(
+        f"  {simulated:g} s simulated in {wall:.3f} s wall "
+        f"({simulated / max(wall, 1e-9):.0f}x real time)"
+    )
 
 
 def _print_peaks(peaks, params, convergence=None) -> None:
@@ -250,11 +279,11 @@ def _convergence_warning(convergence) -> str:
     )
 
 
-def _json_report(result, params, description, convergence) -> dict:
+def _json_report(result, config, description, convergence) -> dict:
     def per_boom(values):
         return dict(zip("abcd", (float(v) for v in values), strict=True))
 
-    peaks = result.peaks
+    params, peaks = config.sail, result.peaks
     report = {
         "description": description,
         "duration_s": float(result.t[-1] - result.t[0]),
@@ -265,7 +294,10 @@ def _json_report(result, params, description, convergence) -> dict:
         "n_boom_modes": params.n_boom_modes,
         "n_membrane_modes": params.n_membrane_modes,
         "parameters": params.to_dict(),
+        "limits": dataclasses.asdict(config.policy),
         "wall_time_s": result.wall_seconds,
+        "warning": result.warning,
+        "alarm": result.alarm,
     }
     if convergence is not None:
         fine = convergence.peaks
@@ -281,9 +313,7 @@ def _json_report(result, params, description, convergence) -> dict:
     return report
 
 
-def _deploy(args) -> int:
-    scenario, description = _scenario(args)
-    params = _parameters(args, scenario)
+def _check_options(args, duration: float, snapshots) -> None:
     if not args.every > 0:
         raise ValueError(f"--every must be > 0, got {args.every}")
     if not args.rate > 0:
@@ -294,11 +324,46 @@ def _deploy(args) -> int:
         )
     if args.shape_divisions < 1:
         raise ValueError(f"--shape-divisions must be >= 1, got {args.shape_divisions}")
-    duration = scenario.duration
-    snapshots = args.snapshots or list(scenario.snapshots)
     for t in snapshots:
         if not 0.0 <= t <= duration:
             raise ValueError(f"--snapshots: {t:g} s is outside [0, {duration:g}] s")
+    if args.convergence is not None and len(args.convergence) not in (0, 2):
+        raise ValueError(f"--convergence takes no value or two (N_B N_M), got {args.convergence}")
+    mcap = args.mcap
+    if (
+        mcap is not None
+        and mcap.suffix != ".mcap"
+        and mcap.exists()
+        and (not mcap.is_dir() or any(mcap.iterdir()))
+    ):
+        raise ValueError(f"--mcap {mcap}: exists; give a new bag folder or a .mcap file")
+
+
+def _output_size(args, duration: float, n: int, extra: int) -> None:
+    """Refuse, before anything is allocated, a run whose outputs would not fit
+    (`Policy.check_output`), naming the estimate; `n` coordinates, `extra` more times."""
+    samples = output_count(duration, 1.0 / args.every)
+    what = f"the run over {duration:g} s (a table row every {args.every:g} s"
+    if args.mcap or args.figures:
+        samples += output_count(duration, args.rate) + extra
+        what += f", {args.rate:g} Hz for --mcap/--figures"
+    Policy.check_output(
+        samples, sample_bytes(n), what + ")", "a shorter duration, a longer --every, a lower --rate"
+    )
+
+
+def _deploy(args) -> int:
+    scenario, description = _scenario(args)
+    config = configuration(args, scenario.sail, "scenario sail section")
+    params, policy = config.sail, config.policy
+    duration = scenario.duration
+    snapshots = args.snapshots or list(scenario.snapshots)
+    _check_options(args, duration, snapshots)
+    finer = None
+    if args.convergence is not None:
+        finer = finer_mode_counts(params, *args.convergence)
+    counts = finer or (params.n_boom_modes, params.n_membrane_modes)
+    _output_size(args, duration, 4 * sum(counts), len(snapshots))
     table_times = np.unique(np.append(np.arange(0.0, duration, args.every), duration))
     grid = output_times(duration, args.rate)
     if args.mcap or args.figures:
@@ -306,23 +371,23 @@ def _deploy(args) -> int:
     else:  # the table alone: no fine grid, whose short steps would slow the run
         t_eval = table_times
 
-    finer = None
-    if args.convergence is not None:
-        if len(args.convergence) not in (0, 2):
-            raise ValueError(
-                f"--convergence takes no value or two (N_B N_M), got {args.convergence}"
-            )
-        finer = finer_mode_counts(params, *args.convergence)
-
     model = SailModel(params)
+    try:  # what the scenario names with the model: its coordinates
+        scenario.initial_state(model)
+    except ValueError as error:
+        raise ValueError(f"{args.scenario or 'the reference deployment'}: {error}") from None
+    config.check(check_scenario, scenario, model, policy)
     with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
-
-        def progress(t):
-            bar.update(t - bar.n)
-
-        result = run_deployment(model, scenario, t_eval, max_step=args.max_step, progress=progress)
-    convergence = None
-    if finer is not None:
+        result = run_deployment(
+            model, scenario, t_eval, args.max_step, lambda t: bar.update(t - bar.n), policy=policy
+        )
+    if result.warning:
+        print(
+            f"warning: {result.warning} (the simulator's diagnostics turn WARN here)",
+            file=sys.stderr,
+        )
+    convergence, stopped = None, result.alarm
+    if finer is not None and not stopped:
         with tqdm(
             total=duration,
             unit="s sim",
@@ -331,14 +396,18 @@ def _deploy(args) -> int:
             leave=False,
             file=sys.stderr,
         ) as bar:
-            convergence = converge(
-                model, scenario, result, *finer, args.max_step, lambda t: bar.update(t - bar.n)
-            )
+            try:
+                convergence = converge(
+                    model, scenario, result, *finer, args.max_step,
+                    lambda t: bar.update(t - bar.n), policy,
+                )  # fmt: skip
+            except OutOfRangeError as error:
+                stopped = str(error)
 
     if args.json:
-        print(json.dumps(_json_report(result, params, description, convergence), indent=2))
+        print(json.dumps(_json_report(result, config, description, convergence), indent=2))
     elif args.summary or not (args.mcap or args.figures):
-        _print_table(result, table_times, description, params, result.wall_seconds, duration)
+        _print_table(result, table_times, description, config)
         _print_peaks(result.peaks, params, convergence)
     warning = _convergence_warning(convergence) if convergence is not None else ""
     if warning:
@@ -346,73 +415,81 @@ def _deploy(args) -> int:
 
     written = []
     if args.mcap:
-        from sail_ros.analysis.log_export import simulator_parameters, write_deployment_log
-
-        on_grid = np.isin(result.t, grid)
-        logged = result.subset(on_grid)
-        shape_every = round(args.rate / args.shape_rate) if args.shape_rate > 0 else 0
-        parameters = simulator_parameters(
-            model,
-            logged,
-            state_rate_hz=args.rate,
-            shape_rate_hz=args.rate / shape_every if shape_every else 0.0,
-            max_step=args.max_step,
-            shape_divisions=args.shape_divisions,
-        )
         from sail_ros.bag import BagWriteError
 
-        if args.mcap.suffix == ".mcap":
-            args.mcap.parent.mkdir(parents=True, exist_ok=True)
-        with tqdm(
-            total=duration, unit="s sim", desc="mcap", disable=None, leave=False, file=sys.stderr
-        ) as bar:
-            try:
-                write_deployment_log(
-                    args.mcap,
-                    model,
-                    logged,
-                    parameters=parameters,
-                    scenario_document=scenario.document,
-                    shape_every=shape_every,
-                    shape_divisions=args.shape_divisions,
-                    progress=lambda t: bar.update(t - bar.n),
-                )
-            except BagWriteError as error:
-                print(f"error: --mcap: {error}", file=sys.stderr)
-                return 1
-        written.append(args.mcap)
+        try:
+            written.append(_write_log(args, model, result, grid, scenario, policy))
+        except BagWriteError as error:  # named by the output, not its temporary name
+            reason = error.error.strerror or error.error
+            print(f"error: --mcap {args.mcap}: cannot write: {reason}; nothing written",
+                  file=sys.stderr)  # fmt: skip
+            return 1
     if args.figures:
-        from sail_ros.plots.deployment import snapshots_figure
-        from sail_ros.plots.histories import boom_lengths_figure, tip_deflections_figure
-
-        rows = [result.index_of(t) for t in snapshots]
-        written.append(
-            snapshots_figure(
-                model,
-                result.t[rows],
-                result.lengths[rows],
-                result.q[rows],
-                args.figures / "deployment_snapshots.png",
-                title=f"Deployment snapshots: {description}",
-            )
-        )
-        written.append(
-            tip_deflections_figure(
-                result.t, result.tips, args.figures / "tip_deflections.png", title=description
-            )
-        )
-        written.append(
-            boom_lengths_figure(
-                result.t,
-                result.lengths,
-                result.rates,
-                args.figures / "boom_lengths.png",
-                title=description,
-            )
-        )
+        written += _write_figures(args.figures, model, result, snapshots, description)
     if not args.json:
         print_written(written)
+    if stopped:
+        kept = f"; {'wrote' if written else 'kept'} the run up to t = {result.t[-1]:g} s"
+        print(f"error: {stopped}{kept if result.alarm else ''}", file=sys.stderr)
+        return 1
     return 0
+
+
+def _write_log(args, model, result, grid, scenario, policy) -> Path:
+    """The run at the grid's times as an MCAP log at --mcap (whole or not at all)."""
+    from sail_ros.analysis.log_export import simulator_parameters, write_deployment_log
+
+    logged = result.subset(np.isin(result.t, grid))
+    shape_every = round(args.rate / args.shape_rate) if args.shape_rate > 0 else 0
+    parameters = simulator_parameters(
+        model,
+        logged,
+        state_rate_hz=args.rate,
+        shape_rate_hz=args.rate / shape_every if shape_every else 0.0,
+        max_step=args.max_step,
+        shape_divisions=args.shape_divisions,
+        policy=policy,
+    )
+    with (
+        staged(args.mcap, "--mcap") as building,
+        tqdm(
+            total=logged.t[-1], unit="s sim", desc="mcap", disable=None, leave=False,
+            file=sys.stderr,
+        ) as bar,
+    ):  # fmt: skip
+        write_deployment_log(
+            building,
+            model,
+            logged,
+            parameters=parameters,
+            scenario_document=scenario.document,
+            shape_every=shape_every,
+            shape_divisions=args.shape_divisions,
+            progress=lambda t: bar.update(t - bar.n),
+        )
+    return args.mcap
+
+
+def _write_figures(folder: Path, model, result, snapshots, description) -> list[Path]:
+    from sail_ros.plots.deployment import snapshots_figure
+    from sail_ros.plots.histories import boom_lengths_figure, tip_deflections_figure
+
+    rows = [result.index_of(t) for t in snapshots if t <= result.t[-1] + 1e-9] or [0]
+    snapshots_path, tips_path, lengths_path = (folder / name for name in FIGURES)
+    return [
+        snapshots_figure(
+            model,
+            result.t[rows],
+            result.lengths[rows],
+            result.q[rows],
+            snapshots_path,
+            title=f"Deployment snapshots: {description}",
+        ),
+        tip_deflections_figure(result.t, result.tips, tips_path, title=description),
+        boom_lengths_figure(
+            result.t, result.lengths, result.rates, lengths_path, title=description
+        ),
+    ]
 
 
 def main(argv=None) -> int:

@@ -16,7 +16,6 @@ simulation time of that reset.
 
 from __future__ import annotations
 
-import argparse
 import datetime
 import os
 import signal
@@ -33,10 +32,12 @@ from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.ros.cli import bounded_teardown
 from sail_ros.tools.client import NoAnswerError, SimClient, init_context
+from sail_ros.tools.common import run
 from sail_ros.tools.domains import DomainLease
 
 START, END, DURATION, TIP = 10.0, 15.0, 15.0, 0.1  # m, m, s, m (model.md §9)
@@ -60,17 +61,28 @@ def exited(processes):
     return check
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+EXAMPLES = (
+    "sail-ros demo",
+    "sail-ros demo --time-scale 1 -o out/demo_realtime",
+)
+NOTES = """By default the simulation runs at 2x real time (about 8 s for the 16 s run),
+publishing /clock; --time-scale 1 runs it in real time. Above about 2x one integration
+step (0.01 s of simulation) is less wall time than a sail/shape message takes to build
+(~5 ms on a small machine), so some ticks come late and count as overruns. The run uses
+a DDS domain that nothing else on this machine uses (two demos at once stay apart);
+discovery stays on this machine unless ROS_AUTOMATIC_DISCOVERY_RANGE says otherwise."""
+WRITES = (
+    "the recorder's bag folder (-o, default out/demo_<UTC time>: <name>_0.mcap, "
+    "metadata.yaml) and the two processes' logs beside it, <name>.sim.log and "
+    "<name>.recorder.log."
+)
+
+
+def build_parser() -> ToolParser:
+    parser = ToolParser(
         prog="sail-ros demo",
         description=__doc__.split("\n\n")[0],
-        epilog="By default the simulation runs at 2x real time (about 8 s for the 16 s run), "
-        "publishing /clock; --time-scale 1 runs it in real time. Above about 2x one "
-        "integration step (0.01 s of simulation) is less wall time than a sail/shape "
-        "message takes to build (~5 ms on a small machine), so some ticks come late "
-        "and count as overruns. The run uses a DDS domain that nothing else on this machine "
-        "uses (two demos at once stay apart); discovery stays on this machine unless "
-        "ROS_AUTOMATIC_DISCOVERY_RANGE says otherwise.",
+        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
     )
     parser.add_argument(
         "-o", "--output", type=Path, help="bag folder to create (default: out/demo_<UTC time>)"
@@ -86,15 +98,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
+    return run(_demo, args)
+
+
+def _demo(args) -> int:
     if not args.time_scale > 0:
-        print("error: --time-scale must be > 0", file=sys.stderr)
-        return 2
+        raise ValueError("--time-scale must be > 0")
     output = args.output or Path("out") / (
         "demo_" + datetime.datetime.now(datetime.UTC).strftime("%Y_%m_%d-%H_%M_%S")
     )
     if output.exists():
-        print(f"error: {output} exists; give a new --output", file=sys.stderr)
-        return 2
+        raise ValueError(f"{output} exists; give a new --output")
     output.parent.mkdir(parents=True, exist_ok=True)
     lease = DomainLease()
     domain = lease.__enter__()

@@ -4,15 +4,10 @@ Prints the frequencies with their multiplicities (seed Tab. 2 layout) and the
 parameters used; writes them as CSV/JSON, the first distinct mode shapes as
 a figure (seed Fig. 2), and with `--fem` compares the frequencies with the
 independent finite-element model (`sail_ros.fem`) on a sequence of meshes.
-
-    sail-ros modes
-    sail-ros modes --lengths 30 50 30 50 --figures out/ --json out/modes.json
-    sail-ros modes --fem
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -25,15 +20,16 @@ from sail_ros.analysis.modes import (
     modal_analysis,
     representative_shapes,
 )
-from sail_ros.cli import PHYSICS_DOC
+from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
 from sail_ros.tools.common import (
     add_sail_options,
+    configuration,
     describe_parameters,
     print_written,
     run,
-    sail_parameters,
     write_csv_rows,
+    write_text,
 )
 
 # Meshes of the FE cross-check, coarse to fine: (boom elements, membrane
@@ -45,6 +41,19 @@ FEM_LEVELS = ((4, 4, 2), (8, 8, 2), (16, 16, 2), (32, 32, 2), (32, 64, 2), (64, 
 MODAL_COUNTS = ((4, 6), (10, 10), (20, 20))
 FEM_COMPARED = 6  # frequencies compared, as in the seed's Tab. 2
 AGREEMENT_PERCENT = 1.0
+EXAMPLES = (
+    "sail-ros modes",
+    "sail-ros modes --lengths 30 50 30 50 --figures out/modes --json out/modes/modes.json",
+    "sail-ros modes --set n_boom_modes=10 --lengths 30 --csv out/modes_30m.csv",
+    "sail-ros modes --fem --fem-csv out/fem_check.csv",
+)
+WRITES = (
+    "--csv FILE (the listed frequencies), --json FILE (parameters, lengths, frequencies, "
+    "the FE comparison), --fem-csv FILE (the FE comparison), --figures DIR: "
+    "DIR/mode_shapes.png; each whole or not at all."
+)
+NOTES = """Lengths are the simulator's (within [min_length, max_length]; --set NAME=VALUE
+changes the limits)."""
 
 
 def damping_ratios(params, omega: np.ndarray) -> np.ndarray | None:
@@ -187,9 +196,11 @@ def _fem_csv_rows(check) -> list[dict]:
     ]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="sail-ros modes", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+def build_parser() -> ToolParser:
+    parser = ToolParser(
+        prog="sail-ros modes",
+        description=__doc__.split("\n\n")[1],
+        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
     )
     add_sail_options(parser)
     parser.add_argument(
@@ -262,10 +273,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _modes(args) -> int:
-    params = sail_parameters(args)
-    lengths = args.lengths or [params.full_boom_length]
-    if len(lengths) not in (1, 4):
-        raise ValueError(f"--lengths takes 1 or 4 values, got {len(lengths)}")
+    config = configuration(args)
+    params = config.sail
+    lengths = config.per_boom(args.lengths or [params.full_boom_length], "--lengths")
     coordinates = 4 * (params.n_boom_modes + params.n_membrane_modes)
     if not 1 <= args.count <= coordinates:
         raise ValueError(
@@ -316,9 +326,7 @@ def _modes(args) -> int:
         }
         if check is not None:
             record["fem_cross_check"] = cross_check_record(check)
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(record, indent=2) + "\n")
-        written.append(args.json)
+        written.append(write_text(args.json, json.dumps(record, indent=2) + "\n"))
     if args.figures:
         from sail_ros.plots.modes import mode_shapes_figure  # matplotlib only when drawing
 

@@ -7,15 +7,10 @@ deflections [m], 4 root moments [N m]) with their names to `.npz` and
 MATLAB `.mat`, and a Bode figure of each tip force to its own boom's tip
 deflection and root moment. The matrices load into python-control as
 `control.ss(A, B, C, D)`.
-
-    sail-ros plant --lengths 30
-    sail-ros plant --lengths 20 22 20 22 --rates 0.1 --set mass_damping=0.02
-    sail-ros plant --lengths 30 --npz out/plant.npz --mat out/plant.mat --figure out/bode.png
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -28,23 +23,35 @@ from sail_ros.analysis.plant import (
     poles,
     undamped_note,
 )
-from sail_ros.cli import PHYSICS_DOC
+from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
+from sail_ros.outputs import staged
 from sail_ros.tools.common import (
     add_sail_options,
+    configuration,
     describe_parameters,
     print_written,
     run,
-    sail_parameters,
 )
 
+EXAMPLES = (
+    "sail-ros plant --lengths 30",
+    "sail-ros plant --lengths 20 22 20 22 --rates 0.1 --set mass_damping=0.02",
+    "sail-ros plant --lengths 30 --npz out/plant.npz --mat out/plant.mat --figure out/bode.png",
+)
+WRITES = (
+    "--npz FILE and --mat FILE (A, B, C, D with the names and units of states, inputs and "
+    "outputs), --figure PNG (the Bode figure); each whole or not at all."
+)
+NOTES = """Lengths and rates are the simulator's (lengths within [min_length, max_length],
+|rate| <= max_rate; --set NAME=VALUE changes the limits)."""
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+
+def build_parser() -> ToolParser:
+    parser = ToolParser(
         prog="sail-ros plant",
-        description=__doc__.split("\n\n")[0],
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog=__doc__.split("\n\n", 1)[1] + "\n" + PHYSICS_DOC,
+        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
+        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
     )
     add_sail_options(parser)
     parser.add_argument(
@@ -78,16 +85,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _per_boom_option(values, name):
-    if len(values) not in (1, 4):
-        raise ValueError(f"{name} takes 1 or 4 values, got {len(values)}")
-    return values[0] if len(values) == 1 else values
-
-
 def _plant(args) -> int:
-    params = sail_parameters(args)
-    lengths = _per_boom_option(args.lengths or [params.full_boom_length], "--lengths")
-    rates = _per_boom_option(args.rates, "--rates")
+    config = configuration(args)
+    params = config.sail
+    lengths = config.per_boom(args.lengths or [params.full_boom_length], "--lengths")
+    lengths = lengths[0] if len(lengths) == 1 else lengths
+    if len(args.rates) not in (1, 4):
+        raise ValueError(f"--rates takes 1 or 4 values, got {len(args.rates)}")
+    rates = config.check(config.policy.check_rates, args.rates * (4 // len(args.rates)), "--rates")
     model = SailModel(params)
     if not 1 <= args.count <= 2 * model.n:
         raise ValueError(f"--count must be in [1, {2 * model.n}], got {args.count}")
@@ -121,17 +126,17 @@ def _plant(args) -> int:
 
     written = []
     if args.npz:
-        args.npz.parent.mkdir(parents=True, exist_ok=True)
-        np.savez(args.npz, **plant.arrays())
+        with staged(args.npz, "--npz") as building, building.open("wb") as stream:
+            np.savez(stream, **plant.arrays())  # a stream: the name as given, no ".npz" added
         written.append(args.npz)
     if args.mat:
         import scipy.io
 
-        args.mat.parent.mkdir(parents=True, exist_ok=True)
         arrays = plant.arrays()
         for key in ("input_names", "input_units", "output_names", "output_units", "state_names"):
             arrays[key] = np.array(arrays[key], dtype=object)  # MATLAB cell arrays of text
-        scipy.io.savemat(args.mat, arrays)
+        with staged(args.mat, "--mat") as building, building.open("wb") as stream:
+            scipy.io.savemat(stream, arrays)
         written.append(args.mat)
     if args.figure:
         from sail_ros.plots.plant import bode_figure  # matplotlib only when drawing

@@ -19,15 +19,12 @@ up to its last complete record) and writes into `--out`:
   `--no-convergence`, of a rerun with twice the modes (a warning when a peak
   moves by more than 1 %).
 
-`--config`/`--set` describe the sail only for a log without recorded parameters.
-
-    sail-ros report run1/run1_0.mcap --out run1_report
-    sail-ros report out/reference.mcap --out out/reference_report --no-convergence
+`--config`/`--set` describe the sail only for a log without recorded parameters; the
+limits of a rerun are those the log recorded, changed by `--set`.
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 import functools
 import sys
@@ -45,10 +42,11 @@ from sail_ros.analysis.energy import group_energies
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE, log_peaks
 from sail_ros.analysis.log_rerun import rerun_log
 from sail_ros.analysis.log_series import read_log
-from sail_ros.analysis.scenario import scenario_from_dict
-from sail_ros.cli import PHYSICS_DOC
-from sail_ros.model import SailModel
+from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
+from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.model import SailModel, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
+from sail_ros.outputs import staged
 from sail_ros.plots.histories import (
     boom_lengths_figure,
     energies_figure,
@@ -56,6 +54,7 @@ from sail_ros.plots.histories import (
     root_moments_figure,
     tip_deflections_figure,
 )
+from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
     add_sail_options,
     describe_parameters,
@@ -63,6 +62,7 @@ from sail_ros.tools.common import (
     print_written,
     run,
     sail_parameters,
+    set_values,
 )
 
 # first columns of real_time_factor.csv; any other status values follow by name
@@ -78,9 +78,25 @@ DIAGNOSTIC_COLUMNS = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="sail-ros report", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+EXAMPLES = (
+    "sail-ros deploy --t-end 6 --rate 25 --mcap out/short.mcap",
+    "sail-ros report out/short.mcap --out out/short_report",
+    "sail-ros report out/short.mcap --out out/short_report --no-convergence",
+    "sail-ros report out/run1 --namespace /sat1",
+)
+WRITES = (
+    "into --out DIR: states.csv, tip_deflections.png, root_moments.png, boom_lengths.png, "
+    "energies.csv, modal_energies.png, real_time_factor.csv, real_time_factor.png (those "
+    "the log has data for), peaks.csv; the folder is built under a temporary name and "
+    "moved into place when all is written (an existing folder keeps its other files)."
+)
+
+
+def build_parser() -> ToolParser:
+    parser = ToolParser(
+        prog="sail-ros report",
+        description=__doc__.split("\n\n")[0],
+        epilog=help_epilog(EXAMPLES, WRITES, __doc__.split("\n\n", 1)[1]),
     )
     parser.add_argument("log", type=Path, help="MCAP file or rosbag2 folder")
     parser.add_argument(
@@ -126,11 +142,22 @@ def _report(args) -> int:
         raise ValueError(f"log {str(args.log)!r} does not exist")
     log = read_log(args.log, args.namespace)
     out = args.out or Path(f"{args.log.stem if args.log.is_file() else args.log.name}_report")
-    out.mkdir(parents=True, exist_ok=True)
+    with staged(out, "--out") as folder:
+        folder.mkdir()
+        stopped = _write_report(args, log, folder)
+        written = sorted(path.relative_to(folder) for path in folder.rglob("*") if path.is_file())
+    print_written(out / path for path in written)
+    if stopped:
+        print(f"error: {stopped}; the report holds the rest", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _write_report(args, log, out: Path) -> str:
+    """Write the report's files into `out`; the alarm of a rerun that stopped, or ""."""
     time_label = (
         "simulation time t [s]" if log.simulation_time else "time since the first sample [s]"
     )
-
     print(f"Log {args.log}")
     if log.incomplete:
         print(
@@ -140,7 +167,6 @@ def _report(args) -> int:
         )
     for topic, count in sorted(log.topic_counts.items()):
         print(f"  {topic}: {count} messages")
-    written = []
 
     if log.tips is not None:
         t = log.seconds(log.tips.stamp_ns)
@@ -148,14 +174,12 @@ def _report(args) -> int:
             f"  tip deflections: {t[0]:.3f} .. {t[-1]:.3f} s, peak |tip| "
             f"{1e3 * np.abs(log.tips.position).max():.3f} mm"
         )
-        written.append(
-            tip_deflections_figure(
-                t,
-                log.tips.position,
-                out / "tip_deflections.png",
-                title=args.log.name,
-                time_label=time_label,
-            )
+        tip_deflections_figure(
+            t,
+            log.tips.position,
+            out / "tip_deflections.png",
+            title=args.log.name,
+            time_label=time_label,
         )
     if log.moments is not None and log.moments.effort.size:
         t = log.seconds(log.moments.stamp_ns)
@@ -164,35 +188,30 @@ def _report(args) -> int:
             f"  root moments: peak |M| {np.abs(log.moments.effort).max():.4g} N m"
             + (f" (n_B = {params.n_boom_modes})" if params else "")
         )
-        written.append(
-            root_moments_figure(
-                t,
-                log.moments.effort,
-                out / "root_moments.png",
-                title=args.log.name,
-                time_label=time_label,
-                n_boom_modes=params.n_boom_modes if params else None,
-            )
+        root_moments_figure(
+            t,
+            log.moments.effort,
+            out / "root_moments.png",
+            title=args.log.name,
+            time_label=time_label,
+            n_boom_modes=params.n_boom_modes if params else None,
         )
     if log.boom is not None:
         t = log.seconds(log.boom.stamp_ns)
         print(f"  boom lengths: {log.boom.position.min():.3f} .. {log.boom.position.max():.3f} m")
-        written.append(
-            boom_lengths_figure(
-                t,
-                log.boom.position,
-                log.boom.velocity,
-                out / "boom_lengths.png",
-                title=args.log.name,
-                time_label=time_label,
-            )
+        boom_lengths_figure(
+            t,
+            log.boom.position,
+            log.boom.velocity,
+            out / "boom_lengths.png",
+            title=args.log.name,
+            time_label=time_label,
         )
-    written.append(_write_states(log, out / "states.csv"))
-    written.append(_peaks(args, log, out))
-    written += _energies(args, log, out, time_label)
-    written += _real_time_factor(log, out, time_label, args.log.name)
-    print_written(written)
-    return 0
+    _write_states(log, out / "states.csv")
+    stopped = _peaks(args, log, out)
+    _energies(args, log, out, time_label)
+    _real_time_factor(log, out, time_label, args.log.name)
+    return stopped
 
 
 PEAK_COLUMNS = [
@@ -208,9 +227,10 @@ PEAK_COLUMNS = [
 CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
 
 
-def _peaks(args, log, out: Path) -> Path:
+def _peaks(args, log, out: Path) -> str:
     """Each boom's peaks: from the log's samples, and for a deploy log from reruns of its
-    scenario (the same mode counts, then twice as many); one row each in peaks.csv."""
+    scenario (the same mode counts, then twice as many); one row each in peaks.csv.
+    Returns the alarm of a rerun that left the linear range ("" if none did)."""
     params = _recorded_parameters(log) or sail_parameters(args)
     model = SailModel(params)
     if log.modal is not None and log.modal.names != model.coordinate_names:
@@ -237,12 +257,13 @@ def _peaks(args, log, out: Path) -> Path:
             "up to " + ", ".join(f"{100 * v:.2g} %" for v in share) + " of the peak root "
             "moments a..d, which may be off by that much between samples"
         )
+    stopped = ""
     if model is not None:
-        rows += _rerun_peaks(args, log, model)
-    path = out / "peaks.csv"
+        reruns, stopped = _rerun_peaks(args, log, model)
+        rows += reruns
     header = ["source", "n_boom_modes", "n_membrane_modes", *PEAK_COLUMNS]
-    _write_csv(path, header, zip(*rows, strict=True))
-    return path
+    _write_csv(out / "peaks.csv", header, zip(*rows, strict=True))
+    return stopped
 
 
 def _peak_row(source: str, params, peaks) -> list:
@@ -257,19 +278,22 @@ def _peak_row(source: str, params, peaks) -> list:
     return cells
 
 
-def _rerun_peaks(args, log, model) -> list[list]:
-    """The log run again (a deploy log's recorded scenario; a live log's logged motion,
-    loads and state, `analysis.log_rerun`): its true peaks, how well it reproduces the
-    logged tips, and unless --no-convergence how its peaks move with twice the modes."""
+def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
+    """The log run again (a deploy log's recorded scenario, within the limits it recorded;
+    a live log's logged motion, loads and state, `analysis.log_rerun`): its true peaks,
+    how well it reproduces the logged tips, and unless --no-convergence how its peaks
+    move with twice the modes. The rows, and the alarm of a rerun that left the linear
+    range ("")."""
+    what, rerun = "the logged motion, loads and state", rerun_log
+    if log.scenario is not None:  # refused by the limits: ValueError, exit 2
+        what, rerun = "the recorded scenario", _scenario_rerun(log, model, _rerun_policy(args, log))
     try:
-        if log.scenario is not None:
-            what, rerun = "the recorded scenario", _scenario_rerun(log)
-        else:
-            what, rerun = "the logged motion, loads and state", rerun_log
         peaks, agreement, runs = rerun(log, model)
+    except OutOfRangeError as error:
+        return [], f"the rerun of {what}: {error}"
     except ValueError as error:
         print(f"  true peaks need a rerun of the log, which is not possible: {error}")
-        return []
+        return [], ""
     runs = f" ({runs} runs: resets)" if runs > 1 else ""
     print(
         f"  a rerun of {what}{runs} reproduces the logged tips to {agreement:.2g} of their "
@@ -278,10 +302,14 @@ def _rerun_peaks(args, log, model) -> list[list]:
     rows = [_peak_row("rerun", model.params, peaks)]
     if args.no_convergence:
         print_peak_table(peaks, indent="    ")
-        return rows
+        return rows, ""
     finer = finer_mode_counts(model.params)
     finer_model = SailModel(model.params.replace(n_boom_modes=finer[0], n_membrane_modes=finer[1]))
-    more = rerun(log, finer_model, carried_from=model)[0]
+    try:
+        more = rerun(log, finer_model, carried_from=model)[0]
+    except OutOfRangeError as error:
+        print_peak_table(peaks, indent="    ")
+        return rows, f"the rerun at (n_B, n_M) = {finer}: {error}"
     tip = relative_change(peaks.tip_deflection.value, more.tip_deflection.value)
     moment = relative_change(peaks.root_moment.value, more.root_moment.value)
     label = f"  change at ({finer[0]}, {finer[1]}) modes [%]"
@@ -294,26 +322,49 @@ def _rerun_peaks(args, log, model) -> list[list]:
             f"{100 * largest:.3g} %; raise n_boom_modes and n_membrane_modes",
             file=sys.stderr,
         )
-    return rows
+    return rows, ""
 
 
-def _scenario_rerun(log):
-    """A rerun of a deploy log's scenario, as `log_rerun.rerun_log` runs a live log:
-    `(log, model, carried_from=None) -> (peaks, agreement, runs)`."""
+def _rerun_policy(args, log) -> Policy:
+    """The limits a rerun keeps: those the log recorded (the simulator's parameters of
+    the same names), changed by --set."""
+    recorded = {
+        name: yaml_values.load(log.parameters[name])
+        for name in Policy.field_names()
+        if log.parameters and name in log.parameters
+    }
+    changes = {k: v for k, v in set_values(args).items() if k in Policy.field_names()}
+    return Policy(**{**recorded, **changes})
+
+
+def _scenario_rerun(log, model: SailModel, policy: Policy):
+    """A rerun of a deploy log's scenario within `policy`, as `log_rerun.rerun_log` runs a
+    live log: `(log, model, carried_from=None) -> (peaks, agreement, runs)`, which raises
+    OutOfRangeError with the alarm of a rerun that left the linear range.
+
+    Raises:
+        ValueError: the scenario asks what `policy` refuses (`check_scenario`).
+    """
     scenario = scenario_from_dict(log.scenario)
-    if log.tips is None or not log.simulation_time:
-        raise ValueError("the log holds no tip deflections on simulation time")
-    t = log.seconds(log.tips.stamp_ns)
+    try:
+        check_scenario(scenario, model, policy)
+    except ValueError as error:
+        raise ValueError(f"the recorded scenario: {error}") from None
     step = float(log.parameters.get("max_model_step", "0.05")) if log.parameters else 0.05
 
     def rerun(log, model, carried_from=None):
+        if log.tips is None or not log.simulation_time:
+            raise ValueError("the log holds no tip deflections on simulation time")
+        t = log.seconds(log.tips.stamp_ns)
         initial = None
         if carried_from is not None:
             initial = tuple(
                 carried_over(values, carried_from, model)
                 for values in scenario.initial_state(carried_from)
             )
-        run = run_deployment(model, scenario, t, max_step=step, initial=initial)
+        run = run_deployment(model, scenario, t, step, initial=initial, policy=policy)
+        if run.alarm:
+            raise OutOfRangeError(run.alarm)
         logged = log.tips.position
         agreement = np.abs(run.tips - logged).max() / max(float(np.abs(logged).max()), 1e-300)
         return run.peaks, float(agreement), 1

@@ -4,22 +4,10 @@ Waits until the simulator listens, sends the command, waits for its answer
 and prints it: the plan of an accepted command, the reason of a rejected one.
 Exit code 0 only when the command was accepted; 1 when it was rejected or no
 simulator answered within --timeout; 2 for a bad command line.
-
-    sail-ros send deploy 30
-    sail-ros send move --booms a c --point 20 20 25
-    sail-ros send move --booms b --point 10 12 --point 30 20
-    sail-ros send pressure --quadrants ab cd --values 2e-3 1e-3
-    sail-ros send tip-force --booms b --values 0.05
-    sail-ros send tip-force --booms a b c d --values 0
-    sail-ros send pause
-    sail-ros send resume
-    sail-ros send reset
-    sail-ros send deploy 15 --ros-args -r __ns:=/sat2
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 
@@ -29,43 +17,69 @@ from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
-from sail_ros.tools.client import SimClient, run_client
+from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.policy import Policy
+from sail_ros.tools.client import SimClient, add_domain_option, run_client
 
 BOOMS = "abcd"
 QUADRANTS = ("ab", "bc", "cd", "da")
+ALL = "all"
+EXAMPLES = (
+    "sail-ros send deploy 30",
+    "sail-ros send move --booms a c --point 20 20 25",
+    "sail-ros send move --booms b --point 10 12 --point 30 20",
+    "sail-ros send pressure --quadrants ab cd --values 2e-3 1e-3",
+    "sail-ros send pressure --quadrants all --values 9.1e-6",
+    "sail-ros send tip-force --booms b --values -0.05",
+    "sail-ros send tip-force --booms all --values 0",
+    "sail-ros send pause",
+    "sail-ros send resume",
+    "sail-ros send reset",
+    "sail-ros send --domain-id 7 --timeout 30 deploy 15 --ros-args -r __ns:=/sat2",
+)
+NOTES = """The simulator is the one in this program's namespace (--ros-args -r __ns:=...)
+and DDS domain (--domain-id, else ROS_DOMAIN_ID). Limits on lengths, rates,
+accelerations and loads are the simulator's parameters (msg_docs/boom_length_cmd.md).
+--values takes one value per name given, or one value for `all`."""
 
 
 def load_command(args) -> tuple[str, object]:
-    """`(topic, message)` of a `pressure` or `tip-force` command line."""
+    """`(topic, message)` of a `pressure` or `tip-force` command line: one value per
+    name, or one for `all` (ValueError otherwise, or for a value that is not finite)."""
     if args.command == "pressure":
-        topic, names = topics.PRESSURE_CMD, [f"quadrant_{q}" for q in args.quadrants]
+        topic, option, given, known = topics.PRESSURE_CMD, "--quadrants", args.quadrants, QUADRANTS
+        prefix = "quadrant_"
     else:
-        topic, names = topics.TIP_FORCE_CMD, [f"boom_{b}" for b in args.booms]
+        topic, option, given, known = topics.TIP_FORCE_CMD, "--booms", args.booms, tuple(BOOMS)
+        prefix = "boom_"
     values = args.values
-    if len(values) == 1 and len(names) > 1:
-        values = values * len(names)
-    if len(values) != len(names):
-        raise ValueError(f"--values: one value, or one per name ({len(names)}), got {len(values)}")
+    if ALL in given:
+        if len(given) > 1:
+            raise ValueError(f"{option}: `all` stands alone, got {' '.join(given)}")
+        if len(values) != 1:
+            raise ValueError(f"--values: one value with {option} all, got {len(values)}")
+        given, values = known, values * len(known)
+    if len(values) != len(given):
+        raise ValueError(
+            f"--values: one per name of {option} ({len(given)}: {' '.join(given)}), or one "
+            f"with {option} all; got {len(values)}"
+        )
+    names = [prefix + name for name in given]
+    for name, value in zip(names, values, strict=True):
+        Policy.finite_load(name, value, args.command == "pressure")
     return topic, topics.load_command(topic, dict(zip(names, values, strict=True)))
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+def build_parser() -> ToolParser:
+    parser = ToolParser(
         prog="sail-ros send",
-        description=__doc__.split("\n\n")[0],
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="Examples:\n"
-        + __doc__.split("\n\n")[-1].rstrip()
-        + "\n\nThe simulator is the one in this program's namespace (--ros-args -r "
-        "__ns:=...) and DDS domain (--domain-id, else ROS_DOMAIN_ID). Limits on lengths, "
-        "rates and accelerations are the simulator's parameters (msg_docs/boom_length_cmd.md).",
+        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
+        epilog=help_epilog(EXAMPLES, notes=NOTES),
     )
     parser.add_argument(
         "--timeout", type=float, default=10.0, help="seconds to wait for the simulator (10)"
     )
-    parser.add_argument(
-        "--domain-id", type=int, help="DDS domain of the simulator (default: ROS_DOMAIN_ID)"
-    )
+    add_domain_option(parser)
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     deploy = commands.add_parser(
         "deploy",
@@ -100,17 +114,28 @@ def build_parser() -> argparse.ArgumentParser:
         "the others keep theirs. Limit: the simulator's max_pressure.",
     )
     pressure.add_argument(
-        "--quadrants", nargs="+", required=True, choices=list(QUADRANTS), help="ab bc cd da"
+        "--quadrants", nargs="+", required=True, choices=[*QUADRANTS, ALL],
+        help="ab bc cd da, or all",
+    )  # fmt: skip
+    pressure.add_argument(
+        "--values",
+        nargs="+",
+        type=float,
+        required=True,
+        help="Pa: one per quadrant, or one for all",
     )
-    pressure.add_argument("--values", nargs="+", type=float, required=True, help="Pa, one each")
     force = commands.add_parser(
         "tip-force",
         help="force [N] at the tips of named booms (sail/tip_force_cmd)",
         description="Set the force [N, +z] at the tips of the named booms from the next step "
         "on; the others keep theirs. Limit: the simulator's max_tip_force.",
     )
-    force.add_argument("--booms", nargs="+", required=True, choices=list(BOOMS), help="a b c d")
-    force.add_argument("--values", nargs="+", type=float, required=True, help="N, one each")
+    force.add_argument(
+        "--booms", nargs="+", required=True, choices=[*BOOMS, ALL], help="a b c d, or all"
+    )
+    force.add_argument(
+        "--values", nargs="+", type=float, required=True, help="N: one per boom, or one for all"
+    )
     commands.add_parser("pause", help="hold the simulation (sail/pause, true)")
     commands.add_parser("resume", help="go on (sail/pause, false)")
     commands.add_parser("reset", help="back to the initial state (sail/reset)")
@@ -129,6 +154,9 @@ def trajectory(booms: list[str], points: list[list[float]]) -> JointTrajectory:
             )
         if not (math.isfinite(seconds) and seconds > 0):
             raise ValueError(f"--point: the time must be > 0 s from now, got {seconds:g}")
+        for boom, length in zip(booms, lengths, strict=True):
+            if not math.isfinite(length):  # the simulator's words (Policy.check_length)
+                raise ValueError(f"--point: boom_{boom} is {length!r}, not a finite length")
         whole = math.floor(seconds)
         message.points.append(
             JointTrajectoryPoint(

@@ -8,15 +8,10 @@ prestress against the rate. Each (length, rate) is one case on Dask: a local
 cluster by default, an existing one with --scheduler. See
 `sail_ros.analysis.stability` for the physics and the numerical instability
 threshold.
-
-    sail-ros stability
-    sail-ros stability --lengths 10 35 70.71 --rates -0.1 0.1 1 --figures out/ --csv out/crit.csv
-    sail-ros stability --lengths 20 40 70.71 --scheduler tcp://10.0.0.5:8786
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -32,25 +27,44 @@ from sail_ros.analysis.stability import (
     growth,
     stability_sweep,
 )
-from sail_ros.cli import PHYSICS_DOC
+from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, dask_client
 from sail_ros.tools.common import (
     add_sail_options,
+    configuration,
     describe_parameters,
     print_written,
     run,
-    sail_parameters,
     write_csv_rows,
 )
 
 DEFAULT_RATES = (-1.0, -0.3, -0.1, -0.03, -0.01, 0.0, 0.01, 0.03, 0.1, 0.3, 1.0)
 DEFAULT_PRESTRESS = (1e-2, 1e5)  # Pa
 POINTS_PER_DECADE = 8
+FIGURES = ("stability.png", "stability_map.png", "eigenvalue_loci.png")
+EXAMPLES = (
+    "sail-ros stability",
+    "sail-ros stability --lengths 10 35 70.71 --rates -0.1 0.1 1 --figures out/stability "
+    "--csv out/stability/critical.csv",
+    "sail-ros stability --lengths 20 40 70.71 --workers 2 --grid-csv out/stability_grid.csv",
+    "sail-ros stability --lengths 20 40 70.71 --scheduler tcp://10.0.0.5:8786",
+)
+WRITES = (
+    "--csv FILE (critical prestress per length and rate), --grid-csv FILE (every grid "
+    "point), --figures DIR: DIR/stability.png (max Re against prestress), "
+    "DIR/stability_map.png (stable and unstable over rate x prestress, the critical "
+    "prestress of each length), DIR/eigenvalue_loci.png; each whole or not at all."
+)
+NOTES = """Lengths and rates are the simulator's (lengths within [min_length, max_length],
+|rate| <= max_rate; --set NAME=VALUE changes the limits)."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="sail-ros stability", description=__doc__.splitlines()[0], epilog=PHYSICS_DOC
+def build_parser() -> ToolParser:
+    parser = ToolParser(
+        prog="sail-ros stability",
+        description=__doc__.split("\n\n")[1],
+        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
     )
     add_sail_options(parser)
     grid = parser.add_argument_group("grid")
@@ -99,7 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--figures",
         type=Path,
         metavar="DIR",
-        help="write DIR/stability.png (max Re against prestress) and DIR/eigenvalue_loci.png",
+        help=f"write {', '.join('DIR/' + name for name in FIGURES)}",
     )
     output.add_argument(
         "--loci-rate",
@@ -144,8 +158,13 @@ def _critical_rows(sweeps, params) -> list[dict]:
 
 
 def _stability(args) -> int:
-    params = sail_parameters(args)
+    config = configuration(args)
+    params = config.sail
     lengths = args.lengths or [params.full_boom_length]
+    for length in lengths:
+        config.check(config.policy.check_length, length, "--lengths", params)
+    for rate in args.rates:
+        config.check(config.policy.check_rate, rate, "--rates")
     low, high = args.prestress
     if not 0 < low < high:
         raise ValueError(f"--prestress needs 0 < MIN < MAX [Pa], got {low:g} {high:g}")
@@ -154,11 +173,13 @@ def _stability(args) -> int:
         points = int(round(POINTS_PER_DECADE * np.log10(high / low))) + 1
     if points < 2:
         raise ValueError(f"--points must be >= 2, got {points}")
-    prestresses = np.logspace(np.log10(low), np.log10(high), points)
-
     total = len(lengths) * len(args.rates) * points
-    if np.any(np.asarray(lengths) <= 0):  # before starting a cluster
-        raise ValueError(f"lengths must be > 0 [m], got {list(lengths)!r}")
+    n = 4 * (params.n_boom_modes + params.n_membrane_modes)
+    # per point: prestress, max Re, max |lambda|, unstable; the loci: 2n eigenvalues
+    fewer = "fewer --points, --lengths or --rates"
+    Policy.check_output(total, 4 * 8, "the stability grid", fewer)
+    Policy.check_output(points, 2 * n * 16, "the eigenvalue loci", fewer)
+    prestresses = np.logspace(np.log10(low), np.log10(high), points)
     bar = tqdm(total=total, unit="pt", disable=None, leave=False, file=sys.stderr)
     with dask_client(args.scheduler, args.workers) as client, bar:
         sweeps = stability_sweep(
@@ -218,12 +239,9 @@ def _stability(args) -> int:
     if args.figures:
         from sail_ros.plots.stability import loci_figure, map_figure, max_real_figure
 
-        written.append(
-            max_real_figure(sweeps, args.figures / "stability.png", params.membrane_prestress)
-        )
-        written.append(
-            map_figure(sweeps, args.figures / "stability_map.png", params.membrane_prestress)
-        )
+        real_path, map_path, loci_path = (args.figures / name for name in FIGURES)
+        written.append(max_real_figure(sweeps, real_path, params.membrane_prestress))
+        written.append(map_figure(sweeps, map_path, params.membrane_prestress))
         deploying = [r for r in args.rates if r > 0]
         rate = (
             args.loci_rate
@@ -240,11 +258,7 @@ def _stability(args) -> int:
             None,
         )
         loci = eigenvalue_loci(params, length, rate, prestresses)
-        written.append(
-            loci_figure(
-                prestresses, loci, length, rate, args.figures / "eigenvalue_loci.png", critical
-            )
-        )
+        written.append(loci_figure(prestresses, loci, length, rate, loci_path, critical))
     print_written(written)
     return 0
 

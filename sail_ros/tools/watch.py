@@ -4,33 +4,36 @@ Boom lengths and rates, tip deflections, state, simulation time, real-time
 factor, mechanical energy, the last command, rejections and the last answer,
 from the simulator's topics. `--once` prints one sample and exits; `--json`
 prints JSON (one object per refresh, one line each) for scripts. Ctrl-C stops.
-
-    sail-ros watch
-    sail-ros watch --once
-    sail-ros watch --once --json
-    sail-ros watch --ros-args -r __ns:=/sat2
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
 import time
 
 from sail_ros import topics
-from sail_ros.tools.client import SimClient, run_client
+from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.tools.client import SimClient, add_domain_option, run_client
 
 CLEAR = "\033[H\033[2J"  # cursor home, clear screen
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+EXAMPLES = (
+    "sail-ros watch",
+    "sail-ros watch --once --timeout 30",
+    "sail-ros watch --once --json",
+    "sail-ros watch --json --rate 1 | head -5",
+    "sail-ros watch --ros-args -r __ns:=/sat2",
+)
+
+
+def build_parser() -> ToolParser:
+    parser = ToolParser(
         prog="sail-ros watch",
-        description=__doc__.split("\n\n")[0],
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="Examples:\n" + __doc__.split("\n\n")[-1].rstrip(),
+        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
+        epilog=help_epilog(EXAMPLES),
     )
     parser.add_argument("--once", action="store_true", help="print one sample and exit")
     parser.add_argument("--json", action="store_true", help="JSON instead of a table")
@@ -38,9 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--timeout", type=float, default=10.0, help="seconds to wait for the simulator (10)"
     )
-    parser.add_argument(
-        "--domain-id", type=int, help="DDS domain of the simulator (default: ROS_DOMAIN_ID)"
-    )
+    add_domain_option(parser)
     return parser
 
 

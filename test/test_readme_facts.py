@@ -1,0 +1,39 @@
+"""The README's numbers that are facts of the code agree with the code: how many
+parameters the main job finds stored (the simulator's own and those every rclpy node
+declares), and every default it quotes as "`name` (value)" or "`name`, value"."""
+
+import re
+from pathlib import Path
+
+import pytest
+import yaml
+from rclpy.node import Node
+
+from sail_ros.runtime.config import DEFAULTS, PARAMETERS
+
+pytestmark = pytest.mark.node
+
+README = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+
+
+def test_the_stored_parameter_count_is_the_simulators(ros_context):
+    """The recorder stores every parameter the simulator node lists: its declared ones
+    and rclpy's own (use_sim_time, ...), which a bare node lists too."""
+    bare = Node("bare", context=ros_context)
+    try:
+        expected = len(PARAMETERS) + len(bare._parameters)
+    finally:
+        bare.destroy_node()
+    quoted = re.findall(r"simulator parameters stored: (\d+) \(", README)
+    assert quoted and {int(n) for n in quoted} == {expected}
+
+
+def test_quoted_defaults_are_the_defaults():
+    quoted = re.findall(r"`([a-z_.]+)` \(([-0-9.e]+)\)|`([a-z_.]+)`, ([-0-9.e]+) ", README)
+    checked = 0
+    for name_a, value_a, name_b, value_b in quoted:
+        name, value = (name_a, value_a) if name_a else (name_b, value_b)
+        if name in PARAMETERS:
+            assert yaml.safe_load(value) == DEFAULTS[name], name
+            checked += 1
+    assert checked >= 3  # tip_warn_fraction, tip_error_fraction, max_model_step
