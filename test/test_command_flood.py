@@ -1,7 +1,8 @@
 """A flood of commands at a simulator process: 1000 valid deploy commands a second, then
 1000 malformed ones, 2 s each (benchmarks/command_flood.py runs 10 s each). The
-simulator keeps real time (at most one overrun a phase, no gap between two published
-states over two state periods) and every command ends counted: accepted, superseded
+simulator keeps real time (no gap between two published states over two state periods;
+at most one overrun more than in as long a quiet phase just before, which counts what
+the machine's other load costs) and every command ends counted: accepted, superseded
 or rejected, adding up to what was sent."""
 
 import math
@@ -20,11 +21,11 @@ PHASE_S = 2.0
 STATE_PERIOD_S = 0.02  # the default 50 Hz
 
 
-def flood(operator, targets) -> int:
-    """Publish deploy commands to `targets(i)` at RATE for PHASE_S; how many were sent."""
+def flood(operator, targets, rate: float = RATE) -> int:
+    """Publish deploy commands to `targets(i)` at `rate` for PHASE_S; how many were sent."""
     sent, start = 0, time.monotonic()
     while (now := time.monotonic()) < start + PHASE_S:
-        while sent < int((now - start) * RATE):
+        while sent < int((now - start) * rate):
             operator.deploy.publish(Float64(data=targets(sent)))
             sent += 1
         operator.spinner.spin_once(timeout_sec=0.0005)
@@ -45,7 +46,10 @@ def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operato
     )
     processes("sim", parameters={"diagnostics_rate_hz": 4.0})
     operator.wait_for_simulator()
+    quiet = operator.wait_for_status(lambda s: True, 5.0, "a status before the quiet phase")
+    flood(operator, targets, rate=0.0)
     before = operator.wait_for_status(lambda s: True, 5.0, "a status before the flood")
+    quiet_overruns = int(before[key.OVERRUNS]) - int(quiet[key.OVERRUNS])
     first = len(states)
     sent = flood(operator, targets)
     after = operator.wait_for_status(
@@ -64,7 +68,7 @@ def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operato
         assert outcomes[key.REJECTED] == 0 and outcomes[key.ACCEPTED] >= 1, outcomes
     else:
         assert outcomes[key.REJECTED] == sent, outcomes
-    assert int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]) <= 1
+    assert int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]) <= quiet_overruns + 1
     published = states[first:]
     gaps = [(b - a) / 1e9 for a, b in zip(published[:-1], published[1:], strict=True)]
     assert len(published) > 0.8 * PHASE_S / STATE_PERIOD_S

@@ -265,7 +265,7 @@ def logs(js_readers, ros_env, tmp_path_factory) -> Logs:
         with contextlib.redirect_stdout(io.StringIO()) as out:
             code = deploy.main(
                 [
-                    *("--duration", "2", "--to", "11", "--rate", "20"),
+                    *("--duration", "4", "--to", "11", "--rate", "20"),
                     *("--set", "free_hub=true", "--set", "hub_mass=20.0"),  # Odometry too
                     *("--shape-rate", "5", "--shape-divisions", "2", "--mcap"),
                     str(folders["deploy"]),
