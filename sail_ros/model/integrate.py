@@ -8,6 +8,21 @@ from sail_ros.model.sampling import GridSampler
 from sail_ros.model.stepper import LinearSystem, SailStepper
 
 
+class Run(tuple):
+    """`(t, q, qd)` of a run, unpacked like a tuple, and what the stepper reports about it:
+    `rtol`, `atol` (the tolerance asked), `error_estimate` and
+    `relative_error_estimate` (per output kind, `SailStepper.error_estimate`), `steps`
+    and `rejected` (steps taken and refused)."""
+
+    def __new__(cls, t, q, qd, stepper: SailStepper):
+        run = super().__new__(cls, (t, q, qd))
+        run.rtol, run.atol = stepper.rtol, dict(stepper.atol)
+        run.error_estimate = stepper.error_estimate
+        run.relative_error_estimate = stepper.relative_error_estimate
+        run.steps, run.rejected = stepper.steps_taken, stepper.steps_rejected
+        return run
+
+
 def simulate(
     system: LinearSystem,
     profile,
@@ -16,6 +31,7 @@ def simulate(
     qd0=None,
     t_eval=None,
     progress=None,
+    inputs=None,
     **options,
 ):
     """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`.
@@ -27,17 +43,20 @@ def simulate(
         q0: initial coordinates [m] (default 0).
         qd0: initial velocities [m/s] (default 0).
         t_eval: increasing output times in [0, t_end]; default a uniform
-            grid with the stepper's `max_step` spacing (default 0.05 s).
+            grid with the stepper's `max_step` spacing (default 0.2 s).
         progress: optional callable `progress(t)` after each output time.
-        options: `SailStepper` options, `max_step` [s], `resolved_frequency` [rad/s],
-            `inputs` (callable `t -> u`).
+        inputs: callable `t -> u` or None. With `switch_times` [s] (`loads.input_function`
+            of a `LoadSchedule`) steps end there; without, at every output time as well.
+        options: `SailStepper` options, `rtol`, `atol` (the tolerance), `max_step` [s],
+            `resolved_frequency` [rad/s].
 
     Returns:
-        `(t, q, qd)`: times (k,), coordinates (k, n), velocities (k, n).
+        `Run`, `(t, q, qd)`: times (k,), coordinates (k, n), velocities (k, n), with the
+        stepper's error estimate.
     """
     if not (np.isfinite(t_end) and t_end > 0):
         raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
-    stepper = SailStepper(system, profile, q0=q0, qd0=qd0, **options)
+    stepper = SailStepper(system, profile, q0=q0, qd0=qd0, inputs=inputs, **options)
     if t_eval is None:
         count = int(np.ceil(t_end / stepper.max_step - 1e-9))
         t_eval = np.linspace(0.0, t_end, count + 1)
@@ -48,12 +67,17 @@ def simulate(
         raise ValueError(f"t_eval must increase within [0, t_end = {t_end}], got {t_eval!r}")
     q = np.empty((t_eval.size, system.n))
     qd = np.empty((t_eval.size, system.n))
+    # Steps end at t_end and at the inputs' switch times, and output times inside a step
+    # come from its continuous extension (`SailStepper.state_at`); inputs whose switches
+    # are not known (a plain callable) and fixed steps end steps at output times too.
+    free = stepper.rtol is not None and (inputs is None or hasattr(inputs, "switch_times"))
     for i, t in enumerate(t_eval):
-        stepper.advance(t)
-        q[i], qd[i] = stepper.q, stepper.qd
+        while t - stepper.t > 1e-12 * max(1.0, abs(t)):
+            stepper.advance_step(t_end if free else t)
+        q[i], qd[i] = stepper.state_at(t)
         if progress is not None:
             progress(t)
-    return t_eval.copy(), q, qd
+    return Run(t_eval.copy(), q, qd, stepper)
 
 
 def simulate_on_grid(
@@ -67,14 +91,16 @@ def simulate_on_grid(
     **options,
 ):
     """The state every `spacing` [s] from t = 0 to `t_end` [s] as the simulator samples
-    it (`sampling.GridSampler`: exact steps at rest; moving steps of up to `max_step`,
-    whole grid intervals, the grid points inside from the step's continuous extension).
+    it (`sampling.GridSampler`: exact steps at rest; moving steps of whole grid intervals
+    chosen by the tolerance, up to `max_step`, the grid points inside from the step's
+    continuous extension).
 
     Args and returns as `simulate`, with the grid in place of `t_eval`.
     """
     if not (np.isfinite(t_end) and t_end > 0):
         raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
-    sampler = GridSampler(SailStepper(system, profile, q0=q0, qd0=qd0, **options), spacing)
+    stepper = SailStepper(system, profile, q0=q0, qd0=qd0, **options)
+    sampler = GridSampler(stepper, spacing)
     count = int(np.floor(t_end / sampler.spacing + 1e-9))
     q = np.empty((count + 1, system.n))
     qd = np.empty((count + 1, system.n))
@@ -86,4 +112,4 @@ def simulate_on_grid(
         t[i], q[i], qd[i] = point.t, point.q, point.qd
         if progress is not None:
             progress(point.t)
-    return t, q, qd
+    return Run(t, q, qd, stepper)

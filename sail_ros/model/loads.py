@@ -46,12 +46,16 @@ def input_function(loads):
 
     Args:
         loads: None; a constant pair `(pressures, tip_forces)`; or a callable
-            `t -> (pressures, tip_forces)`.
+            `t -> (pressures, tip_forces)`, such as a `LoadSchedule`.
+
+    The result has `switch_times` when they are known (none for constant loads, a
+    `LoadSchedule`'s own); a plain callable has none, so a batch run ends its steps
+    at the output times, where its switches are to be put.
     """
     if loads is None:
         return None
     if callable(loads):
-        return lambda t: inputs(*loads(t))
+        return _Inputs(loads) if hasattr(loads, "switch_times") else lambda t: inputs(*loads(t))
     try:
         pressures, tip_forces = loads
     except (TypeError, ValueError):
@@ -60,7 +64,19 @@ def input_function(loads):
             f"t -> (pressures, tip_forces), got {loads!r}"
         ) from None
     constant = inputs(pressures, tip_forces)
-    return lambda t: constant
+    return _Inputs(lambda t: (constant[:4], constant[4:]), switch_times=())
+
+
+class _Inputs:
+    """Loads `t -> (pressures, tip_forces)` whose switch times are known (`switch_times`,
+    where the stepper ends its steps), as `t -> u`."""
+
+    def __init__(self, loads, switch_times=None):
+        self._loads = loads
+        self.switch_times = tuple(loads.switch_times if switch_times is None else switch_times)
+
+    def __call__(self, t: float) -> np.ndarray:
+        return inputs(*self._loads(t))
 
 
 class LoadSchedule:
@@ -73,7 +89,7 @@ class LoadSchedule:
 
     Called with `t` it returns `(pressures, tip_forces)` (4 values each), so it is
     a `loads` of `SailModel.simulate`; `switch_times` are where the loads change
-    (put them among the output times so that steps land on them).
+    (the stepper ends steps there).
     """
 
     def __init__(self, steps):

@@ -284,6 +284,12 @@ class SailModel:
         `stepper.LinearSystem`)."""
         return self.assembler.evaluate_blocks(outputs, lengths, rates, accelerations)
 
+    def output_rows(self, lengths) -> np.ndarray:
+        """(8, n): tip deflections [m] and root moments [N m] per unit coordinate at 4
+        checked `lengths` (`loads.OUTPUT_NAMES`; `stepper.LinearSystem`)."""
+        moments = self.params.boom_bending_stiffness * self._curvature_rows / lengths[:, None] ** 2
+        return np.concatenate([self._tip_rows, moments])
+
     def resolved_frequency(self, lengths) -> float:
         """The highest angular frequency [rad/s] a time step must resolve at these
         lengths: the first cantilever frequency of the shortest bare boom,
@@ -295,8 +301,8 @@ class SailModel:
     def stepper(self, profile, q0=None, qd0=None, t0: float = 0.0, **options) -> SailStepper:
         """A `SailStepper` holding this model's state (see `stepper.py`).
 
-        `options`: `max_step` [s], `resolved_frequency` [rad/s], `inputs` (a
-        callable `t -> u`, see `loads`).
+        `options`: `rtol`, `atol` (the tolerance), `max_step` [s],
+        `resolved_frequency` [rad/s], `inputs` (a callable `t -> u`, see `loads`).
         """
         return SailStepper(self, profile, q0=q0, qd0=qd0, t0=t0, **options)
 

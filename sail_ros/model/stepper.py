@@ -44,20 +44,29 @@ from __future__ import annotations
 import functools
 import math
 from math import factorial
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 import scipy.linalg
 
 from sail_ros.model.assembly import (
     CANONICAL_DAMPING,
+    DAMPING,
     GYROSCOPIC,
     MASS,
     STIFFNESS,
     STIFFNESS_CANONICAL,
+    STIFFNESS_EQ,
     STRUCTURAL_DAMPING,
 )
 from sail_ros.model.blocks import BlockMatrices, DenseMatrices
+from sail_ros.model.fast_modes import (
+    FreeVibration,
+    FrozenModes,
+    follow,
+    followed,
+    forcing_of,
+)
 from sail_ros.model.layout import per_boom
 
 
@@ -81,6 +90,10 @@ class LinearSystem(Protocol):
     def assemble_inputs(self, lengths) -> np.ndarray:
         """`B_u` (n, number of inputs): generalised forces per unit input at `lengths`
         (4 checked values)."""
+
+    def output_rows(self, lengths) -> np.ndarray:
+        """(8, n): the tip deflections [m] (4 rows) and root moments [N m] (4 rows) per
+        unit coordinate at `lengths` (4 checked values); applied to `qd`, their rates."""
 
 
 class IntegrationError(RuntimeError):
@@ -130,20 +143,44 @@ def _extension_weights(fraction: float) -> tuple[float, np.ndarray]:
 
 # matrices one moving step needs, in this order
 _STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
-# rad: omega_r * h. The (4,4) Padé lags a mode by ~4e-8 (omega h)^9 rad per step: 2e-5
-# at 2 rad. On the reference deployment the midpoint rule's error from the matrices'
-# change over a step dominates: 49 steps at 2 rad left the tips 0.071 % of peak off,
-# 63 steps at 1.5 rad 0.089 % (the bar is 0.2 %).
+# rad: omega_r * h of one rational step. The (4,4) Padé lags a mode by ~4e-8 (omega h)^9
+# rad per step: 2e-5 at 2 rad. A bound beneath the tolerance's choice (the modes above
+# are followed, `fast_modes`); `sail_ros.nodes.sim_params` sizes sub-steps with it.
 PHASE_PER_STEP = 2.0
-# Root moments weigh boom mode i by beta_i^2, so they need the higher boom modes a
-# load step excites: 0.05 s keeps them within 0.01 % of peak on the loaded, damped
-# reference deployment (test_loads_damping), where 0.2 s left them at 1 % (the tips
-# at 0.13 %).
-DEFAULT_MAX_STEP = 0.05
+# The longest step [s], an upper bound for the tolerance's choice: a step of the
+# error-controlled stepper is two rational steps, each within PHASE_PER_STEP of
+# the resolved frequency; this bounds it where the booms are long and the
+# resolved frequency low (at 10 m the frequency rule allows 0.46 s).
+DEFAULT_MAX_STEP = 0.2
+# Local error allowed per step on each output, relative to its peak so far (tips,
+# tip rates, root moments, their rates): chosen by measurement so that whole runs
+# stay within 0.2 % of peak on tips and root moments (model.md §11).
+DEFAULT_RTOL = 2e-4
+# Absolute floors per output [m, m/s, N m, N m/s]: the tolerance of a sail at rest.
+DEFAULT_ATOL = {"tips": 1e-6, "tip_rates": 1e-5, "root_moments": 1e-4, "root_moment_rates": 1e-3}
+OUTPUT_KINDS = tuple(DEFAULT_ATOL)
+# Step size control: the next step is h (safety / err)^(1/3) (the midpoint rule's
+# local error goes as h^3), grown at most GROWTH-fold, shrunk at most to SHRINK.
+SAFETY, GROWTH, SHRINK = 0.9, 2.0, 0.2
 # From this many coordinates the moving step solves by blocks (`blocks.py`): measured
 # on one core, 1.5x faster at n = 160 (n_B = n_M = 20), slower at n = 80 where LAPACK
 # on the whole matrix costs less than numpy's per-call overhead on 10 x 10 blocks.
 BLOCK_SOLVE_MIN_COORDINATES = 120
+
+
+class Trial(NamedTuple):
+    """One attempted moving step: the state at its end, its error against the tolerance
+    (<= 1 meets it), the estimated error per output (`OUTPUT_KINDS`, their units), and
+    what `between` needs: the rational steps' extensions and the followed modes."""
+
+    h: float
+    q: np.ndarray
+    p: np.ndarray
+    qd: np.ndarray | None
+    error: float
+    estimate: np.ndarray
+    extensions: tuple
+    vibration: tuple  # (FreeVibration at the start, at the end) or ()
 
 
 class SailStepper:
@@ -156,12 +193,18 @@ class SailStepper:
         q0: initial coordinates (default 0).
         qd0: initial velocities [m/s] (default 0).
         t0: initial time [s].
-        max_step: largest internal step [s].
-        resolved_frequency: highest angular frequency [rad/s] to integrate
-            accurately; None follows `system.resolved_frequency` at the
-            current lengths.
+        max_step: largest step [s] (an upper bound; the tolerance chooses below it).
+        resolved_frequency: highest angular frequency [rad/s] a rational step must
+            resolve (`PHASE_PER_STEP` rad per step); None follows
+            `system.resolved_frequency` at the current lengths.
         inputs: callable `t -> u` (the system's inputs, e.g. `loads.INPUT_NAMES`),
-            or None for none. May be replaced between steps.
+            or None for none. May be replaced between steps. If it has
+            `switch_times` [s], `advance` ends steps there.
+        rtol: local error allowed per moving step on each output (tips, tip rates,
+            root moments, their rates), relative to its peak so far; None takes
+            fixed steps (`max_step` and the frequency rule) with no estimate.
+        atol: absolute floors per output kind (`OUTPUT_KINDS`: m, m/s, N m, N m/s),
+            a mapping overriding `DEFAULT_ATOL`.
     """
 
     def __init__(
@@ -174,6 +217,8 @@ class SailStepper:
         max_step: float = DEFAULT_MAX_STEP,
         resolved_frequency: float | None = None,
         inputs=None,
+        rtol: float | None = DEFAULT_RTOL,
+        atol=None,
     ):
         if not (math.isfinite(max_step) and max_step > 0):
             raise ValueError(f"max_step must be finite and > 0, got {max_step!r}")
@@ -183,21 +228,36 @@ class SailStepper:
             raise ValueError(
                 f"resolved_frequency must be finite and > 0, got {resolved_frequency!r}"
             )
+        if rtol is not None and not (math.isfinite(rtol) and 0 < rtol < 1):
+            raise ValueError(f"rtol must be None or in (0, 1), got {rtol!r}")
+        floors = dict(DEFAULT_ATOL)
+        for name, value in dict(atol or {}).items():
+            if name not in floors:
+                raise ValueError(f"atol: unknown output {name!r}; outputs are {', '.join(floors)}")
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"atol[{name!r}] must be finite and > 0, got {value!r}")
+            floors[name] = float(value)
         self.system = system
         self.max_step = float(max_step)
         self.resolved_frequency = resolved_frequency
+        self.rtol = None if rtol is None else float(rtol)
+        self.atol = floors
+        self._floors = np.array([floors[k] for k in OUTPUT_KINDS])
         self._static_cache: dict = {}
         self._mass_factor_cache = (b"", None)
+        self._modes_cache = (b"", None)
         self._profile = profile
         self._motion_cache = (math.nan, None)  # (t, motion at t) of the current profile
+        self._assembly_cache: dict = {}
         self.inputs = inputs
         self.steps_taken = 0
+        self.steps_rejected = 0
         self.reset(q0, qd0, t0)
 
     # state ------------------------------------------------------------------
     def reset(self, q0=None, qd0=None, t0: float = 0.0, profile=None):
         """Start again from `q0`, `qd0` (default rest) at time `t0` [s], under
-        `profile` if given (else the current one)."""
+        `profile` if given (else the current one). The error estimate starts again."""
         n = self.system.n
         q = np.zeros(n) if q0 is None else np.array(q0, dtype=float)
         qd = np.zeros(n) if qd0 is None else np.array(qd0, dtype=float)
@@ -215,6 +275,12 @@ class SailStepper:
         M, G = self._mass_gyro(self._t)
         self._p = M @ qd + G @ q
         self._qd_cache = (self._t, qd.copy())
+        self._last = None  # (t0, q0, qd0, Trial or None) of the last step, for `state_at`
+        self._half_velocity = (None, None)  # (Trial, velocity at its middle), for `between`
+        self._proposal = math.inf  # the error control's next step [s]
+        self._estimate = np.zeros(len(OUTPUT_KINDS))
+        self._peaks = np.zeros(len(OUTPUT_KINDS))
+        self._observe(self._t, q, qd)
 
     @property
     def t(self) -> float:
@@ -230,20 +296,50 @@ class SailStepper:
     def qd(self) -> np.ndarray:
         """Current generalised velocities `M^-1 (p - G q)` [m/s] (copy)."""
         if self._qd_cache[0] != self._t:
-            lengths, rates, _ = self._motion(self._t)
-            # M is assembled from finite lengths and the state is checked after every
-            # step: scipy's finiteness scans would only repeat that
-            if rates.any():
-                M, G = self._mass_gyro(self._t)
-                qd = scipy.linalg.cho_solve(
-                    scipy.linalg.cho_factor(M, check_finite=False),
-                    self._p - G @ self._q,
-                    check_finite=False,
-                )
-            else:  # G = 0 at rest, and M depends on the lengths alone: keep its factor
-                qd = scipy.linalg.cho_solve(self._mass_factor(lengths), self._p, check_finite=False)
-            self._qd_cache = (self._t, qd)
+            self._qd_cache = (self._t, self._velocity(self._t, self._q, self._p))
         return self._qd_cache[1].copy()
+
+    def _velocity(self, t, q, p) -> np.ndarray:
+        lengths, rates, _ = self._motion(t)
+        # M is assembled from finite lengths and the state is checked after every
+        # step: scipy's finiteness scans would only repeat that
+        if rates.any():
+            M, G = self._mass_gyro(t)
+            return scipy.linalg.cho_solve(
+                scipy.linalg.cho_factor(M, check_finite=False), p - G @ q, check_finite=False
+            )
+        # G = 0 at rest, and M depends on the lengths alone: keep its factor
+        return scipy.linalg.cho_solve(self._mass_factor(lengths), p, check_finite=False)
+
+    @property
+    def error_estimate(self) -> dict:
+        """The estimated error accumulated since the start (or `reset`), per output kind
+        (`OUTPUT_KINDS`) in its units [m, m/s, N m, N m/s]: the sum of every moving
+        step's local estimate (an undamped sail does not forget an error), 0 for exact
+        steps at rest and for fixed steps (`rtol` None), which estimate nothing."""
+        return dict(zip(OUTPUT_KINDS, self._estimate.tolist(), strict=True))
+
+    @property
+    def relative_error_estimate(self) -> dict:
+        """`error_estimate` over each output's peak so far [-] (nan while it is 0)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(self._peaks > 0, self._estimate / self._peaks, math.nan)
+        return dict(zip(OUTPUT_KINDS, ratio.tolist(), strict=True))
+
+    @property
+    def peaks(self) -> dict:
+        """The largest magnitude of each output kind met so far, in its units."""
+        return dict(zip(OUTPUT_KINDS, self._peaks.tolist(), strict=True))
+
+    def _outputs(self, t, q, qd) -> np.ndarray:
+        """Largest magnitude per output kind (4,) of the state `q`, `qd` at `t`."""
+        rows = self.system.output_rows(self._motion(t)[0])
+        y, yd = np.abs(rows @ q), np.abs(rows @ qd)
+        return np.array([y[:4].max(), yd[:4].max(), y[4:].max(), yd[4:].max()])
+
+    def _observe(self, t, q, qd) -> None:
+        if self.rtol is not None:
+            self._peaks = np.maximum(self._peaks, self._outputs(t, q, qd))
 
     def _mass_factor(self, lengths):
         """The Cholesky factor of `M` at `lengths`, kept for the last lengths asked."""
@@ -273,6 +369,8 @@ class SailStepper:
     def _set_profile(self, profile):
         self._profile = profile
         self._motion_cache = (math.nan, None)
+        self._assembly_cache = {}
+        self._last = None
 
     def energy(self) -> float:
         """Mechanical energy `1/2 qd^T M qd + 1/2 q^T K q` [J] now."""
@@ -284,61 +382,242 @@ class SailStepper:
 
     # integration --------------------------------------------------------------
     def advance(self, t_end: float) -> None:
-        """Integrate up to time `t_end` [s] (no-op if `t_end <= t`)."""
+        """Integrate up to time `t_end` [s] (no-op if `t_end <= t`), with steps chosen by
+        the tolerance (rejected and retried shorter where it is not met), ending at
+        `t_end` and at the inputs' `switch_times`."""
         if not math.isfinite(t_end):
             raise ValueError(f"t_end must be finite, got {t_end!r}")
-        # Equal steps to t_end rather than full steps plus a short remainder:
-        # an abrupt change of step size costs the midpoint rule accuracy.
         while t_end - self._t > 1e-12 * max(1.0, abs(t_end)):
-            remaining = t_end - self._t
-            count = max(1, math.ceil(remaining / self.step_limit() - 1e-9))
-            self.step(remaining / count)
+            self.advance_step(t_end)
+
+    def advance_step(self, t_end: float) -> None:
+        """One accepted step towards `t_end` [s] (not beyond it, nor beyond the next of
+        the inputs' `switch_times`)."""
+        target = min(t_end, self._next_switch())
+        smallest = 1e-6 * max(1.0, abs(target))
+        while True:
+            remaining = target - self._t
+            limit = self.step_limit()
+            # Equal steps to the target rather than full steps plus a short remainder:
+            # an abrupt change of step size costs the midpoint rule accuracy.
+            h = remaining / max(1, math.ceil(remaining / limit - 1e-9))
+            if self._is_static(h) or self.rtol is None or h <= smallest:
+                self.step(h)
+                return
+            if self.try_step(h):
+                return
+
+    def _next_switch(self) -> float:
+        times = getattr(self.inputs, "switch_times", ())
+        later = [t for t in times if t > self._t + 1e-12 * max(1.0, abs(t))]
+        return min(later, default=math.inf)
+
+    def _is_static(self, h) -> bool:
+        is_static = getattr(self._profile, "is_static", None)
+        return is_static is not None and is_static(self._t, self._t + h)
 
     def step(self, h: float) -> None:
-        """One exponential-midpoint step of length `h` [s]."""
-        t_mid = self._t + 0.5 * h
-        lengths, rates, accelerations = self._motion(t_mid)
-        is_static = getattr(self._profile, "is_static", None)
-        force = self._force(t_mid, lengths)
-        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported below
-            if is_static is not None and is_static(self._t, self._t + h):
+        """One step of length `h` [s], taken whatever its error: exact at rest; while the
+        booms move, the exponential midpoint rule, and with `rtol` two of them and one
+        over the whole step for the estimate, the high modes followed."""
+        if self._is_static(h):
+            t_mid = self._t + 0.5 * h
+            lengths = self._motion(t_mid)[0]
+            force = self._force(t_mid, lengths)
+            with np.errstate(over="ignore", invalid="ignore"):
                 q, p = self._static_step(lengths, h, force)
-            else:
-                q, p = self._moving_step(lengths, rates, accelerations, h, force)
+            self._commit(h, q, p, None)
+        elif self.rtol is None:
+            q, p, extension = self._rational_step(self._t, self._q, self._p, h)
+            self._commit(h, q, p, Trial(h, q, p, None, 0.0, np.zeros(4), (extension,), ()))
+        else:
+            trial = self._attempt(h)
+            self._commit(h, trial.q, trial.p, trial)
+
+    def try_step(self, h: float) -> bool:
+        """A moving step of `h` [s] if it meets the tolerance (True); else the state is
+        kept and the next proposal (`step_limit`) shortened (False)."""
+        trial = self._attempt(h)
+        if trial.error <= 1.0:
+            self._commit(h, trial.q, trial.p, trial)
+            return True
+        self.steps_rejected += 1
+        self._proposal = h * max(SHRINK, SAFETY * trial.error ** (-1.0 / 3.0))
+        return False
+
+    def _commit(self, h, q, p, trial) -> None:
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p))):
             raise IntegrationError(f"state became non-finite at t = {self._t + h:.6g} s")
+        self._last = (self._t, self._q, self.qd, trial)
         self._q, self._p = q, p
         self._t += h
         self.steps_taken += 1
+        if trial is not None and trial.qd is not None:
+            self._qd_cache = (self._t, trial.qd)
+        if trial is not None and self.rtol is not None:
+            self._estimate += trial.estimate
+            self._proposal = h * min(GROWTH, SAFETY * max(trial.error, 1e-12) ** (-1.0 / 3.0))
+            self._observe(self._t, q, self.qd)
+
+    def _attempt(self, h: float) -> Trial:
+        """Two rational steps of `h / 2` and one of `h`, the high modes followed over the
+        step in both results; the error of the two halves is estimated as a third of
+        their difference from the whole on the outputs (the rule is of order 2)."""
+        t0, q0, p0 = self._t, self._q, self._p
+        qh, ph, first = self._rational_step(t0, q0, p0, 0.5 * h)
+        q2, p2, second = self._rational_step(t0 + 0.5 * h, qh, ph, 0.5 * h)
+        q1, p1, _ = self._rational_step(t0, q0, p0, h)
+        t1 = t0 + h
+        lengths0, lengths1 = self._motion(t0)[0], self._motion(t1)[0]
+        M1, G1 = self._mass_gyro(t1)
+        factor = scipy.linalg.cho_factor(M1, check_finite=False)
+        qd2 = scipy.linalg.cho_solve(factor, p2 - G1 @ q2, check_finite=False)
+        qd1 = scipy.linalg.cho_solve(factor, p1 - G1 @ q1, check_finite=False)
+        vibration = ()
+        modes0 = self._modes(lengths0)
+        count = followed(modes0, 0.5 * h, self._resolved(lengths0))
+        if count:
+            modes1 = self._modes(lengths1)
+            u = None if self.inputs is None else self._input(t0 + 0.5 * h)
+            qd0 = self.qd
+            start = FreeVibration.of(
+                modes0,
+                count,
+                q0,
+                qd0,
+                forcing_of(modes0, count, self._held(u, lengths0), self._forcing(t0), q0, qd0),
+            )
+            # the end's slow part is the rational steps' (the halves' and the whole's agree
+            # there to the error estimated)
+            forcing = forcing_of(modes1, count, self._held(u, lengths1), self._forcing(t1), q2, qd2)
+            end = follow(start, modes1, h, forcing)
+            q2, qd2 = end.replace_in(q2, qd2)
+            q1, qd1 = end.replace_in(q1, qd1)
+            p2 = M1 @ qd2 + G1 @ q2
+            vibration = (start, end)
+        rows = self.system.output_rows(lengths1)
+        dq, dqd = np.abs(rows @ (q2 - q1)) / 3.0, np.abs(rows @ (qd2 - qd1)) / 3.0
+        estimate = np.array([dq[:4].max(), dqd[:4].max(), dq[4:].max(), dqd[4:].max()])
+        with np.errstate(over="ignore", invalid="ignore"):
+            scale = self._floors + self.rtol * np.maximum(self._peaks, self._outputs(t1, q2, qd2))
+            error = float(np.max(estimate / scale))
+        if not math.isfinite(error):
+            error = math.inf
+        return Trial(h, q2, p2, qd2, error, estimate, (first, second), vibration)
+
+    def _forcing(self, t):
+        """`(C, K_eq - K)` of Eq. 2 at `t`: how the motion couples the modes."""
+        C, K_eq, K, _, _ = self._assembled(t)
+        return C, K_eq - K
+
+    def _assembled(self, t):
+        """`C, K_eq, K, M, G` at `t`, kept for the last two times asked (a step's end is
+        the next one's start)."""
+        found = self._assembly_cache.get(t)
+        if found is None:
+            if len(self._assembly_cache) >= 2:
+                self._assembly_cache.pop(next(iter(self._assembly_cache)))
+            found = self.system.assemble(
+                (DAMPING, STIFFNESS_EQ, STIFFNESS, MASS, GYROSCOPIC), *self._motion(t)
+            )
+            self._assembly_cache[t] = found
+        return found
+
+    def _held(self, u, lengths):
+        """The generalised force of the inputs `u` (held over a step) at `lengths`."""
+        if u is None or not u.any():
+            return None
+        return self.system.assemble_inputs(lengths) @ u
+
+    def _modes(self, lengths) -> FrozenModes:
+        """The frozen modes at `lengths`, kept for the last lengths asked (a step's end is
+        the next one's start)."""
+        key = lengths.tobytes()
+        if self._modes_cache[0] != key:
+            self._modes_cache = (key, FrozenModes.at(self.system, lengths))
+        return self._modes_cache[1]
+
+    def _resolved(self, lengths) -> float:
+        if self.resolved_frequency is not None:
+            return self.resolved_frequency
+        return self.system.resolved_frequency(lengths)
+
+    def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """`(q, qd)` at a time `t` [s] within the last step (its end: the state itself),
+        from the step's continuous extension (`between`) or, at rest, the exact step."""
+        if abs(t - self._t) <= 1e-12 * max(1.0, abs(t)) or self._last is None:
+            return self.q, self.qd
+        t0, q0, qd0, trial = self._last
+        if not t0 <= t <= self._t:
+            raise ValueError(f"t = {t!r} s is not within the last step [{t0}, {self._t}] s")
+        if trial is None:  # at rest: the exact propagator from the step's start
+            lengths = self._motion(0.5 * (t0 + self._t))[0]
+            M, G = self._mass_gyro(t0)
+            saved = self._q, self._p
+            self._q, self._p = q0, M @ qd0 + G @ q0
+            force = self._force(0.5 * (t0 + self._t), lengths)
+            q, p = self._static_step(lengths, t - t0, force)
+            self._q, self._p = saved
+            return q, self._velocity(t, q, p)
+        q, qd = self.between([(t - t0) / (self._t - t0)], qd0, self.qd)
+        return q[0], qd[0]
 
     def between(self, fractions, qd0, qd1) -> tuple[np.ndarray, np.ndarray]:
         """`(q, qd)` (each (m, n)) inside the last step, a moving one, at `fractions`
         (m values in (0, 1)) of it, given the velocities `qd0`, `qd1` [m/s] at its ends.
 
-        The step's own resolvent solutions, recombined with the weights of the
-        continuous extension `R_f` (`_extension_weights`): `q(f) = c q0 + sum_k 2 Re[w_k
-        y_q,k]`, and, with the midpoint matrices, `M^-1 (p - G q)(f) = c qd*_0 + sum_k 2
-        Re[w_k u_k]`. `qd*_0` (the start's velocity under the midpoint matrices) is
-        taken as `qd0` and a term linear in `f` makes both ends exact; the difference
-        is of the midpoint rule's own order (the change of `M`, `G` over the step)."""
-        q0, y_q, u, v = self._extension
-        q = np.empty((len(fractions), q0.size))
+        Each rational step's own resolvent solutions, recombined with the weights of
+        the continuous extension `R_f` (`_extension_weights`): `q(f) = c q0 + sum_k 2
+        Re[w_k y_q,k]`, and, with the midpoint matrices, `M^-1 (p - G q)(f) = c qd*_0 +
+        sum_k 2 Re[w_k u_k]`. `qd*_0` (the start's velocity under the midpoint matrices)
+        is taken as the velocity at the rational step's start, and a term linear in `f`
+        makes both ends exact; the difference is of the midpoint rule's own order (the
+        change of `M`, `G` over the step). The followed modes (`fast_modes`) are put in
+        as the start's free vibration turned on (first half) or the end's turned back
+        (second half)."""
+        t0, _, _, trial = self._last
+        h = self._t - t0
+        extensions = trial.extensions
+        parts = len(extensions)
+        # the ends of each rational step: the step's ends, and its middle when halved
+        if parts == 2:
+            q_half = extensions[1][0]
+            if self._half_velocity[0] is not trial:
+                self._half_velocity = (
+                    trial,
+                    self._velocity(t0 + 0.5 * h, q_half, extensions[1][4]),
+                )
+            qd_half = self._half_velocity[1]
+            ends = ((qd0, qd_half, extensions[0][0]), (qd_half, qd1, q_half))
+        else:
+            ends = ((qd0, qd1, extensions[0][0]),)
+        q = np.empty((len(fractions), self._q.size))
         qd = np.empty_like(q)
-        correction = qd1 - qd0 - 2.0 * v
         for i, fraction in enumerate(fractions):
-            c, w = _extension_weights(float(fraction))
-            q[i] = c * q0 + 2.0 * (w @ y_q).real
-            qd[i] = c * qd0 + 2.0 * (w @ u).real + fraction * correction
+            part = min(int(fraction * parts), parts - 1)
+            local = fraction * parts - part
+            q_start, y_q, u, v, _ = extensions[part]
+            start_qd, end_qd, _ = ends[part]
+            c, w = _extension_weights(float(local))
+            q[i] = c * q_start + 2.0 * (w @ y_q).real
+            qd[i] = c * start_qd + 2.0 * (w @ u).real + local * (end_qd - start_qd - 2.0 * v)
+            if trial.vibration:
+                start, end = trial.vibration
+                near, offset = (
+                    (start, fraction * h) if fraction < 0.5 else (end, (fraction - 1) * h)
+                )
+                q[i], qd[i] = near.turned(offset).replace_in(q[i], qd[i])
         return q, qd
 
     def step_limit(self) -> float:
-        """The longest step [s] allowed now: `max_step`, and 2 rad of `resolved_frequency`
-        (default: `system.resolved_frequency` at the current lengths)."""
-        omega = self.resolved_frequency
-        if omega is None:
-            lengths, _, _ = self._motion(self._t)
-            omega = self.system.resolved_frequency(lengths)
-        return min(self.max_step, PHASE_PER_STEP / omega)
+        """The longest step [s] allowed now: `max_step`, the error control's proposal,
+        and `PHASE_PER_STEP` rad of `resolved_frequency` per rational step (default:
+        `system.resolved_frequency` at the current lengths; a step of the
+        error-controlled stepper is two of them)."""
+        lengths, _, _ = self._motion(self._t)
+        rational_steps = 1 if self.rtol is None else 2
+        limit = min(self.max_step, rational_steps * PHASE_PER_STEP / self._resolved(lengths))
+        return min(limit, self._proposal)
 
     def _motion(self, t):
         """The profile at `t`, checked; cached, since a step asks for the same time
@@ -372,19 +651,29 @@ class SailStepper:
         """Generalised forces `B_u u(t)` [N] at `lengths`; None when there are none."""
         if self.inputs is None:
             return None
+        return self._held(self._input(t), lengths)
+
+    def _input(self, t) -> np.ndarray:
+        """The inputs `u` at `t`, checked."""
         u = np.asarray(self.inputs(t), dtype=float)
         if u.ndim != 1 or not np.all(np.isfinite(u)):
             raise ValueError(f"inputs at t = {t:.6g} s must be finite values, got {u!r}")
-        if not u.any():
-            return None
-        return self.system.assemble_inputs(lengths) @ u
+        return u
 
     def _mass_gyro(self, t):
-        lengths, rates, accelerations = self._motion(t)
-        M, G = self.system.assemble((MASS, GYROSCOPIC), lengths, rates, accelerations)
+        _, _, _, M, G = self._assembled(t)
         return M, G
 
-    def _moving_step(self, lengths, rates, accelerations, h, force):
+    def _rational_step(self, t0, q0, p0, h):
+        """One exponential-midpoint step of `h` [s] from `(q0, p0)` at `t0` with the
+        rational approximant (`_moving_step`): `(q1, p1, extension)`."""
+        t_mid = t0 + 0.5 * h
+        lengths, rates, accelerations = self._motion(t_mid)
+        force = self._force(t_mid, lengths)
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
+            return self._moving_step(q0, p0, lengths, rates, accelerations, h, force)
+
+    def _moving_step(self, q0, p0, lengths, rates, accelerations, h, force):
         """x1 = R(h B) x0 + h phi_R(h B) f with R the (4,4) Padé approximant of exp and
         phi_R(z) = (R(z) - 1) / z, by partial fractions:
         R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x],
@@ -401,7 +690,6 @@ class SailStepper:
             mats = self.system.assemble_blocks(_STEP_MATRICES, *motion)
         else:
             mats = DenseMatrices(self.system.assemble(_STEP_MATRICES, *motion))
-        q0, p0 = self._q, self._p
         taus = h / _PADE_POLES
         _, _, Kq, Gq = mats.matvec(q0)
         if force is not None:  # x_p = p0 + tau f
@@ -410,10 +698,10 @@ class SailStepper:
         weighted = _PADE_WEIGHTS[:, None] * u
         v = weighted.sum(axis=0).real
         s = _PADE_WEIGHTS.real.sum() * q0 + (taus[:, None] * weighted).sum(axis=0).real
-        self._extension = (q0, q0 + taus[:, None] * u, u, v)  # y_q,k, u_k: for `between`
+        extension = (q0, q0 + taus[:, None] * u, u, v, p0)  # y_q,k, u_k: for `between`
         zero = np.zeros_like(q0)
         Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))  # one call beats two
-        return _PADE_CONSTANT * q0 + 2.0 * s, _PADE_CONSTANT * p0 + 2.0 * (Mv + Gs)
+        return _PADE_CONSTANT * q0 + 2.0 * s, _PADE_CONSTANT * p0 + 2.0 * (Mv + Gs), extension
 
     def _static_step(self, lengths, h, force):
         key = (lengths.tobytes(), h)
