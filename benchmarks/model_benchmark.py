@@ -112,14 +112,16 @@ def _first_order(model, profile, loads, method, t_out, **tolerances):
     x = np.concatenate([np.zeros(n), q0_of(model)])
     rows, calls = [], 0
     for a, b, u in _pieces(loads):
-        inside = [t for t in t_out if (a < t or a == 0.0) and t <= b]
+        inside = [t for t in t_out if a <= t < b]
         options = {"jac": jacobian} if method == "Radau" else {}
         solution = solve_ivp(
-            rhs, (a, b), x, method=method, t_eval=inside, args=(u,), **options, **tolerances
+            rhs, (a, b), x, method=method, t_eval=[*inside, b], args=(u,), **options, **tolerances
         )
-        rows.extend(solution.y[n:].T)
+        rows.extend(solution.y[n:, : len(inside)].T)
         calls += solution.nfev
         x = solution.y[:, -1]
+    if t_out[-1] == T_END:
+        rows.append(x[n:])
     return np.array(rows), calls
 
 

@@ -37,8 +37,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from sail_ros.model.assembly import MASS, STIFFNESS, STRUCTURAL_DAMPING
-
 # A mode is followed when it lies above this multiple of the system's resolved
 # frequency (the first cantilever frequency of the shortest bare boom, above the
 # first boom modes and, at deployment lengths, the membrane modes it couples to) and
@@ -50,20 +48,22 @@ FOLLOW_PHASE = 2.0
 @dataclass(frozen=True)
 class FrozenModes:
     """The modes of `(K, M)` at fixed lengths: frequencies `omega` [rad/s] ascending,
-    `V` (n, n) with `V^T M V = I`, modal damping `d` [1/s], and `M`."""
+    `V` (n, n) with `V^T M V = I`, modal damping `d` [1/s], `M` and `MV = M V`."""
 
     omega: np.ndarray
     V: np.ndarray
     d: np.ndarray
     M: np.ndarray
+    MV: np.ndarray
 
     @classmethod
-    def at(cls, system, lengths: np.ndarray) -> FrozenModes:
-        zero = np.zeros(4)
-        M, K, C_d = system.assemble((MASS, STIFFNESS, STRUCTURAL_DAMPING), lengths, zero, zero)
+    def of(cls, M: np.ndarray, K: np.ndarray, damping: tuple[float, float]) -> FrozenModes:
+        """From the mass and elastic stiffness at the lengths and the Rayleigh
+        coefficients `(alpha, beta)`: `V^T C_d V = diag(alpha + beta omega^2)`."""
         lam, V = scipy.linalg.eigh(K, M, check_finite=False)
-        d = np.einsum("ij,ik,kj->j", V, C_d, V) if C_d.any() else np.zeros(lam.size)
-        return cls(np.sqrt(np.maximum(lam, 0.0)), V, d, M)
+        lam = np.maximum(lam, 0.0)
+        alpha, beta = damping
+        return cls(np.sqrt(lam), V, alpha + beta * lam, M, M @ V)
 
 
 def followed(modes: FrozenModes, h: float, resolved: float) -> int:
@@ -90,8 +90,9 @@ class FreeVibration:
         V = modes.V[:, -count:]
         w, d = modes.omega[-count:], modes.d[-count:]
         s = (V.T @ forcing) / w**2
-        e = V.T @ (modes.M @ q) - s
-        v = V.T @ (modes.M @ qd)
+        MV = modes.MV[:, -count:]
+        e = MV.T @ q - s
+        v = MV.T @ qd
         wd, decay = _damped(w, d)
         return cls(modes, count, e - 1j * (v + 0.5 * decay * e) / wd, s)
 
@@ -102,20 +103,23 @@ class FreeVibration:
         e = self.a.real
         return e + self.s, -wd * self.a.imag - 0.5 * decay * e
 
-    def turned(self, seconds: float) -> FreeVibration:
-        """This vibration `seconds` [s] later (earlier if negative), in the same modes."""
+    def turned(self, seconds) -> FreeVibration:
+        """This vibration `seconds` [s] later (earlier if negative), in the same modes; an
+        array of m times gives m vibrations, `a` of shape (m, count)."""
         w, d = self.modes.omega[-self.count :], self.modes.d[-self.count :]
         wd, decay = _damped(w, d)
+        rate = 1j * wd - 0.5 * decay
         return FreeVibration(
-            self.modes, self.count, self.a * np.exp((1j * wd - 0.5 * decay) * seconds), self.s
+            self.modes, self.count, self.a * np.exp(np.multiply.outer(seconds, rate)), self.s
         )
 
     def replace_in(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """`q`, `qd` with these modes' part replaced by this vibration (and static part)."""
+        """`q`, `qd` ((n,) or (m, n), one row per vibration) with these modes' part replaced
+        by this vibration (and the static part)."""
         V = self.modes.V[:, -self.count :]
         e, v = self.coordinates()
-        MV = self.modes.M @ V
-        return q + V @ (e - MV.T @ q), qd + V @ (v - MV.T @ qd)
+        MV = self.modes.MV[:, -self.count :]
+        return q + (e - q @ MV) @ V.T, qd + (v - qd @ MV) @ V.T
 
 
 def _damped(w: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -129,8 +133,7 @@ def _damped(w: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def slow_part(modes: FrozenModes, count: int, x: np.ndarray) -> np.ndarray:
     """`x` (coordinates or velocities) less its part in the `count` highest modes."""
-    V = modes.V[:, -count:]
-    return x - V @ (V.T @ (modes.M @ x))
+    return x - modes.V[:, -count:] @ (modes.MV[:, -count:].T @ x)
 
 
 def forcing_of(modes: FrozenModes, count: int, force, matrices, q, qd) -> np.ndarray:
@@ -153,7 +156,7 @@ def follow(start: FreeVibration, end_modes: FrozenModes, h: float, end_forcing) 
     wd1, d1 = _damped(w1, end_modes.d[-m:])
     phase = 0.5 * (wd0 + wd1) * h
     V0, V1 = start.modes.V[:, -m:], end_modes.V[:, -m:]
-    overlap = V1.T @ (end_modes.M @ V0)
+    overlap = end_modes.MV[:, -m:].T @ V0
     transfer = overlap * np.sinc((phase[:, None] - phase[None, :]) / (2.0 * np.pi))
     half = np.exp(0.5j * phase - 0.25 * (d0 + d1) * h * 0.5)
     a = np.sqrt(w0 / w1) * half * (transfer @ (half * start.a)) if m else start.a

@@ -67,16 +67,23 @@ def simulate(
         raise ValueError(f"t_eval must increase within [0, t_end = {t_end}], got {t_eval!r}")
     q = np.empty((t_eval.size, system.n))
     qd = np.empty((t_eval.size, system.n))
-    # Steps end at t_end and at the inputs' switch times, and output times inside a step
-    # come from its continuous extension (`SailStepper.state_at`); inputs whose switches
-    # are not known (a plain callable) and fixed steps end steps at output times too.
+    # Steps end at t_end and at the inputs' switch times, and output times inside a
+    # moving step come from its continuous extension (`SailStepper.states_at`); inputs
+    # whose switches are not known (a plain callable) and fixed steps end steps at
+    # output times too, and so do steps at rest (exact at any length).
     free = stepper.rtol is not None and (inputs is None or hasattr(inputs, "switch_times"))
-    for i, t in enumerate(t_eval):
+    done = 0
+    while done < t_eval.size:
+        t = t_eval[done]
         while t - stepper.t > 1e-12 * max(1.0, abs(t)):
-            stepper.advance_step(t_end if free else t)
-        q[i], qd[i] = stepper.state_at(t)
+            stepper.advance_step(t_end if free else t, rest_end=t)
+        slack = 1e-12 * max(1.0, abs(stepper.t))
+        reached = done + int(np.searchsorted(t_eval[done:], stepper.t + slack, "right"))
+        q[done:reached], qd[done:reached] = stepper.states_at(t_eval[done:reached])
         if progress is not None:
-            progress(t)
+            for t in t_eval[done:reached]:
+                progress(t)
+        done = reached
     return Run(t_eval.copy(), q, qd, stepper)
 
 

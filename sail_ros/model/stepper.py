@@ -41,7 +41,6 @@ systems solve by eliminating each quadrant's membrane) and that frequency bound.
 
 from __future__ import annotations
 
-import functools
 import math
 from math import factorial
 from typing import NamedTuple, Protocol
@@ -122,7 +121,22 @@ _PADE_CONSTANT, _PADE_POLES, _PADE_RESIDUES = _diagonal_pade_partial_fractions(P
 _PADE_WEIGHTS = -_PADE_RESIDUES / _PADE_POLES  # r_k (hB - z_k)^-1 = -(r_k / z_k) (I - tau_k B)^-1
 
 
-@functools.lru_cache(maxsize=64)
+def _extension_system() -> np.ndarray:
+    """The LU factors of the linear map from `(c, Re w_k, Im w_k)` to the Taylor
+    coefficients of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]` up to order 4: the
+    coefficient of `z^m` is `c [m = 0] + 2 Re sum_k w_k z_k^-m`."""
+    rows = []
+    for m in range(2 * _PADE_POLES.size + 1):
+        g = 2.0 * _PADE_POLES ** (-m)  # Re(w g) = Re w Re g - Im w Im g
+        rows.append([float(m == 0), *np.column_stack([g.real, -g.imag]).ravel()])
+    return scipy.linalg.lu_factor(np.array(rows))
+
+
+_EXTENSION_FACTORS = _extension_system()
+_EXTENSION_ORDERS = np.arange(2 * _PADE_POLES.size + 1)
+_EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
+
+
 def _extension_weights(fraction: float) -> tuple[float, np.ndarray]:
     """`(c, w)` of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the continuous
     extension of the step's Padé approximant to the fraction `f` of the step: same
@@ -131,13 +145,8 @@ def _extension_weights(fraction: float) -> tuple[float, np.ndarray]:
     fractions j / k, k <= 5 (an undamped mode is not amplified), at most 1.026 for
     k <= 20 (near f = 0 or 1, at omega h ~ 5.5); the extension only samples, nothing
     integrated grows."""
-    # coefficient of z^m: c [m = 0] + 2 Re sum_k w_k z_k^-m = f^m / m!
-    rows = []
-    for m in range(2 * _PADE_POLES.size + 1):
-        g = 2.0 * _PADE_POLES ** (-m)  # Re(w g) = Re w Re g - Im w Im g
-        rows.append([float(m == 0), *np.column_stack([g.real, -g.imag]).ravel()])
-    rhs = [fraction**m / factorial(m) for m in range(len(rows))]
-    x = np.linalg.solve(np.array(rows), np.array(rhs))
+    rhs = fraction**_EXTENSION_ORDERS / _EXTENSION_FACTORIALS
+    x = scipy.linalg.lu_solve(_EXTENSION_FACTORS, rhs, check_finite=False)
     return float(x[0]), x[1::2] + 1j * x[2::2]
 
 
@@ -155,17 +164,29 @@ DEFAULT_MAX_STEP = 0.2
 # Local error allowed per step on each output, relative to its peak so far (tips,
 # tip rates, root moments, their rates): chosen by measurement so that whole runs
 # stay within 0.2 % of peak on tips and root moments (model.md §11).
-DEFAULT_RTOL = 2e-4
+DEFAULT_RTOL = 1e-3
 # Absolute floors per output [m, m/s, N m, N m/s]: the tolerance of a sail at rest.
 DEFAULT_ATOL = {"tips": 1e-6, "tip_rates": 1e-5, "root_moments": 1e-4, "root_moment_rates": 1e-3}
 OUTPUT_KINDS = tuple(DEFAULT_ATOL)
 # Step size control: the next step is h (safety / err)^(1/3) (the midpoint rule's
 # local error goes as h^3), grown at most GROWTH-fold, shrunk at most to SHRINK.
-SAFETY, GROWTH, SHRINK = 0.9, 2.0, 0.2
+SAFETY, GROWTH, SHRINK = 0.8, 1.5, 0.2
 # From this many coordinates the moving step solves by blocks (`blocks.py`): measured
 # on one core, 1.5x faster at n = 160 (n_B = n_M = 20), slower at n = 80 where LAPACK
 # on the whole matrix costs less than numpy's per-call overhead on 10 x 10 blocks.
 BLOCK_SOLVE_MIN_COORDINATES = 120
+
+
+def _rayleigh(system) -> tuple[float, float]:
+    """`(alpha, beta)` of the system's Rayleigh damping, read off `C_d` against `M` and `K`
+    at a length of 10 m at rest (`C_d = alpha M + beta K` at every length)."""
+    lengths, zero = np.full(4, 10.0), np.zeros(4)
+    M, K, C_d = system.assemble((MASS, STIFFNESS, STRUCTURAL_DAMPING), lengths, zero, zero)
+    if not C_d.any():
+        return 0.0, 0.0
+    basis = np.stack([M.ravel(), K.ravel()], axis=1)
+    (alpha, beta), *_ = np.linalg.lstsq(basis, C_d.ravel(), rcond=None)
+    return float(alpha), float(beta)
 
 
 class Trial(NamedTuple):
@@ -245,7 +266,10 @@ class SailStepper:
         self._floors = np.array([floors[k] for k in OUTPUT_KINDS])
         self._static_cache: dict = {}
         self._mass_factor_cache = (b"", None)
-        self._modes_cache = (b"", None)
+        self._modes_cache: dict = {}
+        self._rows_cache = (b"", None)
+        # Rayleigh alpha [1/s], beta [s] from the system's damping: C_d = alpha M + beta K
+        self._rayleigh = _rayleigh(system)
         self._profile = profile
         self._motion_cache = (math.nan, None)  # (t, motion at t) of the current profile
         self._assembly_cache: dict = {}
@@ -275,7 +299,7 @@ class SailStepper:
         M, G = self._mass_gyro(self._t)
         self._p = M @ qd + G @ q
         self._qd_cache = (self._t, qd.copy())
-        self._last = None  # (t0, q0, qd0, Trial or None) of the last step, for `state_at`
+        self._last = None  # (t0, q0, qd0, Trial or None) of the last step, for `states_at`
         self._half_velocity = (None, None)  # (Trial, velocity at its middle), for `between`
         self._proposal = math.inf  # the error control's next step [s]
         self._estimate = np.zeros(len(OUTPUT_KINDS))
@@ -333,7 +357,7 @@ class SailStepper:
 
     def _outputs(self, t, q, qd) -> np.ndarray:
         """Largest magnitude per output kind (4,) of the state `q`, `qd` at `t`."""
-        rows = self.system.output_rows(self._motion(t)[0])
+        rows = self._rows(self._motion(t)[0])
         y, yd = np.abs(rows @ q), np.abs(rows @ qd)
         return np.array([y[:4].max(), yd[:4].max(), y[4:].max(), yd[4:].max()])
 
@@ -390,10 +414,13 @@ class SailStepper:
         while t_end - self._t > 1e-12 * max(1.0, abs(t_end)):
             self.advance_step(t_end)
 
-    def advance_step(self, t_end: float) -> None:
+    def advance_step(self, t_end: float, rest_end: float = math.inf) -> None:
         """One accepted step towards `t_end` [s] (not beyond it, nor beyond the next of
-        the inputs' `switch_times`)."""
+        the inputs' `switch_times`, nor, where the booms stand still, beyond `rest_end`
+        [s]: a batch run's next output, which an exact step reaches at no cost)."""
         target = min(t_end, self._next_switch())
+        if self._is_static(min(target, self._t + self.step_limit()) - self._t):
+            target = min(target, max(rest_end, self._t))
         smallest = 1e-6 * max(1.0, abs(target))
         while True:
             remaining = target - self._t
@@ -474,10 +501,10 @@ class SailStepper:
         qd2 = scipy.linalg.cho_solve(factor, p2 - G1 @ q2, check_finite=False)
         qd1 = scipy.linalg.cho_solve(factor, p1 - G1 @ q1, check_finite=False)
         vibration = ()
-        modes0 = self._modes(lengths0)
+        modes0 = self._modes(t0)
         count = followed(modes0, 0.5 * h, self._resolved(lengths0))
         if count:
-            modes1 = self._modes(lengths1)
+            modes1 = self._modes(t1)
             u = None if self.inputs is None else self._input(t0 + 0.5 * h)
             qd0 = self.qd
             start = FreeVibration.of(
@@ -495,7 +522,7 @@ class SailStepper:
             q1, qd1 = end.replace_in(q1, qd1)
             p2 = M1 @ qd2 + G1 @ q2
             vibration = (start, end)
-        rows = self.system.output_rows(lengths1)
+        rows = self._rows(lengths1)
         dq, dqd = np.abs(rows @ (q2 - q1)) / 3.0, np.abs(rows @ (qd2 - qd1)) / 3.0
         estimate = np.array([dq[:4].max(), dqd[:4].max(), dq[4:].max(), dqd[4:].max()])
         with np.errstate(over="ignore", invalid="ignore"):
@@ -529,38 +556,63 @@ class SailStepper:
             return None
         return self.system.assemble_inputs(lengths) @ u
 
-    def _modes(self, lengths) -> FrozenModes:
-        """The frozen modes at `lengths`, kept for the last lengths asked (a step's end is
-        the next one's start)."""
+    def _modes(self, t) -> FrozenModes:
+        """The frozen modes at the lengths at `t`, kept for the last two lengths asked (a
+        step's end is the next one's start; a refused step's start is the retry's)."""
+        key = self._motion(t)[0].tobytes()
+        found = self._modes_cache.get(key)
+        if found is None:
+            if len(self._modes_cache) >= 2:
+                self._modes_cache.pop(next(iter(self._modes_cache)))
+            _, _, K, M, _ = self._assembled(t)
+            found = self._modes_cache[key] = FrozenModes.of(M, K, self._rayleigh)
+        return found
+
+    def _rows(self, lengths) -> np.ndarray:
+        """`system.output_rows` at `lengths`, kept for the last lengths asked."""
         key = lengths.tobytes()
-        if self._modes_cache[0] != key:
-            self._modes_cache = (key, FrozenModes.at(self.system, lengths))
-        return self._modes_cache[1]
+        if self._rows_cache[0] != key:
+            self._rows_cache = (key, self.system.output_rows(lengths))
+        return self._rows_cache[1]
 
     def _resolved(self, lengths) -> float:
         if self.resolved_frequency is not None:
             return self.resolved_frequency
         return self.system.resolved_frequency(lengths)
 
-    def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """`(q, qd)` at a time `t` [s] within the last step (its end: the state itself),
-        from the step's continuous extension (`between`) or, at rest, the exact step."""
-        if abs(t - self._t) <= 1e-12 * max(1.0, abs(t)) or self._last is None:
-            return self.q, self.qd
+    def states_at(self, times) -> tuple[np.ndarray, np.ndarray]:
+        """`(q, qd)` (each (m, n)) at `times` [s] (m values) within the last step (its end:
+        the state itself), from the step's continuous extension (`between`) or, at rest,
+        the exact step from its start."""
+        times = np.asarray(times, dtype=float)
+        q, qd = np.empty((times.size, self._q.size)), np.empty((times.size, self._q.size))
+        end = np.abs(times - self._t) <= 1e-12 * np.maximum(1.0, np.abs(times))
+        q[end], qd[end] = self._q, self.qd
+        inside = times[~end]
+        if inside.size == 0:
+            return q, qd
+        if self._last is None:
+            raise ValueError(f"times {inside.tolist()!r} s: no step has been taken yet")
         t0, q0, qd0, trial = self._last
-        if not t0 <= t <= self._t:
-            raise ValueError(f"t = {t!r} s is not within the last step [{t0}, {self._t}] s")
+        if inside.min() < t0 or inside.max() > self._t:
+            raise ValueError(
+                f"times {inside.tolist()!r} s are not all within the last step [{t0}, {self._t}] s"
+            )
         if trial is None:  # at rest: the exact propagator from the step's start
-            lengths = self._motion(0.5 * (t0 + self._t))[0]
             M, G = self._mass_gyro(t0)
-            saved = self._q, self._p
-            self._q, self._p = q0, M @ qd0 + G @ q0
+            lengths = self._motion(0.5 * (t0 + self._t))[0]
             force = self._force(0.5 * (t0 + self._t), lengths)
-            q, p = self._static_step(lengths, t - t0, force)
+            saved = self._q, self._p
+            rows = []
+            for t in inside:
+                self._q, self._p = q0, M @ qd0 + G @ q0
+                q_t, p_t = self._static_step(lengths, t - t0, force)
+                rows.append((q_t, self._velocity(t, q_t, p_t)))
             self._q, self._p = saved
-            return q, self._velocity(t, q, p)
-        q, qd = self.between([(t - t0) / (self._t - t0)], qd0, self.qd)
-        return q[0], qd[0]
+            q[~end], qd[~end] = (np.array(part) for part in zip(*rows, strict=True))
+            return q, qd
+        q[~end], qd[~end] = self.between((inside - t0) / (self._t - t0), qd0, self.qd)
+        return q, qd
 
     def between(self, fractions, qd0, qd1) -> tuple[np.ndarray, np.ndarray]:
         """`(q, qd)` (each (m, n)) inside the last step, a moving one, at `fractions`
@@ -591,22 +643,32 @@ class SailStepper:
             ends = ((qd0, qd_half, extensions[0][0]), (qd_half, qd1, q_half))
         else:
             ends = ((qd0, qd1, extensions[0][0]),)
-        q = np.empty((len(fractions), self._q.size))
+        fractions = np.asarray(fractions, dtype=float)
+        q = np.empty((fractions.size, self._q.size))
         qd = np.empty_like(q)
-        for i, fraction in enumerate(fractions):
-            part = min(int(fraction * parts), parts - 1)
-            local = fraction * parts - part
-            q_start, y_q, u, v, _ = extensions[part]
-            start_qd, end_qd, _ = ends[part]
-            c, w = _extension_weights(float(local))
-            q[i] = c * q_start + 2.0 * (w @ y_q).real
-            qd[i] = c * start_qd + 2.0 * (w @ u).real + local * (end_qd - start_qd - 2.0 * v)
-            if trial.vibration:
-                start, end = trial.vibration
-                near, offset = (
-                    (start, fraction * h) if fraction < 0.5 else (end, (fraction - 1) * h)
-                )
-                q[i], qd[i] = near.turned(offset).replace_in(q[i], qd[i])
+        part = np.minimum((fractions * parts).astype(int), parts - 1)
+        for k in range(parts):
+            inside = part == k
+            if not inside.any():
+                continue
+            local = fractions[inside] * parts - k
+            q_start, y_q, u, v, _ = extensions[k]
+            start_qd, end_qd, _ = ends[k]
+            weights = [_extension_weights(float(f)) for f in local]
+            c = np.array([pair[0] for pair in weights])
+            w = np.array([pair[1] for pair in weights]).reshape(local.size, -1)
+            q[inside] = np.outer(c, q_start) + 2.0 * (w @ y_q).real
+            qd[inside] = (
+                np.outer(c, start_qd)
+                + 2.0 * (w @ u).real
+                + np.outer(local, end_qd - start_qd - 2.0 * v)
+            )
+        if trial.vibration:
+            for near, early in zip(trial.vibration, (True, False), strict=True):
+                rows = (fractions < 0.5) == early
+                if rows.any():
+                    offset = (fractions[rows] - (0.0 if early else 1.0)) * h
+                    q[rows], qd[rows] = near.turned(offset).replace_in(q[rows], qd[rows])
         return q, qd
 
     def step_limit(self) -> float:
