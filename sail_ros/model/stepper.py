@@ -137,17 +137,18 @@ _EXTENSION_ORDERS = np.arange(2 * _PADE_POLES.size + 1)
 _EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
 
 
-def _extension_weights(fraction: float) -> tuple[float, np.ndarray]:
-    """`(c, w)` of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the continuous
-    extension of the step's Padé approximant to the fraction `f` of the step: same
-    poles `z_k`, Taylor series equal to `exp(f z)` to order 4 (error ~(omega h)^5 for a
-    mode), `R_1` the approximant itself. On the imaginary axis `|R_f| <= 1` for the
-    fractions j / k, k <= 5 (an undamped mode is not amplified), at most 1.026 for
+def _extension_weights(fractions) -> tuple[np.ndarray, np.ndarray]:
+    """`(c, w)` ((m,) and (m, 2)) of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the
+    continuous extension of the step's Padé approximant to the fractions `f` of the step:
+    same poles `z_k`, Taylor series equal to `exp(f z)` to order 4 (error ~(omega h)^5
+    for a mode), `R_1` the approximant itself. On the imaginary axis `|R_f| <= 1` for
+    the fractions j / k, k <= 5 (an undamped mode is not amplified), at most 1.026 for
     k <= 20 (near f = 0 or 1, at omega h ~ 5.5); the extension only samples, nothing
     integrated grows."""
-    rhs = fraction**_EXTENSION_ORDERS / _EXTENSION_FACTORIALS
+    f = np.atleast_1d(np.asarray(fractions, dtype=float))
+    rhs = f[None, :] ** _EXTENSION_ORDERS[:, None] / _EXTENSION_FACTORIALS[:, None]
     x = scipy.linalg.lu_solve(_EXTENSION_FACTORS, rhs, check_finite=False)
-    return float(x[0]), x[1::2] + 1j * x[2::2]
+    return x[0], (x[1::2] + 1j * x[2::2]).T
 
 
 # matrices one moving step needs, in this order
@@ -168,6 +169,9 @@ DEFAULT_RTOL = 1e-3
 # Absolute floors per output [m, m/s, N m, N m/s]: the tolerance of a sail at rest.
 DEFAULT_ATOL = {"tips": 1e-6, "tip_rates": 1e-5, "root_moments": 1e-4, "root_moment_rates": 1e-3}
 OUTPUT_KINDS = tuple(DEFAULT_ATOL)
+# A step's end takes the followed modes from its start's by one subspace iteration; every
+# this many steps (and where the start has too few) all modes are found afresh.
+MODES_REFRESH = 8
 # Step size control: the next step is h (safety / err)^(1/3) (the midpoint rule's
 # local error goes as h^3), grown at most GROWTH-fold, shrunk at most to SHRINK.
 SAFETY, GROWTH, SHRINK = 0.8, 1.5, 0.2
@@ -504,7 +508,7 @@ class SailStepper:
         modes0 = self._modes(t0)
         count = followed(modes0, 0.5 * h, self._resolved(lengths0))
         if count:
-            modes1 = self._modes(t1)
+            modes1 = self._modes(t1, modes0, count)
             u = None if self.inputs is None else self._input(t0 + 0.5 * h)
             qd0 = self.qd
             start = FreeVibration.of(
@@ -556,16 +560,22 @@ class SailStepper:
             return None
         return self.system.assemble_inputs(lengths) @ u
 
-    def _modes(self, t) -> FrozenModes:
+    def _modes(self, t, near: FrozenModes | None = None, count: int = 0) -> FrozenModes:
         """The frozen modes at the lengths at `t`, kept for the last two lengths asked (a
-        step's end is the next one's start; a refused step's start is the retry's)."""
+        step's end is the next one's start; a refused step's start is the retry's): the
+        `count` highest carried on from `near` (`FrozenModes.updated`), all of them
+        afresh every `MODES_REFRESH` steps or when `near` has fewer than `count`."""
         key = self._motion(t)[0].tobytes()
         found = self._modes_cache.get(key)
-        if found is None:
+        if found is None or found.V.shape[1] < count:
             if len(self._modes_cache) >= 2:
                 self._modes_cache.pop(next(iter(self._modes_cache)))
             _, _, K, M, _ = self._assembled(t)
-            found = self._modes_cache[key] = FrozenModes.of(M, K, self._rayleigh)
+            if near is not None and near.updates < MODES_REFRESH and near.V.shape[1] >= count:
+                found = near.updated(count, M, K, self._rayleigh)
+            else:
+                found = FrozenModes.of(M, K, self._rayleigh)
+            self._modes_cache[key] = found
         return found
 
     def _rows(self, lengths) -> np.ndarray:
@@ -654,9 +664,7 @@ class SailStepper:
             local = fractions[inside] * parts - k
             q_start, y_q, u, v, _ = extensions[k]
             start_qd, end_qd, _ = ends[k]
-            weights = [_extension_weights(float(f)) for f in local]
-            c = np.array([pair[0] for pair in weights])
-            w = np.array([pair[1] for pair in weights]).reshape(local.size, -1)
+            c, w = _extension_weights(local)
             q[inside] = np.outer(c, q_start) + 2.0 * (w @ y_q).real
             qd[inside] = (
                 np.outer(c, start_qd)
