@@ -66,7 +66,7 @@ class FrozenModes:
         lam, V = scipy.linalg.eigh(K, M, check_finite=False)
         return cls._made(lam, V, M, damping, 0)
 
-    def updated(self, count: int, M, K, damping) -> FrozenModes:
+    def updated(self, count: int, M, K, damping, factor) -> FrozenModes:
         """The `count` highest modes at new lengths (`M`, `K`) from these: one step of
         subspace iteration on `M^-1 K` from this set's `count` highest, then Rayleigh-Ritz
         (a third of a full eigenproblem's cost at n = 160). The subspace's error shrinks

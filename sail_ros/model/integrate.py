@@ -43,7 +43,7 @@ def simulate(
         q0: initial coordinates [m] (default 0).
         qd0: initial velocities [m/s] (default 0).
         t_eval: increasing output times in [0, t_end]; default a uniform
-            grid with the stepper's `max_step` spacing (default 0.2 s).
+            grid with the stepper's `max_step` spacing (default 0.5 s).
         progress: optional callable `progress(t)` after each output time.
         inputs: callable `t -> u` or None. With `switch_times` [s] (`loads.input_function`
             of a `LoadSchedule`) steps end there; without, at every output time as well.

@@ -2,7 +2,7 @@
 booms move.
 
 The simulator publishes on a fine grid (0.01 s by default) but the stepper's
-tolerance allows longer steps while the booms move (up to `max_step`, 0.2 s by
+tolerance allows longer steps while the booms move (up to `max_step`, 0.5 s by
 default). A moving step is the costly one (rational solves and the frozen modes),
 so `GridSampler` takes one step over as many whole grid intervals as the
 tolerance accepts (a refused step is retried over fewer) and fills the grid
