@@ -70,7 +70,7 @@ def drawn_deployments(count, seed=24):
             stiffness_damping=float(rng.uniform(1e-4, 5e-4)) * damped,
         )
         start = rng.uniform(9.0, 13.0, 4)
-        duration = float(rng.uniform(3.0, 4.5))
+        duration = float(rng.uniform(2.5, 3.5))
         end = start + rng.uniform(0.5, 1.0, 4) * duration * rng.uniform(0.3, 0.8)
         profile = BoomMotion(
             [CycloidalProfile(a, b, duration) for a, b in zip(start, end, strict=True)]
@@ -104,7 +104,7 @@ def test_the_default_tolerance_meets_the_bar_on_drawn_deployments(draw):
 
 
 def test_a_tighter_tolerance_is_more_accurate_and_takes_more_steps():
-    label, model, profile, loads, breaks, duration, rng = next(drawn_deployments(1, seed=3))
+    label, model, profile, loads, breaks, duration, rng = list(drawn_deployments(2))[1]
     q0 = model.initial_coordinates([0.1, 0.0, -0.05, 0.0])
     t_out = np.linspace(0.0, duration, 61)
     expected = tight_reference(model, profile, loads, q0, t_out, breaks)

@@ -521,7 +521,7 @@ class SailStepper:
         ).T
         vibration = ()
         modes0 = self._modes(t0)
-        count = followed(modes0, 0.5 * h, self._resolved(lengths0))
+        count = followed(modes0, 0.5 * h, self._resolved(lengths0), self._relative_rate(t0, h))
         if count:
             modes1 = self._modes(t1, modes0, count)
             u = None if self.inputs is None else self._input(t0 + 0.5 * h)
@@ -606,6 +606,11 @@ class SailStepper:
         if self._rows_cache[0] != key:
             self._rows_cache = (key, self.system.output_rows(lengths))
         return self._rows_cache[1]
+
+    def _relative_rate(self, t0, h) -> float:
+        """The largest `|Ld| / L` [1/s] of the booms at the step's ends and middle."""
+        rates = [np.abs(r) / L for L, r, _ in (self._motion(t0 + f * h) for f in (0.0, 0.5, 1.0))]
+        return float(np.max(rates))
 
     def _resolved(self, lengths) -> float:
         if self.resolved_frequency is not None:
