@@ -1,37 +1,41 @@
-"""Benchmark of the model on the reference deployment (model.md §9).
+"""Benchmark of the model on the reference deployment (model.md §9), loaded and not.
 
 For each (n_B, n_M) it prints, measured in a fresh process pinned to one core:
 the one-off build time of the reference integrals, the wall time and
-real-time factor (simulated seconds per wall second) of the 15 s deployment,
-the peak resident memory, and the accuracy of the boom-tip deflections at 5,
-10 and 15 s against a tight reference solution of the same equations
-(4th-order commutator-free Magnus with exact exponentials on seed Eq. 3,
-step 0.05 s; itself converged to < 1e-5 of the peak).
+real-time factor (simulated seconds per wall second) of the 15 s deployment
+with its state at every 0.05 s (301 outputs), the ratio to the Radau peer,
+and the accuracy of the tip deflections and root moments at those 301 times,
+in % of their peaks, against a tight reference: DOP853 at rtol 1e-10 on the
+first-order Eq. 2, restarted at every load step (kept on disk under
+`benchmarks/.cache/`, which git ignores: at (20, 20) it takes minutes).
 
-Rows per size:
-- `default`: the stepper with its default step (0.05 s, chosen for the root
-  moments of loaded runs; model.md §12);
-- `at bar`: the stepper at the longest `max_step` of 0.1, 0.2, 0.3, 0.5 s
-  whose tips stay within 0.2 % of the peak (the frequency rule unchanged);
+The deployment: 10 m to 15 m in 15 s, boom a's tip at 0.1 m, undamped;
+`loaded` adds 2 mPa on quadrants ab and cd from t = 0 and 0.05 N on boom b's
+tip from 5 s to 10 s, `unloaded` has neither. Rows per size:
+- `default`: the stepper at its defaults (tolerance `DEFAULT_RTOL`, steps up to
+  `DEFAULT_MAX_STEP`), outputs inside steps from their continuous extension;
+  `est.` is its own estimate of the error (`SailStepper.relative_error_estimate`,
+  the larger of tips and root moments);
+- `fixed 0.05 s`: the stepper as it was, fixed 0.05 s steps and no estimate;
 - `Radau`: the peer a competent user would write, `solve_ivp(method="Radau")`
   on the first-order Eq. 3 with the analytic Jacobian and a right-hand side
-  from the project's own assembly (one Cholesky solve of `M`), tuned to just
-  meet the same 0.2 %: the fastest of an `rtol` ladder (steps of 10^(1/8)
-  from 0.03, with `atol = rtol x 0.01` and `x 0.1` of the largest initial
-  coordinate) that meets it;
-- `loaded`: the default stepper on the same deployment loaded and damped
-  (model.md §11: Rayleigh alpha 0.02 1/s, beta 2e-4 s, 2 mPa on quadrants ab
-  and cd, 0.05 N at the tip of boom b from 5 s to 10 s); its accuracy is
-  checked in test_loads_damping, its real-time factor here.
-The `steps` column counts the stepper's steps, and Radau's right-hand-side calls.
-Every case of a size is timed in the same process, the cases interleaved, best of
-`--repeat` each: the machine's drift reaches them alike, so their ratios hold.
+  from the project's own assembly (one Cholesky solve of `M`), restarted at
+  the load steps, tuned to just meet the bar (0.2 % of peak) on tips and
+  root moments of the loaded case: the fastest of an `rtol` ladder (steps of
+  10^(1/8) from 0.03, `atol = rtol x 0.01` and `x 0.1` of the largest initial
+  coordinate) that meets it.
+The `steps` column counts the stepper's steps (rejected ones apart), and
+Radau's right-hand-side calls. Every case of a size is timed in the same
+process, the cases interleaved, best of `--repeat` each: the machine's drift
+reaches them alike, so their ratios hold.
 
-Then the build of the reference integrals alone for `--integrals` sizes (wall
-time and peak resident memory of a fresh process).
+Then the live simulator's sampling (`GridSampler`, 0.01 s grid, moving) at
+(20, 20): the wall time per grid step of `advance`, at the defaults and as it
+was (fixed 0.05 s), interleaved; then the build of the reference integrals
+alone for `--integrals` sizes.
 
-    python benchmarks/model_benchmark.py [--sizes 4,6 10,10 20,20] [--repeat 5]
-        [--integrals 40,40]
+    python benchmarks/model_benchmark.py [--sizes 10,10 20,20] [--repeat 5]
+        [--integrals 40,40] [--sampler 20,20]
 """
 
 from __future__ import annotations
@@ -39,12 +43,106 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
+import pathlib
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 ACCURACY_BAR_PCT = 0.2
-LONGER_STEPS = (0.5, 0.3, 0.2, 0.1)  # s, tried longest first for the `at bar` row
+T_END = 15.0
+SWITCHES = (5.0, 10.0)  # s: the tip force's on and off
+CACHE = pathlib.Path(__file__).resolve().parent / ".cache"
+
+
+def deployment(n_boom_modes, n_membrane_modes, loaded):
+    """The model, motion, initial state and loads (a `LoadSchedule` or None) of a case."""
+    import numpy as np
+
+    from sail_ros.model import CycloidalProfile, SailModel, SailParameters
+    from sail_ros.model.loads import LoadSchedule
+
+    model = SailModel(SailParameters(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes))
+    loads = None
+    if loaded:
+        pressures = np.array([2e-3, 0.0, 2e-3, 0.0])
+        loads = LoadSchedule(
+            [(0.0, pressures, 0.0), (SWITCHES[0], None, [0, 0.05, 0, 0]), (SWITCHES[1], None, 0.0)]
+        )
+    return model, CycloidalProfile(10.0, 15.0, T_END), model.mode_state("a", 0.1), loads
+
+
+def _pieces(loads):
+    """The intervals between load steps and the input vector held on each."""
+    import numpy as np
+
+    from sail_ros.model.loads import input_function
+
+    edges = [0.0, *(SWITCHES if loads is not None else ()), T_END]
+    u = input_function(loads)
+    return [
+        (a, b, np.zeros(8) if u is None else u(0.5 * (a + b)))
+        for a, b in zip(edges[:-1], edges[1:], strict=True)
+    ]
+
+
+def _first_order(model, profile, loads, method, t_out, **tolerances):
+    """`x = [qd; q]` at `t_out` by `solve_ivp` on Eq. 2, restarted at the load steps;
+    returns (coordinates (k, n), right-hand-side calls)."""
+    import numpy as np
+    import scipy.linalg
+    from scipy.integrate import solve_ivp
+
+    from sail_ros.model.assembly import DAMPING, MASS, STIFFNESS_EQ
+
+    n = model.n
+
+    def motion(t):
+        return tuple(np.broadcast_to(np.asarray(v, dtype=float), (4,)) for v in profile(t))
+
+    def rhs(t, x, u):
+        lengths, rates, accelerations = motion(t)
+        M, C, K = model.assemble((MASS, DAMPING, STIFFNESS_EQ), lengths, rates, accelerations)
+        force = model.assemble_inputs(lengths) @ u
+        qdd = scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), force - C @ x[:n] - K @ x[n:])
+        return np.concatenate([qdd, x[:n]])
+
+    def jacobian(t, x, u):
+        return model.state_matrix(*profile(t))
+
+    x = np.concatenate([np.zeros(n), q0_of(model)])
+    rows, calls = [], 0
+    for a, b, u in _pieces(loads):
+        inside = [t for t in t_out if a <= t < b]
+        options = {"jac": jacobian} if method == "Radau" else {}
+        solution = solve_ivp(
+            rhs, (a, b), x, method=method, t_eval=[*inside, b], args=(u,), **options, **tolerances
+        )
+        rows.extend(solution.y[n:, : len(inside)].T)
+        calls += solution.nfev
+        x = solution.y[:, -1]
+    if t_out[-1] == T_END:
+        rows.append(x[n:])
+    return np.array(rows), calls
+
+
+def q0_of(model):
+    return model.mode_state("a", 0.1)
+
+
+def reference(n_boom_modes, n_membrane_modes, loaded, t_out):
+    """DOP853 at rtol 1e-10 (atol 1e-13 m), cached on disk."""
+    import numpy as np
+
+    path = CACHE / f"reference_{n_boom_modes}_{n_membrane_modes}_{int(loaded)}.npz"
+    if path.exists():
+        stored = np.load(path)
+        if np.array_equal(stored["t"], t_out):
+            return stored["q"]
+    model, profile, _, loads = deployment(n_boom_modes, n_membrane_modes, loaded)
+    q, _ = _first_order(model, profile, loads, "DOP853", t_out, rtol=1e-10, atol=1e-13)
+    CACHE.mkdir(exist_ok=True)
+    np.savez(path, t=t_out, q=q)
+    return q
 
 
 def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> list[dict]:
@@ -54,149 +152,118 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> list[dict]
 
     import numpy as np
 
-    from sail_ros.model import CycloidalProfile, SailModel, SailParameters
-    from sail_ros.model.stepper import DEFAULT_MAX_STEP
+    from sail_ros.model.integrate import simulate
+    from sail_ros.model.loads import input_function
 
     started = time.perf_counter()
-    model = SailModel(SailParameters(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes))
+    model, profile, q0, loads = deployment(n_boom_modes, n_membrane_modes, True)
     build = time.perf_counter() - started
-    profile = CycloidalProfile(10.0, 15.0, 15.0)
-    q0 = model.mode_state("a", 0.1)
-    t_out = [5.0, 10.0, 15.0]
-    exact = _reference_tips(model, profile, q0, t_out)
-    dense = model.simulate(profile, 15.0, q0, t_eval=np.linspace(0.0, 15.0, 601))[1]
-    peak = np.abs(model.tip_deflections(dense)).max()
+    t_out = np.linspace(0.0, T_END, 301)
+    lengths = np.array([profile(t)[0] for t in t_out])
+    exact = {loaded: reference(n_boom_modes, n_membrane_modes, loaded, t_out) for loaded in (1, 0)}
 
-    def error_pct(tips):
-        return 100 * np.abs(np.array(tips) - exact).max() / peak
+    def errors_pct(q, loaded):
+        out = []
+        for series in (model.tip_deflections, lambda x: model.root_moments(x, lengths)):
+            expected = series(exact[loaded])
+            out.append(100 * np.abs(series(q) - expected).max() / np.abs(expected).max())
+        return out
 
-    def stepper_run(model, max_step, inputs=None):
+    def stepper_run(loaded, **options):
+        inputs = input_function(loads) if loaded else None
+
         def run():
-            stepper = model.stepper(profile, q0=q0, max_step=max_step, inputs=inputs)
-            tips = []
-            for t in t_out:
-                stepper.advance(t)
-                tips.append(model.tip_deflections(stepper.q))
-            return stepper.steps_taken, tips
+            result = simulate(model, profile, T_END, q0=q0, t_eval=t_out, inputs=inputs, **options)
+            estimate = result.relative_error_estimate
+            worst = max(estimate["tips"], estimate["root_moments"])
+            return result.steps, result[1], 100 * worst if result.rtol else None
 
         return run
 
-    at_bar = None
-    for max_step in LONGER_STEPS:
-        run = stepper_run(model, max_step)
-        if error_pct(run()[1]) <= ACCURACY_BAR_PCT:
-            at_bar = (f"at bar {max_step:g} s", run)
-            break
-    damped = SailModel(
-        SailParameters(
-            n_boom_modes=n_boom_modes,
-            n_membrane_modes=n_membrane_modes,
-            mass_damping=0.02,
-            stiffness_damping=2e-4,
-        )
-    )
-
-    def inputs(t):  # switches on the output times 5 and 10 s: steps land on them
-        force = 0.05 if 5.0 <= t < 10.0 else 0.0
-        return np.array([2e-3, 0.0, 2e-3, 0.0, 0.0, force, 0.0, 0.0])
-
-    cases = [
-        ("default", stepper_run(model, DEFAULT_MAX_STEP), True),
-        *([(*at_bar, True)] if at_bar else []),
-        ("Radau", _radau_at_bar(model, profile, q0, t_out, error_pct), True),
-        ("loaded", stepper_run(damped, DEFAULT_MAX_STEP, inputs), False),
-    ]
-    # interleaved, best of `repeat` each: the machine's drift reaches every case alike
-    walls = {name: [] for name, _, _ in cases}
-    outcomes = {}
-    for _ in range(repeat):
-        for name, run, _ in cases:
-            started = time.perf_counter()
-            outcomes[name] = run()
-            walls[name].append(time.perf_counter() - started)
-    peak_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return [
-        {
-            "sizes": (n_boom_modes, n_membrane_modes),
-            "case": name,
-            "n": model.n,
-            "build_s": build,
-            "wall_s": min(walls[name]),
-            "steps": outcomes[name][0],
-            "error_pct": error_pct(outcomes[name][1]) if checked else None,
-            "peak_rss_mb": peak_rss,
-        }
-        for name, _, checked in cases
-    ]
-
-
-def _reference_tips(model, profile, q0, t_out):
-    """Tips at `t_out` by 4th-order commutator-free Magnus with exact exponentials."""
-    import numpy as np
-    import scipy.linalg
-
-    c = (0.5 - np.sqrt(3) / 6, 0.5 + np.sqrt(3) / 6)
-    w = (0.25 + np.sqrt(3) / 6, 0.25 - np.sqrt(3) / 6)
-    x, h, t, exact = np.concatenate([np.zeros(model.n), q0]), 0.05, 0.0, []
-    for t_next in t_out:
-        while t < t_next - 1e-9:
-            a1 = model.state_matrix(*profile(t + c[0] * h))
-            a2 = model.state_matrix(*profile(t + c[1] * h))
-            x = scipy.linalg.expm(h * (w[0] * a1 + w[1] * a2)) @ x
-            x = scipy.linalg.expm(h * (w[1] * a1 + w[0] * a2)) @ x
-            t += h
-        exact.append(model.tip_deflections(x[model.n :]))
-    return np.array(exact)
-
-
-def _radau_at_bar(model, profile, q0, t_out, error_pct):
-    """The fastest Radau setting of the ladder that meets the bar, as a run to time."""
-    import time
-
-    import numpy as np
-    import scipy.linalg
-    from scipy.integrate import solve_ivp
-
-    from sail_ros.model.assembly import DAMPING, MASS, STIFFNESS_EQ
-
-    n = model.n
-    x0 = np.concatenate([np.zeros(n), q0])
-    scale = np.abs(q0).max()
-
-    def motion(t):
-        return tuple(np.broadcast_to(np.asarray(v, dtype=float), (4,)) for v in profile(t))
-
-    def rhs(t, x):
-        M, C, K = model.assemble((MASS, DAMPING, STIFFNESS_EQ), *motion(t))
-        qd, q = x[:n], x[n:]
-        qdd = scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), -(C @ qd + K @ q))
-        return np.concatenate([qdd, qd])
-
-    def jacobian(t, x):
-        return model.state_matrix(*profile(t))
-
-    def radau(rtol, atol_factor):
+    def radau_run(rtol, atol_factor):
         def run():
-            solution = solve_ivp(
-                rhs, (0.0, t_out[-1]), x0, method="Radau", jac=jacobian,
-                rtol=rtol, atol=rtol * atol_factor * scale, t_eval=t_out,
-            )  # fmt: skip
-            tips = [model.tip_deflections(solution.y[n:, i]) for i in range(len(t_out))]
-            return solution.nfev, tips
+            scale = np.abs(q0).max()
+            q, calls = _first_order(
+                model, profile, loads, "Radau", t_out, rtol=rtol, atol=rtol * atol_factor * scale
+            )
+            return calls, q, None
 
         return run
 
     fastest = (np.inf, None)
     for atol_factor in (0.01, 0.1):
-        for k in range(16):
-            run = radau(10 ** (-1.5 - k / 8), atol_factor)
-            started = time.perf_counter()
-            _, tips = run()
-            wall = time.perf_counter() - started
-            if error_pct(tips) <= ACCURACY_BAR_PCT:
+        for k in range(24):
+            run = radau_run(10 ** (-1.5 - k / 8), atol_factor)
+            began = time.perf_counter()
+            _, q, _ = run()
+            wall = time.perf_counter() - began
+            if max(errors_pct(q, 1)) <= ACCURACY_BAR_PCT:
                 fastest = min(fastest, (wall, run), key=lambda pair: pair[0])
                 break
-    return fastest[1]
+    cases = [
+        ("default", 1, stepper_run(1)),
+        ("fixed 0.05 s", 1, stepper_run(1, rtol=None, max_step=0.05)),
+        ("Radau", 1, fastest[1]),
+        ("default", 0, stepper_run(0)),
+        ("fixed 0.05 s", 0, stepper_run(0, rtol=None, max_step=0.05)),
+    ]
+    cases = [case for case in cases if case[2] is not None]
+    walls = {(name, loaded): [] for name, loaded, _ in cases}
+    outcomes = {}
+    for _ in range(repeat):
+        for name, loaded, run in cases:
+            began = time.perf_counter()
+            outcomes[name, loaded] = run()
+            walls[name, loaded].append(time.perf_counter() - began)
+    peak_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    rows = []
+    for name, loaded, _ in cases:
+        steps, q, estimate = outcomes[name, loaded]
+        tips, moments = errors_pct(q, loaded)
+        rows.append(
+            {
+                "sizes": (n_boom_modes, n_membrane_modes),
+                "case": f"{name} {'loaded' if loaded else 'unloaded'}",
+                "n": model.n,
+                "build_s": build,
+                "wall_s": min(walls[name, loaded]),
+                "steps": steps,
+                "tips_pct": tips,
+                "moments_pct": moments,
+                "estimate_pct": estimate,
+                "peak_rss_mb": peak_rss,
+            }
+        )
+    return rows
+
+
+def measure_sampler(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> dict:
+    """Wall time per grid step [s] of `GridSampler.advance` while the booms move (0.01 s
+    grid, the reference deployment, loaded), defaults against fixed 0.05 s steps."""
+    os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+    import time
+
+    from sail_ros.model.loads import input_function
+    from sail_ros.model.sampling import GridSampler
+
+    model, profile, q0, loads = deployment(n_boom_modes, n_membrane_modes, True)
+    grid_steps = int(T_END / 0.01)
+
+    def run(**options):
+        sampler = GridSampler(
+            model.stepper(profile, q0=q0, inputs=input_function(loads), **options), 0.01
+        )
+        began = time.perf_counter()
+        for _ in range(grid_steps):
+            sampler.advance()
+        return (time.perf_counter() - began) / grid_steps
+
+    cases = {"default": {}, "fixed 0.05 s": {"rtol": None, "max_step": 0.05}}
+    best = {name: min(run(**options) for _ in range(1)) for name, options in cases.items()}
+    for _ in range(repeat - 1):
+        for name, options in cases.items():
+            best[name] = min(best[name], run(**options))
+    return best
 
 
 def measure_integrals(n_boom_modes: int, n_membrane_modes: int) -> dict:
@@ -218,28 +285,42 @@ def measure_integrals(n_boom_modes: int, n_membrane_modes: int) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", nargs="+", default=["4,6", "10,10", "20,20"])
+    parser.add_argument("--sizes", nargs="+", default=["10,10", "20,20"])
     parser.add_argument("--repeat", type=int, default=5, help="runs per case; the best is kept")
     parser.add_argument("--integrals", nargs="*", default=["40,40"], help="integral builds alone")
+    parser.add_argument("--sampler", nargs="*", default=["20,20"], help="grid sampling cost")
     args = parser.parse_args()
     context = multiprocessing.get_context("spawn")
     print(
-        f"{'n_B,n_M':>8}{'case':>15}{'dofs':>6}{'build [s]':>11}{'steps':>7}{'wall [s]':>10}"
-        f"{'RTF':>8}{'RTF / Radau':>13}{'peak RSS [MB]':>15}{'tip error [% of peak]':>23}"
+        f"{'n_B,n_M':>8}{'case':>24}{'dofs':>6}{'build [s]':>11}{'steps':>7}{'wall [s]':>10}"
+        f"{'RTF':>7}{'x Radau':>9}{'tips [%]':>10}{'moments [%]':>13}{'est. [%]':>10}"
+        f"{'RSS [MB]':>10}"
     )
     for size in args.sizes:
         nb, nm = (int(v) for v in size.split(","))
         with context.Pool(1) as pool:
             rows = pool.apply(measure, (nb, nm, args.repeat))
-        peer = next(r for r in rows if r["case"] == "Radau")
+        peer = next((r for r in rows if r["case"].startswith("Radau")), None)
         for r in rows:
-            error = "-" if r["error_pct"] is None else f"{r['error_pct']:.4f}"
+            ratio = "-" if peer is None else f"{peer['wall_s'] / r['wall_s']:.1f}"
+            estimate = "-" if r["estimate_pct"] is None else f"{r['estimate_pct']:.3f}"
             print(
-                f"{size:>8}{r['case']:>15}{r['n']:>6}{r['build_s']:>11.3f}"
-                f"{r['steps']:>7}{r['wall_s']:>10.4f}{15.0 / r['wall_s']:>8.0f}"
-                f"{peer['wall_s'] / r['wall_s']:>13.1f}{r['peak_rss_mb']:>15.0f}{error:>23}",
+                f"{size:>8}{r['case']:>24}{r['n']:>6}{r['build_s']:>11.3f}"
+                f"{r['steps']:>7}{r['wall_s']:>10.4f}{T_END / r['wall_s']:>7.0f}{ratio:>9}"
+                f"{r['tips_pct']:>10.4f}{r['moments_pct']:>13.4f}{estimate:>10}"
+                f"{r['peak_rss_mb']:>10.0f}",
                 flush=True,
             )
+    for size in args.sampler:
+        nb, nm = (int(v) for v in size.split(","))
+        with context.Pool(1) as pool:
+            best = pool.apply(measure_sampler, (nb, nm, args.repeat))
+        print(
+            f"sampler {size}, 0.01 s grid, moving: "
+            + ", ".join(f"{name} {1e3 * wall:.3f} ms" for name, wall in best.items())
+            + " per grid step",
+            flush=True,
+        )
     for size in args.integrals:
         nb, nm = (int(v) for v in size.split(","))
         with context.Pool(1) as pool:

@@ -7,6 +7,7 @@ the code before the free hub (commit 4d5d094, from `git archive`) and on this tr
 and requires the two files to agree bit for bit. It uses only what both trees have.
 """
 
+import inspect
 import sys
 
 import numpy as np
@@ -16,6 +17,14 @@ from sail_ros.analysis.modes import modal_analysis
 from sail_ros.analysis.plant import linear_plant
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.loads import LoadSchedule
+from sail_ros.model.stepper import SailStepper
+
+# The time histories in the fixed steps of the code before the free hub (its default
+# max_step 0.05 s): a tree with error-controlled stepping takes them with rtol None (its
+# tolerance's steps are checked against references of their own, test_tolerance.py).
+FIXED_STEPS = (
+    {"rtol": None, "max_step": 0.05} if "rtol" in inspect.signature(SailStepper).parameters else {}
+)
 
 LENGTHS = np.array([10.0, 11.5, 12.0, 13.0])
 RATES = np.array([0.1, 0.3, 0.0, 0.2])
@@ -51,9 +60,11 @@ def arrays(name: str, params: SailParameters, seconds: float) -> dict:
         ("moving", CycloidalProfile(LENGTHS, LENGTHS + 2.0, seconds)),
         ("static", StaticProfile(LENGTHS)),
     ):
-        t, q, qd = model.simulate(profile, seconds, q0=q0, t_eval=t_eval, loads=loads)
+        t, q, qd = model.simulate(
+            profile, seconds, q0=q0, t_eval=t_eval, loads=loads, **FIXED_STEPS
+        )
         out[f"simulate_{label}"] = np.concatenate([q, qd], axis=1)
-        t, q, qd = model.simulate_on_grid(profile, seconds, 0.01, q0=q0, loads=loads)
+        t, q, qd = model.simulate_on_grid(profile, seconds, 0.01, q0=q0, loads=loads, **FIXED_STEPS)
         out[f"grid_{label}"] = np.concatenate([q, qd], axis=1)
     sample = model.sample(0.5, LENGTHS, RATES, q[-1], qd[-1])
     fields = tuple(sample)[:8]  # t .. root_moments: the fields both trees have

@@ -850,9 +850,10 @@ BEFORE_FREE_HUB = "821e2348e9"  # main before the free hub merged (assembly as n
 
 def test_check_23_the_clamped_hub_is_bit_for_bit_the_code_before(tmp_path):
     """Every matrix, frequency, plant, time history (moving, at rest, on the grid, by
-    blocks) of the clamped sail, from `test/clamped_reference.py` run on the code before
-    the free hub (`git archive 4d5d094`) and on this tree, each in its own process with
-    one BLAS thread: equal to the last bit."""
+    blocks; in the fixed steps that code took) of the clamped sail, from
+    `test/clamped_reference.py` run on the code before the free hub (`git archive`
+    BEFORE_FREE_HUB) and on this tree, each in its own process with one BLAS thread:
+    equal to the last bit."""
     if shutil.which("git") is None:
         pytest.skip("git is needed to take the code before the free hub")
     before = tmp_path / "before"

@@ -58,7 +58,7 @@ class KiloHertz:
 
     def __init__(self, model, rows=None):
         self.model, self.times, self.values, self.lengths = model, [], [], []
-        self.rows = model.output_rows if rows is None else rows
+        self.rows = model.length_free_rows if rows is None else rows
 
     def start(self, stepper):
         self._take(stepper, [stepper.t], stepper.q[None] @ self.rows.T)

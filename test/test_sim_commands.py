@@ -263,14 +263,18 @@ def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
     assert sim.accepted == 1 and sim.last_command_start == pytest.approx(1.0)
     # the same motion offline, sampled as the simulator does: agreement to round-off
     profile = CycloidalProfile.within_limits(10.0, 12.0, 1.0, 0.5, t0=sim.last_command_start)
-    t, q, qd = model.simulate_on_grid(
-        profile, 6.0, 0.01, model.initial_coordinates([0.1, 0, 0, 0]), max_step=0.05
-    )
+    run = model.simulate_on_grid(
+        profile, 6.0, 0.01, model.initial_coordinates([0.1, 0, 0, 0]),
+        max_step=config.max_model_step, rtol=config.model_rtol,
+    )  # fmt: skip
+    t, q, qd = run
     assert t[-1] == pytest.approx(6.0, abs=1e-12)
     assert sim.q == pytest.approx(q[-1], abs=1e-12) and sim.qd == pytest.approx(qd[-1], abs=1e-12)
-    # ... which took one model step per 5 grid steps while the booms moved
+    # ... in the same steps: one exact step per grid step at rest, and while the booms
+    # moved steps of many grid steps, as the tolerance chose them
     moving = np.count_nonzero(t[:-1] >= profile.t0)
-    assert sim.stepper.steps_taken == 100 + moving / 5
+    assert sim.stepper.steps_taken == run.steps
+    assert run.steps < 100 + moving / 5
     assert sim.sample().lengths == pytest.approx(profile(6.0)[0])
 
 
@@ -356,14 +360,15 @@ def test_bad_load_commands_are_rejected_whole(model, config, topic, values, reas
 
 
 def test_short_booms_get_sub_steps(model, config):
-    short = config_from_values({**DEFAULTS, "initial_lengths": [1.5]})
+    short = config_from_values({**DEFAULTS, "initial_lengths": [1.0]})
     sim = Simulation(model, short)
-    # omega_1 = 1.8751^2 sqrt(6000 / 0.1) / 1.5^2 = 383 rad/s: 0.01 s needs ceil(3.83 / 2) = 2
-    assert sim.substeps() == 2
+    # omega_1 = 1.8751^2 sqrt(6000 / 0.1) / 1.0^2 = 861 rad/s; a step of the tolerance's
+    # stepper is two rational steps of at most 2 rad: 4 / 861 = 4.6 ms, so 0.01 s needs 3
+    assert sim.substeps() == 3
     assert Simulation(model, config).substeps() == 1
     assert sim.step() and sim.stepper.steps_taken == 1  # at rest: one exact step
     sim.deploy(2.0)
-    assert sim.step() and sim.stepper.steps_taken == 3 and sim.t == pytest.approx(0.02)
+    assert sim.step() and sim.stepper.steps_taken == 4 and sim.t == pytest.approx(0.02)
 
 
 def test_rejected_command_leaves_the_state_alone(model, config):
@@ -547,6 +552,7 @@ def test_every_parameter_is_described_with_unit_and_range():
             in {
                 "integration_step",
                 "max_model_step",
+                "model_rtol",
                 "time_scale",
                 "realtime_priority",
                 "frame_id",

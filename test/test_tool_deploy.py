@@ -112,7 +112,8 @@ def test_scenario_run_writes_a_simulator_log_and_figures(tmp_path, capsys, figur
     # the simulator's own names and value syntax: its validator accepts them
     assert set(parameters) <= set(PARAMETERS)
     config = config_from_values({name: yaml.safe_load(text) for name, text in parameters.items()})
-    assert (config.integration_step, config.state_rate_hz, config.shape_rate_hz) == (0.05, 10, 2)
+    assert (config.integration_step, config.state_rate_hz, config.shape_rate_hz) == (0.1, 10, 2)
+    assert (config.max_model_step, config.model_rtol) == (0.5, 1e-3)  # the run's accuracy
     assert (config.sail.n_boom_modes, config.sail.n_membrane_modes) == (3, 3)
     np.testing.assert_allclose(config.initial_lengths, [10.0] * 4)
     np.testing.assert_allclose(config.initial_tip_deflection, [0.0, 0.05, 0.0, 0.0], atol=1e-12)

@@ -13,16 +13,30 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.model import IntegrationError, SailModel
+from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
 from sail_ros.model.peaks import OutputPeaks, Peaks
 from sail_ros.model.record import StateSample, take
-from sail_ros.model.stepper import DEFAULT_MAX_STEP
+from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.policy import OutOfRangeError, Policy
+
+
+class Accuracy(NamedTuple):
+    """How a run was stepped: the tolerance `rtol` asked (None: fixed steps), the
+    achieved error estimate relative to each output's peak (`SailStepper.
+    relative_error_estimate`: tips, tip_rates, root_moments, root_moment_rates), the
+    steps taken and refused."""
+
+    rtol: float | None
+    relative_error: dict
+    steps: int
+    rejected: int
 
 
 @dataclasses.dataclass(frozen=True)
@@ -41,6 +55,7 @@ class DeploymentRun:
             tip_warn_fraction, as the simulator's diagnostics say it ("" if never).
         alarm: why the run stopped before the end ("" if it did not): the simulator's
             alarm (`Policy.range_state`, or a non-finite state); `t` ends before it.
+        accuracy: the tolerance and the achieved error estimate (`Accuracy`).
     """
 
     states: StateSample
@@ -48,6 +63,7 @@ class DeploymentRun:
     peaks: Peaks | None = None
     warning: str = ""
     alarm: str = ""
+    accuracy: Accuracy | None = None
 
     def __getattr__(self, name):
         if name in StateSample._fields:
@@ -129,6 +145,7 @@ def run_deployment(
     progress=None,
     initial=None,
     policy: Policy | None = None,
+    rtol: float | None = DEFAULT_RTOL,
 ) -> DeploymentRun:
     """Integrate the scenario and sample it at `t_eval` [s] (and at its load switches,
     which thereby fall on step boundaries); the peaks of the tips and root moments
@@ -142,6 +159,7 @@ def run_deployment(
         progress: optional callable `progress(t)` after each output time.
         initial: `(q0, qd0)` instead of the scenario's initial state for `model`.
         policy: the limits and alarms (default: the simulator's defaults).
+        rtol: the stepper's tolerance (`SailStepper`; None: fixed steps of `max_step`).
 
     Raises:
         ValueError: the scenario asks what the policy refuses (`check_scenario`).
@@ -167,29 +185,33 @@ def run_deployment(
         t_eval = np.union1d(t_eval, switches)
     watch = RangeWatch(model, policy)
     stepper = model.stepper(
-        scenario.profile, q0=q0, qd0=qd0, max_step=max_step,
+        scenario.profile, q0=q0, qd0=qd0, max_step=max_step, rtol=rtol,
         inputs=input_function(scenario.loads, model.free_hub), on_step=watch.after_step,
     )  # fmt: skip
     watch.start(stepper)
     q, qd = np.empty((t_eval.size, model.n)), np.empty((t_eval.size, model.n))
-    kept, alarm = t_eval.size, ""
+    kept, alarm = 0, ""
     started = time.perf_counter()
-    for i, t in enumerate(t_eval):
-        try:
-            stepper.advance(t)
-        except (OutOfRangeError, IntegrationError) as error:
-            kept, alarm = i, str(error)
-            break
-        q[i], qd[i] = stepper.q, stepper.qd
-        if progress is not None:
-            progress(t)
+    try:
+        for _, reached in sample(stepper, t_eval, scenario.duration, q, qd):
+            kept = reached  # the outputs written so far
+            if progress is not None:
+                progress(stepper.t)
+    except (OutOfRangeError, IntegrationError) as error:
+        alarm = str(error)
     wall = time.perf_counter() - started
     t, q, qd = t_eval[:kept], q[:kept], qd[:kept]
     lengths, rates = np.empty((kept, 4)), np.empty((kept, 4))
     for i, ti in enumerate(t):
         lengths[i], rates[i] = scenario.profile(ti)[:2]
     states = model.sample(t, lengths, rates, q, qd)
-    return DeploymentRun(states, wall, watch.peaks.peaks, watch.warning, alarm)
+    accuracy = Accuracy(
+        stepper.rtol,
+        stepper.relative_error_estimate,
+        stepper.steps_taken,
+        stepper.steps_rejected,
+    )
+    return DeploymentRun(states, wall, watch.peaks.peaks, watch.warning, alarm, accuracy)
 
 
 def hold_reactions(model: SailModel, profile, t) -> np.ndarray:
@@ -265,7 +287,8 @@ def converge(
     )
     q0, qd0 = scenario.initial_state(model)
     initial = (carried_over(q0, model, finer), carried_over(qd0, model, finer))
-    rerun = run_deployment(finer, scenario, run.t, max_step, progress, initial, policy)
+    rtol = run.accuracy.rtol if run.accuracy is not None else DEFAULT_RTOL
+    rerun = run_deployment(finer, scenario, run.t, max_step, progress, initial, policy, rtol)
     if rerun.alarm:
         raise OutOfRangeError(
             f"the rerun at (n_B, n_M) = ({n_boom_modes}, {n_membrane_modes}): {rerun.alarm}"

@@ -61,13 +61,12 @@ def simulator_parameters(
 
     `initial_lengths` and `initial_tip_deflection` are the lengths [m] and
     tip deflections [m] at t = 0. `integration_step` is the simulator's grid
-    step [s]: the state sample interval, at most `max_step`; the offline
-    integrator steps to every sample, so `max_model_step` is the same (the
-    simulator with these values takes the same steps). `time_scale` 0.0
-    means "as fast as possible", which an offline run is. The policy's limits are
+    step [s]: the state sample interval; `max_model_step` and `model_rtol` are the
+    run's longest step [s] and tolerance (the run's accuracy; its steps, chosen by the
+    tolerance, are its own, not the grid's). `time_scale` 0.0 means "as fast as
+    possible", which an offline run is. The policy's limits are
     those the run kept (default: the simulator's defaults).
     """
-    step = min(float(max_step), 1.0 / state_rate_hz)
     values = topics.flat_sail_parameters(model.params)
     values.update(dataclasses.asdict(Policy() if policy is None else policy))
     values.update(
@@ -76,8 +75,9 @@ def simulator_parameters(
             "initial_tip_deflection": [float(v) for v in run.tips[0]],
             "state_rate_hz": float(state_rate_hz),
             "shape_rate_hz": float(shape_rate_hz),
-            "integration_step": step,
-            "max_model_step": step,
+            "integration_step": 1.0 / state_rate_hz,
+            "max_model_step": float(max_step),
+            "model_rtol": run.accuracy.rtol or 0.0,  # 0: fixed steps
             "time_scale": 0.0,
             "frame_id": frame_id,
             "shape_divisions": int(shape_divisions),

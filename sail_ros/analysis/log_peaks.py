@@ -108,7 +108,7 @@ def _moment_rates(log: LogSeries, model: SailModel | None):
     ):
         return None
     lengths, rates = log.boom.position, log.boom.velocity
-    curvature = log.modal.velocity @ model.output_rows[4:].T
+    curvature = log.modal.velocity @ model.length_free_rows[4:].T
     return curvature / lengths**2 - 2.0 * rates * log.moments.effort / lengths
 
 

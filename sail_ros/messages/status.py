@@ -23,6 +23,9 @@ LAST_COMMAND = "last_command"
 LAST_COMMAND_START = "last_command_start_s"
 LAST_REJECTION = "last_rejection"
 MOTION_END = "motion_end_s"
+MODEL_RTOL = "model_rtol"  # the tolerance of the moving steps (relative to peak)
+# the accumulated error estimate relative to peak, the largest of tips and root moments
+ERROR_ESTIMATE = "relative_error_estimate"
 ENERGY = "mechanical_energy_J"
 LOAD_POWER = "load_power_W"
 DISSIPATION = "damping_dissipation_W"

@@ -73,15 +73,37 @@ def input_function(loads, free_hub: bool = False):
 
     Args:
         loads: None; a constant pair `(pressures, tip_forces)` or triple
-            `(pressures, tip_forces, hub_wrench)`; or a callable `t ->` either.
+            `(pressures, tip_forces, hub_wrench)`; or a callable `t ->` either, such as a
+            `LoadSchedule`.
         free_hub: whether the hub is free (else a non-zero hub wrench is refused).
+
+    The result has `switch_times` when they are known (none for constant loads, a
+    `LoadSchedule`'s own); a plain callable has none, so a batch run ends its steps
+    at the output times, where its switches are to be put.
     """
     if loads is None:
         return None
     if callable(loads):
-        return lambda t: inputs(*_unpack(loads(t)), free_hub=free_hub)
+
+        def u(t):
+            return inputs(*_unpack(loads(t)), free_hub=free_hub)
+
+        switches = getattr(loads, "switch_times", None)
+        return u if switches is None else _Inputs(u, switches)
     constant = inputs(*_unpack(loads), free_hub=free_hub)
-    return lambda t: constant
+    return _Inputs(lambda t: constant, ())
+
+
+class _Inputs:
+    """Inputs `t -> u` whose switch times [s] are known (`switch_times`, where the
+    stepper ends its steps)."""
+
+    def __init__(self, u, switch_times):
+        self._u = u
+        self.switch_times = tuple(switch_times)
+
+    def __call__(self, t: float) -> np.ndarray:
+        return self._u(t)
 
 
 def _unpack(loads) -> tuple:
@@ -109,8 +131,8 @@ class LoadSchedule:
 
     Called with `t` it returns `(pressures, tip_forces)` (4 values each), or, when a
     step has a hub wrench, `(pressures, tip_forces, hub_wrench)`, so it is a `loads`
-    of `SailModel.simulate`; `switch_times` are where the loads change (put them
-    among the output times so that steps land on them).
+    of `SailModel.simulate`; `switch_times` are where the loads change (the stepper
+    ends steps there).
     """
 
     def __init__(self, steps):

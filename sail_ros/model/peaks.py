@@ -130,7 +130,7 @@ class OutputPeaks:
         self.peak_phase = float(peak_phase)
         self.max_spacing = float(max_spacing)
         # (8, n): tips, then EI psi''(0) on each boom; a free hub's z_h, theta_x, theta_y
-        self.rows = model.output_rows
+        self.rows = model.length_free_rows
         self.free_hub = bool(model.free_hub)
         if self.free_hub:
             self.rows = np.vstack([self.rows, np.eye(model.n)[model.hub_slice]])

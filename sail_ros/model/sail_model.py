@@ -177,8 +177,9 @@ class SailModel:
             self._stowed_limit = self.params.full_boom_length * (1.0 + 1e-12)
         self._tip_rows = self._boom_rows(self.boom_integrals.tip)
         self._curvature_rows = self._boom_rows(self.boom_integrals.root_curvature)
-        # (8, n): tip deflections, then root moments times L_k^2 (`output_rows`)
-        self.output_rows = np.vstack(
+        # (8, n): tip deflections, then root moments times L_k^2: the output rows free of
+        # the lengths (`output_rows` divides the moments by L_k^2)
+        self.length_free_rows = np.vstack(
             [self._tip_rows, self.params.boom_bending_stiffness * self._curvature_rows]
         )
         self._unit_inputs = self._unit_input_matrix()
@@ -557,6 +558,13 @@ class SailModel:
             self._check_stowed(lengths, "lengths")
         return self.assembler.evaluate_blocks(outputs, lengths, rates, accelerations)
 
+    def output_rows(self, lengths) -> np.ndarray:
+        """(8, n): tip deflections [m] and root moments [N m] per unit coordinate at 4
+        checked `lengths` (`loads.OUTPUT_NAMES`; `stepper.LinearSystem`)."""
+        rows = self.length_free_rows.copy()
+        rows[4:] /= np.asarray(lengths, dtype=float)[:, None] ** 2
+        return rows
+
     def resolved_frequency(self, lengths) -> float:
         """The highest angular frequency [rad/s] a time step must resolve at these
         lengths: the first cantilever frequency of the shortest bare boom,
@@ -570,8 +578,8 @@ class SailModel:
     def stepper(self, profile, q0=None, qd0=None, t0: float = 0.0, **options) -> SailStepper:
         """A `SailStepper` holding this model's state (see `stepper.py`).
 
-        `options`: `max_step` [s], `resolved_frequency` [rad/s], `inputs` (a
-        callable `t -> u`, see `loads`).
+        `options`: `rtol`, `atol` (the tolerance), `max_step` [s],
+        `resolved_frequency` [rad/s], `inputs` (a callable `t -> u`, see `loads`).
         """
         return SailStepper(self, profile, q0=q0, qd0=qd0, t0=t0, **options)
 

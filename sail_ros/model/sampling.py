@@ -2,16 +2,16 @@
 booms move.
 
 The simulator publishes on a fine grid (0.01 s by default) but the stepper's
-accuracy rule allows longer steps while the booms move (`max_step`, 0.05 s by
-default, and 2 rad of `omega_r`). A moving step is the costly one (two complex
-solves), so `GridSampler` takes one step over as many whole grid intervals
-as the rule allows and fills the grid points inside from the step's
-continuous extension (`SailStepper.between`): the step's own resolvent
-solutions recombined for a fraction of the step, accurate to `(omega h)^5`
-for a mode and not amplifying any (a cubic through the ends' `q` and `qd`
+tolerance allows longer steps while the booms move (up to `max_step`, 0.5 s by
+default). A moving step is the costly one (rational solves and the frozen modes),
+so `GridSampler` takes one step over as many whole grid intervals as the
+tolerance accepts (a refused step is retried over fewer) and fills the grid
+points inside from the step's continuous extension (`SailStepper.between`):
+the rational steps' own resolvent solutions recombined for a fraction of the
+step, accurate to `(omega h)^5` for a mode and not amplifying any, with the
+followed high modes turned in phase (a cubic through the ends' `q` and `qd`
 overshoots the modes a step does not resolve: 4.6 % of the peak root moment
-at n_B = n_M = 20, against 0.35 % this way). The step's end is the
-integrator's own state.
+at n_B = n_M = 20). The step's end is the integrator's own state.
 
 While the booms stand still over a grid interval, one exact step (the cached
 propagator: a matrix-vector product) lands on the next grid point. A grid
@@ -94,14 +94,23 @@ class GridSampler:
         margin = STATIC_MARGIN * h
         if is_static is not None and is_static(start.t + margin, start.t + h - margin):
             stepper.step(h)  # exact at any length
-        elif intervals == 1:
-            count = self.substeps(limit)
-            for _ in range(count):
-                stepper.step(h / count)
-        else:
-            stepper.step(intervals * h)
+            self._ahead.append(self._exact())
+            return
+        # the longest whole number of intervals the tolerance accepts (each refusal
+        # shortens the stepper's proposal, so the limit falls)
+        while intervals > 1:
+            if stepper.rtol is None:
+                stepper.step(intervals * h)
+                break
+            if stepper.try_step(intervals * h):
+                break
+            intervals = min(intervals - 1, max(1, math.floor(stepper.step_limit() / h + 1e-9)))
+        if intervals > 1:
             self._ahead.extend(self._between(start, self._exact(), intervals))
             return
+        count = self.substeps(limit)
+        for _ in range(count):
+            stepper.step(h / count)
         self._ahead.append(self._exact())
 
     def _between(self, start: GridPoint, end: GridPoint, intervals: int) -> list[GridPoint]:

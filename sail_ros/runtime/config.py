@@ -23,7 +23,7 @@ import numpy as np
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, check_fields, default_of, fields_of, setting
 from sail_ros.model.layout import per_boom
-from sail_ros.model.stepper import DEFAULT_MAX_STEP
+from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.policy import Policy
 from sail_ros.topics import SAIL_PREFIX
 
@@ -75,9 +75,15 @@ class SimSettings:
     )  # fmt: skip
     max_model_step: float = setting(
         DEFAULT_MAX_STEP, "s", "longest model step while the booms move, in whole "
-        "integration steps (the samples between are interpolated); at rest every "
-        "integration step is one exact step; the model's own default", minimum=1e-4,
-        maximum=0.2,
+        "integration steps (the samples between are interpolated; model_rtol chooses "
+        "the steps below it); at rest every integration step is one exact step; the "
+        "model's own default", minimum=1e-4, maximum=2.0,
+    )  # fmt: skip
+    model_rtol: float = setting(
+        DEFAULT_RTOL, "-", "local error allowed per moving model step on tips, root "
+        "moments and their rates, relative to each one's peak so far; the model's own "
+        "default (whole runs within 0.2 % of peak); 0: fixed steps of max_model_step "
+        "(and the resolved frequency's bound), no estimate", minimum=0.0, maximum=0.1,
     )  # fmt: skip
     time_scale: float = setting(
         1.0, "-", "simulation seconds per wall-clock second: 1 follows the wall clock; other "

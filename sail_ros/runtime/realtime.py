@@ -479,6 +479,8 @@ class RealTimeRun:
             key.LAST_COMMAND_START: _time_or_none(sim.last_command_start),
             key.LAST_REJECTION: sim.last_rejection,
             key.MOTION_END: _time_or_none(sim.motion.t_end),
+            key.MODEL_RTOL: config.model_rtol,
+            key.ERROR_ESTIMATE: float(f"{sim.relative_error_estimate():.3g}"),
             key.ENERGY: float(f"{energy:.6g}"),
             key.LOAD_POWER: float(f"{load_power:.6g}"),
             key.DISSIPATION: float(f"{dissipation:.6g}"),

@@ -76,6 +76,7 @@ class Simulation:
             q0=model.initial_coordinates(config.initial_tip_deflection),
             qd0=self._initial_velocities(config),
             max_step=config.max_model_step,
+            rtol=config.model_rtol or None,
         )
         self.sampler = GridSampler(self.stepper, self.step_size)
         self.solar_pressure = config.solar_pressure  # [Pa] on every quadrant, on top
@@ -132,6 +133,14 @@ class Simulation:
     def sample(self) -> StateSample:
         point = self.sampler.point
         return self.model.sample(point.t, point.lengths, point.rates, point.q, point.qd)
+
+    def relative_error_estimate(self) -> float:
+        """The stepper's accumulated error estimate relative to peak, the larger of the
+        tips' and the root moments' (`SailStepper.relative_error_estimate`; nan before a
+        moving step or with fixed steps)."""
+        estimate = self.stepper.relative_error_estimate
+        finite = [v for v in (estimate["tips"], estimate["root_moments"]) if math.isfinite(v)]
+        return max(finite, default=math.nan)
 
     def balance(self) -> tuple[float, float, float]:
         """`(energy, load power, dissipation)` at `t`: the mechanical energy [J]

@@ -17,6 +17,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -39,7 +40,7 @@ from sail_ros.analysis.scenario import (
 )
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
-from sail_ros.model.stepper import DEFAULT_MAX_STEP
+from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
@@ -104,8 +105,16 @@ def build_parser() -> ToolParser:
         "--every", type=float, default=1.0, help="output interval for the table [s] (1)"
     )
     parser.add_argument(
-        "--max-step", type=float, default=DEFAULT_MAX_STEP, help="largest integration step [s]"
-    )
+        "--max-step", type=float, default=DEFAULT_MAX_STEP,
+        help=f"largest integration step [s]; the tolerance chooses the steps below it "
+        f"({DEFAULT_MAX_STEP:g})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--rtol", type=float, default=DEFAULT_RTOL,
+        help=f"local error allowed per step on tips, root moments and their rates, relative "
+        f"to each one's peak so far ({DEFAULT_RTOL:g}: whole runs within 0.2 %% of peak); "
+        "0: fixed steps of --max-step",
+    )  # fmt: skip
     parser.add_argument(
         "--summary",
         action="store_true",
@@ -240,6 +249,20 @@ def _print_table(run_result, table_times, description, config) -> None:
         f"  {simulated:g} s simulated in {wall:.3f} s wall "
         f"({simulated / max(wall, 1e-9):.0f}x real time)"
     )
+    print(_accuracy_line(run_result.accuracy))
+
+
+def _accuracy_line(accuracy) -> str:
+    """The tolerance, the steps and the achieved error estimate, in one line."""
+    steps = f"{accuracy.steps} steps ({accuracy.rejected} refused)"
+    if accuracy.rtol is None:
+        return f"  {steps} of fixed length: no error estimate"
+    error = accuracy.relative_error
+    return (
+        f"  {steps} at rtol {accuracy.rtol:g}; estimated error: tips "
+        f"{100 * error['tips']:.2g} %, root moments {100 * error['root_moments']:.2g} % "
+        "of peak"
+    )
 
 
 def _print_peaks(peaks, params, convergence=None) -> None:
@@ -296,6 +319,9 @@ def _json_report(result, config, description, convergence) -> dict:
         "parameters": params.to_dict(),
         "limits": dataclasses.asdict(config.policy),
         "wall_time_s": result.wall_seconds,
+        "rtol": result.accuracy.rtol,
+        "steps": result.accuracy.steps,
+        "relative_error_estimate": result.accuracy.relative_error,
         "warning": result.warning,
         "alarm": result.alarm,
     }
@@ -318,6 +344,10 @@ def _check_options(args, duration: float, snapshots) -> None:
         raise ValueError(f"--every must be > 0, got {args.every}")
     if not args.rate > 0:
         raise ValueError(f"--rate must be > 0 Hz, got {args.rate}")
+    if not (math.isfinite(args.max_step) and args.max_step > 0):
+        raise ValueError(f"--max-step must be finite and > 0 s, got {args.max_step}")
+    if not 0.0 <= args.rtol < 1.0:
+        raise ValueError(f"--rtol must be in [0, 1) (0: fixed steps), got {args.rtol}")
     if args.shape_rate < 0 or args.shape_rate > args.rate:
         raise ValueError(
             f"--shape-rate must be in [0, --rate = {args.rate:g}] Hz, got {args.shape_rate}"
@@ -379,8 +409,9 @@ def _deploy(args) -> int:
     config.check(check_scenario, scenario, model, policy)
     with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
         result = run_deployment(
-            model, scenario, t_eval, args.max_step, lambda t: bar.update(t - bar.n), policy=policy
-        )
+            model, scenario, t_eval, args.max_step, lambda t: bar.update(t - bar.n),
+            policy=policy, rtol=args.rtol or None,
+        )  # fmt: skip
     if result.warning:
         print(
             f"warning: {result.warning} (the simulator's diagnostics turn WARN here)",

@@ -1,0 +1,185 @@
+"""The tolerance of the stepper (docs/model.md §11): drawn deployments against an
+independent tight reference, the followed high modes against the closed form at
+constant length, the error estimate, live load steps, and the options' checks."""
+
+import numpy as np
+import pytest
+import scipy.integrate
+import scipy.linalg
+
+from sail_ros.model import BoomMotion, CycloidalProfile, SailModel, SailParameters
+from sail_ros.model.assembly import DAMPING, MASS, STIFFNESS_EQ
+from sail_ros.model.loads import LoadSchedule, input_function
+from sail_ros.model.sampling import GridSampler
+from sail_ros.model.stepper import DEFAULT_RTOL
+
+pytestmark = pytest.mark.model
+
+BAR = 2e-3  # 0.2 % of peak, tips and root moments
+
+
+def tight_reference(model, profile, loads, q0, t_out, breaks):
+    """`q` at `t_out` by DOP853 at rtol 1e-9 on the first-order Eq. 2 (x = [q; qd]),
+    restarted at every load step `breaks` (loads constant between): shares nothing
+    with the stepper but the matrices."""
+    n = model.n
+    u_of = input_function(loads)
+
+    def rhs(t, x, u):
+        lengths, rates, accelerations = (np.broadcast_to(v, (4,)) for v in profile(t))
+        M, C, K = model.assemble((MASS, DAMPING, STIFFNESS_EQ), lengths, rates, accelerations)
+        force = model.assemble_inputs(lengths) @ u
+        return np.concatenate([x[n:], np.linalg.solve(M, force - C @ x[n:] - K @ x[:n])])
+
+    edges = [0.0, *breaks, t_out[-1]]
+    x, rows = np.concatenate([q0, np.zeros(n)]), []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        inside = [t for t in t_out if a <= t < b]
+        u = np.zeros(8) if u_of is None else u_of(0.5 * (a + b))
+        segment = scipy.integrate.solve_ivp(
+            rhs, (a, b), x, method="DOP853", rtol=1e-9, atol=1e-12, t_eval=[*inside, b], args=(u,)
+        )
+        rows.extend(segment.y[:n, : len(inside)].T)
+        x = segment.y[:, -1]
+    if t_out[-1] == edges[-1]:
+        rows.append(x[:n])
+    return np.array(rows)
+
+
+def errors(model, profile, t, q, expected):
+    """Largest error of the tips and of the root moments over `t`, over their peaks."""
+    lengths = np.array([profile(ti)[0] for ti in t])
+    out = []
+    for series in (model.tip_deflections, lambda x: model.root_moments(x, lengths)):
+        reference = series(expected)
+        out.append(np.abs(series(q) - reference).max() / np.abs(reference).max())
+    return out
+
+
+def drawn_deployments(count, seed=24):
+    """Deployments drawn at random: mode counts, lengths, durations, unequal booms,
+    damping or none, loads or none, a tip force switched at odd times."""
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        nb, nm = int(rng.integers(3, 6)), int(rng.integers(2, 7))
+        damped = bool(rng.integers(2))
+        params = SailParameters(
+            n_boom_modes=nb,
+            n_membrane_modes=nm,
+            mass_damping=0.02 * damped,
+            stiffness_damping=float(rng.uniform(1e-4, 5e-4)) * damped,
+        )
+        start = rng.uniform(9.0, 13.0, 4)
+        duration = float(rng.uniform(2.5, 3.5))
+        end = start + rng.uniform(0.5, 1.0, 4) * duration * rng.uniform(0.3, 0.8)
+        profile = BoomMotion(
+            [CycloidalProfile(a, b, duration) for a, b in zip(start, end, strict=True)]
+        )
+        loads, breaks = None, []
+        if rng.integers(3):  # two in three loaded
+            on = float(rng.uniform(0.3, 0.5) * duration)
+            off = float(rng.uniform(0.6, 0.9) * duration)
+            force = np.zeros(4)
+            force[rng.integers(4)] = rng.uniform(0.02, 0.08)
+            pressures = rng.uniform(0.0, 3e-3, 4)
+            loads = LoadSchedule([(0.0, pressures, 0.0), (on, None, force), (off, None, 0.0)])
+            breaks = [on, off]
+        label = f"{nb},{nm} {'damped' if damped else 'undamped'} {'loaded' if loads else ''}"
+        yield label, SailModel(params), profile, loads, breaks, duration, rng
+
+
+@pytest.mark.parametrize("draw", range(4))
+def test_the_default_tolerance_meets_the_bar_on_drawn_deployments(draw):
+    label, model, profile, loads, breaks, duration, rng = list(drawn_deployments(4))[draw]
+    q0 = model.initial_coordinates(rng.uniform(-0.1, 0.1, 4))
+    t_out = np.linspace(0.0, duration, 121)
+    run = model.simulate(profile, duration, q0=q0, t_eval=t_out, loads=loads)
+    expected = tight_reference(model, profile, loads, q0, t_out, breaks)
+    tips, moments = errors(model, profile, t_out, run[1], expected)
+    assert tips < BAR and moments < BAR, (label, tips, moments)
+    # the estimate reported bounds what was made (it sums the local estimates)
+    estimate = run.relative_error_estimate
+    assert estimate["tips"] >= tips and estimate["root_moments"] >= moments, (label, estimate)
+    assert run.rtol == DEFAULT_RTOL and run.steps < 0.5 * duration / 0.01
+
+
+def test_a_tighter_tolerance_is_more_accurate_and_takes_more_steps():
+    label, model, profile, loads, breaks, duration, rng = list(drawn_deployments(2))[1]
+    q0 = model.initial_coordinates([0.1, 0.0, -0.05, 0.0])
+    t_out = np.linspace(0.0, duration, 61)
+    expected = tight_reference(model, profile, loads, q0, t_out, breaks)
+    runs = [model.simulate(profile, duration, q0, t_eval=t_out, loads=loads, rtol=r)
+            for r in (1e-3, 1e-4)]  # fmt: skip
+    loose, tight = (max(errors(model, profile, t_out, run[1], expected)) for run in runs)
+    assert tight < 0.7 * loose and runs[1].steps > runs[0].steps, (label, loose, tight)
+
+
+def test_followed_modes_at_constant_length_are_the_closed_form_over_thousands_of_periods():
+    """Booms held by a plain callable (so every step is a moving one, the high modes
+    followed): the answer is the modal superposition. The followed modes (the boom modes
+    above the first, ~52 to 1900 rad/s: 6000 periods of the highest in 20 s) turn by
+    exactly omega h per step, so only the rational step's lag of the resolved modes is
+    left, ~4e-8 (omega h)^9 rad per step (omega h <= 2)."""
+    model = SailModel(SailParameters(n_boom_modes=10, n_membrane_modes=4))
+    lengths, zero = np.full(4, 10.0), np.zeros(4)
+    M, K = model.mass_and_stiffness(lengths)
+    lam, V = scipy.linalg.eigh(K, M)
+    rng = np.random.default_rng(5)
+    eta0 = rng.normal(size=model.n) / np.sqrt(lam)  # every mode with the same energy
+    t = 20.0
+    stepper = model.stepper(lambda _: (lengths, zero, zero), q0=V @ eta0)
+    stepper.advance(t)
+    expected = V @ (eta0 * np.cos(np.sqrt(lam) * t))
+    eta = V.T @ M @ stepper.q
+    high = np.sqrt(lam) > 40.0
+    assert np.sqrt(lam).max() > 1900.0 and high.sum() == 4 * 9
+    exact = (V.T @ M @ expected)[high]
+    np.testing.assert_allclose(eta[high], exact, atol=1e-9 * np.abs(eta0).max())
+    steps = 2 * stepper.steps_taken  # rational steps on the resolved modes
+    lag = 4e-8 * 2.0**9 * steps  # rad, at most
+    assert np.abs(stepper.q - expected).max() <= lag * np.abs(eta0[~high]).max() * 2
+    # the estimate reported covers the error made
+    made = np.abs(model.tip_deflections(stepper.q) - model.tip_deflections(expected)).max()
+    assert stepper.error_estimate["tips"] >= made
+
+
+def test_a_live_load_step_lands_at_the_steppers_time_and_keeps_the_bar():
+    """As the simulator does: samples every 0.01 s from steps of whole grid intervals;
+    a tip force given to the stepper at an odd moment acts from the stepper's time (a
+    step boundary); the reference restarts there."""
+    model = SailModel(SailParameters(n_boom_modes=4, n_membrane_modes=4))
+    profile = CycloidalProfile(10.0, 12.0, 4.0)
+    q0 = model.initial_coordinates([0.1, 0.0, 0.0, 0.0])
+    force = np.array([0, 0, 0, 0, 0.0, 0.06, 0.0, 0.0])
+    stepper = model.stepper(profile, q0=q0)
+    sampler = GridSampler(stepper, 0.01)
+    samples, switched = [sampler.point], None
+    while sampler.point.t < 4.0 - 1e-9:
+        if switched is None and sampler.point.t >= 1.37:
+            switched = stepper.t  # commands act at the stepper's time
+            stepper.inputs = lambda _: force
+        samples.append(sampler.advance())
+    assert switched > 1.37 and abs(switched / 0.01 - round(switched / 0.01)) < 1e-6
+    t = np.array([s.t for s in samples])
+    q = np.array([s.q for s in samples])
+    loads = LoadSchedule([(switched, 0.0, force[4:])])
+    expected = tight_reference(model, profile, loads, q0, t, [switched])
+    tips, moments = errors(model, profile, t, q, expected)
+    assert tips < BAR and moments < BAR, (tips, moments)
+    assert stepper.steps_taken < 0.5 * t.size  # steps of several grid intervals
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"rtol": 0.0}, "rtol must be None or in"),
+        ({"rtol": float("nan")}, "rtol must be None or in"),
+        ({"atol": {"tip": 1e-6}}, "atol: unknown output 'tip'; outputs are tips, tip_rates"),
+        ({"atol": {"root_moments": -1.0}}, r"atol\['root_moments'\] must be finite and > 0"),
+    ],
+    ids=str,
+)
+def test_tolerance_options_are_checked(options, message):
+    model = SailModel()
+    with pytest.raises(ValueError, match=message):
+        model.stepper(CycloidalProfile(10.0, 12.0, 4.0), **options)
