@@ -32,6 +32,7 @@ from sail_ros.bag import (
     BagWriter,
     DefinitionNotFoundError,
     default_qos_profile,
+    mcap_storage,
     message_definition,
     parse_qos_profiles,
     type_hash,
@@ -240,18 +241,29 @@ def test_single_file_is_read_by_mcap_rosbags_and_rclpy(tmp_path, compression):
     )
 
 
+class SplitsWithRecords(BagWriter):
+    """Adds a record to every new file: splits decided and done before each write, as a
+    caller that owns the splits does (`split_due`, `split`, then `write(split=False)`)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.new_files = []
+
+    def write(self, topic, data, log_time_ns, *args, **kwargs):
+        if self.split_due(log_time_ns):
+            self.new_files.append(self.split())
+            self.add_metadata("sail_sim_parameters", {"index": str(len(self.new_files))})
+        super().write(topic, data, log_time_ns, *args, split=False, **kwargs)
+
+
 def test_folder_splits_by_size_and_writes_rosbag2_metadata(tmp_path):
     folder = tmp_path / "sail_run"
-    new_files = []
-
-    def on_new_file(path):
-        new_files.append(path)
-        bag.add_metadata("sail_sim_parameters", {"index": str(len(new_files))})
-
-    bag = BagWriter(folder, chunk_size=2048, max_file_size_bytes=8192, on_new_file=on_new_file)
+    limit = 24576  # bytes: every file starts with its ~17 KB of schemas, then ~2 KB chunks
+    bag = SplitsWithRecords(folder, chunk_size=2048, max_file_size_bytes=limit)
     with bag:
         bag.add_metadata("sail_sim_parameters", {"index": "0"})
         written = write_samples(bag, 60)
+    new_files = bag.new_files
     files = sorted(folder.glob("*.mcap"), key=lambda p: int(p.stem.rsplit("_", 1)[1]))
     assert len(files) >= 3
     assert [f.name for f in files] == [f"sail_run_{i}.mcap" for i in range(len(files))]
@@ -259,7 +271,7 @@ def test_folder_splits_by_size_and_writes_rosbag2_metadata(tmp_path):
     for f in files:  # only the last chunk (and the summary) may cross the limit
         with f.open("rb") as stream:
             chunks = make_reader(stream).get_summary().chunk_indexes
-        assert max(c.chunk_start_offset for c in chunks) < 8192
+        assert max(c.chunk_start_offset for c in chunks) < limit
 
     info = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert info["version"] == 9 and info["storage_identifier"] == "mcap"
@@ -327,13 +339,16 @@ def test_file_cut_anywhere_reads_up_to_its_last_complete_chunk(tmp_path):
     assert min(counts) == 0 and max(counts) == len(expected) and len(counts) > 10
 
 
-def test_killed_writer_leaves_its_closed_chunks_readable(tmp_path):
+def test_killed_writer_leaves_its_closed_chunks_readable(tmp_path, monkeypatch):
+    monkeypatch.setattr(mcap_storage, "FIRST_CHUNK_S", 0.5)  # the file's first chunk too
     path = tmp_path / "killed.mcap"
     bag = BagWriter(path, chunk_size=1 << 20, max_chunk_duration_s=0.5)  # > the writes
     written = write_samples(bag, 5)
     copy = tmp_path / "copy.mcap"
     shutil.copyfile(path, copy)
     assert list(BagReader(copy).messages()) == []  # all in the open chunk: not on disk yet
+    # ... but its topics are: schemas and channels go to the disk when declared
+    assert set(BagReader(copy).topics()) == set(TOPICS)
 
     deadline = time.monotonic() + 5.0
     while path.stat().st_size == copy.stat().st_size and time.monotonic() < deadline:
@@ -345,6 +360,39 @@ def test_killed_writer_leaves_its_closed_chunks_readable(tmp_path):
         (topic, log, cdr(message)) for topic, message, log, _ in written
     ]
     bag.close()
+
+
+def test_first_chunk_of_a_file_is_on_disk_early_the_next_ones_at_full_length(tmp_path):
+    """A kill early in a file keeps its first messages: its first chunk closes
+    FIRST_CHUNK_S after its first message, later ones max_chunk_duration_s after theirs."""
+    path = tmp_path / "early.mcap"
+    bag = BagWriter(path, max_chunk_duration_s=5.0)
+    bag.add_topic("/clock", type_name(Clock))
+    copy = tmp_path / "copy.mcap"
+
+    def on_disk() -> list[int]:
+        shutil.copyfile(path, copy)  # the file as a kill would leave it
+        return [m.log_time_ns for m in BagReader(copy).messages()]
+
+    def tick_for(seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            bag.tick()
+            time.sleep(0.01)
+
+    started = time.monotonic()
+    bag.write("/clock", cdr(sample("/clock", 0)), T0)
+    bag.write("/clock", cdr(sample("/clock", 1)), T0 + 1)
+    assert bag.seconds_to_next_tick() <= mcap_storage.FIRST_CHUNK_S
+    tick_for(mcap_storage.FIRST_CHUNK_S + 0.05)
+    assert on_disk() == [T0, T0 + 1]
+    bag.write("/clock", cdr(sample("/clock", 2)), T0 + 2)
+    tick_for(0.3)
+    assert on_disk() == [T0, T0 + 1]  # the second chunk waits its 5 s
+    assert bag.seconds_to_next_tick() > 4.0
+    bag.close()
+    assert time.monotonic() - started < 2.0  # the close did not wait
+    assert [m.log_time_ns for m in BagReader(path).messages()] == [T0, T0 + 1, T0 + 2]
 
 
 def test_reads_a_bag_written_by_rosbags(tmp_path):
