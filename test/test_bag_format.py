@@ -8,6 +8,7 @@ mcap_ros2 decoder), with rosbags and with `BagReader`, and decoded by rclpy.
 import array
 import shutil
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -305,6 +306,23 @@ def test_folder_splits_by_size_and_writes_rosbag2_metadata(tmp_path):
             if c.topic == "/sail/deploy_cmd"
         ]
     assert [v.data for v in values] == pytest.approx([0.1 * i for i in range(60)])
+
+
+def test_metadata_yaml_appears_whole_or_not_at_all(tmp_path, monkeypatch):
+    """It is written under a temporary name and renamed: a failure on the way leaves
+    neither it nor the temporary file, and the writer says so."""
+    folder = tmp_path / "run"
+    bag = BagWriter(folder)
+    write_samples(bag, 3)
+
+    def failing_rename(self, target):
+        raise OSError(5, "Input/output error", str(self))
+
+    monkeypatch.setattr(Path, "replace", failing_rename)
+    with pytest.raises(BagWriteError, match="metadata.yaml': Input/output error"):
+        bag.close()
+    assert sorted(path.name for path in folder.iterdir()) == ["run_0.mcap"]
+    assert BagReader(folder).incomplete_files == []  # the file itself was finished
 
 
 def test_folder_splits_by_log_time(tmp_path):

@@ -293,7 +293,12 @@ class BagWriter:
         if not self._single_file:
             metadata = bag_metadata(list(self._topics.values()), self._files, self._ros_distro)
             self._attempt(
-                guarded, self._path / "metadata.yaml", write_metadata_yaml, self._path, metadata
+                guarded,
+                self._path / "metadata.yaml",
+                write_metadata_yaml,
+                self._path,
+                metadata,
+                self._fsync,
             )
         return list(self._files)
 
