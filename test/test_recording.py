@@ -5,10 +5,13 @@ state machine is driven directly (a fake clock for the wait for parameters) and 
 bag read back with `BagReader`.
 """
 
+import threading
+import time
+
 import pytest
 from rosgraph_msgs.msg import Clock
 
-from sail_ros.bag import BagReader, BagWriter
+from sail_ros.bag import BagReader, BagWriteError, BagWriter
 from sail_ros.bag.recording import (
     ParameterChange,
     ParameterUpdate,
@@ -140,3 +143,32 @@ def test_changes_record_keeps_every_value_as_text():
     assert parse_changes_record(record) == (NODE, 5, 7, changes)
     with pytest.raises(ValueError, match="not a parameter changes record"):
         parse_changes_record({"node": NODE, "changes": "[{name: a}]"})
+
+
+def test_a_writer_that_failed_never_blocks_the_threads_that_queue(tmp_path, monkeypatch):
+    """The disk fails at the first message while the queue is full: queueing more and
+    closing return at once (a blocking put used to wait for a writer that was gone)."""
+    failing = threading.Event()
+
+    def write(self, *args, **kwargs):
+        failing.wait(5.0)  # until the queue is full
+        raise BagWriteError(self.path, OSError(28, "No space left on device"))
+
+    monkeypatch.setattr(BagWriter, "write", write)
+    bag = Recording(
+        BagWriter(tmp_path / "full", fsync=False),
+        max_messages=10,
+        parameter_node=NODE,
+        **RECORDS,
+    )
+    bag.add_topic("/clock", "rosgraph_msgs/msg/Clock")
+    started = time.monotonic()
+    accepted = [bag.write("/clock", b"\0\1\0\0" + bytes(8), i, i, i) for i in range(30)]
+    failing.set()
+    bag.add_topic("/other", "rosgraph_msgs/msg/Clock")  # waits while the writer lives
+    bag.parameters_fetched({"a": "1"}, 0)
+    bag.close()
+    assert time.monotonic() - started < 3.0
+    assert isinstance(bag.error, BagWriteError) and bag.failed.is_set()
+    # 10 wait (a topic among them, or not yet), one may be in the writer
+    assert 9 <= sum(accepted) <= 11 and bag.dropped == {"/clock": 30 - sum(accepted)}

@@ -193,7 +193,7 @@ class Recording:
 
     def add_topic(self, *args) -> None:
         """`BagWriter.add_topic(*args)`, in turn."""
-        self._queue.put((self.writer.add_topic, args))
+        self._put((self.writer.add_topic, args))
 
     def write(
         self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int, sequence: int
@@ -210,18 +210,28 @@ class Recording:
 
     def parameters_fetched(self, values: Mapping[str, str], log_time_ns: int) -> None:
         """The answer of a fetch of all the node's parameters (name -> YAML text)."""
-        self._queue.put((self._on_parameters, (dict(values), log_time_ns)))
+        self._put((self._on_parameters, (dict(values), log_time_ns)))
 
     def parameter_event(self, update: ParameterUpdate) -> None:
         """An event of the node's parameters."""
-        self._queue.put((self._on_update, (update,)))
+        self._put((self._on_update, (update,)))
 
     def close(self) -> None:
         """Write what was queued and the drop counts, finish the files, end the thread."""
         if self.dropped:
-            self._queue.put((self._store_dropped, (dict(self.dropped),)))
-        self._queue.put(self._STOP)
+            self._put((self._store_dropped, (dict(self.dropped),)))
+        self._put(self._STOP)
         self._thread.join()
+
+    def _put(self, item) -> None:
+        """Queue `item`, waiting for a place while the writer works; a writer that
+        failed takes nothing more, so then `item` is let go."""
+        while not self.failed.is_set():
+            try:
+                self._queue.put(item, timeout=0.1)
+                return
+            except queue.Full:
+                pass
 
     # -- the writer thread ------------------------------------------------------------------
 

@@ -435,8 +435,9 @@ class Recorder(Node):
         starts anew may have missed telling its declarations to this one); its events
         carry every later change."""
         ready = self._list_client.service_is_ready() and self._get_client.service_is_ready()
-        if not ready:
+        if not ready:  # gone, or not there yet: fetched (again) once it is there
             self._fetched = False
+            self._request_started = None
             if (
                 not self._warned_absent
                 and not self._fetches
