@@ -73,8 +73,9 @@ PARAMETER_WAIT_WARNING_S = 5.0  # warn once if the parameter node is still absen
 SERVICE_TIMEOUT_S = 5.0  # a parameter request without answer is retried after this
 DRAIN_QUIET_S = 0.1  # at shutdown, stop taking messages once none came for this long
 DRAIN_MAX_S = 2.0  # ... or after this long, if publishers keep sending
-TAKE_BATCH = 1000  # most messages taken from one subscription per executor callback
-# (`take_waiting`: why the recorder takes batches)
+# most messages taken from one subscription per executor callback (why in batches:
+# sail_ros.ros.taking)
+TAKE_BATCH = 1000
 # after taking messages, let the next ones gather in DDS this long [s]: a wake-up then
 # takes several (log times are DDS's reception times, so they do not change)
 GATHER_S = 0.01
