@@ -380,37 +380,33 @@ def test_killed_writer_leaves_its_closed_chunks_readable(tmp_path, monkeypatch):
     bag.close()
 
 
-def test_first_chunk_of_a_file_is_on_disk_early_the_next_ones_at_full_length(tmp_path):
-    """A kill early in a file keeps its first messages: its first chunk closes
-    FIRST_CHUNK_S after its first message, later ones max_chunk_duration_s after theirs."""
+def test_a_files_first_chunks_close_sooner_each_twice_as_late(tmp_path):
+    """A kill early in a file loses at most about the second half of it: its first chunk
+    closes FIRST_CHUNK_S after its first message, each next one may last twice as long as
+    the one before, up to max_chunk_duration_s (0.1, 0.2, 0.4, 0.5, 0.5 s here)."""
     path = tmp_path / "early.mcap"
-    bag = BagWriter(path, max_chunk_duration_s=5.0)
+    bag = BagWriter(path, max_chunk_duration_s=0.5)
     bag.add_topic("/clock", type_name(Clock))
     copy = tmp_path / "copy.mcap"
 
-    def on_disk() -> list[int]:
+    def on_disk() -> int:
         shutil.copyfile(path, copy)  # the file as a kill would leave it
-        return [m.log_time_ns for m in BagReader(copy).messages()]
+        return sum(1 for _ in BagReader(copy).messages())
 
-    def tick_for(seconds: float) -> None:
-        deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
+    durations = []
+    for i in range(5):
+        bag.write("/clock", cdr(sample("/clock", i)), T0 + i)
+        opened = time.monotonic()
+        durations.append(bag.seconds_to_next_tick())
+        while on_disk() == i:  # closed by the tick once due, with nothing after it
+            assert time.monotonic() - opened < durations[-1] + 1.0, i
             bag.tick()
-            time.sleep(0.01)
-
-    started = time.monotonic()
-    bag.write("/clock", cdr(sample("/clock", 0)), T0)
-    bag.write("/clock", cdr(sample("/clock", 1)), T0 + 1)
-    assert bag.seconds_to_next_tick() <= mcap_storage.FIRST_CHUNK_S
-    tick_for(mcap_storage.FIRST_CHUNK_S + 0.05)
-    assert on_disk() == [T0, T0 + 1]
-    bag.write("/clock", cdr(sample("/clock", 2)), T0 + 2)
-    tick_for(0.3)
-    assert on_disk() == [T0, T0 + 1]  # the second chunk waits its 5 s
-    assert bag.seconds_to_next_tick() > 4.0
+            time.sleep(0.005)
+        assert time.monotonic() - opened >= durations[-1] - 0.01
+    expected = [mcap_storage.FIRST_CHUNK_S * 2**k for k in range(3)] + [0.5, 0.5]
+    assert durations == pytest.approx(expected, abs=0.01)
     bag.close()
-    assert time.monotonic() - started < 2.0  # the close did not wait
-    assert [m.log_time_ns for m in BagReader(path).messages()] == [T0, T0 + 1, T0 + 2]
+    assert [m.log_time_ns for m in BagReader(path).messages()] == [T0 + i for i in range(5)]
 
 
 def test_reads_a_bag_written_by_rosbags(tmp_path):

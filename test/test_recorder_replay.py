@@ -514,8 +514,9 @@ def test_sigkill_one_second_after_the_first_message_leaves_a_recoverable_log(
 ):
     """A recorder killed 1 s after the first message reached it, start-up included (such a
     log used to hold its 62-byte header alone): the topics are on disk from their start,
-    the first chunk 0.1 s after the first message, and `sail-ros bag recover` makes of it a
-    log that rosbags opens, holding the stream from its first message on."""
+    a file's first chunks close 0.1, 0.2, 0.4 s after their first message (the first may
+    hold the latched message alone), and `sail-ros bag recover` makes of it a log that
+    rosbags opens, holding the stream from its first message on (0.2 s at least)."""
     from sail_ros.tools import bag as bag_tool
 
     folder = tmp_path / "early"
@@ -529,7 +530,7 @@ def test_sigkill_one_second_after_the_first_message_leaves_a_recoverable_log(
             for c, _, raw in reader.messages()
             if c.topic == "/sail/boom_state"
         ]
-    assert kept and kept == list(range(len(kept))), kept
+    assert len(kept) >= 20 and kept == list(range(len(kept))), kept
 
 
 # CI: a few trials; scripts/stress.sh runs 20 (SAIL_ROS_KILL_TRIALS)

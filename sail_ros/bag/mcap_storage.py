@@ -13,11 +13,13 @@ What a file holds, so that `ros2 bag info/play`, Foxglove and rosbags read it:
   first chunk still names its topics (each is repeated in the first chunk that
   uses it, as the mcap writer does; MCAP allows identical repeats);
 - zstd/lz4/uncompressed chunks, closed when they reach `chunk_size` bytes or
-  are `max_chunk_duration_s` old (the file's first chunk already
-  `FIRST_CHUNK_S` after its first message: a process killed early in a file,
-  with nothing else on disk yet, keeps its first messages), then flushed (and
-  fsync'ed) so that a killed process or a power cut loses at most the chunk in
-  progress;
+  are `max_chunk_duration_s` old, then flushed (and fsync'ed) so that a killed
+  process or a power cut loses at most the chunk in progress; a file's first
+  chunks are shorter: the first closes `FIRST_CHUNK_S` after its first message,
+  each next one may last twice as long as the one before, up to
+  `max_chunk_duration_s` (0.1, 0.2, 0.4, 0.8, 1 s), so that a process killed
+  early in a file, with little on disk yet, loses at most about the second
+  half of what it received;
 - at `finish`, a `rosbag2` metadata record (`serialized_metadata`,
   `ROS_DISTRO`) and the summary section.
 
@@ -111,7 +113,7 @@ class McapFile:
         self.end_time_ns = 0
         self._chunk_bytes = 0
         self._chunk_opened_at: float | None = None  # time.monotonic() of its first message
-        self._chunk_duration_s = min(FIRST_CHUNK_S, max_chunk_duration_s)  # the first's
+        self._chunk_duration_s = min(FIRST_CHUNK_S, max_chunk_duration_s)  # the next's
         guarded(path, self._mcap.start, "ros2", _library_name())
 
     def summary(self) -> FileSummary:
@@ -200,8 +202,8 @@ class McapFile:
             self.tick()
 
     def tick(self) -> None:
-        """Close the chunk in progress if it is due (`max_chunk_duration_s` old, the
-        file's first `FIRST_CHUNK_S`)."""
+        """Close the chunk in progress if it is due (`max_chunk_duration_s` old; a
+        file's first ones sooner)."""
         opened = self._chunk_opened_at
         if opened is not None and time.monotonic() - opened >= self._chunk_duration_s:
             self.flush()
@@ -220,8 +222,8 @@ class McapFile:
     def _flush(self) -> None:
         self._mcap.flush()
         self._push()
-        if self._chunk_opened_at is not None:  # a chunk was written: the next are full length
-            self._chunk_duration_s = self._max_chunk_duration_s
+        if self._chunk_opened_at is not None:  # a chunk was written: the next may last longer
+            self._chunk_duration_s = min(2 * self._chunk_duration_s, self._max_chunk_duration_s)
         self._chunk_bytes = 0
         self._chunk_opened_at = None
 
