@@ -173,7 +173,9 @@ class Recording:
         self.dropped: dict[str, int] = {}  # the submitting thread's
         self._queue: queue.Queue = queue.Queue(maxsize=max_messages)
         self._node = parameter_node
-        self._records = (parameters_record, changes_record, dropped_record)
+        self._parameters_record = parameters_record
+        self._changes_record = changes_record
+        self._dropped_record = dropped_record
         self._wait_s = parameters_wait_s
         self._clock = clock
         # the writer thread's alone (read by others only after `close`)
@@ -286,15 +288,15 @@ class Recording:
         self._store_changes(update.time_ns, update.log_time_ns, changes)
 
     def _store_parameters(self) -> None:
-        self.writer.add_metadata(self._records[0], self._parameters.values)
+        self.writer.add_metadata(self._parameters_record, self._parameters.values)
         self._file_has_parameters = True
 
     def _store_changes(self, time_ns: int, log_time_ns: int, changes) -> None:
         if changes:
             record = changes_record_of(self._node, time_ns, log_time_ns, changes)
-            self.writer.add_metadata(self._records[1], record)
+            self.writer.add_metadata(self._changes_record, record)
             self.change_count += len(changes)
 
     def _store_dropped(self, dropped: dict[str, int]) -> None:
         counts = {topic: str(count) for topic, count in sorted(dropped.items())}
-        self.writer.add_metadata(self._records[2], counts)
+        self.writer.add_metadata(self._dropped_record, counts)
