@@ -9,7 +9,8 @@ live logs" holds by construction:
 - the builders of every state message, pure functions of numbers (no node,
   no clock), and `state_messages`, the set published at every state sample;
 - the stamps: simulation time as nanoseconds since the Unix epoch (`stamp_ns`);
-- the metadata record names (`PARAMETERS_METADATA`, `SCENARIO_METADATA`);
+- the metadata record names (`PARAMETERS_METADATA`, `PARAMETER_CHANGES_METADATA`,
+  `SCENARIO_METADATA`);
 - the flat parameter names `sail.<field>` <-> `SailParameters`.
 
 Every quantity is SI. The pages under `msg_docs/` describe each topic field
@@ -213,6 +214,8 @@ RECORDED_TOPICS = (*TOPICS, PARAMETER_EVENTS)
 # -- metadata records ---------------------------------------------------------------------------
 
 PARAMETERS_METADATA = "sail_sim_parameters"  # the simulator's parameters, name -> YAML text
+# one record per parameter event that changed them: node, times, {name, old, new} list
+PARAMETER_CHANGES_METADATA = "sail_sim_parameter_changes"
 SCENARIO_METADATA = "sail_deploy_scenario"  # an offline run: its scenario (YAML) and epoch_ns
 SAIL_PREFIX = "sail."  # the simulator's parameter `sail.<field>` is SailParameters.<field>
 

@@ -8,6 +8,7 @@ mcap_ros2 decoder), with rosbags and with `BagReader`, and decoded by rclpy.
 import array
 import shutil
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,6 +33,7 @@ from sail_ros.bag import (
     BagWriter,
     DefinitionNotFoundError,
     default_qos_profile,
+    mcap_storage,
     message_definition,
     parse_qos_profiles,
     type_hash,
@@ -240,18 +242,29 @@ def test_single_file_is_read_by_mcap_rosbags_and_rclpy(tmp_path, compression):
     )
 
 
+class SplitsWithRecords(BagWriter):
+    """Adds a record to every new file: splits decided and done before each write, as a
+    caller that owns the splits does (`split_due`, `split`, then `write(split=False)`)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.new_files = []
+
+    def write(self, topic, data, log_time_ns, *args, **kwargs):
+        if self.split_due(log_time_ns):
+            self.new_files.append(self.split())
+            self.add_metadata("sail_sim_parameters", {"index": str(len(self.new_files))})
+        super().write(topic, data, log_time_ns, *args, split=False, **kwargs)
+
+
 def test_folder_splits_by_size_and_writes_rosbag2_metadata(tmp_path):
     folder = tmp_path / "sail_run"
-    new_files = []
-
-    def on_new_file(path):
-        new_files.append(path)
-        bag.add_metadata("sail_sim_parameters", {"index": str(len(new_files))})
-
-    bag = BagWriter(folder, chunk_size=2048, max_file_size_bytes=8192, on_new_file=on_new_file)
+    limit = 24576  # bytes: every file starts with its ~17 KB of schemas, then ~2 KB chunks
+    bag = SplitsWithRecords(folder, chunk_size=2048, max_file_size_bytes=limit)
     with bag:
         bag.add_metadata("sail_sim_parameters", {"index": "0"})
         written = write_samples(bag, 60)
+    new_files = bag.new_files
     files = sorted(folder.glob("*.mcap"), key=lambda p: int(p.stem.rsplit("_", 1)[1]))
     assert len(files) >= 3
     assert [f.name for f in files] == [f"sail_run_{i}.mcap" for i in range(len(files))]
@@ -259,7 +272,7 @@ def test_folder_splits_by_size_and_writes_rosbag2_metadata(tmp_path):
     for f in files:  # only the last chunk (and the summary) may cross the limit
         with f.open("rb") as stream:
             chunks = make_reader(stream).get_summary().chunk_indexes
-        assert max(c.chunk_start_offset for c in chunks) < 8192
+        assert max(c.chunk_start_offset for c in chunks) < limit
 
     info = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert info["version"] == 9 and info["storage_identifier"] == "mcap"
@@ -295,6 +308,23 @@ def test_folder_splits_by_size_and_writes_rosbag2_metadata(tmp_path):
     assert [v.data for v in values] == pytest.approx([0.1 * i for i in range(60)])
 
 
+def test_metadata_yaml_appears_whole_or_not_at_all(tmp_path, monkeypatch):
+    """It is written under a temporary name and renamed: a failure on the way leaves
+    neither it nor the temporary file, and the writer says so."""
+    folder = tmp_path / "run"
+    bag = BagWriter(folder)
+    write_samples(bag, 3)
+
+    def failing_rename(self, target):
+        raise OSError(5, "Input/output error", str(self))
+
+    monkeypatch.setattr(Path, "replace", failing_rename)
+    with pytest.raises(BagWriteError, match="metadata.yaml': Input/output error"):
+        bag.close()
+    assert sorted(path.name for path in folder.iterdir()) == ["run_0.mcap"]
+    assert BagReader(folder).incomplete_files == []  # the file itself was finished
+
+
 def test_folder_splits_by_log_time(tmp_path):
     folder = tmp_path / "timed"
     with BagWriter(folder, max_file_duration_s=0.25) as bag:
@@ -327,13 +357,16 @@ def test_file_cut_anywhere_reads_up_to_its_last_complete_chunk(tmp_path):
     assert min(counts) == 0 and max(counts) == len(expected) and len(counts) > 10
 
 
-def test_killed_writer_leaves_its_closed_chunks_readable(tmp_path):
+def test_killed_writer_leaves_its_closed_chunks_readable(tmp_path, monkeypatch):
+    monkeypatch.setattr(mcap_storage, "FIRST_CHUNK_S", 0.5)  # the file's first chunk too
     path = tmp_path / "killed.mcap"
     bag = BagWriter(path, chunk_size=1 << 20, max_chunk_duration_s=0.5)  # > the writes
     written = write_samples(bag, 5)
     copy = tmp_path / "copy.mcap"
     shutil.copyfile(path, copy)
     assert list(BagReader(copy).messages()) == []  # all in the open chunk: not on disk yet
+    # ... but its topics are: schemas and channels go to the disk when declared
+    assert set(BagReader(copy).topics()) == set(TOPICS)
 
     deadline = time.monotonic() + 5.0
     while path.stat().st_size == copy.stat().st_size and time.monotonic() < deadline:
@@ -345,6 +378,35 @@ def test_killed_writer_leaves_its_closed_chunks_readable(tmp_path):
         (topic, log, cdr(message)) for topic, message, log, _ in written
     ]
     bag.close()
+
+
+def test_a_files_first_chunks_close_sooner_each_twice_as_late(tmp_path):
+    """A kill early in a file loses at most about the second half of it: its first chunk
+    closes FIRST_CHUNK_S after its first message, each next one may last twice as long as
+    the one before, up to max_chunk_duration_s (0.1, 0.2, 0.4, 0.5, 0.5 s here)."""
+    path = tmp_path / "early.mcap"
+    bag = BagWriter(path, max_chunk_duration_s=0.5)
+    bag.add_topic("/clock", type_name(Clock))
+    copy = tmp_path / "copy.mcap"
+
+    def on_disk() -> int:
+        shutil.copyfile(path, copy)  # the file as a kill would leave it
+        return sum(1 for _ in BagReader(copy).messages())
+
+    durations = []
+    for i in range(5):
+        bag.write("/clock", cdr(sample("/clock", i)), T0 + i)
+        opened = time.monotonic()
+        durations.append(bag.seconds_to_next_tick())
+        while on_disk() == i:  # closed by the tick once due, with nothing after it
+            assert time.monotonic() - opened < durations[-1] + 1.0, i
+            bag.tick()
+            time.sleep(0.005)
+        assert time.monotonic() - opened >= durations[-1] - 0.01
+    expected = [mcap_storage.FIRST_CHUNK_S * 2**k for k in range(3)] + [0.5, 0.5]
+    assert durations == pytest.approx(expected, abs=0.01)
+    bag.close()
+    assert [m.log_time_ns for m in BagReader(path).messages()] == [T0 + i for i in range(5)]
 
 
 def test_reads_a_bag_written_by_rosbags(tmp_path):

@@ -22,6 +22,7 @@ from sail_ros.bag import BagReader, BagWriter
 from sail_ros.nodes.recorder import Recorder
 from sail_ros.nodes.replay import Replay
 from sail_ros.ros.parameters import ConfigError
+from sail_ros.ros.taking import take_waiting
 
 pytestmark = pytest.mark.node
 
@@ -101,6 +102,37 @@ def test_recorder_records_in_process(ros_context, peer, tmp_path):
     ]
     assert [m.header.stamp.sec for m in recorded] == list(range(30))
     assert [list(m.position) for m in recorded] == [list(m.position) for m in sent]
+
+
+def test_take_waiting_takes_what_waits_in_order_with_its_dds_times(ros_context, peer):
+    """The recorder's one call into rclpy's internals (`take_waiting`), against the
+    installed rclpy: raw bytes and DDS's times of every message waiting, oldest first."""
+    node, executor = peer
+    publisher = node.create_publisher(JointState, TOPIC, QoSProfile(depth=100))
+    taker = Node("taker", context=ros_context)
+    subscription = taker.create_subscription(
+        JointState, TOPIC, lambda *_: None, QoSProfile(depth=100), raw=True
+    )
+    try:
+        spin_until(executor, lambda: publisher.get_subscription_count() >= 1, 10.0, "taker")
+        before_ns = time.time_ns()
+        for i in range(30):
+            publisher.publish(state(i))
+        assert publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
+        first = list(take_waiting(subscription, 10))
+        rest = list(take_waiting(subscription, 1000))
+        assert list(take_waiting(subscription, 1000)) == []
+    finally:
+        taker.destroy_node()
+    taken = first + rest
+    assert len(first) == 10 and len(taken) == 30
+    stamps = [deserialize_message(data, JointState).header.stamp.sec for data, _ in taken]
+    assert stamps == list(range(30))
+    assert all(isinstance(data, bytes) for data, _ in taken)
+    for _, info in taken:
+        assert before_ns <= info["source_timestamp"] <= info["received_timestamp"]
+    sequence = [info["publication_sequence_number"] for _, info in taken]
+    assert sequence == list(range(sequence[0], sequence[0] + 30))
 
 
 def test_recorder_rejects_a_bad_parameter_before_creating_the_bag(ros_context, tmp_path):

@@ -8,9 +8,18 @@ What a file holds, so that `ros2 bag info/play`, Foxglove and rosbags read it:
   `offered_qos_profiles` (the publishers' QoS as a rosbag2 YAML list) and
   `topic_type_hash` (RIHS01_...);
 - messages as the CDR bytes given, log time and publish time in ns;
+- the header at once, and each schema and channel as soon as its topic is
+  registered, outside any chunk, flushed (and fsync'ed): a file cut before its
+  first chunk still names its topics (each is repeated in the first chunk that
+  uses it, as the mcap writer does; MCAP allows identical repeats);
 - zstd/lz4/uncompressed chunks, closed when they reach `chunk_size` bytes or
   are `max_chunk_duration_s` old, then flushed (and fsync'ed) so that a killed
-  process or a power cut loses at most the chunk in progress;
+  process or a power cut loses at most the chunk in progress; a file's first
+  chunks are shorter: the first closes `FIRST_CHUNK_S` after its first message,
+  each next one may last twice as long as the one before, up to
+  `max_chunk_duration_s` (0.1, 0.2, 0.4, 0.8, 1 s), so that a process killed
+  early in a file, with little on disk yet, loses at most about the second
+  half of what it received;
 - at `finish`, a `rosbag2` metadata record (`serialized_metadata`,
   `ROS_DISTRO`) and the summary section.
 
@@ -26,6 +35,8 @@ from collections.abc import Mapping
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
+from mcap.data_stream import RecordBuilder
+from mcap.records import Channel, Schema
 from mcap.writer import CompressionType, Writer
 
 from sail_ros.bag.metadata import FileSummary, TopicMetadata, dump_yaml, qos_profiles_yaml
@@ -36,6 +47,7 @@ COMPRESSIONS = {
     "none": CompressionType.NONE,
 }
 _MESSAGE_RECORD_OVERHEAD = 31  # bytes: opcode, length, channel, sequence, two times
+FIRST_CHUNK_S = 0.1  # a file's first chunk closes this long after its first message [s]
 
 
 class BagWriteError(RuntimeError):
@@ -101,6 +113,7 @@ class McapFile:
         self.end_time_ns = 0
         self._chunk_bytes = 0
         self._chunk_opened_at: float | None = None  # time.monotonic() of its first message
+        self._chunk_duration_s = min(FIRST_CHUNK_S, max_chunk_duration_s)  # the next's
         guarded(path, self._mcap.start, "ros2", _library_name())
 
     def summary(self) -> FileSummary:
@@ -117,26 +130,49 @@ class McapFile:
         return guarded(self.path, self._stream.tell)
 
     def register(self, topic: TopicMetadata, schema_encoding: str, schema_text: str) -> None:
-        """A channel for `topic` (and a schema for its type, once per type)."""
+        """A channel for `topic` (and a schema for its type, once per type), written at
+        once outside the chunk in progress; `push` sends them to the disk."""
         guarded(self.path, self._register, topic, schema_encoding, schema_text)
 
+    def push(self) -> None:
+        """What was written so far to the disk, without closing the chunk in progress."""
+        guarded(self.path, self._push)
+
+    def _push(self) -> None:
+        self._stream.flush()
+        if self._fsync:
+            os.fsync(self._stream.fileno())
+
     def _register(self, topic: TopicMetadata, schema_encoding: str, schema_text: str) -> None:
+        # the mcap writer puts schemas and channels into the chunk in progress only; the
+        # same records are also written here, between chunks, and pushed to the disk
+        records = RecordBuilder()
         schema_id = self._schema_ids.get(topic.type_name)
         if schema_id is None:
-            schema_id = self._mcap.register_schema(
-                topic.type_name, schema_encoding, schema_text.encode()
-            )
+            data = schema_text.encode()
+            schema_id = self._mcap.register_schema(topic.type_name, schema_encoding, data)
             self._schema_ids[topic.type_name] = schema_id
-        self._channel_ids[topic.name] = self._mcap.register_channel(
-            topic.name,
-            "cdr",
-            schema_id,
-            {
-                "offered_qos_profiles": qos_profiles_yaml(topic.qos_profiles),
-                "topic_type_hash": topic.type_hash,
-            },
-        )
+            Schema(id=schema_id, name=topic.type_name, encoding=schema_encoding, data=data).write(
+                records
+            )
+        metadata = {
+            "offered_qos_profiles": qos_profiles_yaml(topic.qos_profiles),
+            "topic_type_hash": topic.type_hash,
+        }
+        channel_id = self._mcap.register_channel(topic.name, "cdr", schema_id, metadata)
+        self._channel_ids[topic.name] = channel_id
+        Channel(
+            id=channel_id,
+            topic=topic.name,
+            message_encoding="cdr",
+            schema_id=schema_id,
+            metadata=metadata,
+        ).write(records)
         self.topic_counts.setdefault(topic.name, 0)
+        # the writer keeps nothing of its own unwritten between calls (its records go
+        # out at once, the chunk in progress stays in memory) and computes no CRC over
+        # the data section, so records written to its stream here keep the file valid
+        self._stream.write(records.end())
 
     def write(
         self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int, sequence: int
@@ -166,16 +202,17 @@ class McapFile:
             self.tick()
 
     def tick(self) -> None:
-        """Close the chunk in progress if it is `max_chunk_duration_s` old."""
+        """Close the chunk in progress if it is due (`max_chunk_duration_s` old; a
+        file's first ones sooner)."""
         opened = self._chunk_opened_at
-        if opened is not None and time.monotonic() - opened >= self._max_chunk_duration_s:
+        if opened is not None and time.monotonic() - opened >= self._chunk_duration_s:
             self.flush()
 
     def seconds_to_next_tick(self) -> float:
         """Time until the chunk in progress is due [s]; `max_chunk_duration_s` if none is."""
         if self._chunk_opened_at is None:
             return self._max_chunk_duration_s
-        due = self._chunk_opened_at + self._max_chunk_duration_s
+        due = self._chunk_opened_at + self._chunk_duration_s
         return max(0.0, due - time.monotonic())
 
     def flush(self) -> None:
@@ -184,8 +221,9 @@ class McapFile:
 
     def _flush(self) -> None:
         self._mcap.flush()
-        if self._fsync:
-            os.fsync(self._stream.fileno())
+        self._push()
+        if self._chunk_opened_at is not None:  # a chunk was written: the next may last longer
+            self._chunk_duration_s = min(2 * self._chunk_duration_s, self._max_chunk_duration_s)
         self._chunk_bytes = 0
         self._chunk_opened_at = None
 
@@ -207,9 +245,7 @@ class McapFile:
         return summary
 
     def _close(self) -> None:
-        self._stream.flush()
-        if self._fsync:
-            os.fsync(self._stream.fileno())
+        self._push()
         self._stream.close()
 
     def abandon(self) -> FileSummary:

@@ -11,6 +11,7 @@ avoid_ros_namespace_conventions). Plain data: nothing here needs rclpy.
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -186,9 +187,25 @@ def bag_metadata(
     }
 
 
-def write_metadata_yaml(folder: Path, metadata: dict) -> None:
-    """`folder/metadata.yaml`, replaced atomically (a reader never sees half of it)."""
+def write_metadata_yaml(folder: Path, metadata: dict, fsync: bool = True) -> None:
+    """`folder/metadata.yaml`, written under a temporary name and renamed when complete:
+    a reader, a crash or a full disk never leaves half of one (with `fsync`, not even a
+    power cut: the text is on the disk before the rename, the rename before return)."""
     text = dump_yaml({"rosbag2_bagfile_information": metadata})
     temporary = folder / "metadata.yaml.tmp"
-    temporary.write_text(text)
-    temporary.replace(folder / "metadata.yaml")
+    try:
+        with temporary.open("w") as stream:
+            stream.write(text)
+            stream.flush()
+            if fsync:
+                os.fsync(stream.fileno())
+        temporary.replace(folder / "metadata.yaml")
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+    if fsync:
+        descriptor = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(descriptor)
+        finally:
+            os.close(descriptor)

@@ -31,6 +31,7 @@ from mcap.reader import SeekingReader
 from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 
+from sail_ros.bag.definitions import MessageDefinition
 from sail_ros.bag.metadata import parse_qos_profiles
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -55,7 +56,8 @@ class BagMessage(NamedTuple):
 
 class TopicInfo(NamedTuple):
     """A recorded topic: type, encoding, the publishers' QoS (rosbag2 entries:
-    dicts with history, depth, reliability, durability, ...) and message count."""
+    dicts with history, depth, reliability, durability, ...), message count, and
+    the type's schema as recorded (None if the file has none)."""
 
     topic: str
     type_name: str
@@ -63,6 +65,7 @@ class TopicInfo(NamedTuple):
     offered_qos_profiles: list[dict]
     type_hash: str
     message_count: int
+    definition: MessageDefinition | None = None
 
 
 def _bag_message(channel: Channel, schema: Schema | None, message: Message) -> BagMessage:
@@ -321,6 +324,11 @@ def _topic_info(channel: Channel, schema: Schema | None, count: int) -> TopicInf
         offered_qos_profiles=parse_qos_profiles(metadata.get("offered_qos_profiles", "")),
         type_hash=metadata.get("topic_type_hash", ""),
         message_count=count,
+        definition=(
+            MessageDefinition(schema.encoding, schema.data.decode(errors="replace"))
+            if schema is not None and schema.data
+            else None
+        ),
     )
 
 

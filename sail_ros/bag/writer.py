@@ -3,7 +3,10 @@
 Given a folder, the writer behaves like `ros2 bag record`: files
 `<folder>/<folder name>_<index>.mcap`, a new one when the current one reaches
 `max_file_size_bytes` or spans `max_file_duration_s` of log time, and a
-rosbag2 `metadata.yaml` (version 9, `metadata`) once closed. Given a path
+rosbag2 `metadata.yaml` (version 9, `metadata`) once closed. As in rosbag2's
+SequentialWriter::write, `write` splits when a split is due (`split_due`,
+`split`); a caller that adds to each new file (e.g. a metadata record) does
+both itself and writes with `split=False`. Given a path
 ending in `.mcap`, it writes that one file. Each file is an `McapFile`
 (`mcap_storage`: schemas, channels, chunks, fsync, the rosbag2 record).
 
@@ -21,10 +24,10 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from sail_ros.bag.definitions import message_definition, type_hash
+from sail_ros.bag.definitions import MessageDefinition, message_definition, type_hash
 from sail_ros.bag.mcap_storage import COMPRESSIONS, BagWriteError, McapFile, guarded
 from sail_ros.bag.metadata import (
     FileSummary,
@@ -52,10 +55,6 @@ class BagWriter:
         max_file_duration_s: start a new file once the log times in the current
             one span this long [s] (0: never).
         fsync: fsync each closed chunk so a power cut loses at most one chunk.
-        on_new_file: called with the path of each file after the first, right
-            after it is opened (a split); e.g. to write metadata into it.
-        may_split: a split that is due waits while this returns False (e.g. until
-            the file holds a record every file must have); None: never waits.
         ros_distro: recorded in the rosbag2 metadata.
         overwrite: replace an existing `.mcap` file (folder mode never overwrites).
 
@@ -74,8 +73,6 @@ class BagWriter:
         max_file_size_bytes: int = 0,
         max_file_duration_s: float = 0.0,
         fsync: bool = True,
-        on_new_file: Callable[[Path], None] | None = None,
-        may_split: Callable[[], bool] | None = None,
         ros_distro: str = "jazzy",
         overwrite: bool = False,
     ):
@@ -101,8 +98,6 @@ class BagWriter:
         self._max_file_size = max_file_size_bytes
         self._max_file_duration_ns = round(max_file_duration_s * 1e9)
         self._fsync = fsync
-        self._on_new_file = on_new_file
-        self._may_split = may_split
         self._ros_distro = ros_distro
         self._overwrite = overwrite
 
@@ -145,17 +140,22 @@ class BagWriter:
         type_name: str,
         offered_qos_profiles: str | Sequence[Mapping] | None = None,
         topic_type_hash: str | None = None,
+        definition: MessageDefinition | None = None,
     ) -> None:
         """Declare a topic before writing to it; again for a known topic is a no-op.
 
         Args:
             topic: absolute topic name, e.g. "/sail/boom_state".
-            type_name: "pkg/msg/Type"; its definition is read from the installed
-                .msg files.
+            type_name: "pkg/msg/Type".
             offered_qos_profiles: the publishers' QoS, as rosbag2 QoS entries
                 (dicts, see `metadata.default_qos_profile`) or their YAML text;
                 None means one reliable volatile profile.
             topic_type_hash: "RIHS01_..."; None reads it from the installed .json.
+            definition: the type's schema (e.g. as another log recorded it); None
+                reads it from the installed .msg files.
+
+        Raises:
+            DefinitionNotFoundError: no definition given and none installed.
         """
         self._check_usable()
         if topic in self._topics:
@@ -163,8 +163,9 @@ class BagWriter:
         if not topic.startswith("/"):
             raise ValueError(f"topic must be an absolute name starting with '/', got {topic!r}")
         if type_name not in self._schemas:
-            # no empty schema: no reader can decode a channel without its definition
-            definition = message_definition(type_name)  # DefinitionNotFoundError names it
+            if definition is None or not definition.text:
+                # no empty schema: no reader can decode a channel without its definition
+                definition = message_definition(type_name)  # DefinitionNotFoundError names it
             self._schemas[type_name] = (definition.encoding, definition.text)
         self._topics[topic] = TopicMetadata(
             name=topic,
@@ -173,6 +174,7 @@ class BagWriter:
             type_hash=type_hash(type_name) if topic_type_hash is None else topic_type_hash,
         )
         self._attempt(self._file.register, self._topics[topic], *self._schemas[type_name])
+        self._attempt(self._file.push)  # a file cut before its first chunk still has the topic
 
     def write(
         self,
@@ -181,8 +183,10 @@ class BagWriter:
         log_time_ns: int,
         publish_time_ns: int | None = None,
         sequence: int = 0,
+        *,
+        split: bool = True,
     ) -> None:
-        """Append one message.
+        """Append one message, after a split if one is due and `split`.
 
         Strict readers reject bytes past the message's last field (rosbags:
         "CDR message size mismatch"), which `rclpy.serialization.serialize_message`
@@ -195,13 +199,40 @@ class BagWriter:
             log_time_ns: receive time [ns since the Unix epoch].
             publish_time_ns: send time [ns]; None means `log_time_ns`.
             sequence: publisher sequence number (0 if unknown).
+            split: False: into the current file, whatever its size and span (the
+                caller decides splits with `split_due` and `split`).
         """
         self._check_usable()
         if topic not in self._topics:
             raise ValueError(f"topic {topic!r} was not declared; call add_topic first")
-        self._maybe_split(log_time_ns)
+        if split and self.split_due(log_time_ns):
+            self.split()
         publish_time_ns = log_time_ns if publish_time_ns is None else publish_time_ns
         self._attempt(self._file.write, topic, data, log_time_ns, publish_time_ns, sequence)
+
+    def split_due(self, log_time_ns: int) -> bool:
+        """Whether a message logged at `log_time_ns` [ns] should start a new file: the
+        current one holds messages and reached `max_file_size_bytes` or would span
+        `max_file_duration_s` (rosbag2's should_split_bagfile)."""
+        self._check_usable()
+        file = self._file
+        if file.message_count == 0:
+            return False
+        if self._max_file_duration_ns and (
+            log_time_ns - file.start_time_ns >= self._max_file_duration_ns
+        ):
+            return True
+        return bool(self._max_file_size) and self._attempt(file.size) >= self._max_file_size
+
+    def split(self) -> Path:
+        """Finish the current file and start the next, with every topic declared in it
+        (rosbag2's split_bagfile); returns the new file's path."""
+        self._check_usable()
+        if self._single_file:
+            raise ValueError(f"splitting files needs a folder as output, got {str(self._path)!r}")
+        self._finish_file()
+        self._open_file()
+        return self._file.path
 
     def tick(self) -> None:
         """Close the chunk in progress if it is `max_chunk_duration_s` old.
@@ -262,7 +293,12 @@ class BagWriter:
         if not self._single_file:
             metadata = bag_metadata(list(self._topics.values()), self._files, self._ros_distro)
             self._attempt(
-                guarded, self._path / "metadata.yaml", write_metadata_yaml, self._path, metadata
+                guarded,
+                self._path / "metadata.yaml",
+                write_metadata_yaml,
+                self._path,
+                metadata,
+                self._fsync,
             )
         return list(self._files)
 
@@ -301,21 +337,6 @@ class BagWriter:
         for topic in self._topics.values():
             self._attempt(self._file.register, topic, *self._schemas[topic.type_name])
         self._attempt(self._file.flush)
-
-    def _maybe_split(self, log_time_ns: int) -> None:
-        file = self._file
-        if file.message_count == 0:
-            return
-        too_long = (
-            self._max_file_duration_ns
-            and log_time_ns - file.start_time_ns >= self._max_file_duration_ns
-        )
-        too_big = self._max_file_size and self._attempt(file.size) >= self._max_file_size
-        if (too_long or too_big) and (self._may_split is None or self._may_split()):
-            self._finish_file()
-            self._open_file()
-            if self._on_new_file is not None:
-                self._on_new_file(self._file.path)
 
     def _finish_file(self) -> None:
         file = self._file

@@ -3,9 +3,12 @@
 Subscribes (raw, no deserialisation) to the configured topics as soon as a
 publisher of each appears in the graph, learning its type and QoS from the
 publishers, and hands the CDR bytes to a `BagWriter` running in its own
-thread. Log time is the DDS reception time and publish time the DDS source
-time [ns since the Unix epoch]. The parameters of the simulator node are
-stored in every file as the MCAP metadata record `sail_sim_parameters`.
+thread (`sail_ros.bag.recording.Recording`, the one owner of the files, the
+splits and the parameters stored). Log time is the DDS reception time and
+publish time the DDS source time [ns since the Unix epoch]. The parameters of
+the simulator node are stored in every file as the MCAP metadata record
+`sail_sim_parameters` (the values when the file starts), and each change of
+them, with its time, as a record `sail_sim_parameter_changes`.
 
 SIGINT/SIGTERM: take what DDS has already received, finish the file(s)
 (summary, metadata.yaml) and exit 0. A write error (disk full, no
@@ -23,18 +26,18 @@ from __future__ import annotations
 
 import datetime
 import functools
-import queue
 import sys
-import threading
 import time
 import traceback
 
+from rcl_interfaces.msg import ParameterEvent
 from rcl_interfaces.srv import GetParameters, ListParameters
 from rclpy.exceptions import NameValidationException
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.expand_topic_name import expand_topic_name
 from rclpy.logging import get_logger
 from rclpy.node import Node
-from rclpy.parameter import parameter_value_to_python
+from rclpy.qos import qos_profile_parameter_events
 
 from sail_ros.bag import (
     COMPRESSIONS,
@@ -44,6 +47,8 @@ from sail_ros.bag import (
     message_definition,
     qos,
 )
+from sail_ros.bag.recording import Recording
+from sail_ros.messages.parameters import parameter_update, yaml_texts
 from sail_ros.ros.cli import StopSignals, bounded_teardown, message_class, run_node
 from sail_ros.ros.parameters import (
     ConfigError,
@@ -53,7 +58,13 @@ from sail_ros.ros.parameters import (
     node_options,
     overrides,
 )
-from sail_ros.topics import PARAMETERS_METADATA, RECORDED_TOPICS, yaml_value
+from sail_ros.ros.taking import take_waiting
+from sail_ros.topics import (
+    PARAMETER_CHANGES_METADATA,
+    PARAMETER_EVENTS,
+    PARAMETERS_METADATA,
+    RECORDED_TOPICS,
+)
 
 NODE_NAME = "sail_recorder"
 DROPPED_METADATA = "sail_recorder_dropped"  # topic -> messages dropped for a slow disk
@@ -62,7 +73,9 @@ PARAMETER_WAIT_WARNING_S = 5.0  # warn once if the parameter node is still absen
 SERVICE_TIMEOUT_S = 5.0  # a parameter request without answer is retried after this
 DRAIN_QUIET_S = 0.1  # at shutdown, stop taking messages once none came for this long
 DRAIN_MAX_S = 2.0  # ... or after this long, if publishers keep sending
-TAKE_BATCH = 1000  # most messages taken from one subscription per executor callback
+# most messages taken from one subscription per executor callback (why in batches:
+# sail_ros.ros.taking)
+TAKE_BATCH = 1000
 # after taking messages, let the next ones gather in DDS this long [s]: a wake-up then
 # takes several (log times are DDS's reception times, so they do not change)
 GATHER_S = 0.01
@@ -120,7 +133,8 @@ SPECS = [
         "parameter_node",
         "sail_sim",
         "node whose parameters are stored in each file "
-        f"as metadata '{PARAMETERS_METADATA}' (relative: in the recorder's namespace); "
+        f"as metadata '{PARAMETERS_METADATA}', and each change of them with its time as "
+        f"'{PARAMETER_CHANGES_METADATA}' (relative: in the recorder's namespace); "
         "empty: none",
     ),
     ParamSpec(
@@ -153,74 +167,6 @@ def is_hidden(topic: str) -> bool:
     return any(part.startswith("_") for part in topic.split("/"))
 
 
-class _BagThread:
-    """Owns the BagWriter in a thread of its own; calls arrive through a queue.
-
-    Writing (compression, fsync) then never delays taking messages from DDS. The
-    queue is bounded: when the disk is slower than the traffic, a message that
-    finds it full is dropped and counted per topic (`dropped`), so memory stays
-    bounded; calls other than messages always wait for a place.
-    """
-
-    _STOP = object()
-
-    def __init__(self, writer: BagWriter, max_messages: int):
-        self.writer = writer
-        self.failed = threading.Event()
-        self.error: Exception | None = None  # a BagWriteError unless something is broken
-        self.dropped: dict[str, int] = {}
-        self._queue: queue.Queue = queue.Queue(maxsize=max_messages)
-        self._thread = threading.Thread(target=self._run, name="bag_writer", daemon=True)
-        self._thread.start()
-
-    def submit(self, method, *args) -> None:
-        """Run `method(*args)` (a BagWriter method) in the writer thread, in order."""
-        self._queue.put((method, args))
-
-    def submit_message(self, topic: str, *args) -> bool:
-        """Queue `writer.write(topic, *args)`; False (and counted) if the queue is full."""
-        try:
-            self._queue.put_nowait((self.writer.write, (topic, *args)))
-        except queue.Full:
-            self.dropped[topic] = self.dropped.get(topic, 0) + 1
-            return False
-        return True
-
-    def close(self) -> None:
-        """Write what was submitted and the drop counts, finish the files, end the thread."""
-        if self.dropped:
-            self.submit(self._store_dropped)
-        self._queue.put(self._STOP)
-        self._thread.join()
-
-    def _store_dropped(self) -> None:
-        counts = {topic: str(count) for topic, count in sorted(self.dropped.items())}
-        self.writer.add_metadata(DROPPED_METADATA, counts)
-
-    def _run(self) -> None:
-        writer = self.writer
-        try:
-            while True:
-                try:
-                    item = self._queue.get(timeout=writer.seconds_to_next_tick())
-                except queue.Empty:
-                    item = None
-                if item is self._STOP:
-                    break
-                if item is not None:
-                    method, args = item
-                    method(*args)
-                writer.tick()
-        except Exception as error:  # any failure must stop the recording loudly, not silently
-            self.error = error
-            self.failed.set()
-        try:
-            writer.close()
-        except Exception as error:
-            self.error = self.error or error
-            self.failed.set()
-
-
 class Recorder(Node):
     """The `sail_recorder` node; `run` records until stopped.
 
@@ -243,19 +189,17 @@ class Recorder(Node):
         self._received = 0  # messages taken from DDS, for draining at shutdown
         self._started = time.monotonic()
 
-        # every check that can fail comes before the bag is created
+        # every check that can fail comes before the bag is created; the fetch's state is
+        # this (the executor's) thread's: its answer goes to the writer thread as an event
         parameter_node = self.config["parameter_node"].rstrip("/")
         self._parameter_node = parameter_node
-        self._sim_parameters: dict[str, str] | None = None  # last fetched
-        # last written into the file (writer thread): a split waits for the first, and
-        # the next file starts with them; a fetch is in the file only once the writer
-        # thread has taken its turn in the queue
-        self._stored_parameters: dict[str, str] | None = None
-        self._refetch = threading.Event()  # set by a split, from the writer thread
+        self._fetched = False  # the node's values, since it (last) appeared
+        self._fetches = 0
         self._request_started: float | None = None
         self._warned_absent = False
+        full_name = None
         if parameter_node:
-            self._create_parameter_clients(parameter_node)
+            full_name = self._create_parameter_clients(parameter_node)
 
         output = self.config["output"] or default_output()
         try:
@@ -266,20 +210,34 @@ class Recorder(Node):
                 max_chunk_duration_s=self.config["max_chunk_duration_s"],
                 max_file_size_bytes=self.config["max_file_size_bytes"],
                 max_file_duration_s=self.config["max_file_duration_s"],
-                on_new_file=self._on_new_file,
-                may_split=self._may_split,
             )
         except ValueError as error:
             raise ConfigError(str(error)) from None
-        self.bag = _BagThread(writer, self.config["queue_messages"])
+        self.bag = Recording(
+            writer,
+            max_messages=self.config["queue_messages"],
+            parameter_node=full_name,
+            parameters_record=PARAMETERS_METADATA,
+            changes_record=PARAMETER_CHANGES_METADATA,
+            dropped_record=DROPPED_METADATA,
+            parameters_wait_s=PARAMETER_WAIT_WARNING_S,
+        )
         try:
             self._poll_timer = self.create_timer(GRAPH_PERIOD_S, self._poll)
+            if full_name is not None:
+                self.create_subscription(
+                    ParameterEvent,
+                    PARAMETER_EVENTS,
+                    functools.partial(self._on_parameter_event, full_name),
+                    qos_profile_parameter_events,
+                )
             self.get_logger().info(f"recording into '{writer.path}'")
         except BaseException:
             self.bag.close()  # a complete (empty) bag rather than a file without summary
             raise
 
-    def _create_parameter_clients(self, parameter_node: str) -> None:
+    def _create_parameter_clients(self, parameter_node: str) -> str:
+        """The parameter services' clients; returns the node's full name."""
         try:
             self._list_client = self.create_client(
                 ListParameters, f"{parameter_node}/list_parameters"
@@ -291,8 +249,7 @@ class Recorder(Node):
                 f"parameter_node: {self.config['parameter_node']!r} is not a "
                 f"valid node name ({reason})"
             ) from None
-        # wakes the executor from the writer thread when a split needs the parameters
-        self._refetch_guard = self.create_guard_condition(self._poll_parameters)
+        return expand_topic_name(parameter_node, self.get_name(), self.get_namespace())
 
     # -- running ----------------------------------------------------------------------------
 
@@ -341,7 +298,7 @@ class Recorder(Node):
     def _report(self, error: Exception | None = None) -> int:
         """Log what was recorded; 1 if the recording failed (`error` or a write error)."""
         logger = self.get_logger()
-        if self._parameter_node and self._sim_parameters is None:
+        if self._parameter_node and self.bag.parameters is None:
             logger.warning(
                 f"parameter node '{self._parameter_node}' never answered: no "
                 f"'{PARAMETERS_METADATA}' metadata in the bag"
@@ -365,6 +322,11 @@ class Recorder(Node):
             logger.info(f"{sum(counts.values())} messages in {where}")
         for topic, count in sorted(counts.items()):
             logger.info(f"  {topic}: {count} messages")
+        if self.bag.change_count:
+            logger.info(
+                f"  {self.bag.change_count} parameter change(s) of '{self._parameter_node}' "
+                f"(metadata '{PARAMETER_CHANGES_METADATA}')"
+            )
         for topic, count in sorted(self.bag.dropped.items()):
             logger.warning(
                 f"  {topic}: {count} messages dropped (the disk was too slow; "
@@ -424,8 +386,7 @@ class Recorder(Node):
                 "subscribing with what all of them serve"
             )
         type_hash = str(publishers[0].topic_type_hash)
-        self.bag.submit(
-            self.bag.writer.add_topic,
+        self.bag.add_topic(
             topic,
             type_name,
             [qos.entry_of(p) for p in offered],
@@ -443,22 +404,18 @@ class Recorder(Node):
     def _on_message(self, topic: str, data: bytes, info: dict) -> None:
         """One message of `topic` from the executor, then whatever else already waits on
         any subscription (at most `TAKE_BATCH` each): the executor's wake-up and wait set
-        (~0.1 ms) are paid once per batch, not per message, and a recorder that fell
-        behind catches up instead of letting DDS overwrite what it has not taken."""
+        are paid once per batch, not per message, and a recorder that fell behind
+        catches up instead of letting DDS overwrite what it has not taken."""
         self._record(topic, data, info)
         for name, subscription in self._recording.items():
-            for _ in range(TAKE_BATCH):
-                with subscription.handle:
-                    taken = subscription.handle.take_message(subscription.msg_type, True)
-                if taken is None:
-                    break
+            for taken in take_waiting(subscription, TAKE_BATCH):
                 self._record(name, *taken)
 
     def _record(self, topic: str, data: bytes, info: dict) -> None:
         log_time = info.get("received_timestamp") or time.time_ns()
         publish_time = info.get("source_timestamp") or log_time
         sequence = (info.get("publication_sequence_number") or 0) & 0xFFFFFFFF
-        if not self.bag.submit_message(topic, data, log_time, publish_time, sequence):
+        if not self.bag.write(topic, data, log_time, publish_time, sequence):
             self.get_logger().warning(
                 f"the disk is slower than the traffic: dropping messages of {topic} "
                 f"({sum(self.bag.dropped.values())} so far; queue_messages = "
@@ -469,53 +426,22 @@ class Recorder(Node):
 
     # -- simulator parameters ---------------------------------------------------------------
 
-    def _may_split(self) -> bool:
-        """A file ends only once it holds the parameters (writer thread): a split waits
-        for the first fetch, unless the node has not appeared for a while."""
-        return (
-            not self._parameter_node
-            or self._stored_parameters is not None
-            or time.monotonic() - self._started > PARAMETER_WAIT_WARNING_S
-        )
-
-    def _on_new_file(self, path) -> None:
-        """A split (writer thread): the new file gets the parameters at once, the last
-        values stored (a fetch takes two service round trips, and under load a short
-        file could end before its answer); then they are fetched again, and stored
-        again only if they changed."""
-        if self._parameter_node:
-            values = self._stored_parameters
-            if values is not None:
-                self.bag.writer.add_metadata(PARAMETERS_METADATA, values)
-            self._refetch.set()
-            self._refetch_guard.trigger()
-
-    def _store_parameters(self, values: dict[str, str]) -> None:
-        """Into the current file (writer thread)."""
-        self.bag.writer.add_metadata(PARAMETERS_METADATA, values)
-        self._stored_parameters = values
+    def _on_parameter_event(self, node: str, event: ParameterEvent, info) -> None:
+        if event.node == node:
+            log_time = info.get("received_timestamp") or time.time_ns()
+            self.bag.parameter_event(parameter_update(event, log_time))
 
     def _poll_parameters(self) -> None:
-        if self._request_started is not None:
-            if time.monotonic() - self._request_started < SERVICE_TIMEOUT_S:
-                return
-            self.get_logger().warning(
-                f"'{self._parameter_node}' did not answer a parameter "
-                f"request within {SERVICE_TIMEOUT_S} s; asking again"
-            )
+        """Fetch the node's values once it appears (again, after it was gone: a node that
+        starts anew may have missed telling its declarations to this one); its events
+        carry every later change."""
+        ready = self._list_client.service_is_ready() and self._get_client.service_is_ready()
+        if not ready:  # gone, or not there yet: fetched (again) once it is there
+            self._fetched = False
             self._request_started = None
-        if self._sim_parameters is not None and not self._refetch.is_set():
-            return
-        if not (self._list_client.service_is_ready() and self._get_client.service_is_ready()):
-            if self._refetch.is_set() and self._sim_parameters is not None:
-                # a split while the node is gone: the new file has the values fetched before
-                self._refetch.clear()
-                self.get_logger().warning(
-                    f"'{self._parameter_node}' is gone; the new file "
-                    "holds the parameters fetched before"
-                )
-            elif (
+            if (
                 not self._warned_absent
+                and not self._fetches
                 and time.monotonic() - self._started > PARAMETER_WAIT_WARNING_S
             ):
                 self._warned_absent = True
@@ -524,7 +450,15 @@ class Recorder(Node):
                     "found yet; its parameters are stored once it appears"
                 )
             return
-        self._refetch.clear()
+        if self._request_started is not None:
+            if time.monotonic() - self._request_started < SERVICE_TIMEOUT_S:
+                return
+            self.get_logger().warning(
+                f"'{self._parameter_node}' did not answer a parameter "
+                f"request within {SERVICE_TIMEOUT_S} s; asking again"
+            )
+        elif self._fetched:
+            return
         self._request_started = time.monotonic()
         future = self._list_client.call_async(ListParameters.Request(depth=0))  # 0: all
         future.add_done_callback(self._on_parameter_names)
@@ -538,17 +472,11 @@ class Recorder(Node):
 
     def _on_parameter_values(self, names: list[str], future) -> None:
         self._request_started = None
-        values = {}
-        for name, value in zip(names, future.result().values, strict=True):
-            python_value = parameter_value_to_python(value)
-            if python_value is not None:  # NOT_SET
-                values[name] = yaml_value(python_value)
-        first = self._sim_parameters is None
-        if values == self._sim_parameters:
-            return  # the current file holds them already (`_on_new_file`)
-        self._sim_parameters = values
-        self.bag.submit(self._store_parameters, values)
-        if first:
+        self._fetched = True
+        self._fetches += 1
+        values = yaml_texts(names, future.result().values)
+        self.bag.parameters_fetched(values, time.time_ns())
+        if self._fetches == 1:
             self.get_logger().info(f"stored {len(values)} parameters of '{self._parameter_node}'")
 
 

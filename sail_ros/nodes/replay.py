@@ -29,7 +29,7 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 from sail_ros import topics
-from sail_ros.bag import BagReader, qos
+from sail_ros.bag import BagReader, DamagedBagError, qos
 from sail_ros.ros.cli import bounded_teardown, message_class, run_node
 from sail_ros.ros.parameters import (
     ConfigError,
@@ -150,9 +150,13 @@ class Replay(Node):
                 f"topics: nothing to play from '{self.config['bag']}' (it has: "
                 f"{', '.join(sorted(recorded)) or 'no topics'})"
             )
-        self._message_count = self._count_messages(
-            sum(recorded[topic].message_count for topic in self._players)
-        )
+        try:
+            self._message_count = self._count_messages(
+                sum(recorded[topic].message_count for topic in self._players)
+            )
+        except DamagedBagError as error:
+            raise ConfigError(f"bag: {error}") from None
+        self._published = 0  # messages, all passes
         self._clock_publisher = None
         if self.config["clock"]:
             self._clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(depth=10))
@@ -206,7 +210,7 @@ class Replay(Node):
         logger = self.get_logger()
         if not self._wait_for_subscribers(stop):
             return 0
-        played, code = 0, 0
+        code = 0
         started = time.monotonic()
         offset_s = self.config["start_offset_s"]
         logger.info(
@@ -216,8 +220,12 @@ class Replay(Node):
             f"{self.config['rate']}" + (", looping" if self.config["loop"] else "")
         )
         while not stop.is_set():
-            count = self._play_once(stop)
-            played += count
+            try:
+                count = self._play_once(stop)
+            except DamagedBagError as error:  # found where playing reaches it
+                logger.error(f"bag: {error}; stopped after {self._published} messages")
+                code = 2
+                break
             if not count and not stop.is_set():  # would loop without end doing nothing
                 logger.error("a pass over the bag played no message; stopping")
                 code = 1
@@ -225,7 +233,7 @@ class Replay(Node):
             if not self.config["loop"]:
                 break
         self._wait_for_acknowledgements(stop)
-        logger.info(f"played {played} messages in {time.monotonic() - started:.2f} s")
+        logger.info(f"played {self._published} messages in {time.monotonic() - started:.2f} s")
         return code
 
     def _wait_for_subscribers(self, stop: threading.Event) -> bool:
@@ -266,6 +274,7 @@ class Replay(Node):
                     return played
             self._players[message.topic].publish(message.data)
             played += 1
+            self._published += 1
         return played
 
     def _publish_clock(self, time_ns: int) -> None:

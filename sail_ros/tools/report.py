@@ -11,6 +11,10 @@ up to its last complete record) and writes into `--out`:
   parameters recorded in the log (`sail_sim_parameters`);
 - real_time_factor.csv, real_time_factor.png: the achieved real-time factor
   from /diagnostics (an offline run has none; the report says so);
+- parameter_changes.csv: every change of the simulator's parameters during the
+  run (name, old -> new value, at its simulation time), from the recorder's
+  `sail_sim_parameter_changes` records or, in logs written before them, from
+  /parameter_events; also listed in the output;
 - peaks.csv: each boom's peak |tip deflection| and |root moment| with its time,
   interpolated between the logged samples with the logged rates (cubic
   Hermite), with what the sampling cannot follow; then the true peaks of a
@@ -42,6 +46,7 @@ from sail_ros.analysis.energy import group_energies
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE, log_peaks
 from sail_ros.analysis.log_rerun import rerun_log
 from sail_ros.analysis.log_series import read_log
+from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel, yaml_values
@@ -208,10 +213,39 @@ def _write_report(args, log, out: Path) -> str:
             time_label=time_label,
         )
     _write_states(log, out / "states.csv")
+    _parameter_changes(args, log, out / "parameter_changes.csv", time_label)
     stopped = _peaks(args, log, out)
     _energies(args, log, out, time_label)
     _real_time_factor(log, out, time_label, args.log.name)
     return stopped
+
+
+def _parameter_changes(args, log, path: Path, time_label: str) -> Path:
+    """List the simulator's parameter changes; one row each in `path`."""
+    changes, source = parameter_changes(log, args.namespace)
+    if not changes:
+        print("  parameter changes: none" + (f" (in {source})" if source else " recorded"))
+    else:
+        print(f"  parameter changes ({len(changes)}, from {source}; t: {time_label}):")
+        for change in changes:
+            print(
+                f"    t = {change.t_s:.3f} s  {change.name}: {_shown(change.old)} -> "
+                f"{_shown(change.new)}"
+            )
+    header = ["t_s", "log_time_ns", "time_ns", "name", "old", "new"]
+    columns = [
+        [c.t_s for c in changes],
+        [c.log_time_ns for c in changes],
+        [c.time_ns for c in changes],
+        [c.name for c in changes],
+        ["" if c.old is None else c.old for c in changes],
+        ["" if c.new is None else c.new for c in changes],
+    ]
+    return _write_csv(path, header, columns)
+
+
+def _shown(value: str | None) -> str:
+    return "(none)" if value is None else value
 
 
 PEAK_COLUMNS = [

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# The long trials, each the full size of a test the suite runs CI-sized. Run them after
+# changing what they guard, on a quiet machine; each prints what it measured. Extra
+# arguments go to every pytest run (e.g. -x). Add a trial as one more run below.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+"$root/scripts/setup_env.sh" >/dev/null
+source "$root/scripts/env.sh"
+cd "$root"
+
+trial() {  # trial NAME TEST [pytest args]: one test by name, wherever test/ holds it
+  local name="$1" test="$2"
+  shift 2
+  echo "== $name"
+  python -m pytest test -q -s -p no:cacheprovider -k "$test" "$@"
+}
+
+# 20 recorders, each killed (SIGKILL) at a random moment of a 100 Hz stream; each log
+# recovered and compared message by message with the live stream (~2 min; the suite: 3)
+SAIL_ROS_KILL_TRIALS="${SAIL_ROS_KILL_TRIALS:-20}" \
+  trial "recorder killed at random times" test_sigkill_at_random_times_loses_only_the_open_chunk "$@"
