@@ -26,7 +26,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.model import SailModel, SailParameters, StaticProfile
-from sail_ros.model.profiles import BoomMotion
+from sail_ros.model.profiles import BoomMotion, SwitchedProfile
+from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.policy import Policy
 from sail_ros.runtime.commands import BoomState, Rules, plan_deploy, plan_trajectory
 from sail_ros.runtime.config import DEFAULTS, config_from_values
@@ -36,7 +37,7 @@ from sail_ros.runtime.simulation import Simulation
 pytestmark = pytest.mark.multiprocess
 
 STEP = 0.01  # s, integration_step (default)
-MODEL_STEP = 0.05  # s, max_model_step (default)
+MODEL_STEP = DEFAULT_MAX_STEP  # s, max_model_step (default)
 RULES = Rules(Policy(), SailParameters())  # the simulator's defaults
 # The simulator and SailModel.simulate_on_grid integrate the same equations with the
 # same steps and samples from the same state, so they differ by round-off in the step
@@ -71,23 +72,7 @@ def series(messages, epoch_ns):
     )
 
 
-class Switched:
-    """Profile `profiles[i]` from `times[i]` on (the motion as the commands changed it)."""
-
-    def __init__(self, times, profiles):
-        self.times, self.profiles = times, profiles
-
-    def _at(self, t):
-        return self.profiles[int(np.searchsorted(self.times, t, side="right")) - 1]
-
-    def __call__(self, t):
-        return self._at(t)(t)
-
-    def is_static(self, t0, t1):
-        return self._at(t0) is self._at(t1) and self._at(t0).is_static(t0, t1)
-
-
-def commanded_motion(t_deploy: float, t_command: float, command) -> Switched:
+def commanded_motion(t_deploy: float, t_command: float, command) -> SwitchedProfile:
     """At rest at 10 m, deployed to 12 m from `t_deploy` [s], and `command` (a
     trajectory) from `t_command` [s] on: the plans the simulator makes, rebuilt."""
     hold = BoomMotion([StaticProfile(10.0)] * 4)
@@ -95,7 +80,7 @@ def commanded_motion(t_deploy: float, t_command: float, command) -> Switched:
     deploying = hold.replaced(deploy.profile, deploy.booms)
     follow = plan_trajectory(command, BoomState(t_command, *deploying(t_command)), RULES)
     moving = deploying.replaced(follow.profile, follow.booms)
-    return Switched([0.0, t_deploy, t_command], [hold, deploying, moving])
+    return SwitchedProfile([0.0, t_deploy, t_command], [hold, deploying, moving])
 
 
 # -- tests --------------------------------------------------------------------------------------
@@ -381,9 +366,11 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
 
 def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
     """In process: the simulation of the first test, replayed by `simulate_on_grid` from
-    command times rounded as the status logs them (to 1 ns). The trajectory ends on a
-    grid time; were the step after it long or short by a 1e-10 s difference, the tips
-    would differ by ~1e-5 m."""
+    the command times the status logs (every digit): the same steps, the same tips to
+    round-off. From times off by 0.4 ns (a log rounded to the nanosecond), the motion's
+    switches still fall on the simulator's step ends (`SWITCH_RESOLUTION`); the tolerance's
+    choices of step may then differ where an error lies at its threshold, and the tips
+    stay within 1e-5 of their peak."""
     config = config_from_values({**DEFAULTS, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
     model = SailModel(config.sail)
     sim = Simulation(model, config)
@@ -398,11 +385,13 @@ def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
     while sim.t < t_command + 15.0:
         assert sim.step()
         tips.append(model.tip_deflections(sim.q))
-    for shift in (-4e-10, 4e-10):
-        motion = commanded_motion(round(t_deploy, 9), round(t_command, 9) + shift, command)
+    tips = np.array(tips)
+    logged = (float(repr(t_deploy)), float(repr(t_command)))
+    for shift, bound in ((0.0, 1e-12), (-4e-10, 1e-5), (4e-10, 1e-5)):
+        motion = commanded_motion(logged[0], logged[1] + shift, command)
         _, q, _ = model.simulate_on_grid(
             motion, sim.t + 0.5 * STEP, STEP, model.initial_coordinates([0.1, 0, 0, 0]),
             max_step=MODEL_STEP,
         )  # fmt: skip
         replayed = model.tip_deflections(q[-len(tips) :])
-        assert np.abs(replayed - np.array(tips)).max() < 1e-8
+        assert np.abs(replayed - tips).max() <= bound * np.abs(tips).max(), shift

@@ -21,7 +21,7 @@ from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
-from sail_ros.model.peaks import OutputPeaks, Peaks
+from sail_ros.model.peaks import OutputPeaks, Peaks, hermite_motion
 from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.policy import OutOfRangeError, Policy
@@ -114,27 +114,53 @@ def output_times(duration: float, rate_hz: float, extra=()) -> np.ndarray:
 
 class RangeWatch:
     """Sees every step of a run: the true peaks (`peaks.OutputPeaks`), and the tip
-    deflections against the policy's linear range at the step's end, as the simulator
-    checks its samples (`Policy.range_state`): the first warning is kept, an error
-    stops the run (`OutOfRangeError`, the simulator's alarm text with the time)."""
+    deflections (and a free hub's tilt) against the policy's linear range inside the
+    step, every `RANGE_SPACING_S` as the simulator checks its samples
+    (`Policy.range_state`): the first warning is kept, an error stops the run
+    (`OutOfRangeError`, the simulator's alarm text with the time; `stopped_at`)."""
+
+    RANGE_SPACING_S = 0.01  # the simulator's default integration step
 
     def __init__(self, model: SailModel, policy: Policy):
         self.model, self.policy = model, policy
         self.peaks = OutputPeaks(model)
         self.warning = ""
+        self.stopped_at = math.inf
+        self._start = 0.0
+        rows = [model.length_free_rows[:4]]  # the tips
+        if model.free_hub:
+            rows.append(np.eye(model.n)[model.hub_slice])
+        self._rows = np.vstack(rows)
 
     def start(self, stepper) -> None:
         self.peaks.start(stepper)
+        self._start = (stepper.t, *stepper.boom_motion()[:2])
 
     def after_step(self, stepper) -> None:
         self.peaks.after_step(stepper)
-        lengths, model = stepper.boom_motion()[0], self.model
-        hub = stepper.q[model.hub_slice] if model.free_hub else None
-        warning, error = self.policy.range_state(model.tip_deflections(stepper.q), lengths, hub)
-        if error:
-            raise OutOfRangeError(f"integration stopped at t = {stepper.t:.6g} s: {error}")
-        if warning and not self.warning:
-            self.warning = f"at t = {stepper.t:.6g} s: {warning}"
+        (t0, lengths0, rates0), t1 = self._start, stepper.t
+        lengths1, rates1, _ = stepper.boom_motion()
+        self._start = (t1, lengths1, rates1)
+        h = t1 - t0
+        count = max(1, math.ceil(h / self.RANGE_SPACING_S - 1e-9))
+        fractions = np.arange(1, count + 1) / count
+        values, _ = stepper.interpolant(fractions, self._rows)
+        lengths, _ = hermite_motion(
+            fractions, np.full(count, h), lengths0, rates0, lengths1, rates1
+        )
+        policy = self.policy
+        near = np.max(np.abs(values[:, :4]) / lengths, axis=1) > policy.tip_warn_fraction
+        if self.model.free_hub:
+            near |= np.hypot(values[:, 5], values[:, 6]) > policy.tilt_warn_rad
+        for i in np.flatnonzero(near | ~np.all(np.isfinite(values), axis=1)):
+            t, row = t0 + fractions[i] * h, values[i]
+            hub = np.append(row[4:], [0.0] * 3) if self.model.free_hub else None
+            warning, error = policy.range_state(row[:4], lengths[i], hub)
+            if error:
+                self.stopped_at = t
+                raise OutOfRangeError(f"integration stopped at t = {t:.6g} s: {error}")
+            if warning and not self.warning:
+                self.warning = f"at t = {t:.6g} s: {warning}"
 
 
 def run_deployment(
@@ -199,6 +225,11 @@ def run_deployment(
                 progress(stepper.t)
     except (OutOfRangeError, IntegrationError) as error:
         alarm = str(error)
+        # the outputs inside the step that left the range, before it did
+        before = kept + int(np.searchsorted(t_eval[kept:], watch.stopped_at, "left"))
+        if before > kept:
+            q[kept:before], qd[kept:before] = stepper.states_at(t_eval[kept:before])
+            kept = before
     wall = time.perf_counter() - started
     t, q, qd = t_eval[:kept], q[:kept], qd[:kept]
     lengths, rates = np.empty((kept, 4)), np.empty((kept, 4))

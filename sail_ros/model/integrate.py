@@ -87,9 +87,10 @@ def sample(stepper: SailStepper, t_eval: np.ndarray, t_end: float, q, qd):
     reached)` after each step, the outputs `t_eval[done:reached]` written.
 
     Steps end at `t_end` and at the inputs' switch times, and output times inside a
-    moving step come from its continuous extension (`SailStepper.states_at`); inputs
+    step come from its continuous extension or, at rest, its exact propagator
+    (`SailStepper.states_at`), so the steps do not depend on the output times; inputs
     whose switches are not known (a plain callable) and fixed steps (`rtol` None) end
-    steps at output times too, and so do steps at rest (exact at any length). What the
+    steps at output times too. What the
     stepper raises (a non-finite state, an observer's stop) ends it: the outputs
     written so far are those of the last yield."""
     inputs = stepper.inputs
@@ -98,7 +99,7 @@ def sample(stepper: SailStepper, t_eval: np.ndarray, t_end: float, q, qd):
     while done < t_eval.size:
         t = t_eval[done]
         while t - stepper.t > 1e-12 * max(1.0, abs(t)):
-            stepper.advance_step(t_end if free else t, rest_end=t)
+            stepper.advance_step(t_end if free else t)
         slack = 1e-12 * max(1.0, abs(stepper.t))
         reached = done + int(np.searchsorted(t_eval[done:], stepper.t + slack, "right"))
         q[done:reached], qd[done:reached] = stepper.states_at(t_eval[done:reached])

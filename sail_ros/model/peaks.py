@@ -187,7 +187,7 @@ class OutputPeaks:
         counts = [f.size for f in fractions]
         t, y, yd, fractions = (np.concatenate(part) for part in (t, y, yd, fractions))
         h, *ends = (np.repeat(np.array(part), counts, axis=0) for part in motion)
-        lengths, rates = _hermite_motion(fractions, h, *ends)
+        lengths, rates = hermite_motion(fractions, h, *ends)
         moments = y[:, 4:8] / lengths**2
         y[:, 4:8] = moments
         yd[:, 4:8] = yd[:, 4:8] / lengths**2 - 2.0 * rates * moments / lengths
@@ -228,7 +228,7 @@ def _fractions(count: int) -> np.ndarray:
     return fractions
 
 
-def _hermite_motion(fractions, h, lengths0, rates0, lengths1, rates1):
+def hermite_motion(fractions, h, lengths0, rates0, lengths1, rates1):
     """Boom lengths [m] and rates [m/s] (m, 4) at `fractions` (m,) of steps of `h` [s]
     (m,), from the cubic Hermite through each step's ends (m, 4) (the profile itself
     would cost a call per sample; over one step the cubic is exact to ~h^4 of the

@@ -314,6 +314,44 @@ class JammedProfile:
         return self.profile.extremes()
 
 
+# s: times this close count as the same switch (commands are logged to the nanosecond: a
+# replay's switch may lie that far from where the simulator's step ended)
+SWITCH_RESOLUTION = 1e-9
+
+
+class SwitchedProfile:
+    """`profiles[i]` from `times[i]` [s] on (increasing times): a motion as commands
+    changed it, each taking over at its own time. The stepper ends its steps at the
+    switches (`switch_times`), as the live simulator's steps end where a command takes
+    effect, so an offline replay steps as the simulator stepped."""
+
+    def __init__(self, times, profiles):
+        self.times = np.asarray(times, dtype=float)
+        self.profiles = tuple(profiles)
+        if self.times.size != len(self.profiles) or np.any(np.diff(self.times) <= 0):
+            raise ValueError("SwitchedProfile: one profile per time, times increasing")
+        self.switch_times = tuple(float(t) for t in self.times[1:])
+
+    def _at(self, t):
+        return self.piece(t)
+
+    def piece(self, t, entered: bool = True):
+        """The profile in force at `t` [s]; at a switch time (within SWITCH_RESOLUTION)
+        the one that starts there, or (`entered` False) the one that ends there (the
+        stepper's end of a step)."""
+        if entered:
+            index = np.searchsorted(self.times, t + SWITCH_RESOLUTION, side="right")
+        else:
+            index = np.searchsorted(self.times, t - SWITCH_RESOLUTION, side="left")
+        return self.profiles[max(int(index) - 1, 0)]
+
+    def __call__(self, t):
+        return self.piece(t)(t)
+
+    def is_static(self, t0, t1) -> bool:
+        return self._at(t0) is self._at(t1) and self._at(t0).is_static(t0, t1)
+
+
 class BoomMotion:
     """Booms a..d, each following its own 4-boom profile (only its column is used).
 

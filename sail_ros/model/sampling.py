@@ -28,15 +28,7 @@ import math
 from collections import deque
 
 from sail_ros.model.record import StepperState
-from sail_ros.model.stepper import SailStepper
-
-# A grid interval whose motion starts or ends within this fraction of the interval
-# from its ends is stepped as one interval (the booms move for a microsecond at zero
-# rate): whether a motion ending at a grid time makes the next step one interval or
-# a long one then no longer hangs on round-off in the motion's times (a command's
-# start logged to the nanosecond replays the same steps).
-STATIC_MARGIN = 1e-4
-
+from sail_ros.model.stepper import STATIC_MARGIN, SailStepper
 
 # the state at a grid time: t [s], boom lengths [m] and rates [m/s], q, qd
 GridPoint = StepperState
@@ -91,11 +83,25 @@ class GridSampler:
         is_static = getattr(stepper.profile, "is_static", None)
         limit = stepper.step_limit()
         intervals = max(1, math.floor(limit / h + 1e-9))
+        if (
+            intervals == 1
+            and stepper.rtol is not None
+            and stepper.proposal >= h
+            and stepper.bound() >= 2 * h * (1 - 1e-9)
+        ):
+            # the error allows a whole interval: try two (steps of one interval propose
+            # 1.5 intervals at most, which would keep them at one for ever)
+            intervals = 2
         margin = STATIC_MARGIN * h
         if is_static is not None and is_static(start.t + margin, start.t + h - margin):
             stepper.step(h)  # exact at any length
             self._ahead.append(self._exact())
             return
+        # not past the next switch of the loads or the motion (`SailStepper.next_switch`)
+        switch = stepper.next_switch()
+        if math.isfinite(switch):  # a switch within STATIC_MARGIN of a grid time is on it
+            before = math.floor((switch - start.t) / h + STATIC_MARGIN)
+            intervals = max(1, min(intervals, before))
         # the longest whole number of intervals the tolerance accepts (each refusal
         # shortens the stepper's proposal, so the limit falls)
         while intervals > 1:

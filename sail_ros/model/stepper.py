@@ -76,6 +76,7 @@ from sail_ros.model.fast_modes import (
     forcing_of,
 )
 from sail_ros.model.layout import per_boom
+from sail_ros.model.profiles import SWITCH_RESOLUTION
 
 
 class LinearSystem(Protocol):
@@ -151,20 +152,30 @@ _EXTENSION_ORDERS = np.arange(2 * _PADE_POLES.size + 1)
 _EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
 
 
-def _extension_weights(fractions) -> tuple[np.ndarray, np.ndarray]:
+def _extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """`(c, w)` ((m,) and (m, 2)) of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the
     continuous extension of the step's Padé approximant to the fractions `f` of the step:
     same poles `z_k`, Taylor series equal to `exp(f z)` to order 4 (error ~(omega h)^5
     for a mode), `R_1` the approximant itself. On the imaginary axis `|R_f| <= 1` for
     the fractions j / k, k <= 5 (an undamped mode is not amplified), at most 1.026 for
     k <= 20 (near f = 0 or 1, at omega h ~ 5.5); the extension only samples, nothing
-    integrated grows."""
+    integrated grows. With `slope`, the weights of `dR_f / df` (the same conditions on
+    the derivative of the Taylor series, `m f^(m-1) / m!`)."""
     f = np.atleast_1d(np.asarray(fractions, dtype=float))
-    rhs = f[None, :] ** _EXTENSION_ORDERS[:, None] / _EXTENSION_FACTORIALS[:, None]
+    m = _EXTENSION_ORDERS[:, None]
+    if slope:
+        rhs = m * f[None, :] ** np.maximum(m - 1, 0) / _EXTENSION_FACTORIALS[:, None]
+    else:
+        rhs = f[None, :] ** m / _EXTENSION_FACTORIALS[:, None]
     x = scipy.linalg.lu_solve(_EXTENSION_FACTORS, rhs, check_finite=False)
     return x[0], (x[1::2] + 1j * x[2::2]).T
 
 
+# A stretch of time whose motion starts or ends within this fraction of it from its ends
+# counts as at rest (the booms move for a microsecond at zero rate): whether a motion that
+# starts at a step's end makes that step exact then does not hang on round-off in the
+# motion's times (a command logged to the nanosecond replays the same steps).
+STATIC_MARGIN = 1e-4
 # matrices one moving step needs, in this order
 _STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
 # rad: omega_r * h of one rational step. The (4,4) Padé lags a mode by ~4e-8 (omega h)^9
@@ -335,6 +346,7 @@ class SailStepper:
         if profile is not None:
             self._set_profile(profile)
         self._t = float(t0)
+        self._entered = self._t  # since when the profile's current piece applies
         self._q = q
         M, G = self._mass_gyro(self._t)
         self._p = M @ qd + G @ q
@@ -430,6 +442,7 @@ class SailStepper:
         """Replace the boom motion from now on, keeping `q` and `qd` continuous."""
         qd = self.qd
         self._set_profile(profile)
+        self._entered = self._t
         M, G = self._mass_gyro(self._t)
         self._p = M @ qd + G @ self._q
 
@@ -458,13 +471,12 @@ class SailStepper:
         while t_end - self._t > 1e-12 * max(1.0, abs(t_end)):
             self.advance_step(t_end)
 
-    def advance_step(self, t_end: float, rest_end: float = math.inf) -> None:
+    def advance_step(self, t_end: float) -> None:
         """One accepted step towards `t_end` [s] (not beyond it, nor beyond the next of
-        the inputs' `switch_times`, nor, where the booms stand still, beyond `rest_end`
-        [s]: a batch run's next output, which an exact step reaches at no cost)."""
-        target = min(t_end, self._next_switch())
-        if self._is_static(min(target, self._t + self.step_limit()) - self._t):
-            target = min(target, max(rest_end, self._t))
+        the inputs' or the profile's `switch_times`). Where the output times fall plays
+        no part: a batch run samples inside the steps (`states_at`), so its steps, and its
+        results, are the same whichever times it outputs."""
+        target = min(t_end, self.next_switch())
         smallest = 1e-6 * max(1.0, abs(target))
         while True:
             remaining = target - self._t
@@ -478,14 +490,23 @@ class SailStepper:
             if self.try_step(h):
                 return
 
-    def _next_switch(self) -> float:
-        times = getattr(self.inputs, "switch_times", ())
-        later = [t for t in times if t > self._t + 1e-12 * max(1.0, abs(t))]
+    def next_switch(self) -> float:
+        """The next time [s] after now where the inputs or the profile switch (their
+        `switch_times`), which no step passes; inf if none."""
+        times = (
+            *getattr(self.inputs, "switch_times", ()),
+            *getattr(self._profile, "switch_times", ()),
+        )
+        later = [t for t in times if t > self._t + SWITCH_RESOLUTION]
         return min(later, default=math.inf)
 
     def _is_static(self, h) -> bool:
+        """Whether the booms stand still over the next `h` [s], but for `STATIC_MARGIN` of
+        it at either end (`sampling`: a motion that starts or ends there, at zero rate,
+        is stepped exactly, whatever round-off puts its start on one side)."""
         is_static = getattr(self._profile, "is_static", None)
-        return is_static is not None and is_static(self._t, self._t + h)
+        margin = STATIC_MARGIN * h
+        return is_static is not None and is_static(self._t + margin, self._t + h - margin)
 
     def step(self, h: float) -> None:
         """One step of length `h` [s], taken whatever its error: exact at rest; while the
@@ -532,8 +553,25 @@ class SailStepper:
             self._estimate += trial.estimate
             self._proposal = h * min(GROWTH, SAFETY * max(trial.error, 1e-12) ** (-1.0 / 3.0))
             self._observe(self._t, q, self.qd)
+        self._enter_switch()
         if self.on_step is not None:
             self.on_step(self)
+
+    def _enter_switch(self) -> None:
+        """At a switch of a piecewise profile (`profiles.SwitchedProfile`), the next piece
+        from now on, as a live simulator takes a new motion (`profile`): `q` and `qd`
+        kept, the momenta recomputed with the new piece's matrices."""
+        times = getattr(self._profile, "switch_times", ())
+        if not any(self._entered < s and abs(self._t - s) <= SWITCH_RESOLUTION for s in times):
+            return
+        qd = self.qd  # at the end of the piece left
+        self._motion_cache = (math.nan, None)
+        self._assembly_cache = {}
+        self._factor_at = (math.nan, None)
+        self._entered = self._t
+        M, G = self._mass_gyro(self._t)
+        self._p = M @ qd + G @ self._q
+        self._qd_cache = (self._t, qd)
 
     def _attempt(self, h: float) -> Trial:
         """Two rational steps of `h / 2` and one of `h`, the high modes followed over the
@@ -671,7 +709,7 @@ class SailStepper:
         if isinstance(trial, Rest):  # at rest: each mode's exact propagator from the start
             q[~end], qd[~end] = self._rest_states(trial, fractions)
             return q, qd
-        q[~end], qd[~end] = self.between(fractions, qd0, self.qd, exact_velocity=True)
+        q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates="exact")
         return q, qd
 
     def _extended_momentum(self, middle, c, velocity, q, q_start, p_start) -> np.ndarray:
@@ -690,7 +728,7 @@ class SailStepper:
             qd[i] = scipy.linalg.cho_solve(factor, p[i] - G @ q[i], check_finite=False)
         return qd
 
-    def between(self, fractions, qd0, qd1, exact_velocity=False) -> tuple[np.ndarray, np.ndarray]:
+    def between(self, fractions, qd0, qd1, rates="extension") -> tuple[np.ndarray, np.ndarray]:
         """`(q, qd)` (each (m, n)) inside the last step, a moving one, at `fractions`
         (m values in (0, 1)) of it, given the velocities `qd0`, `qd1` [m/s] at its ends.
 
@@ -704,13 +742,15 @@ class SailStepper:
         as the start's free vibration turned on (first half) or the end's turned back
         (second half).
 
-        With `exact_velocity` the velocities come from the extension's canonical momenta
-        instead, `qd = M^-1 (p - G q)` with the matrices at each sample's own time: the
-        linear invariants (a free hub's momenta) hold at the samples as at the steps'
-        ends, and the rates are as accurate as the positions, at one assembly and one
-        Cholesky factorisation per sample (the batch outputs, `states_at`); without it
-        (the live grid, `sampling`) they cost nothing, and are off by about 0.3 % of peak
-        on the reference deployment."""
+        `rates` says where the velocities come from: "extension", as above, at no cost
+        (the live grid, `sampling`; off by about 0.3 % of peak on the reference
+        deployment); "exact", the extension's canonical momenta `p(f)` and `qd = M^-1 (p
+        - G q)` with the matrices at each sample's own time, so that the linear
+        invariants (a free hub's momenta) hold at the samples as at the steps' ends and
+        the rates are as accurate as the positions, at one assembly and one Cholesky
+        factorisation per sample (the batch outputs, `states_at`); "slope", the time
+        derivative of the curve `q(f)` itself, the slope a Hermite interpolation between
+        samples needs (`interpolant`)."""
         t0, _, _, trial = self._last
         h = self._t - t0
         extensions = trial.extensions
@@ -741,7 +781,11 @@ class SailStepper:
             c, w = _extension_weights(local)
             q[inside] = np.outer(c, q_start) + 2.0 * (w @ y_q).real
             velocity = 2.0 * (w @ u).real  # sum_k 2 Re[w_k u_k]
-            if exact_velocity:
+            if rates == "slope":  # d q / dt = (d q / d local) parts / h
+                dc, dw = _extension_weights(local, slope=True)
+                slope = np.outer(dc, q_start) + 2.0 * (dw @ y_q).real
+                qd[inside] = slope * (parts / h)
+            elif rates == "exact":
                 times = t0 + (k + local) * h / parts
                 middle = t0 + (k + 0.5) * h / parts
                 p = self._extended_momentum(middle, c, velocity, q[inside], q_start, p_start)
@@ -759,14 +803,21 @@ class SailStepper:
         return q, qd
 
     def step_limit(self) -> float:
-        """The longest step [s] allowed now: `max_step`, the error control's proposal,
-        and `PHASE_PER_STEP` rad of `resolved_frequency` per rational step (default:
-        `system.resolved_frequency` at the current lengths; a step of the
-        error-controlled stepper is two of them)."""
+        """The longest step [s] allowed now: `bound` and the error control's proposal."""
+        return min(self.bound(), self._proposal)
+
+    def bound(self) -> float:
+        """The longest step [s] whatever the error: `max_step` and `PHASE_PER_STEP` rad of
+        `resolved_frequency` per rational step (default: `system.resolved_frequency` at
+        the current lengths; a step of the error-controlled stepper is two of them)."""
         lengths, _, _ = self._motion(self._t)
         rational_steps = 1 if self.rtol is None else 2
-        limit = min(self.max_step, rational_steps * PHASE_PER_STEP / self._resolved(lengths))
-        return min(limit, self._proposal)
+        return min(self.max_step, rational_steps * PHASE_PER_STEP / self._resolved(lengths))
+
+    @property
+    def proposal(self) -> float:
+        """The error control's next step [s] (inf before its first moving step)."""
+        return self._proposal
 
     def _motion(self, t):
         """The profile at `t`, checked; cached, since a step asks for the same time
@@ -774,7 +825,10 @@ class SailStepper:
         cached_t, motion = self._motion_cache
         if cached_t == t:
             return motion
-        values = self._profile(t)
+        piece = getattr(self._profile, "piece", None)
+        # at a switch: the piece that starts there once the stepper has reached it
+        profile = self._profile if piece is None else piece(t, entered=t <= self._entered)
+        values = profile(t)
         try:  # three arrays of 4 (the usual case) checked as one
             stacked = np.array(values, dtype=float)
         except (TypeError, ValueError):  # ragged: a scalar among them, or wrong sizes
@@ -923,7 +977,7 @@ class SailStepper:
         if isinstance(trial, Rest):
             q, qd = self._rest_states(trial, fractions)
         else:
-            q, qd = self.between(fractions, qd0, self.qd)
+            q, qd = self.between(fractions, qd0, self.qd, rates="slope")
         return q @ rows.T, qd @ rows.T
 
     def _exact_propagator(self, lengths, h):

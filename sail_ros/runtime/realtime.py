@@ -259,7 +259,7 @@ class RealTimeRun:
                 self._rejected(pending, error)
         for index in sorted(plans):
             plan = sim.apply_motion(plans[index])
-            values = {"t_start_s": f"{plan.t_start:.9f}", "t_end_s": f"{plan.t_end:.9f}"}
+            values = {"t_start_s": repr(plan.t_start), "t_end_s": repr(plan.t_end)}
             self._accepted(batch[index], plan.summary, values)
         for index in loads:
             topic = batch[index].topic
@@ -273,7 +273,7 @@ class RealTimeRun:
                 continue
             # the loads now held, all of the kind: a log then tells the loads from the answers
             held = change.values
-            values = {"t_start_s": f"{sim.t_model:.9f}", topics.LOADS_HELD: _numbers(held)}
+            values = {"t_start_s": repr(sim.t_model), topics.LOADS_HELD: _numbers(held)}
             self._accepted(batch[index], change.summary, values)
 
     def _rejected(self, pending: Pending, error: CommandError) -> None:
@@ -490,8 +490,10 @@ class RealTimeRun:
 
 
 def _time_or_none(t: float) -> float:
-    """A simulation time [s] for the status: -1.0 for none (nan, -inf)."""
-    return round(t, 9) if math.isfinite(t) else -1.0
+    """A simulation time [s] for the status, every digit kept (a replay starts the
+    command's motion where the simulator did, and so takes the same adaptive steps):
+    -1.0 for none (nan, -inf)."""
+    return float(t) if math.isfinite(t) else -1.0
 
 
 def _numbers(values) -> str:
