@@ -22,8 +22,6 @@ import numpy as np
 
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import check_fields, setting
-from sail_ros.model.sail_model import boom_frequency_bound
-from sail_ros.model.stepper import PHASE_PER_STEP
 
 TOLERANCE = 1e-9  # relative slack on the limits, for round-off in the profiles
 BOOMS = "abcd"
@@ -141,6 +139,11 @@ class Policy:
                 f"min_length ({low:g} m) must be below max_length ({high:g} m, the fully "
                 f"deployed length of a {sail.sail_side:g} m sail when max_length is 0)"
             )
+        # here, not at the top: `send` and `watch` use the policy, and start without the
+        # model's solvers
+        from sail_ros.model.sail_model import boom_frequency_bound
+        from sail_ros.model.stepper import PHASE_PER_STEP
+
         needed = boom_frequency_bound(sail, low) / PHASE_PER_STEP
         if needed > self.max_substep_rate:
             shortest = low * math.sqrt(needed / self.max_substep_rate)  # rate ~ 1/L^2

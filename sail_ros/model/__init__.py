@@ -14,21 +14,36 @@ A one-way chain, each module importing only those above it:
   `LinearSystem` (the matrices at a boom motion), which `SailModel` is; the
   state sampled on a grid between long moving steps; batch runs;
 - `profiles`: boom motion (`Profile`, the profiles, `BoomMotion`);
+- `record`: the state sample, `peaks`: true peaks inside the steps;
 - `shape`: the deflected sail sampled on a mesh.
+
+The names below are imported when first used (PEP 562): a tool that needs only the
+parameters (`send`, `watch`) does not pay for scipy's solvers and splines at start.
 """
 
-from sail_ros.model.parameters import SailParameters
-from sail_ros.model.profiles import BoomMotion, CycloidalProfile, StaticProfile, WaypointProfile
-from sail_ros.model.sail_model import SailModel
-from sail_ros.model.stepper import IntegrationError, SailStepper
+import importlib
 
-__all__ = [
-    "BoomMotion",
-    "CycloidalProfile",
-    "IntegrationError",
-    "SailModel",
-    "SailParameters",
-    "SailStepper",
-    "StaticProfile",
-    "WaypointProfile",
-]
+_WHERE = {
+    "BoomMotion": "profiles",
+    "CycloidalProfile": "profiles",
+    "IntegrationError": "stepper",
+    "SailModel": "sail_model",
+    "SailParameters": "parameters",
+    "SailStepper": "stepper",
+    "StaticProfile": "profiles",
+    "WaypointProfile": "profiles",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f"{__name__}.{_WHERE[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *__all__})
