@@ -177,9 +177,9 @@ def test_send_without_a_simulator_is_a_clear_error(ros_env):
 def test_commands_from_publishers_that_send_at_once_all_arrive(processes, operator):
     """Six trajectory commands, each from a fresh publisher that sends as soon as it
     sees the simulator (the documented way: transient local) and waits for its
-    acknowledgement and its answer: every one is accepted. (Without waiting for the
+    acknowledgement and its answer: every one is accepted. Without waiting for the
     answer two of them may land in one batch of the simulator's intake, where the newer
-    supersedes the older, as documented.)"""
+    supersedes the older, as documented."""
     answers = Answers(operator)
     processes("sim")
     operator.wait_for_simulator()
