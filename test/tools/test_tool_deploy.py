@@ -1,14 +1,12 @@
 """`sail-ros deploy`: the summary table, scenarios, the MCAP log and the figures."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import yaml
+from harness import CONFIG, assert_figure
 from rclpy.serialization import deserialize_message
 from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
-from test_tool_figures import assert_figure
 
 from sail_ros import topics
 from sail_ros.analysis.scenario import load_scenario, reference_scenario
@@ -20,7 +18,6 @@ from sail_ros.tools import deploy
 
 pytestmark = pytest.mark.model
 
-CONFIG = Path(__file__).resolve().parents[1] / "config"
 
 SHORT = """
 scenario:

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from test_tool_figures import assert_figure
+from harness import assert_figure
 
 from sail_ros.analysis.modes import group_multiplicities, modal_analysis, representative_shapes
 from sail_ros.model import SailModel, SailParameters

@@ -1,15 +1,12 @@
 """Documentation tables generated from the field tables stay equal to them."""
 
-from pathlib import Path
-
 import pytest
+from harness import ROOT
 
 from sail_ros.model.fields import markdown_table
 from sail_ros.runtime.config import PARAMETERS
 
 pytestmark = pytest.mark.model
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_the_simulator_parameter_table_is_the_generated_one():

@@ -4,10 +4,10 @@ import csv
 
 import numpy as np
 import pytest
+from harness import assert_figure, assert_png
 from rcl_interfaces.msg import ParameterEvent
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
-from test_tool_figures import assert_figure, assert_png
 
 from sail_ros import topics
 from sail_ros.analysis.log_series import read_log

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from harness import CONFIG
 from matplotlib.image import imread
 
 from sail_ros.analysis.montecarlo import input_unit, load_study, run_sample, summarize
@@ -16,7 +17,6 @@ from sail_ros.plots.sail3d import exaggeration_for, true_box_height
 
 pytestmark = pytest.mark.model
 
-CONFIG = Path(__file__).resolve().parents[1] / "config"
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

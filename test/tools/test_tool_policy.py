@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from harness import ROOT, run_tool
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
-from test_tool_errors import run_tool
 
 from sail_ros import topics
 from sail_ros.analysis.montecarlo import run_sample, study_from_dict
@@ -25,7 +25,6 @@ from sail_ros.policy import Policy
 
 pytestmark = pytest.mark.model
 
-ROOT = Path(__file__).resolve().parents[1]
 SAIL = SailParameters()
 DEFAULTS_NOTE = "; the simulator's limits (defaults; --set NAME=VALUE changes them)"
 

@@ -6,10 +6,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from harness import ROOT
 
 pytestmark = pytest.mark.model
 
-PACKAGE = Path(__file__).resolve().parents[1] / "sail_ros"
+PACKAGE = ROOT / "sail_ros"
 
 
 def module_name(path: Path) -> str:

@@ -4,13 +4,13 @@ No ROS runtime."""
 
 import copy
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import Point
+from harness import ROOT
 from rclpy.serialization import deserialize_message, serialize_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
@@ -37,7 +37,6 @@ from sail_ros.runtime.simulation import ERROR, PAUSED, RUNNING, Simulation
 
 pytestmark = pytest.mark.model
 
-ROOT = Path(__file__).resolve().parents[1]
 RULES = Rules(
     Policy(min_length=1.0, max_length=70.0, max_rate=1.0, max_acceleration=0.5), SailParameters()
 )

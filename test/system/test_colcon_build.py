@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 import rclpy
+from harness import ROOT
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -20,7 +21,6 @@ from sail_ros import topics
 
 pytestmark = pytest.mark.multiprocess
 
-ROOT = Path(__file__).resolve().parents[1]
 PYTHON = f"python{sys.version_info.major}.{sys.version_info.minor}"
 
 

@@ -25,12 +25,11 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import spin_until
 from diagnostic_msgs.msg import DiagnosticArray
+from harness import JS, spin_until
 from mcap.reader import make_reader
 from rclpy.serialization import deserialize_message, serialize_message
 from std_msgs.msg import Float64
-from test_conformance import JS, js_readers  # noqa: F401  (the node command, readers installed)
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, bag_files

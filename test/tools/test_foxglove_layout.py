@@ -4,9 +4,9 @@ the topic's type, with the boom the plot says."""
 
 import json
 import re
-from pathlib import Path
 
 import pytest
+from harness import ROOT
 
 from sail_ros import topics
 from sail_ros.model import SailParameters
@@ -16,7 +16,7 @@ from sail_ros.ros.cli import message_class
 
 pytestmark = pytest.mark.model
 
-LAYOUT = Path(__file__).resolve().parents[1] / "config" / "foxglove_layout.json"
+LAYOUT = ROOT / "config" / "foxglove_layout.json"
 # /topic.field[index].field ... (the message paths the layout uses: no filters, no slices)
 PATH = re.compile(r"^(/[A-Za-z0-9_/]+?)((?:\.[A-Za-z_][A-Za-z0-9_]*(?:\[\d+\])?)*)$")
 SERVED = {topics.absolute(name): spec for name, (spec, _) in bridge.SERVABLE.items()}

@@ -3,11 +3,11 @@ every key documented is read, its default is the one applied, an unknown key is
 refused with the nearest one, and every error names the entry down to its element."""
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from harness import ROOT
 
 from sail_ros.analysis import montecarlo, scenario
 from sail_ros.analysis.schema import REQUIRED
@@ -18,7 +18,6 @@ from sail_ros.tools.scenario_docs import blocks, update
 
 pytestmark = pytest.mark.model
 
-ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs" / "scenarios.md"
 
 

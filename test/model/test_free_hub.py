@@ -7,12 +7,12 @@ import os
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.integrate
 import scipy.linalg
+from harness import ROOT
 from scipy.optimize import brentq
 
 from sail_ros import topics
@@ -36,7 +36,6 @@ from sail_ros.model.loads import LoadSchedule
 
 pytestmark = pytest.mark.model
 
-ROOT = Path(__file__).resolve().parents[1]
 L_FULL = 50.0 * np.sqrt(2.0)
 TIGHT = dict(method="DOP853", rtol=1e-11, atol=1e-14)
 # check 18: unequal constant lengths, every input (4 pressures [Pa], 4 tip forces [N],
@@ -851,7 +850,7 @@ BEFORE_FREE_HUB = "821e2348e9"  # main before the free hub merged (assembly as n
 def test_check_23_the_clamped_hub_is_bit_for_bit_the_code_before(tmp_path):
     """Every matrix, frequency, plant, time history (moving, at rest, on the grid, by
     blocks; in the fixed steps that code took) of the clamped sail, from
-    `test/clamped_reference.py` run on the code before the free hub (`git archive`
+    `test/model/clamped_reference.py` run on the code before the free hub (`git archive`
     BEFORE_FREE_HUB) and on this tree, each in its own process with one BLAS thread:
     equal to the last bit."""
     if shutil.which("git") is None:
@@ -871,7 +870,7 @@ def test_check_23_the_clamped_hub_is_bit_for_bit_the_code_before(tmp_path):
         out = tmp_path / f"{name}.npz"
         env = dict(os.environ, PYTHONPATH=str(tree), OPENBLAS_NUM_THREADS="1")
         subprocess.run(
-            [sys.executable, str(ROOT / "test" / "clamped_reference.py"), str(out)],
+            [sys.executable, str(ROOT / "test" / "model" / "clamped_reference.py"), str(out)],
             env=env,
             cwd=tmp_path,
             check=True,

@@ -10,7 +10,7 @@ import subprocess
 import sys
 
 import pytest
-from test_tool_errors import run_tool
+from harness import run_tool
 
 from sail_ros import cli
 from sail_ros.ros.cli import parse_command_line

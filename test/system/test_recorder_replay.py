@@ -4,7 +4,7 @@ A publisher process stands in for the simulator (node `sail_sim`, with
 parameters); this test process holds a live subscriber that counts what was
 published. Run as a script, this file is that publisher:
 
-    python test/test_recorder_replay.py publish --count 100 --rate 100 --subscribers 2
+    python test/system/test_recorder_replay.py publish --count 100 --rate 100 --subscribers 2
 """
 
 import argparse
@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 import rclpy
 import yaml
-from conftest import DOMAIN_ID
 from geometry_msgs.msg import Point
+from harness import DOMAIN_ID, ROOT
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -42,7 +42,6 @@ from sail_ros.nodes import replay as replay_node
 
 pytestmark = pytest.mark.multiprocess
 
-ROOT = Path(__file__).resolve().parents[1]
 STREAMS = {"/sail/boom_state": JointState, "/sail/shape": MarkerArray}
 LATCHED_TOPIC = "/sail/deploy_cmd"  # published once, transient local
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -241,7 +240,11 @@ def start_publisher(
             *(["--after-parameter-fetch"] if after_parameter_fetch else []),
             *(["--change-at", str(change_at)] if change_at is not None else []),
         ],
-        env,
+        # the script imports the tests' harness, as the tests do
+        dict(
+            env,
+            PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT / "test"), env.get("PYTHONPATH")])),
+        ),
         stdin=subprocess.PIPE,
     )
 

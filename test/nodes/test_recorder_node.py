@@ -9,7 +9,7 @@ import time
 
 import pytest
 import rclpy
-from conftest import DOMAIN_ID, spin_until
+from harness import DOMAIN_ID, spin_until
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter

@@ -1,6 +1,6 @@
 """Every array the clamped model gives, written to one `.npz` (docs/model.md check 23).
 
-    python test/clamped_reference.py OUT.npz
+    python test/model/clamped_reference.py OUT.npz
 
 Run with `PYTHONPATH` pointing at a tree of `sail_ros`: `test_free_hub.py` runs it on
 the code before the free hub (commit 4d5d094, from `git archive`) and on this tree,

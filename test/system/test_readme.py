@@ -20,10 +20,10 @@ import sys
 from pathlib import Path
 
 import pytest
+from harness import ROOT
 
 pytestmark = pytest.mark.multiprocess
 
-ROOT = Path(__file__).resolve().parents[1]
 SETUP_INPUTS = ("requirements.txt", "constraints.txt", "setup.py")  # as scripts/setup_env.sh
 TIMEOUT_S = 900  # the blocks take ~2 min on an idle 2-core machine
 FENCE = re.compile(r"^```([^\n`]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)

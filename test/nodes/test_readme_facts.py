@@ -3,17 +3,17 @@ parameters the main job finds stored (the simulator's own and those every rclpy 
 declares), and every default it quotes as "`name` (value)" or "`name`, value"."""
 
 import re
-from pathlib import Path
 
 import pytest
 import yaml
+from harness import ROOT
 from rclpy.node import Node
 
 from sail_ros.runtime.config import DEFAULTS, PARAMETERS
 
 pytestmark = pytest.mark.node
 
-README = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+README = (ROOT / "README.md").read_text()
 
 
 def test_the_stored_parameter_count_is_the_simulators(ros_context):

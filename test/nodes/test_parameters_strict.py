@@ -5,7 +5,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import spin_until
+from harness import spin_until
 from rcl_interfaces.msg import Parameter as ParameterMessage
 from rcl_interfaces.msg import ParameterEvent, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters

@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import spin_until
 from diagnostic_msgs.msg import DiagnosticArray
+from harness import spin_until
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from harness import ROOT
 
 from sail_ros.cli import TOOLS
 from sail_ros.nodes import bridge, recorder
@@ -17,7 +18,6 @@ from sail_ros.runtime.config import PARAMETERS
 
 pytestmark = pytest.mark.model
 
-ROOT = Path(__file__).resolve().parents[1]
 LAUNCH = ROOT / "launch" / "sail.launch.py"
 # node name -> the parameters it declares
 DECLARED = {

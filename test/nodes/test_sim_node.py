@@ -10,8 +10,8 @@ import time
 import numpy as np
 import pytest
 import rclpy
-from conftest import DOMAIN_ID
 from diagnostic_msgs.msg import DiagnosticArray
+from harness import DOMAIN_ID
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, SetParameters
 from rclpy.executors import SingleThreadedExecutor

@@ -5,7 +5,7 @@ import control
 import numpy as np
 import pytest
 import scipy.io
-from test_tool_figures import assert_figure
+from harness import assert_figure
 
 from sail_ros.analysis.plant import frequency_response, linear_plant, poles
 from sail_ros.model import SailModel, SailParameters

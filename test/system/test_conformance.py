@@ -27,11 +27,9 @@ import array
 import collections
 import contextlib
 import dataclasses
-import hashlib
 import io
 import json
 import math
-import shutil
 import signal
 import subprocess
 import threading
@@ -41,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rclpy
-from conftest import DOMAIN_ID, Tool, ros_value
+from harness import DOMAIN_ID, JS, Tool, ros_value, spare_domain
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rcl_interfaces.msg import ParameterEvent
@@ -58,12 +56,9 @@ from sail_ros.bag import BagReader, bag_files
 from sail_ros.ros.cli import message_class
 from sail_ros.tools import bag as bag_tool
 from sail_ros.tools import deploy
-from sail_ros.tools.domains import DomainLease
 
 pytestmark = pytest.mark.multiprocess
 
-JS = Path(__file__).resolve().parent / "js"
-NODE_MAJOR = 20  # the oldest node the JavaScript readers are run with
 SIM_PARAMETERS = {
     "time_scale": 2.0,  # /clock is published, from the state templates and with the status
     "state_rate_hz": 10.0,  # few messages (each is decoded by four readers)
@@ -177,30 +172,6 @@ class Logs:
     incomplete: list[Path]  # the killed recorder's files, before `bag recover`
 
 
-@pytest.fixture(scope="module")
-def js_readers() -> Path:
-    """The node command (version 20 or newer), with the JavaScript readers installed
-    from the lockfile; a failure, not a skip, without them."""
-    node = shutil.which("node")
-    if node is None:
-        pytest.fail(
-            f"node is not installed: this test decodes the logs with Foxglove's JavaScript "
-            f"readers; install Node.js {NODE_MAJOR} (or newer) and npm, then run scripts/test.sh"
-        )
-    version = subprocess.run([node, "--version"], capture_output=True, text=True).stdout.strip()
-    major = int(version.lstrip("v").split(".")[0]) if version.startswith("v") else 0
-    if major < NODE_MAJOR:
-        pytest.fail(f"node {version or '(no version)'} is too old: install Node.js {NODE_MAJOR}")
-    lock = hashlib.sha256((JS / "package-lock.json").read_bytes()).hexdigest()
-    stamp = JS / "node_modules" / ".installed"
-    if not stamp.is_file() or stamp.read_text().strip() != lock:
-        pytest.fail(
-            f"{JS / 'node_modules'} is missing or not installed from package-lock.json: run "
-            "scripts/test.sh (it runs `npm ci` there; needs npm)"
-        )
-    return Path(node)
-
-
 def stop_all(tools, timeout=20.0) -> None:
     """SIGINT to every tool at once, then each must exit with 0 within `timeout` [s]."""
     for tool in tools:
@@ -246,7 +217,7 @@ def logs(js_readers, ros_env, tmp_path_factory) -> Logs:
 
     try:
         listener = listen(DOMAIN_ID)
-        with DomainLease() as domain:  # held until this process's participant is in it
+        with spare_domain() as domain:  # held until this process's participant is in it
             replay_env = dict(ros_env, ROS_DOMAIN_ID=str(domain))
             replay_listener = listen(domain)
         sim = start("sim", *sim_arguments())

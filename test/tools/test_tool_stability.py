@@ -5,7 +5,7 @@ import csv
 import numpy as np
 import pytest
 import scipy.optimize
-from test_tool_figures import assert_figure
+from harness import assert_figure
 
 from sail_ros.analysis.stability import (
     CRITICAL,

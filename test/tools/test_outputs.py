@@ -7,7 +7,7 @@ import errno
 import os
 
 import pytest
-from test_tool_errors import run_tool
+from harness import run_tool
 
 from sail_ros import outputs
 from sail_ros.bag import BagWriteError, BagWriter
