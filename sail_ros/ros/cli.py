@@ -15,6 +15,7 @@ import importlib
 import select
 import signal
 import socket
+import sys
 import threading
 
 import rclpy
@@ -162,8 +163,14 @@ def bounded_teardown(limit_s: float = TEARDOWN_LIMIT_S):
     participants leave at the same moment (its discovery callbacks wait on a lock,
     the removal waits for them, spinning): the process would spin at 100 % of a
     core for ever, and it holds the interpreter's lock, so the watchdog is
-    faulthandler's, which runs without it."""
-    faulthandler.dump_traceback_later(limit_s, exit=True)
+    faulthandler's, which runs without it. It writes to the process's standard error
+    where `sys.stderr` is not a file (a tool's `main` called with its output captured)."""
+    try:
+        sys.stderr.fileno()
+        stream = sys.stderr
+    except (AttributeError, OSError, ValueError):  # io.UnsupportedOperation is an OSError
+        stream = sys.__stderr__
+    faulthandler.dump_traceback_later(limit_s, exit=True, file=stream)
     try:
         yield
     finally:

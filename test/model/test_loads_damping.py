@@ -300,7 +300,7 @@ def test_loaded_damped_deployment_matches_a_tight_reference():
             "stiffness_damping must be finite",
         ),
     ],
-    ids=str,
+    ids=lambda value: value if isinstance(value, str) else "call",
 )
 def test_load_and_damping_errors_name_the_argument(call, message):
     model = SailModel()

@@ -1,9 +1,10 @@
 """A flood of commands at a simulator process: 1000 valid deploy commands a second, then
 1000 malformed ones, 2 s each (benchmarks/command_flood.py runs 10 s each). The
-simulator keeps real time (no gap between two published states over two state periods;
-at most one overrun more than in as long a quiet phase just before, which counts what
-the machine's other load costs) and every command ends counted: accepted, superseded
-or rejected, adding up to what was sent."""
+simulator keeps real time (at most one late state, one more than two state periods after
+the one before, and at most one overrun more than in as long a quiet phase just before,
+which counts what the machine's other load costs; no state later than five periods,
+where the flood once stalled the simulator for seconds) and every command ends counted:
+accepted, superseded or rejected, adding up to what was sent."""
 
 import math
 import time
@@ -19,6 +20,12 @@ pytestmark = pytest.mark.multiprocess
 RATE = 1000.0  # commands per second
 PHASE_S = 2.0
 STATE_PERIOD_S = 0.02  # the default 50 Hz
+
+
+def late_states(stamps: list[int]) -> list[float]:
+    """The gaps [s] between consecutive states' source stamps [ns] over 2 state periods."""
+    gaps = [(b - a) / 1e9 for a, b in zip(stamps[:-1], stamps[1:], strict=True)]
+    return [gap for gap in gaps if gap > 2 * STATE_PERIOD_S]
 
 
 def flood(operator, targets, rate: float = RATE) -> int:
@@ -47,7 +54,9 @@ def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operato
     processes("sim", parameters={"diagnostics_rate_hz": 4.0})
     operator.wait_for_simulator()
     quiet = operator.wait_for_status(lambda s: True, 5.0, "a status before the quiet phase")
+    quiet_first = len(states)
     flood(operator, targets, rate=0.0)
+    quiet_late = late_states(states[quiet_first:])
     before = operator.wait_for_status(lambda s: True, 5.0, "a status before the flood")
     quiet_overruns = int(before[key.OVERRUNS]) - int(quiet[key.OVERRUNS])
     first = len(states)
@@ -70,6 +79,7 @@ def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operato
         assert outcomes[key.REJECTED] == sent, outcomes
     assert int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]) <= quiet_overruns + 1
     published = states[first:]
-    gaps = [(b - a) / 1e9 for a, b in zip(published[:-1], published[1:], strict=True)]
     assert len(published) > 0.8 * PHASE_S / STATE_PERIOD_S
-    assert max(gaps) <= 2 * STATE_PERIOD_S, f"a {max(gaps) * 1e3:.1f} ms gap between two states"
+    late = late_states(published)
+    assert len(late) <= len(quiet_late) + 1, f"late states: {late}, quiet phase: {quiet_late}"
+    assert max(late, default=0.0) <= 5 * STATE_PERIOD_S, f"a {max(late) * 1e3:.1f} ms gap"

@@ -1,6 +1,8 @@
 """Driving the simulator from a terminal, as processes over real DDS (loopback).
 
-`sail-ros send` and `sail-ros watch` against a running `sail-ros sim`;
+`sail-ros send` and `sail-ros watch` against a running `sail-ros sim`: as processes
+in the first tests, as the same `main` called in this process (its own rclpy context
+and node, over the same DDS) where a test is about what the simulator does;
 commands that must not vanish (a publisher that sends at once) and must not
 come back (a restarted simulator); two sails in two namespaces; two demos at
 once.
@@ -18,7 +20,7 @@ import time
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import spin_until
+from harness import run_tool, spin_until
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -32,6 +34,8 @@ from sail_ros.bag import BagReader
 
 pytestmark = pytest.mark.multiprocess
 
+FAST_STATUS = {"diagnostics_rate_hz": 10.0}  # watch waits for a status: not a second
+
 
 def tool(ros_env, *args, timeout=60.0) -> subprocess.CompletedProcess:
     """Run `sail-ros <args>` to its end."""
@@ -44,9 +48,16 @@ def tool(ros_env, *args, timeout=60.0) -> subprocess.CompletedProcess:
     )
 
 
-def watch(ros_env, *ros_args) -> dict:
+def in_process(*args) -> subprocess.CompletedProcess:
+    """Run `sail-ros <args>`'s `main` in this process, as `tool` runs its process."""
+    code, out, err = run_tool(args[0], list(args[1:]))
+    return subprocess.CompletedProcess(args, code, out, err)
+
+
+def watch(ros_env, *ros_args, run=tool) -> dict:
     """One sample; waiting as long as processes starting on a busy machine may take."""
-    result = tool(ros_env, "watch", "--once", "--json", "--timeout", "30", *ros_args)
+    result = run(*(() if run is in_process else (ros_env,)), "watch", "--once", "--json",
+                 "--timeout", "30", *ros_args)  # fmt: skip
     assert result.returncode == 0, result.stderr
     return json.loads(result.stdout)
 
@@ -65,7 +76,9 @@ class Answers:
 
 
 def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
-    sim = processes("sim", parameters={"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
+    sim = processes(
+        "sim", parameters={"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0], **FAST_STATUS}
+    )
     recorder = processes("recorder", "-o", str(tmp_path / "bag"))
     first = watch(ros_env)  # waits for the simulator
     assert first["boom_length_m"] == {"a": 10.0, "b": 10.0, "c": 10.0, "d": 10.0}
@@ -102,7 +115,7 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
         for m in bag.messages(["/sail/command_status"])
     ]
     assert [a.outcome for a in answers] == ["accepted", "rejected", "accepted"]
-    report = tool(ros_env, "report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"))
+    report = in_process("report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"))
     assert report.returncode == 0, report.stderr
 
 
@@ -110,30 +123,35 @@ def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_pa
     """`send tip-force` and `send pressure` load a damped sail; a force beyond the limit
     is rejected; the root moments, the load power and the dissipation are published
     and recorded; a reset takes the loads off."""
-    processes("sim", parameters={"sail.mass_damping": 0.5, "sail.stiffness_damping": 1e-3})
+    processes(
+        "sim",
+        parameters={
+            "sail.mass_damping": 0.5,
+            "sail.stiffness_damping": 1e-3,
+            "diagnostics_rate_hz": 10.0,
+        },
+    )
     recorder = processes("recorder", "-o", str(tmp_path / "bag"))
-    watch(ros_env)  # waits for the simulator
-    pushed = tool(ros_env, "send", "tip-force", "--booms", "b", "--values", "0.05")
+    watch(ros_env, run=in_process)  # waits for the simulator
+    pushed = in_process("send", "tip-force", "--booms", "b", "--values", "0.05")
     assert pushed.returncode == 0, pushed.stderr
     assert pushed.stdout.startswith("accepted: boom_b = 0.05 N (others held)")
-    too_much = tool(ros_env, "send", "tip-force", "--booms", "a", "--values", "5")
+    too_much = in_process("send", "tip-force", "--booms", "a", "--values", "5")
     assert too_much.returncode == 1
     assert "|boom_a| = 5 N exceeds max_tip_force = 1 N" in too_much.stdout
-    pressed = tool(
-        ros_env, "send", "pressure", "--quadrants", "ab", "cd", "--values", "2e-3", "2e-3"
-    )
+    pressed = in_process("send", "pressure", "--quadrants", "ab", "cd", "--values", "2e-3", "2e-3")
     assert pressed.returncode == 0, pressed.stderr
-    bad = tool(ros_env, "send", "pressure", "--quadrants", "ab", "--values", "1", "2")
+    bad = in_process("send", "pressure", "--quadrants", "ab", "--values", "1", "2")
     assert bad.returncode == 2
     assert "--values: one per name of --quadrants (1: ab), or one with --quadrants all; got 2" in (
         bad.stderr
     )
     time.sleep(2.0)
-    view = watch(ros_env)
+    view = watch(ros_env, run=in_process)
     assert view["root_moment_N_m"]["b"] > 0.0  # the force bends boom b towards +z
     assert view["damping_dissipation_W"] >= 0.0 and view["load_power_W"] == view["load_power_W"]
     assert view["accepted_commands"] == 2 and view["rejected_commands"] == 1
-    assert tool(ros_env, "send", "reset").returncode == 0
+    assert in_process("send", "reset").returncode == 0
     assert recorder.stop(signal.SIGINT) == 0, recorder.log()
 
     bag = BagReader(tmp_path / "bag")
@@ -148,7 +166,7 @@ def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_pa
     assert {"load_power_W", "damping_dissipation_W"} <= keys
     # the log runs again offline from what it records (motion, loads from the answers,
     # the state after the reset): its true peaks, the logged tips reproduced
-    report = tool(ros_env, "report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"),
+    report = in_process("report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"),
                   "--no-convergence")  # fmt: skip
     assert report.returncode == 0, report.stderr
     found = re.search(
@@ -249,18 +267,21 @@ def test_a_started_simulator_does_not_run_commands_published_before(processes, o
 
 
 def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_path):
-    sat1 = processes("sim", "--ros-args", "-r", "__ns:=/sat1")
-    sat2 = processes("sim", "--ros-args", "-r", "__ns:=/sat2")
+    sat1 = processes("sim", "--ros-args", "-r", "__ns:=/sat1", parameters=FAST_STATUS)
+    sat2 = processes("sim", "--ros-args", "-r", "__ns:=/sat2", parameters=FAST_STATUS)
     recorders = [
         processes("recorder", "-o", str(tmp_path / ns), "--ros-args", "-r", f"__ns:=/{ns}")
         for ns in ("sat1", "sat2")
     ]
-    assert watch(ros_env, "--ros-args", "-r", "__ns:=/sat1")["simulator"] == "/sat1/sail_sim"
-    sent = tool(ros_env, "send", "deploy", "11", "--ros-args", "-r", "__ns:=/sat1")
+    assert (
+        watch(ros_env, "--ros-args", "-r", "__ns:=/sat1", run=in_process)["simulator"]
+        == "/sat1/sail_sim"
+    )
+    sent = in_process("send", "deploy", "11", "--ros-args", "-r", "__ns:=/sat1")
     assert sent.returncode == 0, sent.stderr
     time.sleep(1.0)
-    moving = watch(ros_env, "--ros-args", "-r", "__ns:=/sat1")
-    resting = watch(ros_env, "--ros-args", "-r", "__ns:=/sat2")
+    moving = watch(ros_env, "--ros-args", "-r", "__ns:=/sat1", run=in_process)
+    resting = watch(ros_env, "--ros-args", "-r", "__ns:=/sat2", run=in_process)
     assert moving["boom_length_m"]["a"] > 10.0 and moving["accepted_commands"] == 1
     assert resting["boom_length_m"]["a"] == 10.0 and resting["accepted_commands"] == 0
     for process in (sat1, sat2, *recorders):
@@ -276,14 +297,23 @@ def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_pa
         assert (status.message_count if status else 0) == commands  # answers are kept
         parameters = dict(bag.metadata())[topics.PARAMETERS_METADATA]
         assert "sail.n_boom_modes" in parameters  # the simulator of its namespace
-        report = tool(ros_env, "report", str(tmp_path / ns), "--out", str(tmp_path / f"r_{ns}"))
+        report = in_process("report", str(tmp_path / ns), "--out", str(tmp_path / f"r_{ns}"))
         assert report.returncode == 0, report.stderr
 
 
 def test_two_demos_at_once_each_log_only_their_own_run(ros_env, tmp_path):
     demos = [
         subprocess.Popen(
-            [sys.executable, "-m", "sail_ros.cli", "demo", "-o", str(tmp_path / name)],
+            [
+                sys.executable,
+                "-m",
+                "sail_ros.cli",
+                "demo",
+                "-o",
+                str(tmp_path / name),
+                "--time-scale",
+                "5",
+            ],  # fmt: skip
             env=ros_env,
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,

@@ -8,6 +8,11 @@ itself) and untagged or `console` blocks (output). The copy holds exactly
 what a clone would (git's tracked and unignored files), shares the set-up
 `.venv`, and must be as clean afterwards: whatever the examples write is
 ignored by git.
+
+The suite runs it CI-sized: the main job and every block that works offline, not
+the live walk-throughs (blocks that start processes in the background, driven in
+test_drive.py) nor the Monte Carlo study (run in test_studies_dask.py). The whole
+README runs with `--slow` (scripts/stress.sh).
 """
 
 import hashlib
@@ -25,7 +30,9 @@ from harness import ROOT
 pytestmark = pytest.mark.multiprocess
 
 SETUP_INPUTS = ("requirements.txt", "constraints.txt", "setup.py")  # as scripts/setup_env.sh
-TIMEOUT_S = 900  # the blocks take ~2 min on an idle 2-core machine
+TIMEOUT_S = 900  # all blocks take ~2 min on an idle 2-core machine
+LIVE = re.compile(r"&\s*$", re.MULTILINE)  # a process left running in the background
+STUDY = "sail-ros montecarlo"
 FENCE = re.compile(r"^```([^\n`]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)
 
 
@@ -69,20 +76,63 @@ def environment_is_current(tree: Path) -> bool:
     return stamp.is_file() and stamp.read_text().strip() == hashlib.sha256(text).hexdigest()
 
 
+def offline(body: str) -> bool:
+    """A block that starts nothing in the background and runs no study."""
+    return not LIVE.search(body) and STUDY not in body
+
+
+@pytest.mark.slow
 def test_readme_runs_top_to_bottom(tmp_path, ros_env):
+    output, tree = run_readme(tmp_path, ros_env, lambda body: True)
+    assert "accepted: deploy to 12 m" in output
+    assert "rejected, as it should be" in output
+    assert "40 samples ran, 0 failed" in output
+    assert (tree / "out" / "run1" / "metadata.yaml").is_file()
+    assert (tree / "out" / "run1_report").is_dir()
+    check_offline_output(output, tree)
+
+
+def test_readme_main_job_and_offline_blocks_run(tmp_path, ros_env):
+    output, tree = run_readme(tmp_path, ros_env, offline)
+    assert "accepted: deploy to 12 m" not in output  # the live walk-through did not run
+    check_offline_output(output, tree)
+
+
+def check_offline_output(output: str, tree: Path) -> None:
+    """What the main job and the offline blocks print and leave behind."""
+    assert "simulator and recorder stopped cleanly" in output  # scripts/main.sh
+    assert "lowest frequencies at full deployment" in output  # the Python example printed
+    stored = re.search(r"simulator parameters stored: \d+ \(.*\)", output)  # as quoted
+    assert stored and stored.group(0) in (tree / "README.md").read_text(), stored
+    assert (tree / "out" / "loaded_report").is_dir()
+    assert (tree / "out" / "plant.mat").is_file()
+    status = subprocess.run(
+        ["git", "status", "--porcelain", "--untracked-files=all"],
+        cwd=tree,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    assert status == "", f"the examples left files git does not ignore:\n{status}"
+    assert os.path.islink(tree / ".venv")
+
+
+def run_readme(tmp_path: Path, ros_env: dict, chosen) -> tuple[str, Path]:
+    """Run the README's `bash` and `python` blocks that `chosen(body)` keeps, in order,
+    in one bash session in a fresh copy; (everything printed, the copy)."""
     tree = fresh_copy(tmp_path / "sail_ros")
     assert environment_is_current(tree), "the environment is out of date: run scripts/test.sh"
     script = ["set -euo pipefail"]
     for index, (info, body) in enumerate(blocks((tree / "README.md").read_text())):
+        if info not in ("bash", "python") or not chosen(body):
+            continue
+        script.append(f'echo "--- README block {index} at ${{SECONDS}} s"')
         if info == "bash":
-            script += [f'echo "--- README block {index} at ${{SECONDS}} s"', body]
-        elif info == "python":
+            script.append(body)
+        else:
             path = tmp_path / f"block_{index}.py"
             path.write_text(body)
-            script += [
-                f'echo "--- README block {index} at ${{SECONDS}} s"',
-                f"{sys.executable} {path}",
-            ]
+            script.append(f"{sys.executable} {path}")
     env = dict(ros_env, PYTHONPATH=str(tree))  # the copy's code, not the developer's
     env.pop("AMENT_PREFIX_PATH", None)  # scripts/env.sh sets it
     log = tmp_path / "readme.log"
@@ -105,20 +155,4 @@ def test_readme_runs_top_to_bottom(tmp_path, ros_env):
             ) from None
     output = log.read_text()
     assert session.returncode == 0, output[-6000:]
-    assert "accepted: deploy to 12 m" in output
-    assert "rejected, as it should be" in output
-    assert "simulator and recorder stopped cleanly" in output  # scripts/main.sh
-    assert "lowest frequencies at full deployment" in output  # the Python example printed
-    stored = re.search(r"simulator parameters stored: \d+ \(.*\)", output)  # as quoted
-    assert stored and stored.group(0) in (tree / "README.md").read_text(), stored
-    assert (tree / "out" / "run1" / "metadata.yaml").is_file()
-    assert (tree / "out" / "run1_report").is_dir()
-    status = subprocess.run(
-        ["git", "status", "--porcelain", "--untracked-files=all"],
-        cwd=tree,
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    assert status == "", f"the examples left files git does not ignore:\n{status}"
-    assert os.path.islink(tree / ".venv")
+    return output, tree

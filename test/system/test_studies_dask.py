@@ -1,6 +1,7 @@
 """Studies on real Dask clusters: a local one (1 and 2 workers) and an external one
 (`dask scheduler` and two `dask worker` processes on loopback), the same CSV byte
-for byte from all three; a failing sample is a row; the worst samples rerun."""
+for byte from all three; a failing sample is a row; the worst samples rerun; the
+stability sweep on the external cluster."""
 
 import csv
 import json
@@ -13,15 +14,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from harness import assert_figure
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from sail_ros import topics
 from sail_ros.analysis.montecarlo import load_study, sample_inputs
+from sail_ros.analysis.stability import CRITICAL, STABLE, UNSTABLE, stability_sweep
 from sail_ros.bag import BagReader
-from sail_ros.tools import deploy, montecarlo
+from sail_ros.model import SailParameters
+from sail_ros.tools import deploy, montecarlo, stability
 
 pytestmark = pytest.mark.multiprocess
+
+STABILITY_PARAMS = SailParameters()
 
 STUDY = {
     "study": {
@@ -68,7 +74,7 @@ def free_port() -> int:
         return probe.getsockname()[1]
 
 
-@pytest.fixture
+@pytest.fixture(scope="module")
 def external_cluster(ros_env):
     """`dask scheduler` and two `dask worker` processes on loopback; their address."""
     port = free_port()
@@ -152,9 +158,10 @@ def test_the_same_study_gives_the_same_csv_on_any_cluster(
     assert (tmp_path / "one" / "samples.parquet").is_file()
 
 
-def test_worst_samples_rerun_to_the_same_numbers(study_file, tmp_path, capsys):
+def test_worst_samples_rerun_to_the_same_numbers(study_file, tmp_path, capsys, external_cluster):
     out = tmp_path / "study"
-    assert montecarlo.main([str(study_file), "--out", str(out), "--workers", "2"]) == 0
+    argv = [str(study_file), "--out", str(out), "--scheduler", external_cluster]
+    assert montecarlo.main(argv) == 0
     printed = capsys.readouterr().out
     assert "inputs by |Spearman rank correlation| with peak_tip_m" in printed
     rows = {int(r["sample"]): r for r in csv.DictReader((out / "samples.csv").open())}
@@ -208,3 +215,78 @@ def test_bad_studies_name_the_key(tmp_path, capsys, change, message):
     assert montecarlo.main([str(path), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_stability_tool_finds_instability_in_retraction_and_none_at_rest(
+    tmp_path, capsys, figure_checks, external_cluster
+):
+    """Two worker processes over a small grid; CSVs and figures hold what they claim."""
+    critical, grid = tmp_path / "critical.csv", tmp_path / "grid.csv"
+    assert (
+        stability.main(
+            [
+                "--rates",
+                "-0.1",
+                "0",
+                "0.1",
+                "1",
+                "--prestress",
+                "1",
+                "1e4",
+                "--points",
+                "9",
+                "--scheduler",
+                external_cluster,
+                "--csv",
+                str(critical),
+                "--grid-csv",
+                str(grid),
+                "--figures",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "unstable at every prestress" in out and "stable at every prestress" in out
+
+    rows = {float(r["rate_m_s"]): r for r in csv.DictReader(critical.open())}
+    assert rows[-0.1]["status"] == UNSTABLE
+    assert rows[0.0]["status"] == STABLE
+    assert rows[0.1]["status"] == rows[1.0]["status"] == CRITICAL
+    # the membrane's N term scales with rate^2, so does the critical prestress
+    ratio = float(rows[1.0]["critical_prestress_pa"]) / float(rows[0.1]["critical_prestress_pa"])
+    assert ratio == pytest.approx(100.0, rel=0.02)
+    # at the sail's own 6890 Pa: retraction grows, deployment decays, rest is neutral
+    assert float(rows[-0.1]["max_real_at_sail_prestress_1_s"]) > 1e-4
+    assert float(rows[0.1]["max_real_at_sail_prestress_1_s"]) < -1e-4
+    assert abs(float(rows[0.0]["max_real_at_sail_prestress_1_s"])) < 1e-12
+
+    points = list(csv.DictReader(grid.open()))
+    assert len(points) == 4 * 9
+    at_rest = [p for p in points if float(p["rate_m_s"]) == 0.0]
+    assert not any(p["unstable"] == "True" for p in at_rest)
+    assert all(p["unstable"] == "True" for p in points if float(p["rate_m_s"]) < 0)
+    # one length: the narrowest map, whose legend ran off its sides in one row
+    for name in ("stability", "stability_map", "eigenvalue_loci"):
+        assert_figure(tmp_path / f"{name}.png", figure_checks)
+
+
+def test_serial_and_dask_stability_sweeps_agree(external_cluster):
+    from dask.distributed import Client
+
+    grid = np.logspace(0, 3, 4)
+    serial = stability_sweep(
+        STABILITY_PARAMS, [STABILITY_PARAMS.full_boom_length, 20.0], [-0.1, 0.1], grid
+    )
+    with Client(external_cluster) as client:
+        parallel = stability_sweep(
+            STABILITY_PARAMS,
+            [STABILITY_PARAMS.full_boom_length, 20.0],
+            [-0.1, 0.1],
+            grid,
+            client=client,
+        )
+    for a, b in zip(serial, parallel, strict=True):
+        assert (a.length, a.rate, a.status) == (b.length, b.rate, b.status)
+        np.testing.assert_array_equal(a.max_real, b.max_real)
