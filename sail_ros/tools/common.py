@@ -267,3 +267,12 @@ def print_peak_table(peaks, changes=None, indent: str = "  ") -> None:
     print(f"{indent}{'':{width}}" + "".join(f"{'boom ' + b:>12}" for b in "abcd"))
     for label, values, spec in lines:
         print(f"{indent}{label:<{width}}" + "".join(f"{v:>{spec}}" for v in values))
+
+
+def print_hub_peak_table(hub, indent: str = "  ") -> None:
+    """A free hub's peak |z_h| [mm], |theta_x|, |theta_y| and tilt |theta| [mrad] with their
+    times (`Peaks.hub`)."""
+    labels = ("|z_h| [mm]", "|theta_x| [mrad]", "|theta_y| [mrad]", "|theta| [mrad]")
+    print(f"{indent}{'':12}" + "".join(f"{label:>18}" for label in labels))
+    print(f"{indent}{'peak':<12}" + "".join(f"{1e3 * v:18.4f}" for v in hub.value))
+    print(f"{indent}{'  at t [s]':<12}" + "".join(f"{v:18.3f}" for v in hub.time_s))

@@ -51,6 +51,7 @@ from sail_ros.tools.common import (
     add_sail_options,
     configuration,
     describe_parameters,
+    print_hub_peak_table,
     print_peak_table,
     print_written,
     run,
@@ -330,10 +331,7 @@ def _print_hub_peaks(hub, holds) -> None:
     """A free hub's true peaks (`Peaks.hub`) and its holds' peak reactions (`HoldPeaks`)."""
     print()
     print("  free hub peaks over the whole run (taken inside every integration step):")
-    labels = ("|z_h| [mm]", "|theta_x| [mrad]", "|theta_y| [mrad]", "|theta| [mrad]")
-    print(f"  {'':12}" + "".join(f"{label:>18}" for label in labels))
-    print(f"  {'peak':<12}" + "".join(f"{1e3 * v:18.4f}" for v in hub.value))
-    print(f"  {'  at t [s]':<12}" + "".join(f"{v:18.3f}" for v in hub.time_s))
+    print_hub_peak_table(hub)
     print(
         f"  hold reactions (of the boom motion, every {1e3 * holds.spacing_s:g} ms): in-plane "
         f"|F| {holds.force:.4g} N at t = {holds.force_time_s:.3f} s, spin |tau_z| "
