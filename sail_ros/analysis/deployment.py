@@ -252,6 +252,32 @@ def hold_reactions(model: SailModel, profile, t) -> np.ndarray:
     return np.array([model.hold_loads(*profile(float(ti))) for ti in np.asarray(t)])
 
 
+HOLD_SPACING_S = 0.01  # the holds follow the boom motion alone: sampled this finely
+
+
+class HoldPeaks(NamedTuple):
+    """The largest reactions a free hub's holds supply over a run (`hold_peaks`): the
+    in-plane force |(F_x, F_y)| [N] and the spin torque |tau_z| [N m], each with its
+    time [s], sampled every `spacing_s` [s]."""
+
+    force: float  # [N]
+    force_time_s: float
+    torque: float  # [N m]
+    torque_time_s: float
+    spacing_s: float
+
+
+def hold_peaks(model: SailModel, profile, duration: float, spacing=HOLD_SPACING_S) -> HoldPeaks:
+    """The peak hold reactions while `profile` moves the booms over [0, duration] [s],
+    from `hold_reactions` every `spacing` [s] (the first time of the largest)."""
+    t = np.linspace(0.0, duration, max(1, math.ceil(duration / spacing - 1e-9)) + 1)
+    holds = hold_reactions(model, profile, t)
+    force, torque = np.hypot(holds[:, 0], holds[:, 1]), np.abs(holds[:, 2])
+    i, j = int(np.argmax(force)), int(np.argmax(torque))
+    return HoldPeaks(float(force[i]), float(t[i]), float(torque[j]), float(t[j]),
+                     float(t[1] - t[0]) if t.size > 1 else 0.0)  # fmt: skip
+
+
 @dataclasses.dataclass(frozen=True)
 class Convergence:
     """How a run's peaks move when the mode counts grow (`converge`).

@@ -23,7 +23,7 @@ from sail_ros.analysis.log_series import LogSeries
 from sail_ros.model import SailModel
 from sail_ros.model.basis import cantilever_roots
 from sail_ros.model.layout import BOOMS
-from sail_ros.model.peaks import Peak, Peaks, PeakSearch
+from sail_ros.model.peaks import Peak, Peaks, PeakSearch, with_tilt
 
 RESOLVED_PHASE = 1.0  # rad of a mode between two samples that Hermite interpolation follows
 
@@ -34,7 +34,9 @@ class LogPeaks:
 
     Attributes:
         peaks: peak |tip deflection| [m] and |root moment| [N m] with times [s on the
-            log's time axis]; None where the log lacks the topic.
+            log's time axis] (NaN where the log lacks the topic), and a free hub's
+            (`Peaks.hub`: |z_h| [m], |theta_x|, |theta_y|, tilt |theta| [rad],
+            interpolated with the logged rates of /sail/hub_state; None without it).
         interpolated: whether the tips and the root moments were interpolated with
             their rates (else: the largest sample).
         spacing_s: the median time between two samples [s].
@@ -74,7 +76,11 @@ def log_peaks(log: LogSeries, model: SailModel | None) -> LogPeaks:
         moments = _search(t, log.moments.effort, rates)
         interpolated[1] = rates is not None
     unresolved = _unresolved(log, model, spacing)
-    return LogPeaks(Peaks(tips, moments), tuple(interpolated), spacing, *unresolved)
+    hub = None
+    if log.hub is not None:
+        stamps, values = log.hub  # z_h, theta_x, theta_y, then their rates
+        hub = _search(log.seconds(stamps), *with_tilt(values[:, :3], values[:, 3:], first=1))
+    return LogPeaks(Peaks(tips, moments, hub), tuple(interpolated), spacing, *unresolved)
 
 
 def _segments(t):

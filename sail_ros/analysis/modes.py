@@ -143,3 +143,49 @@ def fem_cross_check(params: SailParameters, fem_levels, modal_counts, count: int
         omega = model.natural_frequencies(params.full_boom_length)[:count]
         modal.append((n_boom, n_membrane, time.perf_counter() - started, omega))
     return CrossCheck(count, fem, modal)
+
+
+@dataclasses.dataclass(frozen=True)
+class Counterpart:
+    """The clamped group of modes a free hub's elastic group is mostly made of.
+
+    Attributes:
+        free_first: the free hub's group's first index (in `Modes.omega`, rigid first).
+        clamped_first, clamped_multiplicity: the clamped group (indices of the clamped
+            sail's `Modes.omega`).
+        omega: the clamped group's frequency [rad/s].
+        share: the part of the free group's elastic shapes inside the clamped group's
+            span, in the clamped sail's mass norm (1: the same shapes), averaged over
+            the group.
+    """
+
+    free_first: int
+    clamped_first: int
+    clamped_multiplicity: int
+    omega: float
+    share: float
+
+
+def clamped_counterparts(free: SailModel, modes: Modes, clamped_model: SailModel,
+                         clamped: Modes) -> list[Counterpart]:  # fmt: skip
+    """For each elastic group of `modes` (of `free`, a free-hub model) the group of
+    `clamped` (of `clamped_model`: the same sail with the hub clamped, at the same lengths)
+    that holds most of its shapes: the hub stiffens some modes (it turns a boom's clamped
+    root into a guided or pinned one when light, model.md §13.10) and leaves others, so
+    the order of the two lists differs; pairing by shape puts each beside its own."""
+    M = clamped_model.mass_and_stiffness(clamped.lengths)[0]
+    elastic = modes.vectors[: free.n_elastic]
+    # free elastic shapes in the clamped modal basis (V_c^T M V_c = I): their coordinates
+    coordinates = clamped.vectors.T @ M @ elastic
+    with np.errstate(invalid="ignore"):  # the rigid-body modes' elastic parts are 0
+        energy = coordinates**2 / np.sum(coordinates**2, axis=0)
+    pairs = []
+    for first, multiplicity in modes.groups:
+        if modes.omega[first] == 0.0:  # rigid-body modes: no clamped counterpart
+            continue
+        columns = slice(first, first + multiplicity)
+        shares = [float(energy[c : c + m, columns].sum() / multiplicity) for c, m in clamped.groups]
+        best = int(np.argmax(shares))
+        c, m = clamped.groups[best]
+        pairs.append(Counterpart(first, c, m, float(clamped.omega[c]), shares[best]))
+    return pairs

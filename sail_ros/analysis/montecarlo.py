@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sail_ros.analysis.deployment import output_count, output_times, run_deployment
+from sail_ros.analysis.deployment import hold_peaks, output_count, output_times, run_deployment
 from sail_ros.analysis.scenario import BOOMS, scenario_from_dict
 from sail_ros.analysis.schema import Section, check_number, key
 from sail_ros.model import SailModel, SailParameters, yaml_values
@@ -110,10 +110,11 @@ DISTRIBUTIONS = {
     for kind, section in DISTRIBUTION_SECTIONS.items()
 }
 ENVELOPE_BYTES = 4 * 4 + 8  # a sample's tips (float32, 4 booms) and time, kept per output time
+# what a dispersion may draw: not the mode counts, nor a switch (free_hub: the base sail's)
 FLOAT_FIELDS = tuple(
     name
     for name in SailParameters.field_names()
-    if name not in ("n_boom_modes", "n_membrane_modes")
+    if isinstance(getattr(SailParameters(), name), float)
 )
 OUTPUTS = (
     *(f"peak_tip_{b}_m" for b in BOOMS),
@@ -124,9 +125,10 @@ OUTPUTS = (
     "final_energy_J",
     "stability_margin_1_s",
 )
-# with a free hub: its peak heave and tilt (OutputPeaks), columns only when a sample has them
+# with a free hub: its peak heave and tilt (OutputPeaks) and the holds' peak reactions
+# (`hold_peaks`), columns only when a sample has them
 HUB_OUTPUTS = ("peak_hub_heave_m", "peak_hub_heave_time_s", "peak_hub_tilt_rad",
-               "peak_hub_tilt_time_s")  # fmt: skip
+               "peak_hub_tilt_time_s", "peak_hold_force_N", "peak_hold_torque_N_m")  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -413,6 +415,9 @@ def run_sample(case) -> dict:
             row["peak_hub_heave_time_s"] = float(hub.time_s[0])
             row["peak_hub_tilt_rad"] = float(hub.value[3])
             row["peak_hub_tilt_time_s"] = float(hub.time_s[3])
+            holds = hold_peaks(model, scenario.profile, float(run.t[-1]))
+            row["peak_hold_force_N"] = holds.force
+            row["peak_hold_torque_N_m"] = holds.torque
         row["error"] = ""
         # for the envelopes and the benchmark's cost split [s], not the CSV
         row["_tips"] = run.tips.astype(np.float32)
@@ -429,7 +434,7 @@ class Summary:
 
     Attributes:
         succeeded, failed: sample counts.
-        percentiles: output -> (5 %, 50 %, 95 %).
+        percentiles: output -> (5 %, 50 %, 95 %), a free hub's (`HUB_OUTPUTS`) last.
         influence: (input, Spearman rank correlation with peak_tip_m), strongest first.
         worst: sample indices with the largest peak_tip_m, worst first (up to five).
         n_boom_modes, n_membrane_modes: the mode counts every sample ran with (the
@@ -458,7 +463,8 @@ def summarize(study: Study, rows: list[dict], base_sail: dict, worst: int = 5) -
     good = [row for row in rows if row is not None and not row.get("error")]
     failed = sum(1 for row in rows if row is not None and row.get("error"))
     percentiles = {}
-    for name in OUTPUTS:
+    hub = HUB_OUTPUTS if any(HUB_OUTPUTS[0] in row for row in good) else ()
+    for name in (*OUTPUTS, *hub):
         values = np.array([row[name] for row in good], dtype=float)
         if values.size:
             low, middle, high = np.percentile(values, [5, 50, 95])

@@ -29,6 +29,7 @@ class LinearPlant:
         input_units, output_units: their units.
         mass_damping, stiffness_damping: the Rayleigh alpha [1/s] and beta [s] of
             the sail the plant was built from.
+        free_hub: the hub is free: its outputs hold double integrators (`hub_note`).
     """
 
     A: np.ndarray
@@ -44,10 +45,15 @@ class LinearPlant:
     output_units: tuple[str, ...]
     mass_damping: float = 0.0
     stiffness_damping: float = 0.0
+    free_hub: bool = False
 
     def arrays(self) -> dict:
         """Everything as arrays (for `.npz` and MATLAB `.mat`), with the damping and,
-        when poles lie on the imaginary axis, their count and a note saying so."""
+        when poles lie on the imaginary axis, their count and a note saying so; with a
+        free hub the rigid-body poles' count and `hub_note`."""
+        hub = {}
+        if self.free_hub:
+            hub = {"rigid_body_poles": len(rigid_poles(self)), "hub_note": hub_note(self)}
         return {
             "A": self.A,
             "B": self.B,
@@ -64,6 +70,7 @@ class LinearPlant:
             "stiffness_damping_s": self.stiffness_damping,
             "poles_on_imaginary_axis": len(imaginary_axis_poles(self)),
             "note": undamped_note(self),
+            **hub,
         }
 
 
@@ -88,6 +95,7 @@ def linear_plant(model: SailModel, lengths, rates=0.0) -> LinearPlant:
         model.output_units,
         mass_damping=model.params.mass_damping,
         stiffness_damping=model.params.stiffness_damping,
+        free_hub=model.free_hub,
     )
 
 
@@ -129,12 +137,36 @@ def frequency_response(plant: LinearPlant, omega) -> np.ndarray:
     return response
 
 
+RIGID_POLES = 6  # a free hub's heave and two tilts: a double pole at s = 0 each
+
+
+def rigid_poles(plant: LinearPlant) -> list[Pole]:
+    """A free hub's rigid-body poles: the six of smallest |s|, at s = 0 to round-off
+    (model.md §13.6; none when clamped)."""
+    return poles(plant)[:RIGID_POLES] if plant.free_hub else []
+
+
 def imaginary_axis_poles(plant: LinearPlant, tolerance: float = 1e-9) -> list[Pole]:
     """The poles (Im s >= 0) within `tolerance` times the largest |s| of the imaginary
-    axis: undamped modes, to round-off."""
-    listed = poles(plant)
+    axis: undamped modes, to round-off (not a free hub's rigid-body poles at 0, which
+    no structural damping moves)."""
+    listed = poles(plant)[len(rigid_poles(plant)) :]
     largest = max((p.omega for p in listed), default=0.0)
     return [p for p in listed if abs(p.s.real) <= tolerance * largest]
+
+
+def hub_note(plant: LinearPlant) -> str:
+    """One line saying that a free hub's outputs hold double integrators ("" when
+    clamped)."""
+    if not plant.free_hub:
+        return ""
+    return (
+        f"the hub outputs ({', '.join(plant.output_names[8:11])} and their rates) hold "
+        f"double integrators: {RIGID_POLES} poles at s = 0 (the hub's rigid-body modes), "
+        "so the plant is not stable, and a Bode plot of a force "
+        "or torque to z_h or a tilt falls at -40 dB/dec at low frequency (docs/model.md "
+        "§13.6)"
+    )
 
 
 def undamped_note(plant: LinearPlant) -> str:
@@ -144,7 +176,8 @@ def undamped_note(plant: LinearPlant) -> str:
     if not marginal:
         return ""
     return (
-        f"{len(marginal)} of {len(poles(plant))} modes have their poles on the imaginary "
+        f"{len(marginal)} of {len(poles(plant)) - len(rigid_poles(plant))} modes have their "
+        "poles on the imaginary "
         f"axis (mass_damping = {plant.mass_damping:g} 1/s, stiffness_damping = "
         f"{plant.stiffness_damping:g} s): an undamped mode's response is unbounded at its "
         "frequency and its phase jumps by 180 deg there; set Rayleigh damping "

@@ -192,7 +192,7 @@ class OutputPeaks:
         y[:, 4:8] = moments
         yd[:, 4:8] = yd[:, 4:8] / lengths**2 - 2.0 * rates * moments / lengths
         if self.free_hub:
-            y, yd = _with_tilt(y, yd)
+            y, yd = with_tilt(y, yd)
         self._search.add(t, y, yd)
         self.samples += t.size
         self._pending, self._pending_samples = [], 0
@@ -210,10 +210,11 @@ class OutputPeaks:
         )
 
 
-def _with_tilt(y, yd):
+def with_tilt(y, yd, first: int = 9):
     """`y`, `yd` with a last column: the tilt `|theta| = sqrt(theta_x^2 + theta_y^2)` of
-    columns 9 and 10, and its rate `(theta . thetad) / |theta|` (0 where untilted)."""
-    theta, thetad = y[:, 9:11], yd[:, 9:11]
+    columns `first` and `first + 1`, and its rate `(theta . thetad) / |theta|` (0 where
+    untilted)."""
+    theta, thetad = y[:, first : first + 2], yd[:, first : first + 2]
     tilt = np.hypot(theta[:, 0], theta[:, 1])
     with np.errstate(invalid="ignore", divide="ignore"):
         rate = np.where(tilt > 0.0, np.sum(theta * thetad, axis=1) / tilt, 0.0)

@@ -70,6 +70,11 @@ class SimClient(Node):
             self.create_subscription(
                 DiagnosticArray, topics.DIAGNOSTICS, self._on_diagnostics, topics.DIAGNOSTICS_QOS
             )
+            hub = topics.TOPICS[topics.HUB_STATE]  # a free hub's; none arrive when clamped
+            self.create_subscription(
+                hub.message_type, topics.HUB_STATE, self._keeper(topics.HUB_STATE),
+                topics.NEWEST_STATE_QOS,
+            )  # fmt: skip
 
     # -- spinning -------------------------------------------------------------------------
 

@@ -149,7 +149,16 @@ def sail_parameters(args: argparse.Namespace) -> SailParameters:
 
 
 def describe_parameters(params: SailParameters) -> str:
-    """The parameters in one block, with units, for printing next to results."""
+    """The parameters in one block, with units, for printing next to results (a free
+    hub's in one more line)."""
+    hub = []
+    if params.free_hub:
+        stowed = "on the hub" if params.stowed_mass_on_hub else "not counted"
+        hub.append(
+            f"  free hub                m_h = {params.hub_mass:g} kg, J_x = "
+            f"{params.hub_inertia_x:g} kg m^2, J_y = {params.hub_inertia_y:g} kg m^2, "
+            f"stowed material {stowed}"
+        )
     return "\n".join(
         [
             f"  sail side a             {params.sail_side:g} m (full boom length "
@@ -163,9 +172,11 @@ def describe_parameters(params: SailParameters) -> str:
             f"(N0 = {params.membrane_tension:.4g} N/m)",
             f"  boom axial load P       {params.boom_axial_load:g} N",
             f"  modes n_B, n_M          {params.n_boom_modes}, {params.n_membrane_modes} "
-            f"({4 * params.n_boom_modes + 4 * params.n_membrane_modes} coordinates)",
+            f"({4 * params.n_boom_modes + 4 * params.n_membrane_modes}"
+            f"{' + 3 hub' if params.free_hub else ''} coordinates)",
             f"  Rayleigh damping        alpha = {params.mass_damping:g} 1/s, "
             f"beta = {params.stiffness_damping:g} s",
+            *hub,
         ]
     )
 
@@ -256,3 +267,12 @@ def print_peak_table(peaks, changes=None, indent: str = "  ") -> None:
     print(f"{indent}{'':{width}}" + "".join(f"{'boom ' + b:>12}" for b in "abcd"))
     for label, values, spec in lines:
         print(f"{indent}{label:<{width}}" + "".join(f"{v:>{spec}}" for v in values))
+
+
+def print_hub_peak_table(hub, indent: str = "  ") -> None:
+    """A free hub's peak |z_h| [mm], |theta_x|, |theta_y| and tilt |theta| [mrad] with their
+    times (`Peaks.hub`)."""
+    labels = ("|z_h| [mm]", "|theta_x| [mrad]", "|theta_y| [mrad]", "|theta| [mrad]")
+    print(f"{indent}{'':12}" + "".join(f"{label:>18}" for label in labels))
+    print(f"{indent}{'peak':<12}" + "".join(f"{1e3 * v:18.4f}" for v in hub.value))
+    print(f"{indent}{'  at t [s]':<12}" + "".join(f"{v:18.3f}" for v in hub.time_s))

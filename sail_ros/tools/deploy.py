@@ -6,7 +6,9 @@ first mode with tip deflection `--tip`; `--scenario FILE` runs any scenario
 instead (per-boom cycloidal or waypoint profiles, any initial state, loads;
 docs/scenarios.md). Prints the boom-tip deflections against time and the true
 peaks of each boom's tip deflection and root moment with their times (taken
-inside every integration step, not from the printed times); `--convergence`
+inside every integration step, not from the printed times); a free hub's
+heave, tilts and their rates beside them, its true peaks and the peak
+reactions of its in-plane and spin holds; `--convergence`
 reruns with more modes and says how far each peak moves; `--json` prints it
 all as one JSON object. Writes an MCAP log with the live simulator's topics
 (`--mcap`) and figures (`--figures`).
@@ -27,6 +29,8 @@ from tqdm import tqdm
 from sail_ros.analysis.deployment import (
     converge,
     finer_mode_counts,
+    hold_peaks,
+    hold_reactions,
     output_count,
     output_times,
     run_deployment,
@@ -47,6 +51,7 @@ from sail_ros.tools.common import (
     add_sail_options,
     configuration,
     describe_parameters,
+    print_hub_peak_table,
     print_peak_table,
     print_written,
     run,
@@ -55,6 +60,7 @@ from sail_ros.tools.common import (
 LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
 CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
 FIGURES = ("deployment_snapshots.png", "tip_deflections.png", "boom_lengths.png")
+HUB_FIGURE = "hub_attitude.png"  # with a free hub: its tilt, heave and hold reactions
 EXAMPLES = (
     "sail-ros deploy --summary",
     "sail-ros deploy --convergence",
@@ -63,6 +69,7 @@ EXAMPLES = (
     "sail-ros deploy --scenario config/scenario_staggered.yaml --mcap out/staggered.mcap "
     "--figures out/staggered",
     "sail-ros deploy --scenario config/scenario_loaded.yaml --set max_tip_force=0.5",
+    "sail-ros deploy --scenario config/scenario_free_hub.yaml --summary --figures out/free_hub",
 )
 NOTES = """The limits are the simulator's (min_length, max_length, max_rate, max_acceleration,
 max_pressure, max_tip_force, tip_error_fraction; --set NAME=VALUE changes them): a
@@ -71,7 +78,8 @@ deflection passes tip_error_fraction of its boom's length stops there with the
 simulator's alarm, writes what it computed up to there and exits with 1."""
 WRITES = (
     "--mcap FILE: a .mcap file, or a bag folder FILE/ with FILE_0.mcap and metadata.yaml; "
-    f"--figures DIR: {', '.join('DIR/' + name for name in FIGURES)}. Each output is "
+    f"--figures DIR: {', '.join('DIR/' + name for name in FIGURES)} (and DIR/{HUB_FIGURE} "
+    "with a free hub). Each output is "
     "written whole or not at all (built under a temporary name)."
 )
 
@@ -133,8 +141,9 @@ def build_parser() -> ToolParser:
     parser.add_argument(
         "--json",
         action="store_true",
-        help="print one JSON object (peaks per boom with times, parameters, limits, mode "
-        "counts, wall time, convergence) instead of the table",
+        help="print one JSON object (peaks per boom with times, a free hub's peaks and "
+        "hold reactions, parameters, limits, mode counts, wall time, convergence) instead "
+        "of the table",
     )
     output = parser.add_argument_group("output")
     output.add_argument(
@@ -168,7 +177,8 @@ def build_parser() -> ToolParser:
         "--figures",
         type=Path,
         metavar="DIR",
-        help=f"write {', '.join('DIR/' + name for name in FIGURES)}",
+        help=f"write {', '.join('DIR/' + name for name in FIGURES)} (and DIR/{HUB_FIGURE} "
+        "with a free hub: its tilt, heave and hold reactions)",
     )
     output.add_argument(
         "--snapshots",
@@ -219,12 +229,18 @@ def _scenario(args):
         raise ValueError(f"the reference deployment of the options: {error}") from None
 
 
-def _policy_line(policy: Policy, low: float, high: float) -> str:
-    return (
+def _policy_line(policy: Policy, low: float, high: float, free_hub: bool = False) -> str:
+    line = (
         f"  limits (simulator's)    L in [{low:g}, {high:.4g}] m, |rate| <= {policy.max_rate:g} "
         f"m/s, |accel.| <= {policy.max_acceleration:g} m/s^2, |tip| < "
         f"{policy.tip_error_fraction:g} L (warning {policy.tip_warn_fraction:g} L)"
     )
+    if free_hub:
+        line += (
+            f"\n{'':26}hub tilt < {policy.tilt_error_rad:g} rad (warning "
+            f"{policy.tilt_warn_rad:g} rad)"
+        )
+    return line
 
 
 def _print_table(run_result, table_times, description, config) -> None:
@@ -233,7 +249,8 @@ def _print_table(run_result, table_times, description, config) -> None:
     equal = np.allclose(lengths, lengths[:, :1])
     print(f"Deployment: {description}")
     print(describe_parameters(config.sail))
-    print(_policy_line(config.policy, *config.policy.length_range(config.sail)))
+    print(_policy_line(config.policy, *config.policy.length_range(config.sail),
+                       config.sail.free_hub))  # fmt: skip
     print()
     label = "L [m]" if equal else "L_a [m]"
     print(f"  {'t [s]':>7}{label:>9}   tip deflection [mm]: {'a':>9}{'b':>10}{'c':>10}{'d':>10}")
@@ -243,6 +260,8 @@ def _print_table(run_result, table_times, description, config) -> None:
             f"  {run_result.t[i]:7.2f}{run_result.lengths[i, 0]:9.3f}   {'':21}"
             + "".join(f"{1e3 * v:10.3f}" for v in tips)
         )
+    if run_result.hub is not None:
+        _print_hub_table(run_result, rows)
     print()
     simulated, wall = float(run_result.t[-1]), run_result.wall_seconds
     print(
@@ -250,6 +269,33 @@ def _print_table(run_result, table_times, description, config) -> None:
         f"({simulated / max(wall, 1e-9):.0f}x real time)"
     )
     print(_accuracy_line(run_result.accuracy))
+
+
+HUB_COLUMNS = (  # (header, scale from SI) of a free hub's six values (`StateSample.hub`)
+    ("z_h [mm]", 1e3),
+    ("theta_x [mrad]", 1e3),
+    ("theta_y [mrad]", 1e3),
+    ("zd_h [mm/s]", 1e3),
+    ("thd_x [mrad/s]", 1e3),
+    ("thd_y [mrad/s]", 1e3),
+)
+
+
+def _print_hub_table(run_result, rows) -> None:
+    """A free hub's heave, tilts, tilt magnitude and rates at the table's rows."""
+    print()
+    print(
+        "  free hub: heave z_h, tilts theta_x (about boom a) and theta_y (about boom b), "
+        "tilt |theta|, their rates"
+    )
+    headers = [h for h, _ in HUB_COLUMNS[:3]] + ["|theta| [mrad]"]
+    headers += [h for h, _ in HUB_COLUMNS[3:]]
+    print(f"  {'t [s]':>7}" + "".join(f"{h:>15}" for h in headers))
+    for i in rows:
+        hub = run_result.hub[i]
+        values = [scale * v for (_, scale), v in zip(HUB_COLUMNS, hub, strict=True)]
+        values.insert(3, 1e3 * float(np.hypot(hub[1], hub[2])))
+        print(f"  {run_result.t[i]:7.2f}" + "".join(f"{v:15.3f}" for v in values))
 
 
 def _accuracy_line(accuracy) -> str:
@@ -281,6 +327,18 @@ def _print_peaks(peaks, params, convergence=None) -> None:
     print_peak_table(peaks, changes)
 
 
+def _print_hub_peaks(hub, holds) -> None:
+    """A free hub's true peaks (`Peaks.hub`) and its holds' peak reactions (`HoldPeaks`)."""
+    print()
+    print("  free hub peaks over the whole run (taken inside every integration step):")
+    print_hub_peak_table(hub)
+    print(
+        f"  hold reactions (of the boom motion, every {1e3 * holds.spacing_s:g} ms): in-plane "
+        f"|F| {holds.force:.4g} N at t = {holds.force_time_s:.3f} s, spin |tau_z| "
+        f"{holds.torque:.4g} N m at t = {holds.torque_time_s:.3f} s"
+    )
+
+
 def _convergence_warning(convergence) -> str:
     """One line naming every peak that moved by more than CONVERGENCE_WARNING ("" if none)."""
     moved = [
@@ -302,7 +360,25 @@ def _convergence_warning(convergence) -> str:
     )
 
 
-def _json_report(result, config, description, convergence) -> dict:
+def _hub_json(hub, holds) -> dict:
+    """A free hub's true peaks and its holds' peak reactions, for --json."""
+    names = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")
+    report = {f"peak_{name}": float(v) for name, v in zip(names, hub.value, strict=True)}
+    report |= {
+        f"peak_{name.rsplit('_', 1)[0]}_time_s": float(v)
+        for name, v in zip(names, hub.time_s, strict=True)
+    }
+    report |= {
+        "peak_hold_force_N": holds.force,
+        "peak_hold_force_time_s": holds.force_time_s,
+        "peak_hold_torque_N_m": holds.torque,
+        "peak_hold_torque_time_s": holds.torque_time_s,
+        "hold_spacing_s": holds.spacing_s,
+    }
+    return report
+
+
+def _json_report(result, config, description, convergence, holds=None) -> dict:
     def per_boom(values):
         return dict(zip("abcd", (float(v) for v in values), strict=True))
 
@@ -325,6 +401,8 @@ def _json_report(result, config, description, convergence) -> dict:
         "warning": result.warning,
         "alarm": result.alarm,
     }
+    if peaks.hub is not None:
+        report["hub"] = _hub_json(peaks.hub, holds)
     if convergence is not None:
         fine = convergence.peaks
         report["convergence"] = {
@@ -393,7 +471,7 @@ def _deploy(args) -> int:
     if args.convergence is not None:
         finer = finer_mode_counts(params, *args.convergence)
     counts = finer or (params.n_boom_modes, params.n_membrane_modes)
-    _output_size(args, duration, 4 * sum(counts), len(snapshots))
+    _output_size(args, duration, 4 * sum(counts) + 3 * params.free_hub, len(snapshots))
     table_times = np.unique(np.append(np.arange(0.0, duration, args.every), duration))
     grid = output_times(duration, args.rate)
     if args.mcap or args.figures:
@@ -435,11 +513,17 @@ def _deploy(args) -> int:
             except OutOfRangeError as error:
                 stopped = str(error)
 
+    holds = None
+    if model.free_hub:  # over the time the run reached
+        holds = hold_peaks(model, scenario.profile, float(result.t[-1]))
     if args.json:
-        print(json.dumps(_json_report(result, config, description, convergence), indent=2))
+        report = _json_report(result, config, description, convergence, holds)
+        print(json.dumps(report, indent=2))
     elif args.summary or not (args.mcap or args.figures):
         _print_table(result, table_times, description, config)
         _print_peaks(result.peaks, params, convergence)
+        if holds is not None:
+            _print_hub_peaks(result.peaks.hub, holds)
     warning = _convergence_warning(convergence) if convergence is not None else ""
     if warning:
         print(warning, file=sys.stderr)
@@ -456,7 +540,7 @@ def _deploy(args) -> int:
                   file=sys.stderr)  # fmt: skip
             return 1
     if args.figures:
-        written += _write_figures(args.figures, model, result, snapshots, description)
+        written += _write_figures(args.figures, model, result, snapshots, scenario, description)
     if not args.json:
         print_written(written)
     if stopped:
@@ -501,12 +585,22 @@ def _write_log(args, model, result, grid, scenario, policy) -> Path:
     return args.mcap
 
 
-def _write_figures(folder: Path, model, result, snapshots, description) -> list[Path]:
+def _write_figures(folder: Path, model, result, snapshots, scenario, description) -> list[Path]:
     from sail_ros.plots.deployment import snapshots_figure
-    from sail_ros.plots.histories import boom_lengths_figure, tip_deflections_figure
+    from sail_ros.plots.histories import (
+        boom_lengths_figure,
+        hub_attitude_figure,
+        tip_deflections_figure,
+    )
 
     rows = [result.index_of(t) for t in snapshots if t <= result.t[-1] + 1e-9] or [0]
     snapshots_path, tips_path, lengths_path = (folder / name for name in FIGURES)
+    hub = []
+    if result.hub is not None:
+        holds = hold_reactions(model, scenario.profile, result.t)
+        hub.append(
+            hub_attitude_figure(result.t, result.hub, holds, folder / HUB_FIGURE, description)
+        )
     return [
         snapshots_figure(
             model,
@@ -520,6 +614,7 @@ def _write_figures(folder: Path, model, result, snapshots, description) -> list[
         boom_lengths_figure(
             result.t, result.lengths, result.rates, lengths_path, title=description
         ),
+        *hub,
     ]
 
 

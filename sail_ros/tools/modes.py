@@ -1,9 +1,11 @@
 """`sail-ros modes`: natural frequencies and mode shapes of the sail at fixed boom lengths.
 
 Prints the frequencies with their multiplicities (seed Tab. 2 layout) and the
-parameters used; writes them as CSV/JSON, the first distinct mode shapes as
-a figure (seed Fig. 2), and with `--fem` compares the frequencies with the
-independent finite-element model (`sail_ros.fem`) on a sequence of meshes.
+parameters used (with a free hub: its three rigid-body modes at 0 rad/s, and
+each elastic group beside the clamped sail's group of the same shape); writes
+them as CSV/JSON, the first distinct mode shapes as a figure (seed Fig. 2), and
+with `--fem` compares the frequencies with the independent finite-element model
+(`sail_ros.fem`) on a sequence of meshes.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from sail_ros.analysis.modes import (
+    clamped_counterparts,
     fem_cross_check,
     group_multiplicities,
     modal_analysis,
@@ -46,6 +49,7 @@ EXAMPLES = (
     "sail-ros modes --lengths 30 50 30 50 --figures out/modes --json out/modes/modes.json",
     "sail-ros modes --set n_boom_modes=10 --lengths 30 --csv out/modes_30m.csv",
     "sail-ros modes --fem --fem-csv out/fem_check.csv",
+    "sail-ros modes --set free_hub=true --set hub_inertia_x=1e4 --set hub_inertia_y=1e4",
 )
 WRITES = (
     "--csv FILE (the listed frequencies), --json FILE (parameters, lengths, frequencies, "
@@ -58,38 +62,62 @@ changes the limits)."""
 
 def damping_ratios(params, omega: np.ndarray) -> np.ndarray | None:
     """Rayleigh damping ratios `alpha / (2 omega) + beta omega / 2` of the modes at
-    rest (model.md §12); None for an undamped sail."""
+    rest (model.md §12; NaN for a free hub's rigid-body modes, which do not oscillate);
+    None for an undamped sail."""
     alpha, beta = params.mass_damping, params.stiffness_damping
     if alpha == 0.0 and beta == 0.0:
         return None
     with np.errstate(divide="ignore"):
-        return alpha / (2.0 * np.abs(omega)) + beta * np.abs(omega) / 2.0
+        zeta = alpha / (2.0 * np.abs(omega)) + beta * np.abs(omega) / 2.0
+    return np.where(omega == 0.0, np.nan, zeta)
 
 
-def frequency_table(omega: np.ndarray, count: int, zeta: np.ndarray | None = None) -> str:
+def frequency_table(
+    omega: np.ndarray, count: int, zeta: np.ndarray | None = None, counterparts=None
+) -> str:
     """Rows `mode(s)  omega [rad/s]  f [Hz]  period [s]  multiplicity` (and the damping
-    ratio when `zeta` is given) for the first `count` frequencies (whole groups)."""
+    ratio when `zeta` is given) for the first `count` frequencies (whole groups); with
+    `counterparts` (a free hub's `clamped_counterparts`) the clamped sail's group of the
+    same shape beside each elastic group: its modes, frequency, the change to the free
+    hub's and how much of the shape they share."""
     lines = [f"  {'mode':<8}{'omega [rad/s]':>15}{'f [Hz]':>12}{'period [s]':>12}  multiplicity"]
     if zeta is not None:
         lines[0] += f"{'zeta':>10}"
+    beside = {}
+    if counterparts is not None:
+        lines[0] += f"  {'clamped':<8}{'omega [rad/s]':>15}{'change [%]':>12}{'shape share':>13}"
+        for pair in counterparts:
+            label = _label(pair.clamped_first, pair.clamped_multiplicity)
+            change = 100.0 * (omega[pair.free_first] / pair.omega - 1.0)
+            beside[pair.free_first] = (
+                f"  {label:<8}{pair.omega:15.5f}{change:+12.2f}{pair.share:13.3f}"
+            )
     for first, multiplicity in group_multiplicities(omega):
         if first >= count:
             break
         label = f"{first + 1}" if multiplicity == 1 else f"{first + 1}-{first + multiplicity}"
         value = omega[first]
         period = f"{2 * np.pi / value:12.2f}" if value > 0 else f"{'divergent':>12}"
+        if value == 0.0:  # a free hub's rigid-body modes
+            period = f"{'rigid':>12}"
         hertz = value / (2 * np.pi)
         line = f"  {label:<8}{value:15.5f}{hertz:12.6f}{period}  {multiplicity:<12}"
         if zeta is not None:
-            line += f"{zeta[first]:10.4g}"
+            line += f"{'-':>10}" if np.isnan(zeta[first]) else f"{zeta[first]:10.4g}"
+        line += beside.get(first, "")
         lines.append(line.rstrip())
     return "\n".join(lines)
 
 
-def frequency_rows(omega: np.ndarray, count: int, zeta: np.ndarray | None = None) -> list[dict]:
+def frequency_rows(
+    omega: np.ndarray, count: int, zeta: np.ndarray | None = None, counterparts=None
+) -> list[dict]:
     """One record per frequency (the first `count`, whole groups): mode number,
-    omega [rad/s], f [Hz], period [s] (None if divergent), distinct-frequency
-    group and its multiplicity, and the damping ratio when `zeta` is given."""
+    omega [rad/s], f [Hz], period [s] (None if divergent or rigid), distinct-frequency
+    group and its multiplicity, the damping ratio when `zeta` is given (None for a rigid
+    mode), and with `counterparts` the clamped group of the same shape (its first mode,
+    omega [rad/s], shape share; None for a rigid mode)."""
+    paired = {pair.free_first: pair for pair in counterparts or ()}
     rows = []
     for group, (first, multiplicity) in enumerate(group_multiplicities(omega), start=1):
         if first >= count:
@@ -104,10 +132,55 @@ def frequency_rows(omega: np.ndarray, count: int, zeta: np.ndarray | None = None
                     "period_s": 2 * np.pi / value if value > 0 else None,
                     "group": group,
                     "multiplicity": multiplicity,
-                    **({"damping_ratio": float(zeta[index])} if zeta is not None else {}),
+                    **({"damping_ratio": _number(zeta[index])} if zeta is not None else {}),
                 }
             )
+            if counterparts is not None:
+                pair = paired.get(first)
+                rows[-1] |= {
+                    "clamped_mode": pair.clamped_first + 1 if pair else None,
+                    "clamped_omega_rad_s": pair.omega if pair else None,
+                    "shape_share": pair.share if pair else None,
+                }
     return rows
+
+
+def _label(first: int, multiplicity: int) -> str:
+    return f"{first + 1}" if multiplicity == 1 else f"{first + 1}-{first + multiplicity}"
+
+
+def moved_note(omega, count: int, counterparts, clamped) -> str:
+    """One line naming the clamped groups within the listed frequencies that no listed
+    free-hub group is beside, and where the free hub moved each (or "")."""
+    listed = [first for first, _ in group_multiplicities(omega) if first < count]
+    highest = omega[listed[-1]]
+    beside = {p.clamped_first for p in counterparts if p.free_first in listed}
+    moved = []
+    for first, multiplicity in clamped.groups:
+        if clamped.omega[first] > highest:
+            break
+        if first in beside:
+            continue
+        text = f"{_label(first, multiplicity)} ({clamped.omega[first]:.5f} rad/s)"
+        found = [p for p in counterparts if p.clamped_first == first]
+        if found:
+            free_first = found[0].free_first
+            free_count = dict(group_multiplicities(omega))[free_first]
+            text += (
+                f" is free-hub mode {_label(free_first, free_count)} "
+                f"({omega[free_first]:.5f} rad/s)"
+            )
+        moved.append(text)
+    if not moved:
+        return ""
+    return (
+        "  clamped modes the free hub moved beyond the listed ones (the hub moves with "
+        f"them): {'; '.join(moved)}"
+    )
+
+
+def _number(value) -> float | None:
+    return None if np.isnan(value) else float(value)
 
 
 def cross_check_table(check) -> str:
@@ -276,7 +349,7 @@ def _modes(args) -> int:
     config = configuration(args)
     params = config.sail
     lengths = config.per_boom(args.lengths or [params.full_boom_length], "--lengths")
-    coordinates = 4 * (params.n_boom_modes + params.n_membrane_modes)
+    coordinates = 4 * (params.n_boom_modes + params.n_membrane_modes) + 3 * params.free_hub
     if not 1 <= args.count <= coordinates:
         raise ValueError(
             f"--count must be in [1, {coordinates}] (the model's coordinates), got {args.count}"
@@ -295,7 +368,21 @@ def _modes(args) -> int:
     print(describe_parameters(params))
     print()
     zeta = damping_ratios(params, omega)
-    print(frequency_table(omega, args.count, zeta))
+    counterparts = None
+    if model.free_hub:
+        clamped_model = SailModel(params.replace(free_hub=False))
+        clamped = modal_analysis(clamped_model, modes.lengths)
+        counterparts = clamped_counterparts(model, modes, clamped_model, clamped)
+        print(
+            "  free hub: three rigid-body modes at exactly 0 rad/s (heave, tilts about x and "
+            "y); beside each elastic group, the group of the same sail with the hub clamped "
+            "(free_hub = false) that holds most of its shape (shape share: 1 = the same)"
+        )
+    print(frequency_table(omega, args.count, zeta, counterparts))
+    if counterparts is not None:
+        note = moved_note(omega, args.count, counterparts, clamped)
+        if note:
+            print(note)
 
     check = None
     if args.fem:
@@ -311,7 +398,7 @@ def _modes(args) -> int:
         print(cross_check_table(check))
 
     written = []
-    rows = frequency_rows(omega, args.count, zeta)
+    rows = frequency_rows(omega, args.count, zeta, counterparts)
     if args.csv:
         write_csv_rows(args.csv, rows)
         written.append(args.csv)

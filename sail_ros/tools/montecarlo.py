@@ -7,8 +7,9 @@ existing one with --scheduler. Writes one row per sample (its inputs, the peak
 |tip deflection| and |root moment| of each boom and when (true peaks, from
 inside every integration step), final energy, stability margin, or its error)
 as CSV (and Parquet with pyarrow), a summary
-(5/50/95 % of each output, inputs ranked by rank correlation with the peak
-tip deflection), the worst five samples as scenario files that `sail-ros
+(5/50/95 % of each output, with a free hub of its peak heave and tilt and
+the holds' peak reactions too, inputs ranked by rank correlation with the
+peak tip deflection), the worst five samples as scenario files that `sail-ros
 deploy` reruns, and figures. Ctrl-C cancels what has not run and still writes
 what has.
 """
@@ -26,6 +27,7 @@ from tqdm import tqdm
 
 from sail_ros.analysis.execution import run_cases
 from sail_ros.analysis.montecarlo import (
+    HUB_OUTPUTS,
     check_study,
     csv_text,
     input_unit,
@@ -143,7 +145,10 @@ def _summary_text(study, summary, policy) -> str:
         "modes",
         f"  {'output':<28}{'5 %':>14}{'50 %':>14}{'95 %':>14}",
     ]
+    hub = [name for name in HUB_OUTPUTS if name in summary.percentiles]
     for name, (low, middle, high) in summary.percentiles.items():
+        if name == next(iter(hub), None):
+            lines.append("  free hub: peak |z_h|, tilt |theta|, hold reactions |F|, |tau_z|")
         lines.append(f"  {name:<28}{low:>14.6g}{middle:>14.6g}{high:>14.6g}")
     lines.append("  inputs by |Spearman rank correlation| with peak_tip_m:")
     for name, rho in summary.influence:

@@ -3,10 +3,13 @@
 Prints the poles (natural frequency [rad/s, Hz], damping ratio), writes the
 matrices `A, B, C, D` of `xd = A x + B u`, `y = C x + D u` (`x = [q; qd]`;
 inputs: 4 quadrant pressures [Pa], 4 tip forces [N]; outputs: 4 tip
-deflections [m], 4 root moments [N m]) with their names to `.npz` and
-MATLAB `.mat`, and a Bode figure of each tip force to its own boom's tip
-deflection and root moment. The matrices load into python-control as
-`control.ss(A, B, C, D)`.
+deflections [m], 4 root moments [N m]; with a free hub 11 inputs and 14
+outputs: the hub force [N] and torques [N m], the hub's heave [m], tilts
+[rad] and their rates, which hold double integrators) with their names to
+`.npz` and MATLAB `.mat`, and a Bode figure of each tip force to its own
+boom's tip deflection and root moment. The matrices load into python-control
+with their names as `control.ss(A, B, C, D, inputs=list(input_names),
+outputs=list(output_names))`.
 """
 
 from __future__ import annotations
@@ -18,9 +21,11 @@ import numpy as np
 
 from sail_ros.analysis.plant import (
     frequency_response,
+    hub_note,
     imaginary_axis_poles,
     linear_plant,
     poles,
+    rigid_poles,
     undamped_note,
 )
 from sail_ros.cli import ToolParser, help_epilog
@@ -103,7 +108,7 @@ def _plant(args) -> int:
     print(
         f"Linear plant of the sail: lengths {', '.join(f'{v:.4g}' for v in plant.lengths)} m, "
         f"rates {', '.join(f'{v:.4g}' for v in plant.rates)} m/s; {len(plant.state_names)} "
-        "states, 8 inputs, 8 outputs"
+        f"states, {len(plant.input_names)} inputs, {len(plant.output_names)} outputs"
     )
     print(describe_parameters(params))
     print()
@@ -120,6 +125,8 @@ def _plant(args) -> int:
     unstable = [p for p in poles(plant) if p.s.real > 1e-9 * max(p.omega, 1.0)]
     if unstable:
         print(f"  {len(unstable)} pole(s) with a positive real part: the frozen plant is unstable")
+    if plant.free_hub:
+        print(f"  note: {hub_note(plant)}")
     note = undamped_note(plant)
     if note:
         print(f"warning: {note}", file=sys.stderr)
@@ -144,7 +151,8 @@ def _plant(args) -> int:
         if args.band:
             low, high = args.band
         else:
-            oscillating = [p.hertz for p in listed if p.omega > 0]
+            rigid = rigid_poles(plant)
+            oscillating = [p.hertz for p in listed if p.omega > 0 and p not in rigid]
             low = 0.1 * min(oscillating, default=0.01)
             high = 10.0 * max(oscillating, default=1.0)
         omega = 2 * np.pi * np.geomspace(low, high, 600)

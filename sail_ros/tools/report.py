@@ -5,7 +5,10 @@ file or a bag folder; a file cut short, e.g. by a killed recorder, is read
 up to its last complete record) and writes into `--out`:
 
 - states.csv, tip_deflections.png, boom_lengths.png: boom-tip deflections,
-  boom lengths and extension rates;
+  boom lengths and extension rates (and root moments);
+- with a free hub (/sail/hub_state): its heave, tilts and their rates in
+  states.csv, hub_attitude.png (tilt, heave and, for a `sail-ros deploy` log,
+  the reactions of the in-plane and spin holds), its peaks in peaks.csv;
 - energies.csv, modal_energies.png: mechanical energy per boom and per
   quadrant coordinate group and in all, with `M` and `K` built from the sail
   parameters recorded in the log (`sail_sim_parameters`);
@@ -39,6 +42,7 @@ import numpy as np
 from sail_ros.analysis.deployment import (
     carried_over,
     finer_mode_counts,
+    hold_reactions,
     relative_change,
     run_deployment,
 )
@@ -51,10 +55,12 @@ from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
+from sail_ros.model.record import column_names
 from sail_ros.outputs import staged
 from sail_ros.plots.histories import (
     boom_lengths_figure,
     energies_figure,
+    hub_attitude_figure,
     real_time_factor_figure,
     root_moments_figure,
     tip_deflections_figure,
@@ -63,6 +69,7 @@ from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
     add_sail_options,
     describe_parameters,
+    print_hub_peak_table,
     print_peak_table,
     print_written,
     run,
@@ -91,9 +98,10 @@ EXAMPLES = (
 )
 WRITES = (
     "into --out DIR: states.csv, tip_deflections.png, root_moments.png, boom_lengths.png, "
-    "energies.csv, modal_energies.png, real_time_factor.csv, real_time_factor.png (those "
-    "the log has data for), peaks.csv; the folder is built under a temporary name and "
-    "moved into place when all is written (an existing folder keeps its other files)."
+    "energies.csv, modal_energies.png, real_time_factor.csv, real_time_factor.png, "
+    "hub_attitude.png (those the log has data for), peaks.csv; the folder is built under a "
+    "temporary name and moved into place when all is written (an existing folder keeps its "
+    "other files)."
 )
 
 
@@ -212,12 +220,37 @@ def _write_report(args, log, out: Path) -> str:
             title=args.log.name,
             time_label=time_label,
         )
+    if log.hub is not None:
+        _hub(log, out / HUB_FIGURE, time_label, args.log.name)
     _write_states(log, out / "states.csv")
     _parameter_changes(args, log, out / "parameter_changes.csv", time_label)
     stopped = _peaks(args, log, out)
     _energies(args, log, out, time_label)
     _real_time_factor(log, out, time_label, args.log.name)
     return stopped
+
+
+HUB_FIGURE = "hub_attitude.png"
+# a free hub's columns of states.csv, named as every states table names them
+HUB_STATE_COLUMNS = column_names(True)[len(column_names(False)) :]
+
+
+def _hub(log, path: Path, time_label: str, title: str) -> Path:
+    """A free hub's range in one line and its attitude figure; the holds' reactions from a
+    deploy log's scenario (a live log holds no boom accelerations)."""
+    stamps, hub = log.hub
+    t = log.seconds(stamps)
+    tilt = np.hypot(hub[:, 1], hub[:, 2])
+    print(
+        f"  free hub: |z_h| up to {1e3 * np.abs(hub[:, 0]).max():.4g} mm, tilt |theta| up "
+        f"to {1e3 * tilt.max():.4g} mrad ({np.degrees(tilt.max()):.3g} deg) in the samples"
+    )
+    holds = None
+    params = _recorded_parameters(log)
+    if log.scenario is not None and params is not None:
+        profile = scenario_from_dict(log.scenario).profile
+        holds = hold_reactions(SailModel(params), profile, t)
+    return hub_attitude_figure(t, hub, holds, path, title=title, time_label=time_label)
 
 
 def _parameter_changes(args, log, path: Path, time_label: str) -> Path:
@@ -283,6 +316,9 @@ def _peaks(args, log, out: Path) -> str:
     )
     rows = [_peak_row("log", params, found.peaks)]
     print_peak_table(found.peaks, indent="    ")
+    if found.peaks.hub is not None:
+        print("    free hub, interpolated with the logged rates of /sail/hub_state:")
+        print_hub_peak_table(found.peaks.hub, indent="    ")
     if found.unresolved_moment is not None and np.isfinite(found.unresolved_frequency_hz):
         share = found.unresolved_moment / np.maximum(found.peaks.root_moment.value, 1e-300)
         print(
@@ -296,8 +332,18 @@ def _peaks(args, log, out: Path) -> str:
         reruns, stopped = _rerun_peaks(args, log, model)
         rows += reruns
     header = ["source", "n_boom_modes", "n_membrane_modes", *PEAK_COLUMNS]
+    if found.peaks.hub is not None:
+        header += HUB_PEAK_COLUMNS
+        rows = [row + [np.nan] * (len(header) - len(row)) for row in rows]  # a clamped rerun
     _write_csv(out / "peaks.csv", header, zip(*rows, strict=True))
     return stopped
+
+
+HUB_PEAK_COLUMNS = [
+    f"peak_hub_{what}_{unit}"
+    for what, si in (("heave", "m"), ("tilt_x", "rad"), ("tilt_y", "rad"), ("tilt", "rad"))
+    for unit in (si, "time_s")
+]
 
 
 def _peak_row(source: str, params, peaks) -> list:
@@ -309,6 +355,9 @@ def _peak_row(source: str, params, peaks) -> list:
             peaks.root_moment.value[k],
             peaks.root_moment.time_s[k],
         ]
+    if peaks.hub is not None:
+        for value, time_s in zip(peaks.hub.value, peaks.hub.time_s, strict=True):
+            cells += [value, time_s]
     return cells
 
 
@@ -336,6 +385,7 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
     rows = [_peak_row("rerun", model.params, peaks)]
     if args.no_convergence:
         print_peak_table(peaks, indent="    ")
+        _print_rerun_hub(peaks)
         return rows, ""
     finer = finer_mode_counts(model.params)
     finer_model = SailModel(model.params.replace(n_boom_modes=finer[0], n_membrane_modes=finer[1]))
@@ -348,6 +398,7 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
     moment = relative_change(peaks.root_moment.value, more.root_moment.value)
     label = f"  change at ({finer[0]}, {finer[1]}) modes [%]"
     print_peak_table(peaks, (label, tip, moment), indent="    ")
+    _print_rerun_hub(peaks)
     rows.append(_peak_row("rerun, more modes", finer_model.params, more))
     largest = float(np.max(np.abs(np.concatenate([tip, moment]))))
     if largest > CONVERGENCE_WARNING:
@@ -357,6 +408,12 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
             file=sys.stderr,
         )
     return rows, ""
+
+
+def _print_rerun_hub(peaks) -> None:
+    if peaks.hub is not None:
+        print("    free hub (true peaks of the rerun):")
+        print_hub_peak_table(peaks.hub, indent="    ")
 
 
 def _rerun_policy(args, log) -> Policy:
@@ -415,9 +472,11 @@ def _recorded_parameters(log):
 
 
 def _write_states(log, path: Path) -> Path:
-    """One row per stamp of boom_state, tip_deflection and root_moment (empty where one
-    is missing)."""
+    """One row per stamp of boom_state, tip_deflection, root_moment and a free hub's
+    hub_state (empty where one is missing)."""
     present = [s.stamp_ns for s in (log.boom, log.tips, log.moments) if s is not None]
+    if log.hub is not None:
+        present.append(log.hub[0])
     stamps = functools.reduce(np.union1d, present, np.array([], dtype=np.int64)).astype(np.int64)
     header = ["t_s", "stamp_ns"]
     columns = [log.seconds(stamps), stamps]
@@ -436,6 +495,11 @@ def _write_states(log, path: Path) -> Path:
     if log.moments is not None and log.moments.effort.size:
         block[np.searchsorted(stamps, log.moments.stamp_ns)] = log.moments.effort
     columns += list(block.T)
+    if log.hub is not None:
+        header += HUB_STATE_COLUMNS
+        block = np.full((stamps.size, len(HUB_STATE_COLUMNS)), np.nan)
+        block[np.searchsorted(stamps, log.hub[0])] = log.hub[1]
+        columns += list(block.T)
     return _write_csv(path, header, columns)
 
 

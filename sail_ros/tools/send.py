@@ -19,7 +19,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from sail_ros import topics
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.policy import Policy
-from sail_ros.tools.client import SimClient, add_domain_option, run_client
+from sail_ros.tools.client import NoAnswerError, SimClient, add_domain_option, run_client
 
 BOOMS = "abcd"
 QUADRANTS = ("ab", "bc", "cd", "da")
@@ -32,6 +32,8 @@ EXAMPLES = (
     "sail-ros send pressure --quadrants all --values 9.1e-6",
     "sail-ros send tip-force --booms b --values -0.05",
     "sail-ros send tip-force --booms all --values 0",
+    "sail-ros send hub-wrench --force 0.2 --torque-x 0.05",
+    "sail-ros send hub-wrench",
     "sail-ros send pause",
     "sail-ros send resume",
     "sail-ros send reset",
@@ -40,7 +42,8 @@ EXAMPLES = (
 NOTES = """The simulator is the one in this program's namespace (--ros-args -r __ns:=...)
 and DDS domain (--domain-id, else ROS_DOMAIN_ID). Limits on lengths, rates,
 accelerations and loads are the simulator's parameters (msg_docs/boom_length_cmd.md).
---values takes one value per name given, or one value for `all`."""
+--values takes one value per name given, or one value for `all`. hub-wrench needs a
+simulator with a free hub (sail.free_hub true); the components it does not name are 0."""
 
 
 def load_command(args) -> tuple[str, object]:
@@ -68,6 +71,19 @@ def load_command(args) -> tuple[str, object]:
     for name, value in zip(names, values, strict=True):
         Policy.finite_load(name, value, args.command == "pressure")
     return topic, topics.load_command(topic, dict(zip(names, values, strict=True)))
+
+
+HUB_WRENCH_OPTIONS = (("--force", "N"), ("--torque-x", "N m"), ("--torque-y", "N m"))
+
+
+def hub_wrench(args):
+    """The `sail/hub_wrench_cmd` of a `hub-wrench` command line (ValueError naming an
+    option whose value is not finite; the limits are the simulator's to check)."""
+    values = (args.force, args.torque_x, args.torque_y)
+    for (option, unit), value in zip(HUB_WRENCH_OPTIONS, values, strict=True):
+        if not math.isfinite(value):
+            raise ValueError(f"{option} = {value} {unit} is not finite")
+    return topics.hub_wrench_command(*values)
 
 
 def build_parser() -> ToolParser:
@@ -136,6 +152,17 @@ def build_parser() -> ToolParser:
     force.add_argument(
         "--values", nargs="+", type=float, required=True, help="N: one per boom, or one for all"
     )
+    wrench = commands.add_parser(
+        "hub-wrench",
+        help="force [N] and torques [N m] on a free hub (sail/hub_wrench_cmd)",
+        description="Set the force along z [N] and the torques about x and y [N m] on the "
+        "free hub from the next step on; those not given are 0 (no options: no wrench). "
+        "Limits: the simulator's max_hub_force and max_hub_torque.",
+    )
+    axes = ("force along +z", "torque about x (boom a)", "torque about y (boom b)")
+    for (option, unit), what in zip(HUB_WRENCH_OPTIONS, axes, strict=True):
+        wrench.add_argument(option, type=float, default=0.0, metavar=unit.replace(" ", ""),
+                            help=f"{what} [{unit}] (0)")  # fmt: skip
     commands.add_parser("pause", help="hold the simulation (sail/pause, true)")
     commands.add_parser("resume", help="go on (sail/pause, false)")
     commands.add_parser("reset", help="back to the initial state (sail/reset)")
@@ -179,8 +206,16 @@ def run(args, client: SimClient) -> int:
             start, end = (float(answer.values[k]) for k in ("t_start_s", "t_end_s"))
             print(f"  from t = {start:.3f} s to {end:.3f} s (simulation time)")
         return 0 if answer.outcome == topics.ACCEPTED else 1
-    if args.command in ("pressure", "tip-force"):
-        answer = client.send(*load_command(args), args.timeout)
+    if args.command in ("pressure", "tip-force", "hub-wrench"):
+        if args.command == "hub-wrench":
+            try:
+                answer = client.send(topics.HUB_WRENCH_CMD, hub_wrench(args), args.timeout)
+            except NoAnswerError as error:
+                raise NoAnswerError(
+                    f"{error}; only a simulator with a free hub (sail.free_hub true) listens"
+                ) from None
+        else:
+            answer = client.send(*load_command(args), args.timeout)
         print(f"{answer.outcome}: {answer.message}")
         return 0 if answer.outcome == topics.ACCEPTED else 1
     if args.command == "reset":
@@ -201,6 +236,8 @@ def check(args) -> str | None:
             trajectory(args.booms, args.point)
         if args.command in ("pressure", "tip-force"):
             load_command(args)
+        if args.command == "hub-wrench":
+            hub_wrench(args)
     except ValueError as error:
         return str(error)
     return None

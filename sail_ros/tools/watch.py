@@ -1,9 +1,10 @@
 """`sail-ros watch`: the running simulator at a glance, refreshed in place.
 
 Boom lengths and rates, tip deflections, state, simulation time, real-time
-factor, mechanical energy, the last command, rejections and the last answer,
-from the simulator's topics. `--once` prints one sample and exits; `--json`
-prints JSON (one object per refresh, one line each) for scripts. Ctrl-C stops.
+factor, mechanical energy, a free hub's heave and tilt, the last command,
+rejections and the last answer, from the simulator's topics. `--once` prints
+one sample and exits; `--json` prints JSON (one object per refresh, one line
+each) for scripts. Ctrl-C stops.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import time
 
 from sail_ros import topics
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.model.record import HUB_COMPONENTS
 from sail_ros.tools.client import SimClient, add_domain_option, run_client
 
 CLEAR = "\033[H\033[2J"  # cursor home, clear screen
@@ -53,7 +55,8 @@ def snapshot(client: SimClient) -> dict:
     values = {pair.key: pair.value for pair in status.values}
     answer = client.latest.get("answer")
     moments = client.latest.get(topics.ROOT_MOMENT)
-    return {
+    hub = client.latest.get(topics.HUB_STATE)
+    view = {
         "simulator": client.sim_name,
         "level": ("OK", "WARN", "ERROR", "STALE")[min(int.from_bytes(status.level), 3)],
         "message": status.message,
@@ -75,6 +78,10 @@ def snapshot(client: SimClient) -> dict:
         "last_rejection": values.get("last_rejection", ""),
         "last_answer": f"{answer.outcome}: {answer.message}" if answer else "",
     }
+    if hub is not None:  # a free hub (/sail/hub_state)
+        view["hub"] = dict(zip(HUB_COMPONENTS, map(float, topics.hub_from_odometry(hub)),
+                               strict=True))  # fmt: skip
+    return view
 
 
 def table(view: dict) -> str:
@@ -83,6 +90,14 @@ def table(view: dict) -> str:
     def row(label, values, scale=1.0, digits=3):
         return f"  {label:<22}" + "".join(f"{scale * values[b]:>12.{digits}f}" for b in "abcd")
 
+    hub = []
+    if "hub" in view:
+        z, theta_x, theta_y = (view["hub"][name] for name in HUB_COMPONENTS[:3])
+        hub.append(
+            f"  free hub: heave z_h {1e3 * z:.3f} mm, tilt theta_x {1e3 * theta_x:.3f} mrad, "
+            f"theta_y {1e3 * theta_y:.3f} mrad, |theta| {1e3 * math.hypot(theta_x, theta_y):.3f}"
+            " mrad"
+        )
     return "\n".join(
         [
             f"{view['simulator']}  {view['state']}  t = {view['sim_time_s']:.2f} s  "
@@ -94,6 +109,7 @@ def table(view: dict) -> str:
             row("rate [m/s]", view["boom_rate_m_s"], digits=4),
             row("tip deflection [mm]", view["tip_deflection_m"], scale=1e3),
             row("root moment [N m]", view["root_moment_N_m"], digits=4),
+            *hub,
             f"  load power {view['load_power_W']:.4g} W, damping dissipation "
             f"{view['damping_dissipation_W']:.4g} W",
             f"  commands: {view['accepted_commands']} accepted, "

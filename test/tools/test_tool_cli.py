@@ -40,6 +40,9 @@ CASES = [
      "error: quadrant_ab = -inf Pa is not finite"),
     ("send", ["tip-force", "--booms", "a", "b", "--values", "-1e-3", "nan"], 2,
      "error: boom_b = nan N is not finite"),
+    ("send", ["hub-wrench", "--force", "nan"], 2, "error: --force = nan N is not finite"),
+    ("send", ["hub-wrench", "--torque-y", "-inf"], 2,
+     "error: --torque-y = -inf N m is not finite"),
     ("send", ["move", "--booms", "a", "--point", "5", "-inf"], 2,
      "error: --point: boom_a is -inf, not a finite length"),
     ("send", ["reset", "--timeout", "3"], 2,
@@ -190,3 +193,11 @@ def test_help_names_the_files_written(tmp_path, monkeypatch):
             assert "worst/worst_<rank>_sample_<index>.yaml" in named
         else:
             assert name in named, name
+
+
+def test_a_hub_wrench_command_names_its_three_components_the_others_zero():
+    args = send.build_parser().parse_args(["hub-wrench", "--force", "0.2", "--torque-y", "-0.05"])
+    message = send.hub_wrench(args)
+    wrench = message.wrench
+    assert (wrench.force.z, wrench.torque.x, wrench.torque.y) == (0.2, 0.0, -0.05)
+    assert (wrench.force.x, wrench.force.y, wrench.torque.z) == (0.0, 0.0, 0.0)

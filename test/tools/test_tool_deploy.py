@@ -324,3 +324,68 @@ def test_hub_state_messages_give_back_the_hubs_state(tilt):
     hub = np.array([0.25, *tilt, -0.01, 0.02, -0.03])
     message = topics.hub_state(5, hub)
     np.testing.assert_allclose(topics.hub_from_odometry(message), hub, rtol=1e-14, atol=1e-17)
+
+
+def test_a_free_hub_deployment_prints_its_attitude_peaks_and_hold_reactions(
+    tmp_path, capsys, figure_checks
+):
+    """config/scenario_free_hub.yaml: beside the boom tables a hub table (heave [mm], tilts
+    and |theta| [mrad], their rates) at the run's states; the hub's true peaks; the holds'
+    peak reactions, the in-plane force within 1e-4 of a five times finer sampling and no
+    spin torque (booms a and c move alike); --json carries the same; --figures adds
+    hub_attitude.png."""
+    import json
+
+    from sail_ros.analysis.deployment import hold_reactions, run_deployment
+
+    scenario_file = CONFIG / "scenario_free_hub.yaml"
+    argv = ["--scenario", str(scenario_file), "--every", "5"]
+    assert deploy.main([*argv, "--summary", "--rate", "10", "--figures", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    scenario = load_scenario(scenario_file)
+    model = SailModel(SailParameters().replace(**scenario.sail))
+    run = run_deployment(model, scenario, [0.0, 5.0, 10.0, 15.0, 20.0])
+
+    lines = out.splitlines()
+    start = lines.index(next(line for line in lines if line.startswith("  free hub: heave")))
+    assert lines[start + 1].split() == ["t", "[s]", "z_h", "[mm]", "theta_x", "[mrad]",
+        "theta_y", "[mrad]", "|theta|", "[mrad]", "zd_h", "[mm/s]", "thd_x", "[mrad/s]",
+        "thd_y", "[mrad/s]"]  # fmt: skip
+    rows = np.array([[float(v) for v in line.split()] for line in lines[start + 2 : start + 7]])
+    assert rows[:, 0].tolist() == [0.0, 5.0, 10.0, 15.0, 20.0]
+    hub = 1e3 * run.hub
+    expected = np.column_stack([hub[:, :3], np.hypot(hub[:, 1], hub[:, 2]), hub[:, 3:]])
+    np.testing.assert_allclose(rows[:, 1:], expected, rtol=0, atol=5e-4)
+    assert rows[-1, 2] > 80.0  # boom d jams: the pressure tilts the hub about x
+
+    peak_line = next(line for line in lines[start:] if line.startswith("  peak "))
+    printed = [float(v) for v in peak_line.split()[1:]]
+    np.testing.assert_allclose(printed, 1e3 * run.peaks.hub.value, rtol=0, atol=5e-5)
+
+    fine = np.linspace(0.0, 8.0, 4001)  # every 2 ms while boom d moves, and after
+    holds = hold_reactions(model, scenario.profile, fine)
+    force = np.hypot(holds[:, 0], holds[:, 1])
+    assert np.all(holds[:, 2] == 0.0) and force.max() > 2 * force[-1]
+    hold_line = next(line for line in lines if line.startswith("  hold reactions"))
+    assert "spin |tau_z| 0 N m" in hold_line
+
+    assert deploy.main([*argv, "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)["hub"]
+    assert report["peak_hold_force_N"] == pytest.approx(force.max(), rel=1e-4)
+    assert abs(report["peak_hold_force_time_s"] - fine[np.argmax(force)]) <= 0.01
+    assert f"|F| {report['peak_hold_force_N']:.4g} N" in hold_line
+    assert report["peak_hold_torque_N_m"] == 0.0
+    assert [report[f"peak_{name}"] for name in ("heave_m", "tilt_x_rad", "tilt_y_rad",
+            "tilt_rad")] == pytest.approx(run.peaks.hub.value, rel=1e-12)  # fmt: skip
+    assert report["peak_tilt_time_s"] == pytest.approx(run.peaks.hub.time_s[3])
+    assert_figure(tmp_path / deploy.HUB_FIGURE, figure_checks)
+
+
+def test_a_clamped_sails_output_has_no_hub(tmp_path, capsys):
+    import json
+
+    assert deploy.main(["--t-end", "2", "--summary", "--figures", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "hub" not in out and not (tmp_path / deploy.HUB_FIGURE).exists()
+    assert deploy.main(["--t-end", "2", "--json"]) == 0
+    assert "hub" not in json.loads(capsys.readouterr().out)

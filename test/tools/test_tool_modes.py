@@ -138,3 +138,44 @@ def test_fem_cross_check_converges_and_agrees_within_one_percent(tmp_path, capsy
 def test_errors_name_the_option_and_value(argv, message, capsys):
     assert modes.main(argv) == 2
     assert message in capsys.readouterr().err
+
+
+def test_a_free_hub_lists_its_rigid_zeros_and_each_elastic_group_beside_its_clamped_one(
+    tmp_path, capsys
+):
+    """With a free hub: three rigid-body modes at exactly 0 rad/s, then each elastic
+    group beside the clamped sail's group of the same shape. A hub as heavy as 1e8 kg
+    (and kg m^2) is a clamp: every group beside the clamped one of its rank, sharing its
+    shape, within 1e-3 of its frequency. The default 100 kg hub is light beside the
+    booms' tilt inertia: it stiffens the heave mode and moves the tilting pair (clamped
+    2-3) far up, which a note says; modes that leave the hub still are unchanged."""
+    csv_path = tmp_path / "f.csv"
+    heavy = ["--set", "free_hub=true"] + [
+        f"--set={name}=1e8" for name in ("hub_mass", "hub_inertia_x", "hub_inertia_y")
+    ]
+    assert modes.main([*heavy, "--count", "12", "--csv", str(csv_path)]) == 0
+    out = capsys.readouterr().out
+    assert "three rigid-body modes at exactly 0 rad/s" in out and "clamped modes" not in out
+    rows = list(csv.DictReader(csv_path.open()))
+    assert [float(r["omega_rad_s"]) for r in rows[:3]] == [0.0] * 3
+    assert [r["period_s"] + r["clamped_mode"] for r in rows[:3]] == [""] * 3
+    clamped = SailModel().natural_frequencies(SailParameters().full_boom_length)
+    for row in rows[3:]:  # beside the clamped group of its rank (free mode 4: clamped 1)
+        rank = int(row["mode"]) - 4
+        paired = clamped[int(row["clamped_mode"]) - 1]
+        assert float(row["clamped_omega_rad_s"]) == pytest.approx(paired, rel=1e-12)
+        assert paired == pytest.approx(clamped[rank], rel=1e-9)
+        assert float(row["omega_rad_s"]) == pytest.approx(clamped[rank], rel=1e-3)
+        assert float(row["shape_share"]) > 0.999
+
+    assert modes.main(["--set", "free_hub=true", "--count", "16"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    header = lines.index(next(line for line in lines if line.startswith("  mode ")))
+    assert lines[header + 1].split() == ["1-3", "0.00000", "0.000000", "rigid", "3"]
+    heave = next(line for line in lines if line.startswith("  4 ")).split()
+    assert heave[5] == "1" and float(heave[7]) > 10.0  # clamped mode 1, stiffened
+    still = next(line for line in lines if line.startswith("  5 ")).split()
+    assert still[5] == "4" and float(still[7]) == 0.0 and still[8] == "1.000"
+    note = next(line for line in lines if line.startswith("  clamped modes the free hub"))
+    assert f"2-3 ({clamped[1]:.5f} rad/s) is free-hub mode" in note

@@ -142,3 +142,51 @@ def test_modes_reports_the_damping_ratio_when_damping_is_set(tmp_path, capsys):
         0.01 / (2 * omega) + 0.01 * omega / 2, rel=1e-12
     )
     assert modes(["--count", "4"]) == 0 and "zeta" not in capsys.readouterr().out
+
+
+def test_a_free_hub_plant_has_11_inputs_14_outputs_with_names_and_its_double_integrators(
+    tmp_path, capsys
+):
+    """With a free hub: the 11-input, 14-output plant, every name in .npz and .mat, which
+    python-control takes with its names; six poles at s = 0 (the hub's rigid-body modes,
+    which no Rayleigh damping moves: not counted as undamped), a note saying the hub
+    outputs hold double integrators; the low-frequency gain of the hub force to z_h is
+    -1/(m w^2) with m the whole sail's mass (-40 dB/dec), and of torque_x to
+    theta_x -1/(J_x w^2)."""
+    from sail_ros.model.loads import HUB_INPUT_NAMES, HUB_OUTPUT_NAMES
+
+    npz, mat = tmp_path / "p.npz", tmp_path / "p.mat"
+    hub = ["--set", "free_hub=true", "--set", "n_boom_modes=2", "--set", "n_membrane_modes=2"]
+    assert main([*hub, *DAMPED, "--lengths", "30", "--npz", str(npz), "--mat", str(mat)]) == 0
+    captured = capsys.readouterr()
+    assert "38 states, 11 inputs, 14 outputs" in captured.out
+    assert (
+        "note: the hub outputs (hub_heave, hub_tilt_x, hub_tilt_y and their rates) hold "
+        "double integrators: 6 poles at s = 0" in captured.out
+    )
+    assert "-40 dB/dec" in captured.out and captured.err == ""  # damped: no warning
+
+    saved, matlab = np.load(npz), scipy.io.loadmat(mat)
+    inputs, outputs = (*INPUT_NAMES, *HUB_INPUT_NAMES), (*OUTPUT_NAMES, *HUB_OUTPUT_NAMES)
+    assert list(saved["input_names"]) == list(inputs) and len(inputs) == 11
+    assert list(saved["output_names"]) == list(outputs) and len(outputs) == 14
+    assert [str(v[0]) for v in matlab["output_names"].ravel()] == list(outputs)
+    assert [str(v[0]) for v in matlab["input_units"].ravel()][8:] == ["N", "N m", "N m"]
+    assert saved["rigid_body_poles"] == 6 and saved["poles_on_imaginary_axis"] == 0
+    assert str(matlab["hub_note"][0]) == str(saved["hub_note"])
+
+    names = {"inputs": list(saved["input_names"]), "outputs": list(saved["output_names"])}
+    system = control.ss(saved["A"], saved["B"], saved["C"], saved["D"], **names)
+    assert system.ninputs == 11 and system.noutputs == 14
+    assert system.input_labels[8] == "hub_force_z" and system.output_labels[9] == "hub_tilt_x"
+    assert np.sum(np.abs(system.poles()) < 1e-9) == 6
+
+    model = SailModel(SailParameters(free_hub=True, n_boom_modes=2, n_membrane_modes=2))
+    M = model.mass_and_stiffness(30.0)[0]
+    rigid = M[model.hub_slice, model.hub_slice]  # the whole sail moving with the hub
+    w = 1e-4
+    response = frequency_response(linear_plant(model, 30.0), [w])[0]
+    heave = response[outputs.index("hub_heave"), inputs.index("hub_force_z")]
+    tilt = response[outputs.index("hub_tilt_x"), inputs.index("hub_torque_x")]
+    assert heave.real == pytest.approx(-1.0 / (rigid[0, 0] * w**2), rel=1e-5)
+    assert tilt.real == pytest.approx(-1.0 / (rigid[1, 1] * w**2), rel=1e-5)

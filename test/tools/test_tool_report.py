@@ -289,3 +289,48 @@ def test_report_peaks_interpolate_the_log_and_rerun_its_scenario(deploy_log, tmp
         assert logged == pytest.approx(rerun, abs=2e-3 * largest)
     assert report.main([str(deploy_log), "--out", str(out), "--no-convergence"]) == 0
     assert {row["source"] for row in _rows(out / "peaks.csv")} == {"log", "rerun"}
+
+
+def test_report_of_a_free_hub_log_gives_its_peaks_figure_and_states(
+    tmp_path, capsys, figure_checks
+):
+    """config/scenario_free_hub.yaml logged at 10 Hz: states.csv carries the hub's six
+    values under the states table's names (`record.column_names`), as logged; peaks.csv
+    its peaks interpolated between the samples (at least the largest sample, within
+    1e-4 of the rerun's true peaks) and the rerun's; hub_attitude.png draws the tilt,
+    heave and the holds of the recorded scenario."""
+    from harness import CONFIG
+
+    from sail_ros.model.record import column_names
+
+    log_path = tmp_path / "hub.mcap"
+    scenario = CONFIG / "scenario_free_hub.yaml"
+    assert deploy.main(["--scenario", str(scenario), "--rate", "10", "--mcap", str(log_path)]) == 0
+    out = tmp_path / "report"
+    assert report.main([str(log_path), "--out", str(out), "--no-convergence"]) == 0
+    text = capsys.readouterr().out
+    assert "free hub: |z_h| up to" in text and "free hub (true peaks of the rerun):" in text
+
+    log = read_log(log_path)
+    stamps, hub = log.hub
+    hub_columns = column_names(True)[len(column_names(False)) :]
+    assert hub_columns[0] == "hub_z_h_m" and len(hub_columns) == 6
+    with (out / "states.csv").open() as stream:
+        header = next(csv.reader(stream))
+    assert header[-6:] == hub_columns
+    states = _rows(out / "states.csv")
+    assert [int(row["stamp_ns"]) for row in states] == stamps.tolist()
+    table = np.array([[float(row[name]) for name in hub_columns] for row in states])
+    np.testing.assert_array_equal(table, hub)
+
+    rows = {row["source"]: row for row in _rows(out / "peaks.csv")}
+    names = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")
+    logged = np.array([float(rows["log"][f"peak_hub_{name}"]) for name in names])
+    rerun = np.array([float(rows["rerun"][f"peak_hub_{name}"]) for name in names])
+    sampled = np.abs(hub[:, :3]).max(axis=0).tolist() + [np.hypot(hub[:, 1], hub[:, 2]).max()]
+    assert np.all(logged >= np.array(sampled) * (1 - 1e-12))
+    np.testing.assert_allclose(logged, rerun, rtol=1e-4)
+    assert rerun[1] > 0.08  # boom d jams: the pressure tilts the hub about x
+
+    check = assert_figure(out / "hub_attitude.png", figure_checks)
+    assert len(check.panels) >= 3  # tilt, heave, holds
