@@ -607,9 +607,8 @@ class _Component:
             return functions(motion, constants)
         if not functions:
             return np.zeros((*np.shape(motion[0]), weights.shape[1]))
-        shape = np.shape(motion[0])
-        coefficients = [np.broadcast_to(f(motion, constants), shape) for f in functions]
-        return np.stack(coefficients, axis=-1) @ weights
+        coefficients = np.array([function(motion, constants) for function in functions])
+        return np.moveaxis(coefficients, 0, -1) @ weights
 
 
 class _HubCoupling:

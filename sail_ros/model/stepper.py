@@ -182,6 +182,8 @@ def _extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.n
 # starts at a step's end makes that step exact then does not hang on round-off in the
 # motion's times (a command logged to the nanosecond replays the same steps).
 STATIC_MARGIN = 1e-4
+# times whose boom motion the stepper keeps (`_motion`)
+MOTION_CACHE = 32
 # matrices one moving step needs, in this order
 _STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
 # rad: omega_r * h of one rational step. The (4,4) Padé lags a mode by ~4e-8 (omega h)^9
@@ -326,7 +328,7 @@ class SailStepper:
         # Rayleigh alpha [1/s], beta [s] from the system's damping: C_d = alpha M + beta K
         self._rayleigh = _rayleigh(system)
         self._profile = profile
-        self._motion_cache = (math.nan, None)  # (t, motion at t) of the current profile
+        self._motion_cache: dict = {}  # t -> motion at t, of the current profile and piece
         self._assembly_cache: dict = {}
         self._factor_at = (math.nan, None)
         self.inputs = inputs
@@ -353,6 +355,7 @@ class SailStepper:
             self._set_profile(profile)
         self._t = float(t0)
         self._entered = self._t  # since when the profile's current piece applies
+        self._motion_cache = {}  # the piece at a switch depends on `_entered`
         self._q = q
         M, G = self._mass_gyro(self._t)
         self._p = M @ qd + G @ q
@@ -454,7 +457,7 @@ class SailStepper:
 
     def _set_profile(self, profile):
         self._profile = profile
-        self._motion_cache = (math.nan, None)
+        self._motion_cache = {}
         self._assembly_cache = {}
         self._factor_at = (math.nan, None)
         self._last = None
@@ -571,7 +574,7 @@ class SailStepper:
         if not any(self._entered < s and abs(self._t - s) <= SWITCH_RESOLUTION for s in times):
             return
         qd = self.qd  # at the end of the piece left
-        self._motion_cache = (math.nan, None)
+        self._motion_cache = {}
         self._assembly_cache = {}
         self._factor_at = (math.nan, None)
         self._entered = self._t
@@ -822,10 +825,11 @@ class SailStepper:
         return self._proposal
 
     def _motion(self, t):
-        """The profile at `t`, checked; cached, since a step asks for the same time
-        several times (step size, matrices, velocities, publishing)."""
-        cached_t, motion = self._motion_cache
-        if cached_t == t:
+        """The profile at `t`, checked; cached for the last `MOTION_CACHE` times, since a
+        step asks for the same few times again and again (its ends, middles and quarters:
+        step size, matrices, followed modes, velocities, publishing)."""
+        motion = self._motion_cache.get(t)
+        if motion is not None:
             return motion
         piece = getattr(self._profile, "piece", None)
         # at a switch: the piece that starts there once the stepper has reached it
@@ -849,7 +853,9 @@ class SailStepper:
                 per_boom(rates, f"rates at t = {t:.6g} s"),
                 per_boom(accelerations, f"accelerations at t = {t:.6g} s"),
             )
-        self._motion_cache = (t, motion)
+        if len(self._motion_cache) >= MOTION_CACHE:
+            self._motion_cache.clear()
+        self._motion_cache[t] = motion
         return motion
 
     def _force(self, t, lengths) -> np.ndarray | None:
