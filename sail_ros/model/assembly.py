@@ -307,7 +307,8 @@ class _PolynomialBatch:
         self._cache = (None, None, None)  # constants, motion type -> (factors, rows)
 
     def __call__(self, motion, constants: Constants) -> np.ndarray:
-        """(4, columns): the weight of each column for each of the 4 components."""
+        """(..., 4, columns): the weight of each column for each of the 4 components (at
+        each motion, the kinematic variables of shape (..., 4))."""
         if self._cache[0] is not constants or self._cache[1] is not type(motion):
             factors = np.zeros((len(self.functions), len(self._keys)))
             for i, row, factor, lf_power in self._entries:
@@ -316,9 +317,10 @@ class _PolynomialBatch:
             rows = [motion._fields.index(name) for name in self.names]
             self._cache = (constants, type(motion), (factors.T @ self.weights, rows))
         weights, rows = self._cache[2]
-        variables = np.array(motion)[rows]  # (names, 4)
-        monomials = np.prod(variables[None, :, :] ** self.exponents[:, :, None], axis=1)
-        return monomials.T @ weights
+        variables = np.array(motion)[rows]  # (names, ..., 4)
+        flat = variables.reshape(len(rows), -1)
+        monomials = np.prod(flat[None, :, :] ** self.exponents[:, :, None], axis=1)
+        return (monomials.T @ weights).reshape(*variables.shape[1:], -1)
 
 
 # The gyroscopic `G` of a term feeds G, and G - G^T feeds C and the canonical damping.
@@ -584,11 +586,14 @@ class _Component:
         return functions, weights, integrals
 
     def values(self, motion, constants: Constants, selection, k: int) -> np.ndarray:
-        """Entries of every block of every requested output, flat, component-major."""
-        values = self._weights(motion, constants, selection).reshape(4 * k, -1) @ selection[2]
+        """Entries of every block of every requested output, flat, component-major; (...,
+        entries) for motions of shape (..., 4)."""
+        weights = self._weights(motion, constants, selection)
+        lead = weights.shape[:-2]
+        values = weights.reshape(*lead, 4 * k, -1) @ selection[2]
         if self.signed:
-            return (values.reshape(4, k, -1) * self.signs[:, None, :]).ravel()
-        return values.ravel()
+            values = values.reshape(*lead, 4, k, -1) * self.signs[:, None, :]
+        return values.reshape(*lead, -1)
 
     def blocks(self, motion, constants: Constants, selection, k: int) -> np.ndarray:
         """Every block of every requested output, (k, 4, size, size), output-major."""
@@ -596,14 +601,14 @@ class _Component:
         return (weights @ self.integrals).reshape(k, 4, self.size, self.size)
 
     def _weights(self, motion, constants: Constants, selection) -> np.ndarray:
-        """(4, outputs x integrals): the coefficient of each integral in each output."""
+        """(..., 4, outputs x integrals): the coefficient of each integral in each output."""
         functions, weights, _ = selection
         if isinstance(functions, _PolynomialBatch):
             return functions(motion, constants)
         if not functions:
-            return np.zeros((4, weights.shape[1]))
-        coefficients = np.array([function(motion, constants) for function in functions]).T
-        return coefficients @ weights
+            return np.zeros((*np.shape(motion[0]), weights.shape[1]))
+        coefficients = np.array([function(motion, constants) for function in functions])
+        return np.moveaxis(coefficients, 0, -1) @ weights
 
 
 class _HubCoupling:
@@ -803,22 +808,23 @@ class SystemAssembler:
     def _kinematics(self, lengths, rates, accelerations):
         first, second = self._first, self._second
         return BoomKinematics(lengths, rates, accelerations), QuadrantKinematics(
-            lengths[first],
-            rates[first],
-            accelerations[first],
-            lengths[second],
-            rates[second],
-            accelerations[second],
+            lengths[..., first],
+            rates[..., first],
+            accelerations[..., first],
+            lengths[..., second],
+            rates[..., second],
+            accelerations[..., second],
         )
 
     def evaluate(self, outputs, lengths, rates, accelerations) -> np.ndarray:
-        """The requested matrices stacked, shape (len(outputs), n, n).
+        """The requested matrices stacked, shape (len(outputs), n, n); for `m` motions
+        (arrays (m, 4)), (m, len(outputs), n, n) in one pass.
 
         Args:
             outputs: a tuple of the output names above, in any order.
-            lengths: boom lengths [m], 4 values, already validated.
-            rates: extension rates [m/s], 4 values.
-            accelerations: extension accelerations [m/s^2], 4 values.
+            lengths: boom lengths [m], 4 values (or (m, 4)), already validated.
+            rates: extension rates [m/s], 4 values (or (m, 4)).
+            accelerations: extension accelerations [m/s^2], 4 values (or (m, 4)).
         """
         outputs = tuple(outputs)
         plan = self._plan(outputs)
@@ -826,6 +832,7 @@ class SystemAssembler:
         booms, quadrants = self._kinematics(lengths, rates, accelerations)
         motions = (booms, quadrants, quadrants)  # the hub terms go with the quadrants
         components = self._components()
+        lead = np.shape(lengths)[:-1]
         values = np.concatenate(
             [
                 component.values(motion, self.constants, selection, k)
@@ -833,17 +840,21 @@ class SystemAssembler:
                     components, plan.selections, motions[: len(components)], strict=True
                 )
             ]
-            + [plan.constant_values]
+            + [np.broadcast_to(plan.constant_values, (*lead, plan.constant_values.size))],
+            axis=-1,
         )
-        out = np.bincount(plan.scatter, weights=values, minlength=k * self.n * self.n)
-        out = out.reshape(k, self.n, self.n)
+        size = k * self.n * self.n
+        count = int(np.prod(lead))
+        scatter = plan.scatter if not lead else (plan.scatter + size * np.arange(count)[:, None])
+        out = np.bincount(scatter.ravel(), weights=values.ravel(), minlength=count * size)
+        out = out.reshape(*lead, k, self.n, self.n)
         if plan.damped:
-            correction = _mean_axes_correction(out[plan.outputs.index(MASS)], self.layout.n_elastic)
-            for index in plan.damped:
-                out[index, : self.layout.n_elastic, : self.layout.n_elastic] -= (
-                    self.constants.mass_damping * correction
-                )
-        return out[: len(outputs)]
+            n_e = self.layout.n_elastic
+            for matrices in out.reshape(-1, k, self.n, self.n):
+                correction = _mean_axes_correction(matrices[plan.outputs.index(MASS)], n_e)
+                for index in plan.damped:
+                    matrices[index, :n_e, :n_e] -= self.constants.mass_damping * correction
+        return out[..., : len(outputs), :, :]
 
 
 def _mean_axes_correction(M: np.ndarray, n_elastic: int) -> np.ndarray:

@@ -77,8 +77,8 @@ class FrozenModes:
         subspace iteration on `M^-1 K` from this set's `count` highest, then Rayleigh-Ritz
         (a third of a full eigenproblem's cost at n = 160). The subspace's error shrinks
         each time by `(omega_below / omega_lowest)^2`, the ratio of the highest mode left
-        out to the lowest kept (below 1/9 where modes are followed, `FOLLOW_ABOVE_RESOLVED`)."""
-        factor = scipy.linalg.cho_factor(M, check_finite=False)
+        out to the lowest kept (below 1/9 where modes are followed, `FOLLOW_ABOVE_RESOLVED`);
+        `factor` is the Cholesky factor of `M` (`scipy.linalg.cho_factor`)."""
         Y = scipy.linalg.cho_solve(factor, K @ self.V[:, -count:], check_finite=False)
         lam, Z = scipy.linalg.eigh(Y.T @ K @ Y, Y.T @ M @ Y, check_finite=False)
         return self._made(lam, Y @ Z, M, damping, self.updates + 1)

@@ -87,7 +87,8 @@ class LinearSystem(Protocol):
     def assemble(self, outputs, lengths, rates, accelerations) -> np.ndarray:
         """The matrices named by `outputs` (`assembly` names), stacked (k, n, n), at
         boom lengths [m], rates [m/s] and accelerations [m/s^2]: arrays of 4 values
-        the stepper has already checked (a step must not check them again)."""
+        the stepper has already checked (a step must not check them again); for m
+        motions at once, arrays (m, 4) giving (m, k, n, n)."""
 
     def resolved_frequency(self, lengths) -> float:
         """The highest angular frequency [rad/s] a step must resolve at `lengths`."""
@@ -108,6 +109,11 @@ class LinearSystem(Protocol):
         """`(lam, V)`: eigenvalues `omega^2` and `M`-orthonormal modes of `(K, M)` at rest
         (`scipy.linalg.eigh(K, M)` for a structure held in place); rigid-body modes, if
         any, with `lam` exactly 0 (a free hub, model.md §13.6)."""
+
+
+# Cholesky factorisation and solve without scipy's checks (samples inside a step: `M` is
+# assembled from checked lengths and is positive definite)
+potrf, potrs = scipy.linalg.lapack.get_lapack_funcs(("potrf", "potrs"), dtype=float)
 
 
 class IntegrationError(RuntimeError):
@@ -176,6 +182,8 @@ def _extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.n
 # starts at a step's end makes that step exact then does not hang on round-off in the
 # motion's times (a command logged to the nanosecond replays the same steps).
 STATIC_MARGIN = 1e-4
+# times whose boom motion the stepper keeps (`_motion`)
+MOTION_CACHE = 32
 # matrices one moving step needs, in this order
 _STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
 # rad: omega_r * h of one rational step. The (4,4) Padé lags a mode by ~4e-8 (omega h)^9
@@ -320,7 +328,7 @@ class SailStepper:
         # Rayleigh alpha [1/s], beta [s] from the system's damping: C_d = alpha M + beta K
         self._rayleigh = _rayleigh(system)
         self._profile = profile
-        self._motion_cache = (math.nan, None)  # (t, motion at t) of the current profile
+        self._motion_cache: dict = {}  # t -> motion at t, of the current profile and piece
         self._assembly_cache: dict = {}
         self._factor_at = (math.nan, None)
         self.inputs = inputs
@@ -347,6 +355,7 @@ class SailStepper:
             self._set_profile(profile)
         self._t = float(t0)
         self._entered = self._t  # since when the profile's current piece applies
+        self._motion_cache = {}  # the piece at a switch depends on `_entered`
         self._q = q
         M, G = self._mass_gyro(self._t)
         self._p = M @ qd + G @ q
@@ -448,7 +457,7 @@ class SailStepper:
 
     def _set_profile(self, profile):
         self._profile = profile
-        self._motion_cache = (math.nan, None)
+        self._motion_cache = {}
         self._assembly_cache = {}
         self._factor_at = (math.nan, None)
         self._last = None
@@ -565,7 +574,7 @@ class SailStepper:
         if not any(self._entered < s and abs(self._t - s) <= SWITCH_RESOLUTION for s in times):
             return
         qd = self.qd  # at the end of the piece left
-        self._motion_cache = (math.nan, None)
+        self._motion_cache = {}
         self._assembly_cache = {}
         self._factor_at = (math.nan, None)
         self._entered = self._t
@@ -712,20 +721,16 @@ class SailStepper:
         q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates="exact")
         return q, qd
 
-    def _extended_momentum(self, middle, c, velocity, q, q_start, p_start) -> np.ndarray:
-        """The canonical momenta (m, n) of a rational step's continuous extension: `p(f) =
-        c p0 + sum_k 2 Re[w_k y_p,k]` with `y_p,k = M u_k + G y_q,k` at the step's middle
-        `middle` [s], so `c p0 + M sum 2 Re[w_k u_k] + G (q(f) - c q0)`."""
-        M, G = self.system.assemble((MASS, GYROSCOPIC), *self._motion(middle))
-        return np.outer(c, p_start) + velocity @ M.T + (q - np.outer(c, q_start)) @ G.T
-
     def _velocities(self, times, q, p) -> np.ndarray:
-        """`qd = M^-1 (p - G q)` (m, n) with `M`, `G` at each of `times` [s] (m,)."""
-        qd = np.empty_like(q)
-        for i, t in enumerate(times):
-            M, G = self.system.assemble((MASS, GYROSCOPIC), *self._motion(float(t)))
-            factor = scipy.linalg.cho_factor(M, check_finite=False)
-            qd[i] = scipy.linalg.cho_solve(factor, p[i] - G @ q[i], check_finite=False)
+        """`qd = M^-1 (p - G q)` (m, n) with `M`, `G` at each of `times` [s] (m,): the
+        matrices of all m assembled in one pass, each `M` factored by Cholesky."""
+        motions = [self._motion(float(t)) for t in times]
+        stacked = (np.stack([motion[i] for motion in motions]) for i in range(3))
+        matrices = self.system.assemble((MASS, GYROSCOPIC), *stacked)
+        qd = p - np.einsum("mij,mj->mi", matrices[:, 1], q)
+        for M, row in zip(matrices[:, 0], qd, strict=True):
+            factor, _ = potrf(M, lower=True, overwrite_a=True, clean=False)
+            row[:], _ = potrs(factor, row, lower=True)
         return qd
 
     def between(self, fractions, qd0, qd1, rates="extension") -> tuple[np.ndarray, np.ndarray]:
@@ -756,7 +761,8 @@ class SailStepper:
         extensions = trial.extensions
         parts = len(extensions)
         # the ends of each rational step: the step's ends, and its middle when halved
-        if parts == 2:
+        # (the extension's rates start and end there; exact rates need no ends)
+        if parts == 2 and rates != "exact":
             q_half = extensions[1][0]
             if self._half_velocity[0] is not trial:
                 self._half_velocity = (
@@ -765,7 +771,7 @@ class SailStepper:
                 )
             qd_half = self._half_velocity[1]
             ends = ((qd0, qd_half, extensions[0][0]), (qd_half, qd1, q_half))
-        else:
+        elif rates != "exact":
             ends = ((qd0, qd1, extensions[0][0]),)
         fractions = np.asarray(fractions, dtype=float)
         q = np.empty((fractions.size, self._q.size))
@@ -776,8 +782,7 @@ class SailStepper:
             if not inside.any():
                 continue
             local = fractions[inside] * parts - k
-            q_start, y_q, u, v, p_start = extensions[k]
-            start_qd, end_qd, _ = ends[k]
+            q_start, y_q, u, v, p_start, mats = extensions[k]
             c, w = _extension_weights(local)
             q[inside] = np.outer(c, q_start) + 2.0 * (w @ y_q).real
             velocity = 2.0 * (w @ u).real  # sum_k 2 Re[w_k u_k]
@@ -787,10 +792,10 @@ class SailStepper:
                 qd[inside] = slope * (parts / h)
             elif rates == "exact":
                 times = t0 + (k + local) * h / parts
-                middle = t0 + (k + 0.5) * h / parts
-                p = self._extended_momentum(middle, c, velocity, q[inside], q_start, p_start)
+                p = _extended_momentum(mats, c, velocity, q[inside], q_start, p_start)
                 qd[inside] = self._velocities(times, q[inside], p)
             else:
+                start_qd, end_qd, _ = ends[k]
                 qd[inside] = (
                     np.outer(c, start_qd) + velocity + np.outer(local, end_qd - start_qd - 2.0 * v)
                 )
@@ -820,10 +825,11 @@ class SailStepper:
         return self._proposal
 
     def _motion(self, t):
-        """The profile at `t`, checked; cached, since a step asks for the same time
-        several times (step size, matrices, velocities, publishing)."""
-        cached_t, motion = self._motion_cache
-        if cached_t == t:
+        """The profile at `t`, checked; cached for the last `MOTION_CACHE` times, since a
+        step asks for the same few times again and again (its ends, middles and quarters:
+        step size, matrices, followed modes, velocities, publishing)."""
+        motion = self._motion_cache.get(t)
+        if motion is not None:
             return motion
         piece = getattr(self._profile, "piece", None)
         # at a switch: the piece that starts there once the stepper has reached it
@@ -847,7 +853,9 @@ class SailStepper:
                 per_boom(rates, f"rates at t = {t:.6g} s"),
                 per_boom(accelerations, f"accelerations at t = {t:.6g} s"),
             )
-        self._motion_cache = (t, motion)
+        if len(self._motion_cache) >= MOTION_CACHE:
+            self._motion_cache.clear()
+        self._motion_cache[t] = motion
         return motion
 
     def _force(self, t, lengths) -> np.ndarray | None:
@@ -901,7 +909,8 @@ class SailStepper:
         weighted = _PADE_WEIGHTS[:, None] * u
         v = weighted.sum(axis=0).real
         s = _PADE_WEIGHTS.real.sum() * q0 + (taus[:, None] * weighted).sum(axis=0).real
-        extension = (q0, q0 + taus[:, None] * u, u, v, p0)  # y_q,k, u_k: for `between`
+        # y_q,k, u_k and the matrices at the middle: for `between`
+        extension = (q0, q0 + taus[:, None] * u, u, v, p0, mats)
         zero = np.zeros_like(q0)
         Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))  # one call beats two
         return _PADE_CONSTANT * q0 + 2.0 * s, _PADE_CONSTANT * p0 + 2.0 * (Mv + Gs), extension
@@ -1002,6 +1011,23 @@ class SailStepper:
         P[n:, :n] = (VtM.T * sd) @ VtM
         P[n:, n:] = (VtM.T * cd) @ V.T
         return P, V, lam, d, VtM
+
+
+def _extended_momentum(mats, c, velocity, q, q_start, p_start) -> np.ndarray:
+    """The canonical momenta (m, n) of a rational step's continuous extension: `p(f) =
+    c p0 + sum_k 2 Re[w_k y_p,k]` with `y_p,k = M u_k + G y_q,k` under the step's own
+    middle matrices `mats` (`_STEP_MATRICES`), so `c p0 + M sum 2 Re[w_k u_k] + G (q(f)
+    - c q0)`."""
+    p = np.outer(c, p_start)
+    shift = q - np.outer(c, q_start)
+    if isinstance(mats, DenseMatrices):
+        M, _, _, G = mats.matrices
+        return p + velocity @ M.T + shift @ G.T
+    zero = np.zeros_like(q_start)
+    for i, (v, s) in enumerate(zip(velocity, shift, strict=True)):
+        Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))
+        p[i] += Mv + Gs
+    return p
 
 
 def _modal_propagator(lam, d, tau):

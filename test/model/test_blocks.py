@@ -72,3 +72,21 @@ def test_moving_steps_by_blocks_and_in_full_agree(monkeypatch, hub):
     assert np.abs(q_full).max() > 0
     assert np.allclose(q_blocks, q_full, rtol=0, atol=1e-11 * np.abs(q_full).max())
     assert np.allclose(qd_blocks, qd_full, rtol=0, atol=1e-11 * np.abs(qd_full).max())
+
+
+@pytest.mark.parametrize("hub", HUBS.values(), ids=HUBS.keys())
+def test_matrices_at_many_motions_at_once_are_those_at_each(hub):
+    """`assemble` at (m, 4) motions (the exact rates of samples inside a step) gives each
+    motion's own matrices, the free hub's mean-axes damping included."""
+    model = _model(3, 4, **hub)
+    rng = np.random.default_rng(7)
+    motions = (
+        LENGTHS + rng.uniform(-2.0, 2.0, (5, 4)),
+        RATES + rng.uniform(-0.5, 0.5, (5, 4)),
+        ACCELERATIONS + rng.uniform(-0.1, 0.1, (5, 4)),
+    )
+    many = model.assemble(_STEP_MATRICES, *motions)
+    assert many.shape == (5, len(_STEP_MATRICES), model.n, model.n)
+    for i in range(5):
+        one = model.assemble(_STEP_MATRICES, *(m[i] for m in motions))
+        np.testing.assert_allclose(many[i], one, rtol=1e-13, atol=1e-13 * np.abs(one).max())
