@@ -16,4 +16,5 @@ elif [ "$(cat "$js/node_modules/.installed" 2>/dev/null)" != "$lock" ]; then
 fi
 source "$root/scripts/env.sh"
 cd "$root"
-exec python -m pytest "$@"
+# two tests at a time, a module per worker (test/conftest.py: `timing` tests run alone)
+exec python -m pytest -n 2 --dist loadfile "$@"

@@ -11,12 +11,17 @@ The tests live by tier, one folder each, every module marked with its tier:
 
 `pytest -m model` runs the first two in about a minute. A test marked `slow` is the full
 size of a trial the suite runs CI-sized: it runs only with `--slow` (scripts/stress.sh).
+The test command runs two tests at a time (pytest-xdist, `-n 2`, a module per worker); a
+test marked `timing` asserts wall-clock behaviour (real-time factor, overruns), so it
+runs while no other test does: it holds a lock exclusively that every other test holds
+shared.
 What the tests share besides fixtures is in `harness.py` (imported first: it puts the
 run on its private DDS domain).
 """
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import os
 import shutil
@@ -76,15 +81,35 @@ def pytest_runtest_logreport(report):
         _TIER_SECONDS[tier] = _TIER_SECONDS.get(tier, 0.0) + report.duration
 
 
-def pytest_terminal_summary(terminalreporter):
-    """The suite's wall time and each tier's, printed by the test command (the README's
-    suite budget is 240 s on 2 cores)."""
+def pytest_terminal_summary(terminalreporter, config):
+    """The suite's wall time, and the time of each tier's tests (summed over the tests
+    run at once), printed by the test command (the README's suite budget is 240 s on 2
+    cores)."""
     tiers = ", ".join(
         f"{tier} {_TIER_SECONDS[tier]:.0f} s" for tier in TIERS if tier in _TIER_SECONDS
     )
+    workers = getattr(config.option, "numprocesses", None) or 1
     terminalreporter.write_line(
-        f"suite wall time {time.monotonic() - _STARTED:.0f} s ({tiers}) on {os.cpu_count()} cores"
+        f"suite wall time {time.monotonic() - _STARTED:.0f} s on {os.cpu_count()} cores, "
+        f"{workers} test(s) at a time (test time by tier: {tiers})"
     )
+
+
+@pytest.fixture(autouse=True)
+def _alone_when_timing(request, tmp_path_factory):
+    """Between xdist workers: a `timing` test runs alone (an exclusive lock on a file of
+    this run's temporary root), any other test beside other tests (the lock shared)."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        yield
+        return
+    timing = request.node.get_closest_marker("timing") is not None
+    path = tmp_path_factory.getbasetemp().parent / "timing.lock"  # one per run
+    with path.open("a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX if timing else fcntl.LOCK_SH)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 @pytest.fixture(scope="session")

@@ -10,6 +10,7 @@ tools take, `tools.domains.DomainLease`).
 
 from __future__ import annotations
 
+import fcntl
 import importlib
 import io
 import os
@@ -42,23 +43,42 @@ JS = ROOT / "test" / "js"  # Foxglove's JavaScript readers and clients (npm, loc
 NODE_MAJOR = 20  # the oldest node they are run with
 
 
+# The process that chose the session's domain: pytest itself, or one of its xdist workers
+# (gw0, gw1, ...), each of which runs its tests on a domain of its own. Processes a test
+# starts inherit both variables, so they keep their test's domain.
+_RUNNER = os.environ.get("PYTEST_XDIST_WORKER", "main")
+_DOMAIN_LOCKS = Path(tempfile.gettempdir()) / "sail_ros_test_domains"
+
+
 def _session_domain() -> int:
-    """One domain for this test run, below the tools' leases (`DomainLease` takes 100 and
-    up), with no participant on this machine; inherited by processes that import this
-    module (helper scripts) through SAIL_ROS_TEST_DOMAIN_ID."""
+    """One domain for this test run (or xdist worker), below the tools' leases
+    (`DomainLease` takes 100 and up), with no participant on this machine and not held by
+    another run (a lock file held for the run's life); inherited by processes that import
+    this module (helper scripts) through SAIL_ROS_TEST_DOMAIN_ID."""
     chosen = os.environ.get("SAIL_ROS_TEST_DOMAIN_ID")
-    if chosen:
+    if chosen and os.environ.get("SAIL_ROS_TEST_DOMAIN_RUNNER") == _RUNNER:
         return int(chosen)
+    _DOMAIN_LOCKS.mkdir(exist_ok=True)
     ports, span = bound_udp_ports(), FIRST_DOMAIN - 1
     for offset in range(span):
         domain = 1 + (os.getpid() + offset) % span
-        if not domain_in_use(domain, ports):
-            return domain
+        if domain_in_use(domain, ports):
+            continue
+        lock = open(_DOMAIN_LOCKS / f"{domain}.lock", "a")  # noqa: SIM115 (held for the run)
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            lock.close()
+            continue
+        _HELD.append(lock)
+        return domain
     raise RuntimeError(f"no free DDS domain in 1..{span} on this machine")
 
 
+_HELD: list = []  # the lock of this run's domain, released when the process ends
 DOMAIN_ID = _session_domain()
 os.environ["SAIL_ROS_TEST_DOMAIN_ID"] = str(DOMAIN_ID)
+os.environ["SAIL_ROS_TEST_DOMAIN_RUNNER"] = _RUNNER
 os.environ["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")

@@ -15,7 +15,7 @@ from std_msgs.msg import Float64
 from sail_ros import topics
 from sail_ros.messages import status as key
 
-pytestmark = pytest.mark.multiprocess
+pytestmark = [pytest.mark.multiprocess, pytest.mark.timing]
 
 RATE = 1000.0  # commands per second
 PHASE_S = 2.0

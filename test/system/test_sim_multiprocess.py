@@ -329,6 +329,7 @@ def test_divergence_is_an_error_before_anything_non_finite_until_reset(
     assert "beyond tip_error_fraction 0.3: out of the linear range" in sim.log()
 
 
+@pytest.mark.timing
 def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     """`sail-ros demo`: both processes, the deployment, a clean stop and the summary."""
     output = tmp_path / "demo"
