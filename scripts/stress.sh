@@ -19,3 +19,7 @@ trial() {  # trial NAME TEST [pytest args]: one test by name, wherever test/ hol
 # recovered and compared message by message with the live stream (~2 min; the suite: 3)
 SAIL_ROS_KILL_TRIALS="${SAIL_ROS_KILL_TRIALS:-20}" \
   trial "recorder killed at random times" test_sigkill_at_random_times_loses_only_the_open_chunk "$@"
+
+# every README block in order, the live walk-throughs and the Monte Carlo study included
+# (~2 min; the suite: the main job and the offline blocks)
+trial "the whole README" test_readme_runs_top_to_bottom --slow "$@"
