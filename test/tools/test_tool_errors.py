@@ -1,30 +1,15 @@
 """Every tool answers a user's mistake with exit code 2 and one line naming it, no traceback."""
 
-import importlib
-import io
 import struct
-from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
+from harness import run_tool
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 
 from sail_ros.bag import BagReader, BagWriter, DamagedBagError
-from sail_ros.cli import TOOLS
 
 pytestmark = pytest.mark.model
-
-
-def run_tool(name: str, argv: list[str]) -> tuple[int, str, str]:
-    module_name, function_name = TOOLS[name].split(":")
-    main = getattr(importlib.import_module(module_name), function_name)
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        try:
-            code = main(argv)
-        except SystemExit as exit_:  # argparse
-            code = exit_.code
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

@@ -2,12 +2,10 @@
 small rules."""
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
-from harness import CONFIG
-from matplotlib.image import imread
+from harness import CONFIG, assert_figure, assert_png
 
 from sail_ros.analysis.montecarlo import input_unit, load_study, run_sample, summarize
 from sail_ros.model import SailParameters
@@ -16,40 +14,6 @@ from sail_ros.plots.histories import equal_groups, tip_deflections_figure
 from sail_ros.plots.sail3d import exaggeration_for, true_box_height
 
 pytestmark = pytest.mark.model
-
-
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-def assert_png(path, min_width=400, min_height=250, min_drawn=0.03):
-    """A real PNG of page-figure size whose pixels are not one flat colour and
-    not (almost) all background (at least `min_drawn` of them drawn)."""
-    data = path.read_bytes()
-    assert data[:8] == PNG_SIGNATURE, f"{path} is not a PNG"
-    assert len(data) > 10_000, f"{path} is suspiciously small ({len(data)} bytes)"
-    pixels = imread(path)[..., :3]
-    height, width = pixels.shape[:2]
-    assert width >= min_width and height >= min_height, f"{path}: {width}x{height} px"
-    assert pixels.std() > 0.05, f"{path} is (nearly) blank"
-    drawn = np.mean(np.any(pixels < 0.9, axis=-1))  # not white background
-    assert drawn > min_drawn, f"{path}: only {drawn:.1%} of the pixels are drawn"
-    return width, height
-
-
-def assert_figure(path, checks, min_width=400, min_height=250, min_drawn=0.03):
-    """`assert_png`, and the figure as drawn (`figure_checks`): no text or panel
-    outside it, no text over text or over another panel, no line hidden under
-    another or under the legend, no vertical stroke in a line drawn against x.
-    Returns its FigureCheck."""
-    size = assert_png(Path(path), min_width, min_height, min_drawn)
-    check = checks[Path(path)]
-    assert check.size_px == size
-    assert not check.clipped, f"{path}: outside the figure: {check.clipped}"
-    assert not check.overlaps, f"{path}: drawn over each other: {check.overlaps}"
-    assert not check.hidden, f"{path}: lines hidden under others: {check.hidden}"
-    assert not check.jumps, f"{path}: vertical strokes: {check.jumps}"
-    assert not check.covered, f"{path}: lines under the legend: {check.covered}"
-    return check
 
 
 def test_assert_png_rejects_a_blank_figure(tmp_path):
