@@ -27,6 +27,7 @@ from sensor_msgs.msg import JointState
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.messages import status as key
 from sail_ros.model import SailParameters, yaml_values
 
 STATE_TOPICS = (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.MODAL_STATE, topics.ROOT_MOMENT)
@@ -209,7 +210,7 @@ def _hub_series(messages) -> tuple[np.ndarray, np.ndarray] | None:
 def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) -> int | None:
     """Stamp - sim_time_s of the first /diagnostics message that has both (the
     simulator stamps its status with the simulation time of the state)."""
-    for stamp, text in zip(stamps, values.get("sim_time_s", []), strict=False):
+    for stamp, text in zip(stamps, values.get(key.SIM_TIME, []), strict=False):
         try:
             return int(stamp) - round(float(text) * 1e9)
         except ValueError:
@@ -227,8 +228,8 @@ def _diagnostics(arrays: list[DiagnosticArray], sim_node: str):
     if not values:
         return None
     order = np.argsort(stamps, kind="stable")
-    keys = sorted({key for pairs in values for key in pairs})
+    keys = sorted({name for pairs in values for name in pairs})
     return (
         np.asarray(stamps, dtype=np.int64)[order],
-        {key: [values[i].get(key, "") for i in order] for key in keys},
+        {name: [values[i].get(name, "") for i in order] for name in keys},
     )

@@ -27,6 +27,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
+from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, parse_command_line
 from sail_ros.tools.common import stdout_closed
 from sail_ros.tools.domains import LAST_DOMAIN
@@ -113,7 +114,7 @@ class SimClient(Node):
             f"{topics.COMMAND_STATUS} of {self.sim_name}",
         )
         status = self.latest.get("diagnostics_values", {})
-        counted = ("accepted_commands", "rejected_commands", "dropped_commands")
+        counted = (key.ACCEPTED, key.REJECTED, key.DROPPED)
         expected = min(
             topics.COMMAND_STATUS_QOS.depth, sum(int(status.get(name, 0)) for name in counted)
         )

@@ -33,6 +33,7 @@ from std_srvs.srv import SetBool, Trigger
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.messages import status as key
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.ros.cli import bounded_teardown
@@ -173,7 +174,7 @@ def _run(processes, time_scale: float, domain: int, lease: DomainLease) -> float
     check = exited(processes)
 
     def sim_time() -> float:
-        return float(client.latest.get("diagnostics_values", {}).get("sim_time_s", "nan"))
+        return float(client.latest.get("diagnostics_values", {}).get(key.SIM_TIME, "nan"))
 
     try:
         client.spin_until(
@@ -232,7 +233,7 @@ def summarise(output: Path, t_start: float) -> None:
         | {"stamp_ns": _stamp_ns(deserialize_message(m.data, DiagnosticArray))}
         for m in reader.messages([topics.DIAGNOSTICS])
     ]
-    epoch = statuses[-1]["stamp_ns"] - round(float(statuses[-1]["sim_time_s"]) * 1e9)
+    epoch = statuses[-1]["stamp_ns"] - round(float(statuses[-1][key.SIM_TIME]) * 1e9)
     parameters = dict(reader.metadata()).get(topics.PARAMETERS_METADATA, {})
     sail = topics.sail_parameters_from_record(parameters) or SailParameters()
     print(
@@ -270,9 +271,9 @@ def summarise(output: Path, t_start: float) -> None:
     # while running; each status carries the last measurement over >= 0.5 s of running
     # (window 0 before the first)
     running = [
-        float(s["real_time_factor"])
+        float(s[key.REAL_TIME_FACTOR])
         for s in statuses
-        if s["state"] == "running" and float(s["real_time_factor_window_s"]) > 0
+        if s[key.STATE] == "running" and float(s[key.REAL_TIME_FACTOR_WINDOW]) > 0
     ]
     final = statuses[-1]
     scale = float(parameters.get("time_scale", "1.0"))
@@ -281,11 +282,11 @@ def summarise(output: Path, t_start: float) -> None:
     )
     print(
         f"\n  real-time factor: {factor} (time scale {scale:g}); longest integration step "
-        f"{max(float(s['step_time_ms_max']) for s in statuses):.3f} ms"
+        f"{max(float(s[key.STEP_TIME_MAX]) for s in statuses):.3f} ms"
     )
     print(
         f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
-        f"{final['overruns']}; rejected commands: {final['rejected_commands']}"
+        f"{final[key.OVERRUNS]}; rejected commands: {final[key.REJECTED]}"
     )
 
 
