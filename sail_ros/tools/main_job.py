@@ -24,13 +24,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.serialization import deserialize_message
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
+from sail_ros.analysis.log_series import read_log
 from sail_ros.bag import BagReader
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.messages import status as key
@@ -228,24 +226,16 @@ def summarise(output: Path, t_start: float) -> None:
     for name, count in counts.items():
         print(f"    {name:<24}{count:>7}")
 
-    statuses = [
-        topics.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
-        | {"stamp_ns": _stamp_ns(deserialize_message(m.data, DiagnosticArray))}
-        for m in reader.messages([topics.DIAGNOSTICS])
-    ]
-    epoch = statuses[-1]["stamp_ns"] - round(float(statuses[-1][key.SIM_TIME]) * 1e9)
-    parameters = dict(reader.metadata()).get(topics.PARAMETERS_METADATA, {})
-    sail = topics.sail_parameters_from_record(parameters) or SailParameters()
+    log = read_log(output)  # t: simulation time, from the first status that tells it
+    statuses = log.diagnostics[1]
+    parameters = log.parameters or {}
+    sail = log.sail_parameters() or SailParameters()
     print(
         f"  simulator parameters stored: {len(parameters)} (n_B = {sail.n_boom_modes}, "
         f"n_M = {sail.n_membrane_modes}, time_scale = {parameters.get('time_scale')})"
     )
 
-    tips = [
-        deserialize_message(m.data, JointState)
-        for m in reader.messages([topics.absolute(topics.TIP_DEFLECTION)])
-    ]
-    t = np.array([(_stamp_ns(m) - epoch) * 1e-9 - t_start for m in tips])
+    t = log.seconds(log.tips.stamp_ns) - t_start
     chosen = [int(np.argmin(np.abs(t - wanted))) for wanted in REPORT_TIMES]
     model = SailModel(sail)
     step = float(parameters.get("integration_step", "0.01"))
@@ -262,7 +252,7 @@ def summarise(output: Path, t_start: float) -> None:
         "(offline, same model: max |difference|)"
     )
     for index, reference in zip(chosen, offline, strict=True):
-        live = np.array(tips[index].position)
+        live = log.tips.position[index]
         print(
             f"    t = {t[index]:5.2f} s   "
             + "".join(f"{1e3 * v:11.4f}" for v in live)
@@ -271,24 +261,24 @@ def summarise(output: Path, t_start: float) -> None:
     # while running; each status carries the last measurement over >= 0.5 s of running
     # (window 0 before the first)
     running = [
-        float(s[key.REAL_TIME_FACTOR])
-        for s in statuses
-        if s[key.STATE] == "running" and float(s[key.REAL_TIME_FACTOR_WINDOW]) > 0
+        float(factor)
+        for state, factor, window in zip(
+            statuses[key.STATE],
+            statuses[key.REAL_TIME_FACTOR],
+            statuses[key.REAL_TIME_FACTOR_WINDOW],
+            strict=True,
+        )
+        if state == "running" and float(window) > 0
     ]
-    final = statuses[-1]
     scale = float(parameters.get("time_scale", "1.0"))
     factor = (
         f"max {max(running):.3f}, median {np.median(running):.3f}" if running else "not measured"
     )
     print(
         f"\n  real-time factor: {factor} (time scale {scale:g}); longest integration step "
-        f"{max(float(s[key.STEP_TIME_MAX]) for s in statuses):.3f} ms"
+        f"{max(map(float, statuses[key.STEP_TIME_MAX])):.3f} ms"
     )
     print(
         f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
-        f"{final[key.OVERRUNS]}; rejected commands: {final[key.REJECTED]}"
+        f"{statuses[key.OVERRUNS][-1]}; rejected commands: {statuses[key.REJECTED][-1]}"
     )
-
-
-def _stamp_ns(message) -> int:
-    return message.header.stamp.sec * 10**9 + message.header.stamp.nanosec
