@@ -16,7 +16,9 @@ import time
 
 from sail_ros import topics
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.messages import state
 from sail_ros.messages import status as key
+from sail_ros.model import record
 from sail_ros.model.record import HUB_COMPONENTS
 from sail_ros.tools.client import SimClient, add_domain_option, run_client
 
@@ -50,14 +52,10 @@ def build_parser() -> ToolParser:
 
 def snapshot(client: SimClient) -> dict:
     """What the client last heard, as plain data (SI units)."""
-    booms = client.latest[topics.BOOM_STATE]
-    tips = client.latest[topics.TIP_DEFLECTION]
     status = client.latest["diagnostics"]
     values = {pair.key: pair.value for pair in status.values}
     answer = client.latest.get("answer")
-    moments = client.latest.get(topics.ROOT_MOMENT)
-    hub = client.latest.get(topics.HUB_STATE)
-    view = {
+    return {
         "simulator": client.sim_name,
         "level": ("OK", "WARN", "ERROR", "STALE")[min(int.from_bytes(status.level), 3)],
         "message": status.message,
@@ -65,12 +63,8 @@ def snapshot(client: SimClient) -> dict:
         key.SIM_TIME: float(values.get(key.SIM_TIME, "nan")),
         key.REAL_TIME_FACTOR: float(values.get(key.REAL_TIME_FACTOR, "nan")),
         key.ENERGY: float(values.get(key.ENERGY, "nan")),
-        "boom_length_m": dict(zip("abcd", map(float, booms.position), strict=True)),
-        "boom_rate_m_s": dict(zip("abcd", map(float, booms.velocity), strict=True)),
-        "tip_deflection_m": dict(zip("abcd", map(float, tips.position), strict=True)),
-        "root_moment_N_m": dict(
-            zip("abcd", map(float, moments.effort if moments else [math.nan] * 4), strict=True)
-        ),
+        # the record's per-boom fields and a free hub's, as the record names them
+        **record.view(state.sample(client.latest)),
         key.LOAD_POWER: float(values.get(key.LOAD_POWER, "nan")),
         key.DISSIPATION: float(values.get(key.DISSIPATION, "nan")),
         key.ACCEPTED: int(values.get(key.ACCEPTED, "0")),
@@ -79,10 +73,6 @@ def snapshot(client: SimClient) -> dict:
         key.LAST_REJECTION: values.get(key.LAST_REJECTION, ""),
         "last_answer": f"{answer.outcome}: {answer.message}" if answer else "",
     }
-    if hub is not None:  # a free hub (/sail/hub_state)
-        view["hub"] = dict(zip(HUB_COMPONENTS, map(float, topics.hub_from_odometry(hub)),
-                               strict=True))  # fmt: skip
-    return view
 
 
 def table(view: dict) -> str:

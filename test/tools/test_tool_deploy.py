@@ -316,6 +316,10 @@ def test_a_free_hubs_log_gives_back_its_attitude(tmp_path):
     run = run_deployment(model, scenario, log.seconds(log.hub[0]))
     assert log.hub[1].shape == (201, 6) and np.degrees(np.abs(log.hub[1][:, 1]).max()) > 4.0
     np.testing.assert_allclose(log.hub[1], run.hub, rtol=0, atol=1e-12 * np.abs(run.hub).max())
+    assert log.field("hub") is log.hub  # the record's fields through their messages
+    stamps, tips = log.field("tips")
+    assert stamps is log.tips.stamp_ns and tips is log.tips.position
+    assert log.field("root_moments")[1] is log.moments.effort
 
 
 @pytest.mark.parametrize("tilt", [(0.0, 0.0), (1e-9, -2e-9), (0.3, -0.4), (2.0, 1.0)])
