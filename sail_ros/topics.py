@@ -438,7 +438,7 @@ def _diverging(v: float) -> ColorRGBA:
 _PALETTE = [_diverging(level / COLOUR_LEVELS) for level in range(-COLOUR_LEVELS, COLOUR_LEVELS + 1)]
 
 
-# the same shades as float32 RGBA rows, as CDR holds them (`message_bytes`)
+# the same shades as float32 RGBA rows, as CDR holds them (`messages.cdr`)
 _PALETTE_RGBA = np.array([[c.r, c.g, c.b, c.a] for c in _PALETTE], dtype="<f4")
 
 

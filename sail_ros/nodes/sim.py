@@ -42,7 +42,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
 from sail_ros.cli import PHYSICS_DOC
-from sail_ros.message_bytes import ShapeSerializer, StateSerializer
+from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped

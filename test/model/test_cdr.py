@@ -1,4 +1,4 @@
-"""`message_bytes.serialize`: exact CDR bytes. An independent writer (rosbags) gives
+"""`messages.cdr.serialize`: exact CDR bytes. An independent writer (rosbags) gives
 the same bytes for what an independent reader (rosbags) decodes from them."""
 
 import numpy as np
@@ -15,7 +15,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros import topics
-from sail_ros.message_bytes import serialize
+from sail_ros.messages.cdr import serialize
 
 pytestmark = pytest.mark.model
 

@@ -16,7 +16,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros import topics
-from sail_ros.message_bytes import ShapeSerializer, StateSerializer, serialize
+from sail_ros.messages.cdr import ShapeSerializer, StateSerializer, serialize
 from sail_ros.model import (
     CycloidalProfile,
     SailModel,
