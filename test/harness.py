@@ -34,6 +34,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from sail_ros import topics
 from sail_ros.cli import TOOLS
+from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
 from sail_ros.tools.domains import FIRST_DOMAIN, DomainLease, bound_udp_ports, domain_in_use
 
@@ -173,7 +174,7 @@ class Operator(Node):
         array = self.diagnostics[index]
         status, stamp = array.status[0], array.header.stamp
         return {
-            **topics.diagnostic_values(array),
+            **diagnostics_msg.diagnostic_values(array),
             "level": status.level,
             "message": status.message,
             "stamp_ns": stamp.sec * 10**9 + stamp.nanosec,

@@ -4,7 +4,7 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
 `ros2 bag`, Foxglove) reads these too:
 
 - topics, types, QoS (as the recorder stores the simulator's publishers')
-  and message contents from `sail_ros.topics`:
+  from `sail_ros.topics`, message contents from `sail_ros.messages`:
   `/clock`, `/sail/boom_state`, `/sail/modal_state`, `/sail/tip_deflection`
   at every output time, `/sail/shape` at the shape rate; no `/diagnostics`
   (an offline run has no real-time pacing to report);

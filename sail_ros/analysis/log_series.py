@@ -27,7 +27,9 @@ from sensor_msgs.msg import JointState
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
-from sail_ros.messages import state
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import hub as hub_msg
+from sail_ros.messages import state as state_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailParameters, yaml_values
 
@@ -99,9 +101,9 @@ class LogSeries:
         """The state record's field `name` (`model.record.SAMPLE_FIELDS`) as stamps [ns]
         (k,) and values (k, n), from the message that carries it
         (`messages.state`); None when the log holds no values of it."""
-        if name == state.HUB_FIELD:
+        if name == state_msg.HUB_FIELD:
             return self.hub
-        topic, array = state.JOINT_FIELDS[name]
+        topic, array = state_msg.JOINT_FIELDS[name]
         series = self.joints.get(topic)
         values = None if series is None else getattr(series, array)
         if values is None or not values.size:
@@ -229,7 +231,7 @@ def _hub_series(messages) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     messages.sort(key=lambda m: _stamp_ns(m.header))
     stamps = np.array([_stamp_ns(m.header) for m in messages], dtype=np.int64)
-    return stamps, np.array([topics.hub_from_odometry(m) for m in messages])
+    return stamps, np.array([hub_msg.hub_from_odometry(m) for m in messages])
 
 
 def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) -> int | None:
@@ -246,7 +248,7 @@ def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) ->
 def _diagnostics(arrays: list[DiagnosticArray], sim_node: str):
     stamps, values = [], []
     for array in arrays:
-        pairs = topics.diagnostic_values(array, sim_node)
+        pairs = diagnostics_msg.diagnostic_values(array, sim_node)
         if pairs:
             stamps.append(_stamp_ns(array.header))
             values.append(pairs)

@@ -31,6 +31,7 @@ from sail_ros import topics
 from sail_ros.analysis.log_series import read_log
 from sail_ros.bag import BagReader
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import status as key
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
@@ -188,7 +189,7 @@ def _run(processes, time_scale: float, domain: int, lease: DomainLease) -> float
         client.call(topics.PAUSE_SERVICE, SetBool.Request(data=True), 10.0)
         client.call(topics.RESET_SERVICE, Trigger.Request(), 10.0)
         answer = client.send(topics.DEPLOY_CMD, Float64(data=END), 10.0)
-        if answer.outcome != topics.ACCEPTED:
+        if answer.outcome != commands_msg.ACCEPTED:
             raise RuntimeError(f"the deployment was {answer.outcome}: {answer.message}")
         t_start = float(answer.values["t_start_s"])
         client.call(topics.PAUSE_SERVICE, SetBool.Request(data=False), 10.0)

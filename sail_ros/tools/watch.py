@@ -16,7 +16,7 @@ import time
 
 from sail_ros import topics
 from sail_ros.cli import ToolParser, help_epilog
-from sail_ros.messages import state
+from sail_ros.messages import state as state_msg
 from sail_ros.messages import status as key
 from sail_ros.model import record
 from sail_ros.model.record import HUB_COMPONENTS
@@ -64,7 +64,7 @@ def snapshot(client: SimClient) -> dict:
         key.REAL_TIME_FACTOR: float(values.get(key.REAL_TIME_FACTOR, "nan")),
         key.ENERGY: float(values.get(key.ENERGY, "nan")),
         # the record's per-boom fields and a free hub's, as the record names them
-        **record.view(state.sample(client.latest)),
+        **record.view(state_msg.sample(client.latest)),
         key.LOAD_POWER: float(values.get(key.LOAD_POWER, "nan")),
         key.DISSIPATION: float(values.get(key.DISSIPATION, "nan")),
         key.ACCEPTED: int(values.get(key.ACCEPTED, "0")),

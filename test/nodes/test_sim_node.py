@@ -23,6 +23,9 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import hub as hub_msg
 from sail_ros.messages import status as key
 from sail_ros.model.fields import ConfigError
 from sail_ros.nodes.sim import SPECS, SimNode, main
@@ -78,7 +81,7 @@ class Client(Node):
         self.create_subscription(
             DiagnosticArray,
             topics.DIAGNOSTICS,
-            lambda m: self.diagnostics.append(topics.diagnostic_values(m)),
+            lambda m: self.diagnostics.append(diagnostics_msg.diagnostic_values(m)),
             topics.DIAGNOSTICS_QOS,
         )
         self.describe = self.create_client(DescribeParameters, "/sail_sim/describe_parameters")
@@ -290,7 +293,7 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
     client.create_subscription(
         DiagnosticArray,
         topics.COMMAND_STATUS,
-        lambda m: answers.append(topics.command_answer(m)),
+        lambda m: answers.append(commands_msg.command_answer(m)),
         topics.COMMAND_STATUS_QOS,
     )
     spin_until(lambda: len(hubs) > 20, 5.0, "hub states")
@@ -303,7 +306,7 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
     assert q.x**2 + q.y**2 + q.z**2 + q.w**2 == pytest.approx(1.0, abs=1e-12)
     wrench = client.create_publisher(WrenchStamped, topics.HUB_WRENCH_CMD, topics.COMMAND_QOS)
     spin_until(lambda: wrench.get_subscription_count() >= 1, 5.0, "the wrench subscription")
-    wrench.publish(topics.hub_wrench_command(0.5, 0.0, 0.0))
+    wrench.publish(hub_msg.hub_wrench_command(0.5, 0.0, 0.0))
     spin_until(lambda: answers, 5.0, "the answer")
     assert answers[-1].outcome == "accepted" and answers[-1].topic == "/sail/hub_wrench_cmd"
     spin_until(lambda: hubs[-1].twist.twist.linear.z > 0.0, 5.0, "the hub heaving up")

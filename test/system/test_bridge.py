@@ -33,6 +33,7 @@ from std_msgs.msg import Float64
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, bag_files
+from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
 from sail_ros.nodes import bridge
 
@@ -310,9 +311,9 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     # and the simulator kept real time: no window held up (a wait for the stalled client
     # would take seconds), and over the run within 2 % (it catches up after a late tick)
     statuses = [
-        (topics.diagnostic_values(array), published)
+        (diagnostics_msg.diagnostic_values(array), published)
         for array, published in zip(operator.diagnostics, operator.published_ns, strict=True)
-        if topics.diagnostic_values(array)
+        if diagnostics_msg.diagnostic_values(array)
     ]
     factors = [float(values[key.REAL_TIME_FACTOR]) for values, _ in statuses[1:]]
     assert len(factors) >= 4 and min(factors) > 0.5, factors

@@ -31,6 +31,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import status as key
 
 pytestmark = pytest.mark.multiprocess
@@ -67,11 +68,11 @@ class Answers:
     """The answers on sail/command_status, heard by a node of the operator's context."""
 
     def __init__(self, operator):
-        self.received: list[topics.CommandAnswer] = []
+        self.received: list[commands_msg.CommandAnswer] = []
         operator.create_subscription(
             DiagnosticArray,
             topics.COMMAND_STATUS,
-            lambda array: self.received.append(topics.command_answer(array)),
+            lambda array: self.received.append(commands_msg.command_answer(array)),
             topics.COMMAND_STATUS_QOS,
         )
 
@@ -112,7 +113,7 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
 
     bag = BagReader(tmp_path / "bag")
     answers = [
-        topics.command_answer(deserialize_message(m.data, DiagnosticArray))
+        commands_msg.command_answer(deserialize_message(m.data, DiagnosticArray))
         for m in bag.messages(["/sail/command_status"])
     ]
     assert [a.outcome for a in answers] == ["accepted", "rejected", "accepted"]

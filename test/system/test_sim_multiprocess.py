@@ -25,6 +25,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion, SwitchedProfile
@@ -358,7 +359,7 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     if overruns.split("): ")[1].startswith("0;"):  # a late tick's catch-up would show
         assert largest < 1.2 * 5.0, factor
     statuses = [
-        topics.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
+        diagnostics_msg.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
         for m in BagReader(output).messages([topics.DIAGNOSTICS])
     ]
     windows = {float(status[key.REAL_TIME_FACTOR_WINDOW]) for status in statuses}

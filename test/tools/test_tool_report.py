@@ -14,6 +14,8 @@ from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.bag import BagWriter
 from sail_ros.bag.recording import ParameterChange, changes_record_of
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import state as state_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.tools import deploy, report
@@ -120,11 +122,14 @@ def _live_style_log(path, params, count=30, reset_at=None, time_scale=None, hist
             q = q0 * (1.0 + 0.02 * age) if reset_at is not None else q0
             lengths, rates = np.full(4, 20.0), np.zeros(4)
             messages = [
-                (topics.BOOM_STATE, topics.boom_state(stamp, lengths, rates)),
-                (topics.MODAL_STATE, topics.modal_state(stamp, model.coordinate_names, q, 0 * q)),
+                (topics.BOOM_STATE, state_msg.boom_state(stamp, lengths, rates)),
+                (
+                    topics.MODAL_STATE,
+                    state_msg.modal_state(stamp, model.coordinate_names, q, 0 * q),
+                ),
                 (
                     topics.TIP_DEFLECTION,
-                    topics.tip_deflection(stamp, model.tip_deflections(q), np.zeros(4)),
+                    state_msg.tip_deflection(stamp, model.tip_deflections(q), np.zeros(4)),
                 ),
             ]
             if n % every == 0:
@@ -139,7 +144,7 @@ def _live_style_log(path, params, count=30, reset_at=None, time_scale=None, hist
                     values[key.REAL_TIME_FACTOR] = time_scale * (0.997 + 0.001 * (n // every % 3))
                     if n == 0:
                         values[key.REAL_TIME_FACTOR] = 0.0  # not measured yet
-                message = topics.diagnostics(stamp, "OK", "running", values)
+                message = diagnostics_msg.diagnostics(stamp, "OK", "running", values)
                 messages.append((topics.DIAGNOSTICS, message))
             for topic, message in messages:
                 bag.write(topics.absolute(topic), serialize_message(message), log_time_ns=stamp)
