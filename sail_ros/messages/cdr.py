@@ -193,9 +193,9 @@ class ShapeSerializer:
         return bytes(buffer)
 
 
-# the fields of a sample the JointState messages carry, each in exactly one of them (a
-# free hub's Odometry is built per sample)
-_SAMPLE_ARRAYS = tuple(f for f in SAMPLE_FIELDS if f.per in ("boom", "coordinate"))
+# the fields of a sample the JointState messages carry, each in exactly one of them
+# (`messages.state.JOINT_FIELDS`; a free hub's Odometry is built per sample)
+_SAMPLE_ARRAYS = tuple(f for f in SAMPLE_FIELDS if f.name in state_msg.JOINT_FIELDS)
 
 
 class StateSerializer:
