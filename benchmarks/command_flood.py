@@ -37,6 +37,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from sail_ros import topics
+from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
 
 COUNTS = (key.ACCEPTED, key.SUPERSEDED, key.REJECTED, key.IGNORED)
@@ -59,7 +60,7 @@ class Observer(Node):
         self.create_subscription(
             DiagnosticArray,
             topics.DIAGNOSTICS,
-            lambda message: self.statuses.append(topics.diagnostic_values(message)),
+            lambda message: self.statuses.append(diagnostics_msg.diagnostic_values(message)),
             topics.DIAGNOSTICS_QOS,
         )
 

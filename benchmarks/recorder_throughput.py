@@ -62,7 +62,7 @@ def publish(rate: float, steps: int, points: int) -> None:
     publishers = {t: node.create_publisher(type(m), t, 10) for t, m in step.items()}
     while min(p.get_subscription_count() for p in publishers.values()) < 1:
         rclpy.spin_once(node, timeout_sec=0.01)
-    from sail_ros.message_bytes import serialize
+    from sail_ros.messages.cdr import serialize
 
     # serialised ahead, so that the rate measures the recorder, not building messages
     messages = [

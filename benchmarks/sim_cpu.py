@@ -36,6 +36,7 @@ from rclpy.node import Node
 from std_msgs.msg import Float64
 
 from sail_ros import topics
+from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.topics import TOPIC_QOS
 
 SETTINGS = [
@@ -133,7 +134,7 @@ class Observer(Node):
         self.received += 1
 
     def _on_status(self, message: DiagnosticArray) -> None:
-        values = topics.diagnostic_values(message)
+        values = diagnostics_msg.diagnostic_values(message)
         self.realtime_priority = int(values["realtime_priority"])
         self.status.append(
             (

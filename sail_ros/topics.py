@@ -6,39 +6,34 @@ offline tools that write and read the same messages in MCAP logs
 live logs" holds by construction:
 
 - the topic table `TOPICS` (name, message class, type name, QoS);
-- the builders of every state message, pure functions of numbers (no node,
-  no clock), and `state_messages`, the set published at every state sample;
 - the stamps: simulation time as nanoseconds since the Unix epoch (`stamp_ns`);
 - the metadata record names (`PARAMETERS_METADATA`, `PARAMETER_CHANGES_METADATA`,
   `SCENARIO_METADATA`);
 - the flat parameter names `sail.<field>` <-> `SailParameters`.
 
-Every quantity is SI. The pages under `msg_docs/` describe each topic field
-by field. Nothing here imports rclpy's `Node`.
+The builders of every message, pure functions of numbers (no node, no clock), are
+in `sail_ros.messages`, one module per message. Every quantity is SI. The pages under
+`msg_docs/` describe each topic field by field. Nothing here imports rclpy's `Node`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Mapping
-from typing import NamedTuple
 
-import numpy as np
 import yaml
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, WrenchStamped
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import ColorRGBA, Float64
+from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
 from sail_ros.model import SailParameters, yaml_values
-from sail_ros.model.record import StateSample
 
 # -- names ------------------------------------------------------------------------------------
 # Relative, so a node's namespace (`--ros-args -r __ns:=/sat2`) moves them all;
@@ -282,7 +277,7 @@ def sail_parameters_from_record(record: Mapping[str, str]) -> SailParameters | N
         raise ValueError(f"recorded {PARAMETERS_METADATA}: {error}") from None
 
 
-# -- builders ---------------------------------------------------------------------------------
+# -- stamps -----------------------------------------------------------------------------------
 
 
 def stamp(stamp_ns: int) -> Time:
@@ -294,325 +289,3 @@ def stamp(stamp_ns: int) -> Time:
 def stamp_ns(epoch_ns: int, t: float) -> int:
     """The stamp [ns] of simulation time `t` [s] on a run that started at `epoch_ns`."""
     return int(epoch_ns) + round(t * 1e9)
-
-
-def _joint_state(stamp_ns_, frame_id, names, position, velocity) -> JointState:
-    message = JointState(name=list(names))
-    message.header.stamp = stamp(stamp_ns_)
-    message.header.frame_id = frame_id
-    message.position = np.asarray(position, dtype=float)
-    message.velocity = np.asarray(velocity, dtype=float)
-    return message
-
-
-def boom_state(stamp_ns_: int, lengths, rates, frame_id: str = FRAME_ID) -> JointState:
-    """`/sail/boom_state`: deployed length [m] and extension rate [m/s] of booms a..d."""
-    return _joint_state(stamp_ns_, frame_id, BOOM_JOINTS, lengths, rates)
-
-
-def modal_state(stamp_ns_: int, names, q, qd, frame_id: str = FRAME_ID) -> JointState:
-    """`/sail/modal_state`: generalised coordinates `q` [m] and velocities `qd` [m/s]
-    named by `SailModel.coordinate_names` (model.md §6 order)."""
-    return _joint_state(stamp_ns_, frame_id, names, q, qd)
-
-
-def tip_deflection(stamp_ns_: int, tips, tip_rates, frame_id: str = FRAME_ID) -> JointState:
-    """`/sail/tip_deflection`: out-of-plane deflection [m] (+z of `frame_id`) of
-    each boom tip and its rate [m/s]."""
-    return _joint_state(stamp_ns_, frame_id, TIP_JOINTS, tips, tip_rates)
-
-
-def root_moment(stamp_ns_: int, moments, frame_id: str = FRAME_ID) -> JointState:
-    """`/sail/root_moment`: root bending moment `EI u''(0)` [N m] of each boom, in
-    `effort` (positive when the boom bends towards +z of `frame_id`)."""
-    message = JointState(name=list(ROOT_JOINTS))
-    message.header.stamp = stamp(stamp_ns_)
-    message.header.frame_id = frame_id
-    message.effort = np.asarray(moments, dtype=float)
-    return message
-
-
-def hub_state(
-    stamp_ns_: int, hub, frame_id: str = FRAME_ID, inertial_frame_id: str = INERTIAL_FRAME_ID
-) -> Odometry:
-    """`/sail/hub_state`: a free hub's pose and twist, `hub` = (z_h [m], theta_x, theta_y
-    [rad], zd_h [m/s], thd_x, thd_y [rad/s]) (model.md §13.9): header frame
-    `inertial_frame_id`, child `frame_id`; position (0, 0, z_h); orientation the unit
-    quaternion of the rotation vector (theta_x, theta_y, 0); twist in the child frame,
-    linear (0, 0, zd_h), angular (thd_x, thd_y, 0); covariances zero (the state is
-    exact)."""
-    z, theta_x, theta_y, zd, thd_x, thd_y = (float(v) for v in hub)
-    message = Odometry(child_frame_id=frame_id)
-    message.header.stamp = stamp(stamp_ns_)
-    message.header.frame_id = inertial_frame_id
-    message.pose.pose.position.z = z
-    angle = math.hypot(theta_x, theta_y)
-    half = math.sin(0.5 * angle) / angle if angle > 0 else 0.5  # sin(r/2)/r -> 1/2
-    orientation = message.pose.pose.orientation
-    orientation.x, orientation.y = half * theta_x, half * theta_y
-    orientation.z, orientation.w = 0.0, math.cos(0.5 * angle)
-    message.twist.twist.linear.z = zd
-    message.twist.twist.angular.x, message.twist.twist.angular.y = thd_x, thd_y
-    return message
-
-
-def hub_from_odometry(message: Odometry) -> np.ndarray:
-    """The inverse of `hub_state`: `(z_h, theta_x, theta_y, zd_h, thd_x, thd_y)` from a
-    `/sail/hub_state`, the tilts the rotation vector of its orientation."""
-    orientation = message.pose.pose.orientation
-    sine = math.hypot(orientation.x, orientation.y)  # sin(r/2); z is 0
-    angle = 2.0 * math.atan2(sine, orientation.w)
-    scale = angle / sine if sine > 0 else 2.0  # r / sin(r/2) -> 2
-    twist = message.twist.twist
-    return np.array(
-        [
-            message.pose.pose.position.z,
-            scale * orientation.x,
-            scale * orientation.y,
-            twist.linear.z,
-            twist.angular.x,
-            twist.angular.y,
-        ]
-    )
-
-
-def hub_wrench_command(
-    force_z: float, torque_x: float, torque_y: float, frame_id: str = ""
-) -> WrenchStamped:
-    """A `sail/hub_wrench_cmd`: force along z [N], torques about x and y [N m] on the hub."""
-    message = WrenchStamped()
-    message.header.frame_id = frame_id
-    message.wrench.force.z = float(force_z)
-    message.wrench.torque.x, message.wrench.torque.y = float(torque_x), float(torque_y)
-    return message
-
-
-def load_command(topic: str, values: Mapping[str, float]) -> JointState:
-    """A `sail/pressure_cmd` (quadrant -> Pa) or `sail/tip_force_cmd` (boom -> N)."""
-    message = JointState(name=list(values))
-    message.effort = [float(v) for v in values.values()]
-    return message
-
-
-def clock(stamp_ns_: int) -> Clock:
-    """`/clock`: the simulation time, for nodes with use_sim_time."""
-    return Clock(clock=stamp(stamp_ns_))
-
-
-def state_messages(
-    stamp_ns_: int,
-    sample: StateSample,
-    coordinate_names,
-    frame_id: str = FRAME_ID,
-    with_clock: bool = False,
-    inertial_frame_id: str = INERTIAL_FRAME_ID,
-) -> list[tuple[str, object]]:
-    """`(topic, message)` of every state topic at one sample, in publishing order:
-    /clock first (if `with_clock`), then boom state, modal state, tip deflections,
-    root moments, and a free hub's state."""
-    messages = [(CLOCK, clock(stamp_ns_))] if with_clock else []
-    messages += [
-        (BOOM_STATE, boom_state(stamp_ns_, sample.lengths, sample.rates, frame_id)),
-        (MODAL_STATE, modal_state(stamp_ns_, coordinate_names, sample.q, sample.qd, frame_id)),
-        (TIP_DEFLECTION, tip_deflection(stamp_ns_, sample.tips, sample.tip_rates, frame_id)),
-        (ROOT_MOMENT, root_moment(stamp_ns_, sample.root_moments, frame_id)),
-    ]
-    if sample.hub is not None:
-        messages.append((HUB_STATE, hub_state(stamp_ns_, sample.hub, frame_id, inertial_frame_id)))
-    return messages
-
-
-BOOM_LINE_WIDTH = 0.2  # m, drawn width of a boom in RViz
-BOOM_COLOUR = ColorRGBA(r=0.25, g=0.25, b=0.25, a=1.0)
-MIN_COLOUR_RANGE = 1e-3  # m: below this the membrane is drawn as flat (white)
-
-
-COLOUR_LEVELS = 32  # per sign: heights are drawn in 2 * 32 + 1 shades
-
-
-def _diverging(v: float) -> ColorRGBA:
-    return ColorRGBA(r=min(1.0, 1.0 + v), g=1.0 - abs(v), b=min(1.0, 1.0 - v), a=1.0)
-
-
-# shared, immutable-by-convention colour objects: building 1000s per message is slow
-_PALETTE = [_diverging(level / COLOUR_LEVELS) for level in range(-COLOUR_LEVELS, COLOUR_LEVELS + 1)]
-
-
-# the same shades as float32 RGBA rows, as CDR holds them (`message_bytes`)
-_PALETTE_RGBA = np.array([[c.r, c.g, c.b, c.a] for c in _PALETTE], dtype="<f4")
-
-
-def _height_levels(heights, scale: float) -> np.ndarray:
-    v = np.clip(np.asarray(heights, dtype=float) / scale, -1.0, 1.0)
-    return np.rint(v * COLOUR_LEVELS).astype(int) + COLOUR_LEVELS
-
-
-def height_colours(heights, scale: float) -> list[ColorRGBA]:
-    """Diverging colour map of heights [m]: blue at -scale, white at 0, red at
-    +scale, in 2 COLOUR_LEVELS + 1 shades."""
-    return [_PALETTE[level] for level in _height_levels(heights, scale).tolist()]
-
-
-def colour_array(heights, scale: float) -> np.ndarray:
-    """`height_colours` as an (N, 4) float32 array of r, g, b, a."""
-    return _PALETTE_RGBA[_height_levels(heights, scale)]
-
-
-def shape(stamp_ns_: int, vertices, triangles, boom_lines, frame_id: str = FRAME_ID) -> MarkerArray:
-    """`/sail/shape`: the deflected sail for RViz/Foxglove.
-
-    Args:
-        stamp_ns_: stamp [ns].
-        vertices: membrane mesh points (P, 3) [m] in `frame_id` (`SailSurface.vertices`).
-        triangles: vertex indices (T, 3) (`SailSurface.triangles`).
-        boom_lines: points along each boom (4, S, 3) [m] (`SailSurface.boom_lines`).
-        frame_id: frame of the markers.
-
-    Returns:
-        Marker `membrane`/0: TRIANGLE_LIST, one colour per point from its height
-        (`height_colours`, scaled to the largest |height| of this frame, at least
-        MIN_COLOUR_RANGE); markers `booms`/0..3: LINE_STRIPs of booms a..d.
-    """
-    header_stamp = stamp(stamp_ns_)
-    vertices = np.asarray(vertices, dtype=float)
-    corners = np.asarray(triangles).ravel().tolist()
-    membrane = _marker(header_stamp, frame_id, "membrane", 0, Marker.TRIANGLE_LIST)
-    membrane.scale.x = membrane.scale.y = membrane.scale.z = 1.0
-    membrane.color = ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0)
-    # one Point and one colour per mesh vertex, shared by the triangles that meet
-    # there: a vertex is in about five corners, and building the objects is the cost
-    points = [Point(x=x, y=y, z=z) for x, y, z in vertices.tolist()]
-    membrane.points = [points[i] for i in corners]
-    heights = vertices[:, 2]
-    scale = max(float(np.max(np.abs(heights[corners]), initial=0.0)), MIN_COLOUR_RANGE)
-    colours = height_colours(heights, scale)
-    membrane.colors = [colours[i] for i in corners]
-    markers = [membrane]
-    for k, line in enumerate(np.asarray(boom_lines, dtype=float)):
-        boom = _marker(header_stamp, frame_id, "booms", k, Marker.LINE_STRIP)
-        boom.scale.x = BOOM_LINE_WIDTH
-        boom.color = BOOM_COLOUR
-        boom.points = [Point(x=x, y=y, z=z) for x, y, z in line.tolist()]
-        markers.append(boom)
-    return MarkerArray(markers=markers)
-
-
-def _marker(header_stamp: Time, frame_id: str, ns: str, marker_id: int, kind: int) -> Marker:
-    marker = Marker(ns=ns, id=marker_id, type=kind, action=Marker.ADD)
-    marker.header.stamp = header_stamp
-    marker.header.frame_id = frame_id
-    marker.pose.orientation.w = 1.0  # identity: points are already in frame_id
-    return marker
-
-
-LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": DiagnosticStatus.ERROR}
-
-
-def diagnostics(
-    stamp_ns_: int, level: str, message: str, values: dict, node: str = SIM_NODE
-) -> DiagnosticArray:
-    """`/diagnostics`: one status `<node>: integrator` (`integrator_status_name`).
-
-    Args:
-        stamp_ns_: stamp [ns].
-        level: "OK", "WARN" or "ERROR".
-        message: one line saying why the level is what it is.
-        values: key -> value, written with `str` (round floats before).
-        node: the simulator's fully qualified node name (also the hardware_id).
-    """
-    status = DiagnosticStatus(
-        level=LEVELS[level],
-        name=integrator_status_name(node),
-        message=message,
-        hardware_id=node.lstrip("/"),
-    )
-    status.values = [KeyValue(key=key, value=str(value)) for key, value in values.items()]
-    array = DiagnosticArray(status=[status])
-    array.header.stamp = stamp(stamp_ns_)
-    return array
-
-
-def diagnostic_values(array: DiagnosticArray, node: str = SIM_NODE) -> dict[str, str]:
-    """The key/value pairs of the integrator status of simulator `node` (its fully
-    qualified name) in `array`; empty if absent."""
-    wanted = integrator_status_name(node)
-    for status in array.status:
-        if status.name == wanted:
-            return {pair.key: pair.value for pair in status.values}
-    return {}
-
-
-# -- answers to commands ------------------------------------------------------------------------
-
-ACCEPTED, REJECTED, IGNORED = "accepted", "rejected", "ignored"
-SUPERSEDED = "superseded"  # a newer command replaced it before it started
-# value of an accepted load command's answer: the four values held from then on
-# ("[0.002, 0.0, 0.0, 0.0]", Pa or N), so a log tells every load from the answers alone
-LOADS_HELD = "loads_held"
-_OUTCOME_LEVELS = {
-    ACCEPTED: DiagnosticStatus.OK,
-    REJECTED: DiagnosticStatus.ERROR,
-    IGNORED: DiagnosticStatus.WARN,
-    SUPERSEDED: DiagnosticStatus.WARN,
-}
-
-
-class CommandAnswer(NamedTuple):
-    """What the simulator did with one command (`sail/command_status`).
-
-    Attributes:
-        topic: the command topic, as the simulator resolved it.
-        outcome: "accepted", "superseded" (a newer command replaced it before it
-            started), "rejected" or "ignored" (published before the simulator started).
-        message: the plan ("deploy to 12 m: ...") or the reason.
-        source_timestamp_ns: when its publisher wrote it [ns, the publisher's clock].
-        sequence: the publisher's sequence number of the command.
-        values: further key/value pairs (t_start_s, t_end_s of an accepted motion;
-            t_start_s and LOADS_HELD of an accepted load).
-    """
-
-    topic: str
-    outcome: str
-    message: str
-    source_timestamp_ns: int
-    sequence: int
-    values: dict[str, str]
-
-
-def command_status(stamp_ns_: int, answer: CommandAnswer) -> DiagnosticArray:
-    """`sail/command_status`: one status per command; level OK (accepted), ERROR
-    (rejected) or WARN (ignored), name `sail_sim: <topic>`, the answer's fields
-    as values."""
-    status = DiagnosticStatus(
-        level=_OUTCOME_LEVELS[answer.outcome],
-        name=f"{SIM_NODE}: {answer.topic}",
-        message=answer.message,
-        hardware_id=SIM_NODE,
-    )
-    pairs = {
-        "topic": answer.topic,
-        "outcome": answer.outcome,
-        "source_timestamp_ns": str(answer.source_timestamp_ns),
-        "publication_sequence_number": str(answer.sequence),
-        **answer.values,
-    }
-    status.values = [KeyValue(key=key, value=str(value)) for key, value in pairs.items()]
-    array = DiagnosticArray(status=[status])
-    array.header.stamp = stamp(stamp_ns_)
-    return array
-
-
-def command_answer(array: DiagnosticArray) -> CommandAnswer | None:
-    """The answer in a `sail/command_status` message (None if it holds none)."""
-    for status in array.status:
-        pairs = {pair.key: pair.value for pair in status.values}
-        if "outcome" in pairs and "topic" in pairs:
-            return CommandAnswer(
-                topic=pairs.pop("topic"),
-                outcome=pairs.pop("outcome"),
-                message=status.message,
-                source_timestamp_ns=int(pairs.pop("source_timestamp_ns")),
-                sequence=int(pairs.pop("publication_sequence_number")),
-                values=pairs,
-            )
-    return None

@@ -35,6 +35,8 @@ from trajectory_msgs.msg import JointTrajectory
 
 from sail_ros import topics
 from sail_ros.cli import TOOLS
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import status as key
 from sail_ros.tools.domains import FIRST_DOMAIN, DomainLease, bound_udp_ports, domain_in_use
 
 ROOT = Path(__file__).resolve().parents[1]  # the repository
@@ -192,7 +194,7 @@ class Operator(Node):
         array = self.diagnostics[index]
         status, stamp = array.status[0], array.header.stamp
         return {
-            **topics.diagnostic_values(array),
+            **diagnostics_msg.diagnostic_values(array),
             "level": status.level,
             "message": status.message,
             "stamp_ns": stamp.sec * 10**9 + stamp.nanosec,
@@ -217,7 +219,7 @@ class Operator(Node):
     def epoch_ns(self) -> int:
         """The stamp of simulation time 0: every stamp is epoch + simulation time."""
         status = self.status()
-        return status["stamp_ns"] - round(float(status["sim_time_s"]) * 1e9)
+        return status["stamp_ns"] - round(float(status[key.SIM_TIME]) * 1e9)
 
     def call(self, client, request, timeout=10.0):
         self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")

@@ -4,7 +4,7 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
 `ros2 bag`, Foxglove) reads these too:
 
 - topics, types, QoS (as the recorder stores the simulator's publishers')
-  and message contents from `sail_ros.topics`:
+  from `sail_ros.topics`, message contents from `sail_ros.messages`:
   `/clock`, `/sail/boom_state`, `/sail/modal_state`, `/sail/tip_deflection`
   at every output time, `/sail/shape` at the shape rate; no `/diagnostics`
   (an offline run has no real-time pacing to report);
@@ -17,7 +17,7 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
 - metadata `sail_deploy_scenario`: the scenario as YAML and the epoch.
 
 The messages are the bytes the live simulator publishes, made by the same
-serialisers (`sail_ros.message_bytes`: exact CDR, nothing after the last
+serialisers (`sail_ros.messages.cdr`: exact CDR, nothing after the last
 field). A chunk is closed after every simulated
 second (CHUNK_SECONDS), as the recorder closes one per wall-clock second of a
 real-time run, so a file cut short keeps everything before its last chunk.
@@ -34,7 +34,7 @@ from sail_ros import topics
 from sail_ros.analysis.deployment import DeploymentRun
 from sail_ros.bag import BagWriter
 from sail_ros.bag.qos import recorded_entry
-from sail_ros.message_bytes import ShapeSerializer, StateSerializer
+from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.policy import Policy

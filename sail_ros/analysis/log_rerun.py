@@ -28,6 +28,7 @@ from sail_ros import topics
 from sail_ros.analysis.deployment import carried_over
 from sail_ros.analysis.log_series import LogSeries
 from sail_ros.bag import BagReader
+from sail_ros.messages import commands as commands_msg
 from sail_ros.model import SailModel
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.peaks import OutputPeaks, Peak, Peaks
@@ -129,13 +130,13 @@ def _applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:
     loads = {topics.absolute(name, log.namespace): name for name in kinds}
     applied = []
     for message in BagReader(log.path).messages([status]):
-        answer = topics.command_answer(deserialize_message(message.data, DiagnosticArray))
-        if answer is None or answer.outcome != topics.ACCEPTED or answer.topic not in loads:
+        answer = commands_msg.command_answer(deserialize_message(message.data, DiagnosticArray))
+        if answer is None or answer.outcome != commands_msg.ACCEPTED or answer.topic not in loads:
             continue
-        held = answer.values.get(topics.LOADS_HELD)
+        held = answer.values.get(commands_msg.LOADS_HELD)
         if held is None:
             raise ValueError(
-                f"the answers to {answer.topic} hold no {topics.LOADS_HELD} (a log from "
+                f"the answers to {answer.topic} hold no {commands_msg.LOADS_HELD} (a log from "
                 "before they did): the loads of the run are unknown"
             )
         values = np.array(load_yaml(held), dtype=float)

@@ -27,9 +27,11 @@ from sensor_msgs.msg import JointState
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import hub as hub_msg
+from sail_ros.messages import state as state_msg
+from sail_ros.messages import status as key
 from sail_ros.model import SailParameters, yaml_values
-
-STATE_TOPICS = (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.MODAL_STATE, topics.ROOT_MOMENT)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,7 +57,9 @@ class LogSeries:
         parameters: the `sail_sim_parameters` record (name -> YAML text), or None.
         origin_ns: stamp [ns] of t = 0; `simulation_time` says whether that is
             the run's epoch (t is simulation time) or the first sample.
-        boom, tips, modal, moments: the state topics (None when absent).
+        joints: the JointState topics of the state (`topics.STATE_TOPICS`) that the log
+            holds, by relative name; `boom`, `tips`, `modal`, `moments` name them, and
+            `field` gives a record field through the message mapping.
         diagnostics: stamps [ns] (k,) and the integrator status values per
             key as text lists, or None when the log has no /diagnostics.
         hub: a free hub's `/sail/hub_state` as stamps [ns] (k,) and (k, 6) values
@@ -71,14 +75,40 @@ class LogSeries:
     parameters: dict[str, str] | None
     origin_ns: int
     simulation_time: bool
-    boom: JointSeries | None
-    tips: JointSeries | None
-    modal: JointSeries | None
-    moments: JointSeries | None
+    joints: dict[str, JointSeries]
     diagnostics: tuple[np.ndarray, dict[str, list[str]]] | None
     scenario: dict | None = None
     namespace: str = "/"  # the simulator's, whose topics were read
     hub: tuple[np.ndarray, np.ndarray] | None = None
+
+    @property
+    def boom(self) -> JointSeries | None:
+        return self.joints.get(topics.BOOM_STATE)
+
+    @property
+    def tips(self) -> JointSeries | None:
+        return self.joints.get(topics.TIP_DEFLECTION)
+
+    @property
+    def modal(self) -> JointSeries | None:
+        return self.joints.get(topics.MODAL_STATE)
+
+    @property
+    def moments(self) -> JointSeries | None:
+        return self.joints.get(topics.ROOT_MOMENT)
+
+    def field(self, name: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """The state record's field `name` (`model.record.SAMPLE_FIELDS`) as stamps [ns]
+        (k,) and values (k, n), from the message that carries it
+        (`messages.state`); None when the log holds no values of it."""
+        if name == state_msg.HUB_FIELD:
+            return self.hub
+        topic, array = state_msg.JOINT_FIELDS[name]
+        series = self.joints.get(topic)
+        values = None if series is None else getattr(series, array)
+        if values is None or not values.size:
+            return None
+        return series.stamp_ns, values
 
     def seconds(self, stamp_ns) -> np.ndarray:
         """Stamps [ns] on the log's time axis [s]."""
@@ -136,7 +166,7 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
             )
         namespace = found[0] if found else "/"
     namespace = "/" + namespace.strip("/")
-    state_topics = {topics.absolute(name, namespace): name for name in STATE_TOPICS}
+    state_topics = {topics.absolute(name, namespace): name for name in topics.STATE_TOPICS}
     sim_node = topics.absolute(topics.SIM_NODE, namespace)
     parameters, epoch_ns, scenario = None, None, None
     for name, record in reader.metadata():
@@ -152,7 +182,7 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
                     raise ValueError(
                         f"'{path}': its {topics.SCENARIO_METADATA} record is not YAML"
                     ) from None
-    joints: dict[str, list] = {name: [] for name in STATE_TOPICS}
+    joints: dict[str, list] = {name: [] for name in topics.STATE_TOPICS}
     diagnostics: list[DiagnosticArray] = []
     hub: list[Odometry] = []
     counts: dict[str, int] = {}
@@ -167,10 +197,11 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
         else:
             name = state_topics[message.topic]
             joints[name].append(deserialize_message(message.data, JointState))
-    for name in STATE_TOPICS:  # an incomplete file is read in file order
+    for name in topics.STATE_TOPICS:  # an incomplete file is read in file order
         joints[name].sort(key=lambda m: _stamp_ns(m.header))
-    series = {name: _joint_series(joints[name]) for name in STATE_TOPICS}
-    present = [s for s in series.values() if s is not None]
+    series = {name: _joint_series(joints[name]) for name in topics.STATE_TOPICS}
+    series = {name: s for name, s in series.items() if s is not None}
+    present = list(series.values())
     if not present:
         raise ValueError(
             f"'{path}' holds none of {', '.join(state_topics)}: not a sail "
@@ -187,10 +218,7 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
         parameters=parameters,
         origin_ns=first if epoch_ns is None else epoch_ns,
         simulation_time=epoch_ns is not None,
-        boom=series[topics.BOOM_STATE],
-        tips=series[topics.TIP_DEFLECTION],
-        modal=series[topics.MODAL_STATE],
-        moments=series[topics.ROOT_MOMENT],
+        joints=series,
         diagnostics=status,
         scenario=scenario,
         namespace=namespace,
@@ -203,13 +231,13 @@ def _hub_series(messages) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     messages.sort(key=lambda m: _stamp_ns(m.header))
     stamps = np.array([_stamp_ns(m.header) for m in messages], dtype=np.int64)
-    return stamps, np.array([topics.hub_from_odometry(m) for m in messages])
+    return stamps, np.array([hub_msg.hub_from_odometry(m) for m in messages])
 
 
 def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) -> int | None:
     """Stamp - sim_time_s of the first /diagnostics message that has both (the
     simulator stamps its status with the simulation time of the state)."""
-    for stamp, text in zip(stamps, values.get("sim_time_s", []), strict=False):
+    for stamp, text in zip(stamps, values.get(key.SIM_TIME, []), strict=False):
         try:
             return int(stamp) - round(float(text) * 1e9)
         except ValueError:
@@ -220,15 +248,15 @@ def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) ->
 def _diagnostics(arrays: list[DiagnosticArray], sim_node: str):
     stamps, values = [], []
     for array in arrays:
-        pairs = topics.diagnostic_values(array, sim_node)
+        pairs = diagnostics_msg.diagnostic_values(array, sim_node)
         if pairs:
             stamps.append(_stamp_ns(array.header))
             values.append(pairs)
     if not values:
         return None
     order = np.argsort(stamps, kind="stable")
-    keys = sorted({key for pairs in values for key in pairs})
+    keys = sorted({name for pairs in values for name in pairs})
     return (
         np.asarray(stamps, dtype=np.int64)[order],
-        {key: [values[i].get(key, "") for i in order] for key in keys},
+        {name: [values[i].get(name, "") for i in order] for name in keys},
     )

@@ -13,7 +13,7 @@ Split as rosbag2 splits it:
   log_time_ns, publish_time_ns), also from files cut short by a crash;
 - `definitions`: message definition text and type hashes of installed types.
 
-Messages are stored as given: exact CDR bytes (`sail_ros.message_bytes.serialize`).
+Messages are stored as given: exact CDR bytes (`sail_ros.messages.cdr.serialize`).
 """
 
 from sail_ros.bag.definitions import (

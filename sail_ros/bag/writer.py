@@ -10,7 +10,7 @@ both itself and writes with `split=False`. Given a path
 ending in `.mcap`, it writes that one file. Each file is an `McapFile`
 (`mcap_storage`: schemas, channels, chunks, fsync, the rosbag2 record).
 
-Example (`cdr` from `sail_ros.message_bytes.serialize`)::
+Example (`cdr` from `sail_ros.messages.cdr.serialize`)::
 
     with BagWriter("run1", compression="zstd") as bag:
         bag.add_topic("/sail/boom_state", "sensor_msgs/msg/JointState")
@@ -190,7 +190,7 @@ class BagWriter:
 
         Strict readers reject bytes past the message's last field (rosbags:
         "CDR message size mismatch"), which `rclpy.serialization.serialize_message`
-        leaves under rmw_fastrtps: give `sail_ros.message_bytes.serialize`'s
+        leaves under rmw_fastrtps: give `sail_ros.messages.cdr.serialize`'s
         bytes, or a raw subscription's (exact).
 
         Args:

@@ -1,7 +1,9 @@
-"""The keys of the simulator's integrator status on /diagnostics, in one place.
+"""The keys of the status values on /diagnostics, in one place.
 
-The simulator writes them (`runtime.realtime.RealTimeRun.status`); `watch`, `report`,
-the log reader and the main job read them. msg_docs/diagnostics.md describes each.
+The simulator's integrator status: the simulator writes them
+(`runtime.realtime.RealTimeRun.status`); `watch`, `report`, the log reader, the client
+and the main job read them. msg_docs/diagnostics.md describes each. The bridge's
+status (`nodes.bridge`) follows, msg_docs/bridge.md describes it.
 """
 
 STATE = "state"  # running, paused or error
@@ -29,3 +31,15 @@ ERROR_ESTIMATE = "relative_error_estimate"
 ENERGY = "mechanical_energy_J"
 LOAD_POWER = "load_power_W"
 DISSIPATION = "damping_dissipation_W"
+
+# -- the bridge's status (msg_docs/bridge.md) --------------------------------------------------
+BRIDGE_URL = "url"  # where the bridge serves
+CLIENTS = "clients"  # clients subscribed to at least one channel
+CHANNELS = "channels"  # topics served
+SERVED = "messages_served"  # messages handed to the server, since start
+CLIENT_COMMANDS = "client_commands"  # client messages published on DDS, since start
+REFUSED = "refused_client_messages"  # client messages or channels refused, since start
+LAST_REFUSAL = "last_refusal"
+SERVICE_CALLS = "service_calls"  # protocol service calls answered, since start
+SLOW_REPORTS = "slow_client_reports"  # the server's reports of a client's full queue
+SLOW_CLIENTS = "slow_clients"  # the addresses it reported

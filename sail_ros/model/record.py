@@ -4,9 +4,8 @@ what each holds.
 `StateSample` (one time) and a run's arrays (the same record, each field stacked over
 the output times: `stack`, `take`) come from `SAMPLE_FIELDS`; so do the columns of a
 states table (`column_names`, `columns`) and the plain-data view `watch` prints
-(`view`). The messages that carry a sample say which field goes where in
-`sail_ros.messages.state`, the one mapping the publisher, the serialiser and the log
-reader share.
+(`view`). Which message carries which field is `sail_ros.messages.state`, the one
+mapping through which the log reader (`LogSeries.field`) and `watch` read a sample back.
 
 The first fields, up to `STEPPER_FIELDS`, are the integrator's own state (`StepperState`);
 the others are computed from them (`SailModel.sample`).

@@ -64,6 +64,7 @@ from std_srvs.srv import SetBool, Trigger
 from sail_ros import topics
 from sail_ros.bag import message_definition
 from sail_ros.bag.definitions import PRIMITIVE_TYPES, find_interface_file, full_type_name
+from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.parameters import (
     ConfigError,
@@ -149,16 +150,7 @@ SPECS = [
 ]
 
 # the bridge's status on /diagnostics (msg_docs/bridge.md)
-STATUS_SUFFIX = ": websocket"
-CLIENTS = "clients"  # clients subscribed to at least one channel
-CHANNELS = "channels"  # topics served
-SERVED = "messages_served"  # messages handed to the server, since start
-CLIENT_COMMANDS = "client_commands"  # client messages published on DDS, since start
-REFUSED = "refused_client_messages"  # client messages or channels refused, since start
-LAST_REFUSAL = "last_refusal"
-SERVICE_CALLS = "service_calls"  # protocol service calls answered, since start
-SLOW_REPORTS = "slow_client_reports"  # the server's reports of a client's full queue
-SLOW_CLIENTS = "slow_clients"  # the addresses it reported
+STATUS_SUFFIX = ": websocket"  # its name: the node's, then this; keys in messages.status
 
 
 def service_definitions(type_name: str) -> tuple[str, str]:
@@ -227,11 +219,11 @@ class Bridge(Node):
         served = self._served_topics(self.config["topics"])
         self._lock = threading.Lock()  # the counts: executor, server and service threads
         self.counts = {
-            SERVED: 0,
-            CLIENT_COMMANDS: 0,
-            REFUSED: 0,
-            SERVICE_CALLS: 0,
-            SLOW_REPORTS: 0,
+            key.SERVED: 0,
+            key.CLIENT_COMMANDS: 0,
+            key.REFUSED: 0,
+            key.SERVICE_CALLS: 0,
+            key.SLOW_REPORTS: 0,
         }
         self.served: dict[str, int] = {}  # topic -> messages handed to the server
         self.last_refusal = ""
@@ -362,7 +354,7 @@ class Bridge(Node):
         # log time: DDS's reception time, as the recorder's log time
         channel.log(data, info.get("received_timestamp") or time.time_ns())
         with self._lock:
-            self.counts[SERVED] += 1
+            self.counts[key.SERVED] += 1
             self.served[topic] += 1
 
     # -- clients (the server's threads) ---------------------------------------------------------
@@ -424,11 +416,11 @@ class Bridge(Node):
             return
         publisher.publish(data)
         with self._lock:
-            self.counts[CLIENT_COMMANDS] += 1
+            self.counts[key.CLIENT_COMMANDS] += 1
 
     def _refuse(self, text: str, quiet: bool = False) -> None:
         with self._lock:
-            self.counts[REFUSED] += 1
+            self.counts[key.REFUSED] += 1
             self.last_refusal = text
         if not quiet:
             self.get_logger().warning(f"refused: {text}")
@@ -436,7 +428,7 @@ class Bridge(Node):
 
     def _on_slow_client(self, address: str) -> None:
         with self._lock:
-            self.counts[SLOW_REPORTS] += 1
+            self.counts[key.SLOW_REPORTS] += 1
             self.slow_clients.add(address)
         self.get_logger().warning(
             f"client {address} reads slower than the traffic: its queue of "
@@ -485,7 +477,7 @@ class Bridge(Node):
             future.cancel()
             raise TimeoutError(f"{client.srv_name}: no answer within {SERVICE_TIMEOUT_S} s")
         with self._lock:
-            self.counts[SERVICE_CALLS] += 1
+            self.counts[key.SERVICE_CALLS] += 1
         self.get_logger().info(f"client {request.client_id} called {client.srv_name}")
         return serialize_message(future.result())
 
@@ -495,28 +487,29 @@ class Bridge(Node):
         """The key/value pairs of the bridge's status (msg_docs/bridge.md)."""
         with self._lock:
             return {
-                "url": self.url,
-                CLIENTS: str(len(self._subscribers)),
-                CHANNELS: str(len(self._channels)),
-                **{key: str(value) for key, value in self.counts.items()},
-                SLOW_CLIENTS: " ".join(sorted(self.slow_clients)),
-                LAST_REFUSAL: self.last_refusal,
+                key.BRIDGE_URL: self.url,
+                key.CLIENTS: str(len(self._subscribers)),
+                key.CHANNELS: str(len(self._channels)),
+                **{name: str(value) for name, value in self.counts.items()},
+                key.SLOW_CLIENTS: " ".join(sorted(self.slow_clients)),
+                key.LAST_REFUSAL: self.last_refusal,
             }
 
     def _publish_status(self) -> None:
         values = self.status_values()
-        slow = int(values[SLOW_REPORTS]) > 0
+        slow = int(values[key.SLOW_REPORTS]) > 0
         status = DiagnosticStatus(
             level=DiagnosticStatus.WARN if slow else DiagnosticStatus.OK,
             name=self.get_fully_qualified_name().lstrip("/") + STATUS_SUFFIX,
             message=(
-                f"{values[CLIENTS]} client(s); slow clients lost messages: {values[SLOW_CLIENTS]}"
+                f"{values[key.CLIENTS]} client(s); slow clients lost messages: "
+                f"{values[key.SLOW_CLIENTS]}"
                 if slow
-                else f"{values[CLIENTS]} client(s), {values[CHANNELS]} channel(s)"
+                else f"{values[key.CLIENTS]} client(s), {values[key.CHANNELS]} channel(s)"
             ),
             hardware_id=NODE_NAME,
         )
-        status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
+        status.values = [KeyValue(key=name, value=value) for name, value in values.items()]
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()
         self._status.publish(array)

@@ -42,7 +42,10 @@ from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
 from sail_ros.cli import PHYSICS_DOC
-from sail_ros.message_bytes import ShapeSerializer, StateSerializer
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import state as state_msg
+from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
@@ -249,10 +252,10 @@ class SimNode(Node):
 
     def state(self, stamp_ns: int, sample) -> None:
         for name, data in self._states.serialize(stamp_ns, sample):
-            self._outputs[name].publish(data)  # CDR bytes of `topics.state_messages`
+            self._outputs[name].publish(data)  # CDR bytes of `messages.state.state_messages`
 
     def shape(self, stamp_ns: int, q, lengths) -> None:
-        self._outputs[topics.SHAPE].publish(  # CDR bytes of `topics.shape`
+        self._outputs[topics.SHAPE].publish(  # CDR bytes of `messages.shape.shape`
             self._shape.serialize(
                 stamp_ns, self.surface.vertices(q, lengths), self.surface.boom_lines(q, lengths)
             )
@@ -260,14 +263,16 @@ class SimNode(Node):
 
     def status(self, stamp_ns: int, level: str, message: str, values: dict) -> None:
         self._outputs[topics.DIAGNOSTICS].publish(
-            topics.diagnostics(stamp_ns, level, message, values, self.get_fully_qualified_name())
+            diagnostics_msg.diagnostics(
+                stamp_ns, level, message, values, self.get_fully_qualified_name()
+            )
         )
         if topics.CLOCK in self._outputs:  # fresh for late joiners, also while paused
-            self._outputs[topics.CLOCK].publish(topics.clock(stamp_ns))
+            self._outputs[topics.CLOCK].publish(state_msg.clock(stamp_ns))
 
-    def answer(self, answer: topics.CommandAnswer) -> None:
+    def answer(self, answer: commands_msg.CommandAnswer) -> None:
         self._outputs[topics.COMMAND_STATUS].publish(
-            topics.command_status(self.run.stamp_ns(), answer)
+            commands_msg.command_status(self.run.stamp_ns(), answer)
         )
 
     def log(self, severity: str, text: str) -> None:

@@ -21,6 +21,7 @@ import time
 from typing import Protocol
 
 from sail_ros import topics
+from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel
 from sail_ros.model.record import StateSample
@@ -58,7 +59,7 @@ class Outputs(Protocol):
     def status(self, stamp_ns: int, level: str, message: str, values: dict) -> None:
         """The integrator status (/diagnostics)."""
 
-    def answer(self, answer: topics.CommandAnswer) -> None:
+    def answer(self, answer: commands_msg.CommandAnswer) -> None:
         """The answer to one command (sail/command_status)."""
 
     def log(self, severity: str, text: str) -> None:
@@ -78,7 +79,7 @@ class CommandLog:
 
     def record(self, outcome: str, severity: str, text: str) -> None:
         self.roll()
-        if outcome == topics.REJECTED:
+        if outcome == commands_msg.REJECTED:
             self._last_rejection = text
         if self._lines.get(outcome, 0) < COMMAND_LINES:
             self._lines[outcome] = self._lines.get(outcome, 0) + 1
@@ -95,7 +96,7 @@ class CommandLog:
         if self._held:
             counts = ", ".join(f"{count} {outcome}" for outcome, count in self._held.items())
             last = ""
-            if self._held.get(topics.REJECTED):
+            if self._held.get(commands_msg.REJECTED):
                 last = f" (last rejection: {self._last_rejection})"
             self._log(
                 "warning",
@@ -219,7 +220,7 @@ class RealTimeRun:
         if why_not == STALE:
             self.ignored += 1
             text = "published before this simulator started; not run"
-            self._answer(Pending(topic, message, info), topics.IGNORED, text, {}, "warning")
+            self._answer(Pending(topic, message, info), commands_msg.IGNORED, text, {}, "warning")
             return False
         if self.queue.offer(Pending(topic, message, info)):
             return self.sim.state != RUNNING
@@ -228,7 +229,9 @@ class RealTimeRun:
         )
         with self.lock:
             self.sim.count_rejection(error)
-        self._answer(Pending(topic, message, info), topics.REJECTED, str(error), {}, "warning")
+        self._answer(
+            Pending(topic, message, info), commands_msg.REJECTED, str(error), {}, "warning"
+        )
         return False
 
     def _run_commands(self) -> None:
@@ -246,7 +249,7 @@ class RealTimeRun:
             if covered(batch, index, plans):
                 self.superseded += 1
                 text = "replaced by a newer command before it started; not run"
-                self._answer(pending, topics.SUPERSEDED, text, {}, "info")
+                self._answer(pending, commands_msg.SUPERSEDED, text, {}, "info")
                 continue
             try:
                 if pending.topic == topics.DEPLOY_CMD:
@@ -269,26 +272,26 @@ class RealTimeRun:
                 else:
                     change = sim.load(topic, batch[index].message)
             except CommandError as error:
-                self._answer(batch[index], topics.REJECTED, str(error), {}, "warning")
+                self._answer(batch[index], commands_msg.REJECTED, str(error), {}, "warning")
                 continue
             # the loads now held, all of the kind: a log then tells the loads from the answers
             held = change.values
-            values = {"t_start_s": repr(sim.t_model), topics.LOADS_HELD: _numbers(held)}
+            values = {"t_start_s": repr(sim.t_model), commands_msg.LOADS_HELD: _numbers(held)}
             self._accepted(batch[index], change.summary, values)
 
     def _rejected(self, pending: Pending, error: CommandError) -> None:
         self.sim.count_rejection(error)
-        self._answer(pending, topics.REJECTED, str(error), {}, "warning")
+        self._answer(pending, commands_msg.REJECTED, str(error), {}, "warning")
 
     def _accepted(self, pending: Pending, summary: str, values: dict) -> None:
         text = f"accepted at t = {self.sim.t_model:.6f} s: {summary}"
-        self._answer(pending, topics.ACCEPTED, summary, values, "info", text)
+        self._answer(pending, commands_msg.ACCEPTED, summary, values, "info", text)
 
     def _answer(self, pending, outcome, text, values, severity, line=None) -> None:
         topic = self.resolve(pending.topic)
         self._commands.record(outcome, severity, f"{topic} {line or f'{outcome}: {text}'}")
         self.outputs.answer(
-            topics.CommandAnswer(
+            commands_msg.CommandAnswer(
                 topic=topic,
                 outcome=outcome,
                 message=text,

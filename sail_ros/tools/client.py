@@ -27,6 +27,8 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, parse_command_line
 from sail_ros.tools.common import stdout_closed
 from sail_ros.tools.domains import LAST_DOMAIN
@@ -54,7 +56,7 @@ class SimClient(Node):
         self.executor_ = SingleThreadedExecutor(context=context)
         self.executor_.add_node(self)
         self.sim_name = self.resolve_topic_name(topics.SIM_NODE)  # e.g. /sat2/sail_sim
-        self.answers: list[topics.CommandAnswer] = []
+        self.answers: list[commands_msg.CommandAnswer] = []
         self.status_subscription = self.create_subscription(
             DiagnosticArray, topics.COMMAND_STATUS, self._on_answer, topics.COMMAND_STATUS_QOS
         )
@@ -113,7 +115,7 @@ class SimClient(Node):
             f"{topics.COMMAND_STATUS} of {self.sim_name}",
         )
         status = self.latest.get("diagnostics_values", {})
-        counted = ("accepted_commands", "rejected_commands", "dropped_commands")
+        counted = (key.ACCEPTED, key.REJECTED, key.DROPPED)
         expected = min(
             topics.COMMAND_STATUS_QOS.depth, sum(int(status.get(name, 0)) for name in counted)
         )
@@ -136,7 +138,7 @@ class SimClient(Node):
 
     # -- commands ---------------------------------------------------------------------------
 
-    def send(self, name: str, message, timeout: float) -> topics.CommandAnswer:
+    def send(self, name: str, message, timeout: float) -> commands_msg.CommandAnswer:
         """Publish a command on topic `name` once the simulator listens, and return its
         answer.
 
@@ -162,7 +164,7 @@ class SimClient(Node):
         before = time.time_ns()
         publisher.publish(message)
         after = time.time_ns()
-        found: list[topics.CommandAnswer] = []
+        found: list[commands_msg.CommandAnswer] = []
 
         def answered() -> bool:
             found.extend(
@@ -201,7 +203,7 @@ class SimClient(Node):
     # -- watching ---------------------------------------------------------------------------
 
     def _on_answer(self, array: DiagnosticArray) -> None:
-        answer = topics.command_answer(array)
+        answer = commands_msg.command_answer(array)
         if answer is not None:
             self.answers.append(answer)
             self.latest["answer"] = answer

@@ -24,15 +24,15 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.serialization import deserialize_message
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
+from sail_ros.analysis.log_series import read_log
 from sail_ros.bag import BagReader
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import status as key
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.ros.cli import bounded_teardown
@@ -173,7 +173,7 @@ def _run(processes, time_scale: float, domain: int, lease: DomainLease) -> float
     check = exited(processes)
 
     def sim_time() -> float:
-        return float(client.latest.get("diagnostics_values", {}).get("sim_time_s", "nan"))
+        return float(client.latest.get("diagnostics_values", {}).get(key.SIM_TIME, "nan"))
 
     try:
         client.spin_until(
@@ -189,7 +189,7 @@ def _run(processes, time_scale: float, domain: int, lease: DomainLease) -> float
         client.call(topics.PAUSE_SERVICE, SetBool.Request(data=True), 10.0)
         client.call(topics.RESET_SERVICE, Trigger.Request(), 10.0)
         answer = client.send(topics.DEPLOY_CMD, Float64(data=END), 10.0)
-        if answer.outcome != topics.ACCEPTED:
+        if answer.outcome != commands_msg.ACCEPTED:
             raise RuntimeError(f"the deployment was {answer.outcome}: {answer.message}")
         t_start = float(answer.values["t_start_s"])
         client.call(topics.PAUSE_SERVICE, SetBool.Request(data=False), 10.0)
@@ -227,24 +227,16 @@ def summarise(output: Path, t_start: float) -> None:
     for name, count in counts.items():
         print(f"    {name:<24}{count:>7}")
 
-    statuses = [
-        topics.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
-        | {"stamp_ns": _stamp_ns(deserialize_message(m.data, DiagnosticArray))}
-        for m in reader.messages([topics.DIAGNOSTICS])
-    ]
-    epoch = statuses[-1]["stamp_ns"] - round(float(statuses[-1]["sim_time_s"]) * 1e9)
-    parameters = dict(reader.metadata()).get(topics.PARAMETERS_METADATA, {})
-    sail = topics.sail_parameters_from_record(parameters) or SailParameters()
+    log = read_log(output)  # t: simulation time, from the first status that tells it
+    statuses = log.diagnostics[1]
+    parameters = log.parameters or {}
+    sail = log.sail_parameters() or SailParameters()
     print(
         f"  simulator parameters stored: {len(parameters)} (n_B = {sail.n_boom_modes}, "
         f"n_M = {sail.n_membrane_modes}, time_scale = {parameters.get('time_scale')})"
     )
 
-    tips = [
-        deserialize_message(m.data, JointState)
-        for m in reader.messages([topics.absolute(topics.TIP_DEFLECTION)])
-    ]
-    t = np.array([(_stamp_ns(m) - epoch) * 1e-9 - t_start for m in tips])
+    t = log.seconds(log.tips.stamp_ns) - t_start
     chosen = [int(np.argmin(np.abs(t - wanted))) for wanted in REPORT_TIMES]
     model = SailModel(sail)
     step = float(parameters.get("integration_step", "0.01"))
@@ -261,7 +253,7 @@ def summarise(output: Path, t_start: float) -> None:
         "(offline, same model: max |difference|)"
     )
     for index, reference in zip(chosen, offline, strict=True):
-        live = np.array(tips[index].position)
+        live = log.tips.position[index]
         print(
             f"    t = {t[index]:5.2f} s   "
             + "".join(f"{1e3 * v:11.4f}" for v in live)
@@ -270,24 +262,24 @@ def summarise(output: Path, t_start: float) -> None:
     # while running; each status carries the last measurement over >= 0.5 s of running
     # (window 0 before the first)
     running = [
-        float(s["real_time_factor"])
-        for s in statuses
-        if s["state"] == "running" and float(s["real_time_factor_window_s"]) > 0
+        float(factor)
+        for state, factor, window in zip(
+            statuses[key.STATE],
+            statuses[key.REAL_TIME_FACTOR],
+            statuses[key.REAL_TIME_FACTOR_WINDOW],
+            strict=True,
+        )
+        if state == "running" and float(window) > 0
     ]
-    final = statuses[-1]
     scale = float(parameters.get("time_scale", "1.0"))
     factor = (
         f"max {max(running):.3f}, median {np.median(running):.3f}" if running else "not measured"
     )
     print(
         f"\n  real-time factor: {factor} (time scale {scale:g}); longest integration step "
-        f"{max(float(s['step_time_ms_max']) for s in statuses):.3f} ms"
+        f"{max(map(float, statuses[key.STEP_TIME_MAX])):.3f} ms"
     )
     print(
         f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
-        f"{final['overruns']}; rejected commands: {final['rejected_commands']}"
+        f"{statuses[key.OVERRUNS][-1]}; rejected commands: {statuses[key.REJECTED][-1]}"
     )
-
-
-def _stamp_ns(message) -> int:
-    return message.header.stamp.sec * 10**9 + message.header.stamp.nanosec

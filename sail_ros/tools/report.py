@@ -53,6 +53,7 @@ from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.messages import status as key
 from sail_ros.model import SailModel, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
 from sail_ros.model.record import column_names
@@ -79,14 +80,14 @@ from sail_ros.tools.common import (
 
 # first columns of real_time_factor.csv; any other status values follow by name
 DIAGNOSTIC_COLUMNS = (
-    "sim_time_s",
-    "real_time_factor",
-    "state",
-    "step_time_ms_mean",
-    "step_time_ms_max",
-    "overruns",
-    "rejected_commands",
-    "mechanical_energy_J",
+    key.SIM_TIME,
+    key.REAL_TIME_FACTOR,
+    key.STATE,
+    key.STEP_TIME_MEAN,
+    key.STEP_TIME_MAX,
+    key.OVERRUNS,
+    key.REJECTED,
+    key.ENERGY,
 )
 
 
@@ -574,23 +575,23 @@ def _real_time_factor(log, out: Path, time_label: str, title: str) -> list[Path]
         )
         return []
     stamps, values = log.diagnostics
-    if "real_time_factor" not in values:
+    if key.REAL_TIME_FACTOR not in values:
         print("  /diagnostics has no real_time_factor value: real-time factor not available")
         return []
     t = log.seconds(stamps)
-    factor = _floats(values["real_time_factor"])
-    if "real_time_factor_window_s" in values:  # 0: no measurement yet (the value reads 0)
-        factor[_floats(values["real_time_factor_window_s"]) <= 0] = np.nan
+    factor = _floats(values[key.REAL_TIME_FACTOR])
+    if key.REAL_TIME_FACTOR_WINDOW in values:  # 0: no measurement yet (the value reads 0)
+        factor[_floats(values[key.REAL_TIME_FACTOR_WINDOW]) <= 0] = np.nan
     finite = factor[np.isfinite(factor)]
     if finite.size:
         print(
             f"  real-time factor: mean {finite.mean():.3g}, min {finite.min():.3g}, "
             f"max {finite.max():.3g} over {finite.size} diagnostics messages"
         )
-    keys = [key for key in DIAGNOSTIC_COLUMNS if key in values]
-    keys += sorted(set(values) - set(keys))
-    header = ["t_s", "stamp_ns", *keys]
-    columns = [t, stamps, *[values[key] for key in keys]]
+    names = [name for name in DIAGNOSTIC_COLUMNS if name in values]
+    names += sorted(set(values) - set(names))
+    header = ["t_s", "stamp_ns", *names]
+    columns = [t, stamps, *[values[name] for name in names]]
     return [
         _write_csv(out / "real_time_factor.csv", header, columns),
         real_time_factor_figure(
@@ -599,7 +600,7 @@ def _real_time_factor(log, out: Path, time_label: str, title: str) -> list[Path]
             out / "real_time_factor.png",
             title=title,
             time_label=time_label,
-            time_scale=_floats(values["time_scale"]) if "time_scale" in values else None,
+            time_scale=_floats(values[key.TIME_SCALE]) if key.TIME_SCALE in values else None,
         ),
     ]
 

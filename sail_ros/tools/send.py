@@ -18,6 +18,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import hub as hub_msg
 from sail_ros.policy import Policy
 from sail_ros.tools.client import NoAnswerError, SimClient, add_domain_option, run_client
 
@@ -70,7 +72,7 @@ def load_command(args) -> tuple[str, object]:
     names = [prefix + name for name in given]
     for name, value in zip(names, values, strict=True):
         Policy.finite_load(name, value, args.command == "pressure")
-    return topic, topics.load_command(topic, dict(zip(names, values, strict=True)))
+    return topic, commands_msg.load_command(topic, dict(zip(names, values, strict=True)))
 
 
 HUB_WRENCH_OPTIONS = (("--force", "N"), ("--torque-x", "N m"), ("--torque-y", "N m"))
@@ -83,7 +85,7 @@ def hub_wrench(args):
     for (option, unit), value in zip(HUB_WRENCH_OPTIONS, values, strict=True):
         if not math.isfinite(value):
             raise ValueError(f"{option} = {value} {unit} is not finite")
-    return topics.hub_wrench_command(*values)
+    return hub_msg.hub_wrench_command(*values)
 
 
 def build_parser() -> ToolParser:
@@ -202,10 +204,10 @@ def run(args, client: SimClient) -> int:
             name, message = topics.BOOM_LENGTH_CMD, trajectory(args.booms, args.point)
         answer = client.send(name, message, args.timeout)
         print(f"{answer.outcome}: {answer.message}")
-        if answer.outcome == topics.ACCEPTED:
+        if answer.outcome == commands_msg.ACCEPTED:
             start, end = (float(answer.values[k]) for k in ("t_start_s", "t_end_s"))
             print(f"  from t = {start:.3f} s to {end:.3f} s (simulation time)")
-        return 0 if answer.outcome == topics.ACCEPTED else 1
+        return 0 if answer.outcome == commands_msg.ACCEPTED else 1
     if args.command in ("pressure", "tip-force", "hub-wrench"):
         if args.command == "hub-wrench":
             try:
@@ -217,7 +219,7 @@ def run(args, client: SimClient) -> int:
         else:
             answer = client.send(*load_command(args), args.timeout)
         print(f"{answer.outcome}: {answer.message}")
-        return 0 if answer.outcome == topics.ACCEPTED else 1
+        return 0 if answer.outcome == commands_msg.ACCEPTED else 1
     if args.command == "reset":
         response = client.call(topics.RESET_SERVICE, Trigger.Request(), args.timeout)
     else:

@@ -16,6 +16,9 @@ import time
 
 from sail_ros import topics
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.messages import state as state_msg
+from sail_ros.messages import status as key
+from sail_ros.model import record
 from sail_ros.model.record import HUB_COMPONENTS
 from sail_ros.tools.client import SimClient, add_domain_option, run_client
 
@@ -49,39 +52,27 @@ def build_parser() -> ToolParser:
 
 def snapshot(client: SimClient) -> dict:
     """What the client last heard, as plain data (SI units)."""
-    booms = client.latest[topics.BOOM_STATE]
-    tips = client.latest[topics.TIP_DEFLECTION]
     status = client.latest["diagnostics"]
     values = {pair.key: pair.value for pair in status.values}
     answer = client.latest.get("answer")
-    moments = client.latest.get(topics.ROOT_MOMENT)
-    hub = client.latest.get(topics.HUB_STATE)
-    view = {
+    return {
         "simulator": client.sim_name,
         "level": ("OK", "WARN", "ERROR", "STALE")[min(int.from_bytes(status.level), 3)],
         "message": status.message,
-        "state": values.get("state", ""),
-        "sim_time_s": float(values.get("sim_time_s", "nan")),
-        "real_time_factor": float(values.get("real_time_factor", "nan")),
-        "mechanical_energy_J": float(values.get("mechanical_energy_J", "nan")),
-        "boom_length_m": dict(zip("abcd", map(float, booms.position), strict=True)),
-        "boom_rate_m_s": dict(zip("abcd", map(float, booms.velocity), strict=True)),
-        "tip_deflection_m": dict(zip("abcd", map(float, tips.position), strict=True)),
-        "root_moment_N_m": dict(
-            zip("abcd", map(float, moments.effort if moments else [math.nan] * 4), strict=True)
-        ),
-        "load_power_W": float(values.get("load_power_W", "nan")),
-        "damping_dissipation_W": float(values.get("damping_dissipation_W", "nan")),
-        "accepted_commands": int(values.get("accepted_commands", "0")),
-        "rejected_commands": int(values.get("rejected_commands", "0")),
-        "last_command": values.get("last_command", ""),
-        "last_rejection": values.get("last_rejection", ""),
+        key.STATE: values.get(key.STATE, ""),
+        key.SIM_TIME: float(values.get(key.SIM_TIME, "nan")),
+        key.REAL_TIME_FACTOR: float(values.get(key.REAL_TIME_FACTOR, "nan")),
+        key.ENERGY: float(values.get(key.ENERGY, "nan")),
+        # the record's per-boom fields and a free hub's, as the record names them
+        **record.view(state_msg.sample(client.latest)),
+        key.LOAD_POWER: float(values.get(key.LOAD_POWER, "nan")),
+        key.DISSIPATION: float(values.get(key.DISSIPATION, "nan")),
+        key.ACCEPTED: int(values.get(key.ACCEPTED, "0")),
+        key.REJECTED: int(values.get(key.REJECTED, "0")),
+        key.LAST_COMMAND: values.get(key.LAST_COMMAND, ""),
+        key.LAST_REJECTION: values.get(key.LAST_REJECTION, ""),
         "last_answer": f"{answer.outcome}: {answer.message}" if answer else "",
     }
-    if hub is not None:  # a free hub (/sail/hub_state)
-        view["hub"] = dict(zip(HUB_COMPONENTS, map(float, topics.hub_from_odometry(hub)),
-                               strict=True))  # fmt: skip
-    return view
 
 
 def table(view: dict) -> str:
@@ -100,9 +91,9 @@ def table(view: dict) -> str:
         )
     return "\n".join(
         [
-            f"{view['simulator']}  {view['state']}  t = {view['sim_time_s']:.2f} s  "
-            f"real-time factor {view['real_time_factor']:.3g}  "
-            f"E = {view['mechanical_energy_J']:.4g} J",
+            f"{view['simulator']}  {view[key.STATE]}  t = {view[key.SIM_TIME]:.2f} s  "
+            f"real-time factor {view[key.REAL_TIME_FACTOR]:.3g}  "
+            f"E = {view[key.ENERGY]:.4g} J",
             f"  {view['level']}: {view['message']}",
             f"  {'':<22}" + "".join(f"{'boom ' + b:>12}" for b in "abcd"),
             row("length [m]", view["boom_length_m"]),
@@ -110,12 +101,11 @@ def table(view: dict) -> str:
             row("tip deflection [mm]", view["tip_deflection_m"], scale=1e3),
             row("root moment [N m]", view["root_moment_N_m"], digits=4),
             *hub,
-            f"  load power {view['load_power_W']:.4g} W, damping dissipation "
-            f"{view['damping_dissipation_W']:.4g} W",
-            f"  commands: {view['accepted_commands']} accepted, "
-            f"{view['rejected_commands']} rejected",
-            f"  last command: {view['last_command'] or '-'}",
-            f"  last rejection: {view['last_rejection'] or '-'}",
+            f"  load power {view[key.LOAD_POWER]:.4g} W, damping dissipation "
+            f"{view[key.DISSIPATION]:.4g} W",
+            f"  commands: {view[key.ACCEPTED]} accepted, {view[key.REJECTED]} rejected",
+            f"  last command: {view[key.LAST_COMMAND] or '-'}",
+            f"  last rejection: {view[key.LAST_REJECTION] or '-'}",
             f"  last answer: {view['last_answer'] or '-'}",
         ]
     )
@@ -132,7 +122,7 @@ def check(args) -> str | None:
 def run(args, client: SimClient) -> int:
     wanted = (topics.BOOM_STATE, topics.TIP_DEFLECTION, "diagnostics")
     client.spin_until(
-        lambda: all(key in client.latest for key in wanted),
+        lambda: all(name in client.latest for name in wanted),
         args.timeout,
         f"state and diagnostics from {client.sim_name} (is `sail-ros sim` running in this "
         "namespace and domain?)",

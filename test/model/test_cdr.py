@@ -1,4 +1,4 @@
-"""`message_bytes.serialize`: exact CDR bytes. An independent writer (rosbags) gives
+"""`messages.cdr.serialize`: exact CDR bytes. An independent writer (rosbags) gives
 the same bytes for what an independent reader (rosbags) decodes from them."""
 
 import numpy as np
@@ -14,8 +14,8 @@ from std_msgs.msg import ByteMultiArray, Empty, Float64, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
-from sail_ros import topics
-from sail_ros.message_bytes import serialize
+from sail_ros.messages import shape as shape_msg
+from sail_ros.messages.cdr import serialize
 
 pytestmark = pytest.mark.model
 
@@ -30,7 +30,7 @@ def joint_state(names, position=(), velocity=(), effort=(), frame_id="sail"):
 def marker_array():
     mesh = Marker(ns="membrane", id=3, type=Marker.TRIANGLE_LIST, text="é")  # 2 UTF-8 bytes
     mesh.points = [Point(x=0.5 * k, y=-1.0, z=1e-3 * k) for k in range(7)]
-    mesh.colors = topics.height_colours(np.linspace(-1.0, 1.0, 7), 1.0)
+    mesh.colors = shape_msg.height_colours(np.linspace(-1.0, 1.0, 7), 1.0)
     mesh.mesh_file.filename, mesh.mesh_file.data = "m.stl", [1, 2, 3]
     return MarkerArray(markers=[mesh, Marker(ns="b", frame_locked=True)])
 

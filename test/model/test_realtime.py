@@ -10,6 +10,8 @@ from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import hub as hub_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel
 from sail_ros.runtime.config import config_from_values
@@ -187,7 +189,7 @@ def test_a_flood_of_deploy_commands_costs_one_plan_a_tick(model):
     status = run.status()[3]
     assert status[key.ACCEPTED] == 100 and status[key.SUPERSEDED] == 1900
     assert status[key.REJECTED] == 0 and len(planned) == 100
-    assert count(outputs, topics.ACCEPTED) + count(outputs, topics.SUPERSEDED) == sent
+    assert count(outputs, commands_msg.ACCEPTED) + count(outputs, commands_msg.SUPERSEDED) == sent
     assert run.overruns == 0 and run.sim.t == pytest.approx(2.0, abs=1e-9)
     advance(run, clock, 6.0)
     assert len(outputs.lines) < 20
@@ -204,7 +206,7 @@ def test_a_flood_of_malformed_commands_is_rejected_and_counted(model):
         advance(run, clock, 0.02)
     status = run.status()[3]
     assert status[key.REJECTED] == sent and status[key.ACCEPTED] == 0
-    assert count(outputs, topics.REJECTED) == sent
+    assert count(outputs, commands_msg.REJECTED) == sent
     assert all("not a finite length" in a.message for a in outputs.answers)
     advance(run, clock, 6.0)  # the interval of the counts ends
     warnings = [text for severity, text in outputs.lines if severity == "warning"]
@@ -251,8 +253,8 @@ def test_a_batch_ends_as_acting_on_its_commands_one_by_one(
 def test_a_full_intake_rejects_and_counts(model):
     run, clock, outputs, _ = make_run(model, max_queued_commands=5)
     for i in range(8):
-        run.submit(topics.PRESSURE_CMD, topics.load_command(topics.PRESSURE_CMD, {}), info(i))
-    rejected = [a for a in outputs.answers if a.outcome == topics.REJECTED]
+        run.submit(topics.PRESSURE_CMD, commands_msg.load_command(topics.PRESSURE_CMD, {}), info(i))
+    rejected = [a for a in outputs.answers if a.outcome == commands_msg.REJECTED]
     assert len(rejected) == 3 and "5 commands were already waiting" in rejected[0].message
     advance(run, clock, 0.02)
     status = run.status()[3]
@@ -263,7 +265,7 @@ def test_commands_published_before_the_start_are_ignored_and_counted(model):
     run, clock, outputs, _ = make_run(model)
     stale = {"source_timestamp": START_NS - 1, "publication_sequence_number": 1}
     assert run.submit(topics.DEPLOY_CMD, deploy(12.0), stale) is False
-    assert outputs.answers[-1].outcome == topics.IGNORED
+    assert outputs.answers[-1].outcome == commands_msg.IGNORED
     assert run.status()[3][key.IGNORED] == 1
     assert run.submit(topics.DEPLOY_CMD, deploy(12.0), stale) is False  # the same again
     assert len(outputs.answers) == 1  # a repeat of a sample is not a new command
@@ -274,7 +276,7 @@ FREE = {"sail.free_hub": True, "sail.hub_mass": 20.0, "sail.hub_inertia_x": 10.0
 
 
 def wrench(force_z=0.0, torque_x=0.0, torque_y=0.0, **held):
-    message = topics.hub_wrench_command(force_z, torque_x, torque_y)
+    message = hub_msg.hub_wrench_command(force_z, torque_x, torque_y)
     for name, value in held.items():
         part, axis = name.split("_")
         setattr(getattr(message.wrench, part), axis, value)
@@ -299,7 +301,7 @@ def test_a_free_hub_is_in_every_sample_and_takes_its_wrench(model):
     ):
         run.submit(topics.HUB_WRENCH_CMD, command, info(i))
         advance(run, clock, 0.02)
-        assert outputs.answers[-1].outcome == topics.REJECTED
+        assert outputs.answers[-1].outcome == commands_msg.REJECTED
         assert reason in outputs.answers[-1].message
     other = wrench(force_z=0.5)
     other.header.frame_id = "base_link"
@@ -309,7 +311,7 @@ def test_a_free_hub_is_in_every_sample_and_takes_its_wrench(model):
     run.submit(topics.HUB_WRENCH_CMD, wrench(force_z=0.5, torque_x=0.2), info(11))
     advance(run, clock, 0.02)
     answer = outputs.answers[-1]
-    assert answer.outcome == topics.ACCEPTED and answer.values[topics.LOADS_HELD] == (
+    assert answer.outcome == commands_msg.ACCEPTED and answer.values[commands_msg.LOADS_HELD] == (
         "[0.5, 0.2, 0.0]"
     )
     assert run.sim.inputs()[8:].tolist() == [0.5, 0.2, 0.0]

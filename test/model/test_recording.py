@@ -20,7 +20,7 @@ from sail_ros.bag.recording import (
     changes_record_of,
     parse_changes_record,
 )
-from sail_ros.message_bytes import serialize
+from sail_ros.messages.cdr import serialize
 
 pytestmark = pytest.mark.model
 

@@ -16,7 +16,11 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros import topics
-from sail_ros.message_bytes import ShapeSerializer, StateSerializer, serialize
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import shape as shape_msg
+from sail_ros.messages import state as state_msg
+from sail_ros.messages.cdr import ShapeSerializer, StateSerializer, serialize
 from sail_ros.model import (
     CycloidalProfile,
     SailModel,
@@ -286,10 +290,12 @@ def test_loads_are_held_from_the_next_step_and_match_simulate(model, config):
     sim = Simulation(model, solar)
     for _ in range(100):
         assert sim.step()
-    force = topics.load_command(topics.TIP_FORCE_CMD, {"boom_b": 0.05})
+    force = commands_msg.load_command(topics.TIP_FORCE_CMD, {"boom_b": 0.05})
     change = sim.load(topics.TIP_FORCE_CMD, force)
     assert change.summary == "boom_b = 0.05 N (others held)"
-    pressure = topics.load_command(topics.PRESSURE_CMD, {"quadrant_ab": 2e-3, "quadrant_cd": 1e-3})
+    pressure = commands_msg.load_command(
+        topics.PRESSURE_CMD, {"quadrant_ab": 2e-3, "quadrant_cd": 1e-3}
+    )
     sim.load(topics.PRESSURE_CMD, pressure)
     assert sim.inputs() == pytest.approx(
         [2e-3 + 9.08e-6, 9.08e-6, 1e-3 + 9.08e-6, 9.08e-6, 0, 0.05, 0, 0]
@@ -345,11 +351,11 @@ def test_the_balance_of_a_damped_ringing_sail_is_its_energy_and_dissipation():
 )
 def test_bad_load_commands_are_rejected_whole(model, config, topic, values, reason):
     sim = Simulation(model, config)
-    message = topics.load_command(topic, {"quadrant_ab": 1e-3} if topic == topics.PRESSURE_CMD
+    message = commands_msg.load_command(topic, {"quadrant_ab": 1e-3} if topic == topics.PRESSURE_CMD
                                   else {"boom_b": 0.5})  # fmt: skip
     sim.load(topic, message)
     before = sim.inputs()
-    bad = topics.load_command(topic, {**values})
+    bad = commands_msg.load_command(topic, {**values})
     if topic == topics.TIP_FORCE_CMD and values:
         bad.name.insert(0, "boom_c")  # a good value first: nothing of the command applies
         bad.effort = [0.3, *bad.effort]
@@ -642,17 +648,17 @@ def test_publication_intervals_round_to_whole_steps():
 
 def test_state_messages_carry_stamp_frame_names_and_values():
     stamp = topics.stamp_ns(1_700_000_000_123_000_000, 2.5)
-    message = topics.boom_state(stamp, [10.0, 11.0, 12.0, 13.0], [0.0, 0.1, 0.2, 0.3])
+    message = state_msg.boom_state(stamp, [10.0, 11.0, 12.0, 13.0], [0.0, 0.1, 0.2, 0.3])
     assert (message.header.stamp.sec, message.header.stamp.nanosec) == (1_700_000_002, 623_000_000)
     assert message.header.frame_id == "sail" and message.name == list(topics.BOOM_JOINTS)
     assert list(message.position) == [10.0, 11.0, 12.0, 13.0]
     assert list(message.velocity) == [0.0, 0.1, 0.2, 0.3]
-    tips = topics.tip_deflection(stamp, [0.1, 0, 0, 0], [0, 0, 0, 0], frame_id="body")
+    tips = state_msg.tip_deflection(stamp, [0.1, 0, 0, 0], [0, 0, 0, 0], frame_id="body")
     assert tips.name == ["boom_a_tip", "boom_b_tip", "boom_c_tip", "boom_d_tip"]
     assert tips.header.frame_id == "body"
-    status = topics.diagnostics(stamp, "WARN", "why", {"state": "running", "overruns": 3})
-    assert status.status[0].level == topics.LEVELS["WARN"]
-    assert topics.diagnostic_values(status) == {"state": "running", "overruns": "3"}
+    status = diagnostics_msg.diagnostics(stamp, "WARN", "why", {"state": "running", "overruns": 3})
+    assert status.status[0].level == diagnostics_msg.LEVELS["WARN"]
+    assert diagnostics_msg.diagnostic_values(status) == {"state": "running", "overruns": "3"}
 
 
 def test_shape_markers_draw_the_deflected_membrane_and_the_booms(model):
@@ -660,7 +666,9 @@ def test_shape_markers_draw_the_deflected_membrane_and_the_booms(model):
     q = model.initial_coordinates([0.1, 0.0, 0.0, -0.05])
     lengths = [10.0, 11.0, 12.0, 13.0]
     vertices = surface.vertices(q, lengths)
-    markers = topics.shape(5, vertices, surface.triangles, surface.boom_lines(q, lengths)).markers
+    markers = shape_msg.shape(
+        5, vertices, surface.triangles, surface.boom_lines(q, lengths)
+    ).markers
     membrane, booms = markers[0], markers[1:]
     assert (membrane.ns, membrane.type, membrane.header.frame_id) == (
         "membrane",
@@ -695,12 +703,12 @@ def test_shared_vertex_points_serialise_as_one_point_per_corner(model):
     q = model.initial_coordinates([0.1, -0.02, 0.03, -0.05])
     lengths = [10.0, 11.0, 12.0, 13.0]
     vertices, triangles = surface.vertices(q, lengths), surface.triangles
-    message = topics.shape(5, vertices, triangles, surface.boom_lines(q, lengths))
+    message = shape_msg.shape(5, vertices, triangles, surface.boom_lines(q, lengths))
     corners = vertices[triangles.ravel()]
-    scale = max(np.abs(corners[:, 2]).max(), topics.MIN_COLOUR_RANGE)
+    scale = max(np.abs(corners[:, 2]).max(), shape_msg.MIN_COLOUR_RANGE)
     expected = copy.deepcopy(message)
     expected.markers[0].points = [Point(x=x, y=y, z=z) for x, y, z in corners.tolist()]
-    expected.markers[0].colors = topics.height_colours(corners[:, 2], scale)
+    expected.markers[0].colors = shape_msg.height_colours(corners[:, 2], scale)
     decoded = deserialize_message(serialize_message(message), MarkerArray)
     assert decoded == expected
     assert [p.z for p in decoded.markers[0].points] == corners[:, 2].tolist()
@@ -723,7 +731,7 @@ def test_a_trajectory_longer_than_max_trajectory_points_is_rejected_whole(config
 
 def test_shape_bytes_are_those_of_the_message_built_from_objects(model):
     """What the simulator publishes on /sail/shape (CDR filled with numpy) is, byte for
-    byte, the serialised message `topics.shape` builds: every stamp, point and colour,
+    byte, the serialised message `messages.shape.shape` builds: every stamp, point and colour,
     frame after frame (each fills a fresh copy of the template)."""
     surface = SailSurface(model, 6)
     serializer = ShapeSerializer(surface.triangles, surface.boom_stations.size, "body")
@@ -736,14 +744,14 @@ def test_shape_bytes_are_those_of_the_message_built_from_objects(model):
         q = model.initial_coordinates(tips)
         vertices, booms = surface.vertices(q, lengths), surface.boom_lines(q, lengths)
         data = serializer.serialize(stamp_ns, vertices, booms)
-        built = topics.shape(stamp_ns, vertices, surface.triangles, booms, "body")
+        built = shape_msg.shape(stamp_ns, vertices, surface.triangles, booms, "body")
         assert data == serialize(built)
         assert deserialize_message(data, MarkerArray) == built
 
 
 def test_state_bytes_are_those_of_the_messages_built_from_objects(model):
     """What the simulator publishes on the state topics (CDR filled with numpy) is,
-    byte for byte, the serialised messages `topics.state_messages` builds, topic by
+    byte for byte, the serialised messages `messages.state.state_messages` builds, topic by
     topic."""
     for with_clock in (False, True):
         serializer = StateSerializer(model.coordinate_names, "body", with_clock=with_clock)
@@ -752,7 +760,7 @@ def test_state_bytes_are_those_of_the_messages_built_from_objects(model):
             q, qd = rng.normal(size=model.n), rng.normal(size=model.n)
             lengths, rates = rng.uniform(5.0, 20.0, 4), rng.normal(size=4)
             sample = model.sample(1.5, lengths, rates, q, qd)
-            built = topics.state_messages(
+            built = state_msg.state_messages(
                 stamp_ns, sample, model.coordinate_names, "body", with_clock=with_clock
             )
             sent = serializer.serialize(stamp_ns, sample)

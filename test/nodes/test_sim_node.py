@@ -23,6 +23,10 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import hub as hub_msg
+from sail_ros.messages import status as key
 from sail_ros.model.fields import ConfigError
 from sail_ros.nodes.sim import SPECS, SimNode, main
 
@@ -77,7 +81,7 @@ class Client(Node):
         self.create_subscription(
             DiagnosticArray,
             topics.DIAGNOSTICS,
-            lambda m: self.diagnostics.append(topics.diagnostic_values(m)),
+            lambda m: self.diagnostics.append(diagnostics_msg.diagnostic_values(m)),
             topics.DIAGNOSTICS_QOS,
         )
         self.describe = self.create_client(DescribeParameters, "/sail_sim/describe_parameters")
@@ -166,7 +170,7 @@ def test_pause_resume_and_reset(ros):
     spin_until(lambda: sim.sim.t > 0.3, 5.0, "0.3 s of simulation")
     answer = call(spin_until, client.pause, SetBool.Request(data=True))
     assert answer.success and answer.message.startswith("paused at t = ")
-    spin_until(lambda: client.diagnostics[-1]["state"] == "paused", 2.0, "state paused")
+    spin_until(lambda: client.diagnostics[-1][key.STATE] == "paused", 2.0, "state paused")
     held = sim.sim.t
     deadline = time.monotonic() + 0.3
     spin_until(lambda: time.monotonic() > deadline, 1.0, "0.3 s of pause")
@@ -192,18 +196,18 @@ def test_pause_resume_and_reset(ros):
 def test_command_times_read_minus_one_when_there_is_none(ros):
     sim, client, spin_until = ros(diagnostics_rate_hz=20.0)
     status = client.diagnostics[-1]
-    assert (status["last_command_start_s"], status["motion_end_s"]) == ("-1.0", "-1.0")
+    assert (status[key.LAST_COMMAND_START], status[key.MOTION_END]) == ("-1.0", "-1.0")
     deploy = client.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
     spin_until(lambda: deploy.get_subscription_count() >= 1, 5.0, "the deploy subscription")
     deploy.publish(Float64(data=11.0))
-    spin_until(lambda: client.diagnostics[-1]["accepted_commands"] == "1", 5.0, "the command")
-    start = float(client.diagnostics[-1]["last_command_start_s"])
-    assert 0.0 <= start < float(client.diagnostics[-1]["motion_end_s"])
+    spin_until(lambda: client.diagnostics[-1][key.ACCEPTED] == "1", 5.0, "the command")
+    start = float(client.diagnostics[-1][key.LAST_COMMAND_START])
+    assert 0.0 <= start < float(client.diagnostics[-1][key.MOTION_END])
     assert call(spin_until, client.reset, Trigger.Request()).success
     spin_until(
-        lambda: client.diagnostics[-1]["motion_end_s"] == "-1.0", 2.0, "the status after the reset"
+        lambda: client.diagnostics[-1][key.MOTION_END] == "-1.0", 2.0, "the status after the reset"
     )  # the reset ended the motion...
-    assert float(client.diagnostics[-1]["last_command_start_s"]) == start  # ...not its record
+    assert float(client.diagnostics[-1][key.LAST_COMMAND_START]) == start  # ...not its record
 
 
 def _fifo_threads() -> dict[str, int]:
@@ -225,13 +229,13 @@ def test_realtime_priority_puts_the_integration_thread_alone_on_fifo_scheduling(
     else:
         assert sim.run.realtime_priority == 40
         assert _fifo_threads() == {"sail_sim ticks": 40}
-    assert client.diagnostics[-1]["realtime_priority"] == str(sim.run.realtime_priority)
+    assert client.diagnostics[-1][key.REALTIME_PRIORITY] == str(sim.run.realtime_priority)
 
 
 def test_realtime_priority_is_not_used_as_fast_as_possible(ros):
     sim, client, _ = ros(realtime_priority=40, time_scale=0.0, shape_rate_hz=0.0)
     assert sim.run.realtime_priority == 0 and _fifo_threads() == {}
-    assert client.diagnostics[-1]["realtime_priority"] == "0"
+    assert client.diagnostics[-1][key.REALTIME_PRIORITY] == "0"
 
 
 def test_a_refused_realtime_priority_leaves_normal_scheduling(ros, monkeypatch):
@@ -242,7 +246,7 @@ def test_a_refused_realtime_priority_leaves_normal_scheduling(ros, monkeypatch):
     sim, client, spin_until = ros(realtime_priority=40)
     spin_until(lambda: sim.sim.t > 0.1, 5.0, "the simulation to run")
     assert sim.run.realtime_priority == 0 and _fifo_threads() == {}
-    assert client.diagnostics[-1]["realtime_priority"] == "0"
+    assert client.diagnostics[-1][key.REALTIME_PRIORITY] == "0"
 
 
 def test_bad_parameter_values_stop_the_start(ros):
@@ -289,7 +293,7 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
     client.create_subscription(
         DiagnosticArray,
         topics.COMMAND_STATUS,
-        lambda m: answers.append(topics.command_answer(m)),
+        lambda m: answers.append(commands_msg.command_answer(m)),
         topics.COMMAND_STATUS_QOS,
     )
     spin_until(lambda: len(hubs) > 20, 5.0, "hub states")
@@ -302,7 +306,7 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
     assert q.x**2 + q.y**2 + q.z**2 + q.w**2 == pytest.approx(1.0, abs=1e-12)
     wrench = client.create_publisher(WrenchStamped, topics.HUB_WRENCH_CMD, topics.COMMAND_QOS)
     spin_until(lambda: wrench.get_subscription_count() >= 1, 5.0, "the wrench subscription")
-    wrench.publish(topics.hub_wrench_command(0.5, 0.0, 0.0))
+    wrench.publish(hub_msg.hub_wrench_command(0.5, 0.0, 0.0))
     spin_until(lambda: answers, 5.0, "the answer")
     assert answers[-1].outcome == "accepted" and answers[-1].topic == "/sail/hub_wrench_cmd"
     spin_until(lambda: hubs[-1].twist.twist.linear.z > 0.0, 5.0, "the hub heaving up")

@@ -33,6 +33,8 @@ from std_msgs.msg import Float64
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, bag_files
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import status as key
 from sail_ros.nodes import bridge
 
 pytestmark = pytest.mark.multiprocess
@@ -180,21 +182,21 @@ def test_foxglove_client_sees_the_log_and_commands_the_sail(processes, js_reader
     values: dict[tuple, object] = {}
     for message in log:
         decoded = deserialize_message(message.data, _type(message.type_name))
-        key = (message.topic, stamp_ns(decoded))
-        by_key.setdefault(key, set()).add(hashlib.sha256(message.data).hexdigest())
-        values[key] = decoded
+        sample = (message.topic, stamp_ns(decoded))
+        by_key.setdefault(sample, set()).add(hashlib.sha256(message.data).hexdigest())
+        values[sample] = decoded
     matched: dict[str, int] = {}
     for message in result["messages"]:
         if message["stamp_ns"] is None:
             continue
-        key = (message["topic"], int(message["stamp_ns"]))
-        if key not in by_key:
+        sample = (message["topic"], int(message["stamp_ns"]))
+        if sample not in by_key:
             continue  # before the recorder subscribed, or after it stopped
-        assert message["sha256"] in by_key[key], (key, message["size"])
+        assert message["sha256"] in by_key[sample], (sample, message["size"])
         matched[message["topic"]] = matched.get(message["topic"], 0) + 1
         if message["topic"] == "/sail/boom_state":  # the value Foxglove's reader decoded
-            assert message["value"]["position"] == list(values[key].position)
-            assert message["value"]["name"] == list(values[key].name)
+            assert message["value"]["position"] == list(values[sample].position)
+            assert message["value"]["name"] == list(values[sample].name)
     for topic in topics.STATE_TOPICS:
         assert matched.get(topics.absolute(topic), 0) >= 50, (topic, matched)
     assert matched.get("/sail/shape", 0) >= 5, matched
@@ -227,9 +229,9 @@ def test_foxglove_client_sees_the_log_and_commands_the_sail(processes, js_reader
 
     # the bridge's own count of it, on /diagnostics
     status = _bridge_status(log)
-    assert status[bridge.CLIENT_COMMANDS] == "2"
-    assert status[bridge.SERVICE_CALLS] == "2"
-    assert int(status[bridge.REFUSED]) >= 2
+    assert status[key.CLIENT_COMMANDS] == "2"
+    assert status[key.SERVICE_CALLS] == "2"
+    assert int(status[key.REFUSED]) >= 2
 
 
 def _type(type_name: str):
@@ -305,17 +307,17 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     lost = len(arrivals) - slow_result["received"].get("/sail/boom_state", 0)
     assert lost > 50, slow_result["received"]
     assert "reads slower than the traffic" in served.log()
-    assert int(bridge_status[-1][bridge.SLOW_REPORTS]) >= 1
+    assert int(bridge_status[-1][key.SLOW_REPORTS]) >= 1
     # and the simulator kept real time: no window held up (a wait for the stalled client
     # would take seconds), and over the run within 2 % (it catches up after a late tick)
     statuses = [
-        (topics.diagnostic_values(array), published)
+        (diagnostics_msg.diagnostic_values(array), published)
         for array, published in zip(operator.diagnostics, operator.published_ns, strict=True)
-        if topics.diagnostic_values(array)
+        if diagnostics_msg.diagnostic_values(array)
     ]
-    factors = [float(values["real_time_factor"]) for values, _ in statuses[1:]]
+    factors = [float(values[key.REAL_TIME_FACTOR]) for values, _ in statuses[1:]]
     assert len(factors) >= 4 and min(factors) > 0.5, factors
     (first, first_ns), (last, last_ns) = statuses[1], statuses[-1]
-    span = float(last["sim_time_s"]) - float(first["sim_time_s"])
+    span = float(last[key.SIM_TIME]) - float(first[key.SIM_TIME])
     assert span / ((last_ns - first_ns) * 1e-9) == pytest.approx(1.0, abs=0.02), factors
     stop(served)

@@ -31,6 +31,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import status as key
 
 pytestmark = pytest.mark.multiprocess
 
@@ -66,11 +68,11 @@ class Answers:
     """The answers on sail/command_status, heard by a node of the operator's context."""
 
     def __init__(self, operator):
-        self.received: list[topics.CommandAnswer] = []
+        self.received: list[commands_msg.CommandAnswer] = []
         operator.create_subscription(
             DiagnosticArray,
             topics.COMMAND_STATUS,
-            lambda array: self.received.append(topics.command_answer(array)),
+            lambda array: self.received.append(commands_msg.command_answer(array)),
             topics.COMMAND_STATUS_QOS,
         )
 
@@ -95,8 +97,8 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
     assert "accepted: trajectory for boom_a, boom_c" in moved.stdout
 
     view = watch(ros_env)
-    assert view["accepted_commands"] == 2 and view["rejected_commands"] == 1
-    assert view["last_rejection"].startswith("target = 500 m")
+    assert view[key.ACCEPTED] == 2 and view[key.REJECTED] == 1
+    assert view[key.LAST_REJECTION].startswith("target = 500 m")
     assert view["last_answer"].startswith("accepted: trajectory")
     assert view["boom_length_m"]["b"] > 10.0  # the deployment moves them
 
@@ -104,14 +106,14 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
     reset = tool(ros_env, "send", "reset")
     assert reset.returncode == 0 and "reset to the initial state" in reset.stdout
     paused = watch(ros_env)
-    assert paused["state"] == "paused" and paused["boom_length_m"]["a"] == 10.0
+    assert paused[key.STATE] == "paused" and paused["boom_length_m"]["a"] == 10.0
     assert tool(ros_env, "send", "resume").stdout.startswith("resumed at t = ")
     assert sim.stop(signal.SIGINT) == 0, sim.log()
     assert recorder.stop(signal.SIGINT) == 0, recorder.log()
 
     bag = BagReader(tmp_path / "bag")
     answers = [
-        topics.command_answer(deserialize_message(m.data, DiagnosticArray))
+        commands_msg.command_answer(deserialize_message(m.data, DiagnosticArray))
         for m in bag.messages(["/sail/command_status"])
     ]
     assert [a.outcome for a in answers] == ["accepted", "rejected", "accepted"]
@@ -149,8 +151,8 @@ def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_pa
     time.sleep(2.0)
     view = watch(ros_env, run=in_process)
     assert view["root_moment_N_m"]["b"] > 0.0  # the force bends boom b towards +z
-    assert view["damping_dissipation_W"] >= 0.0 and view["load_power_W"] == view["load_power_W"]
-    assert view["accepted_commands"] == 2 and view["rejected_commands"] == 1
+    assert view[key.DISSIPATION] >= 0.0 and view[key.LOAD_POWER] == view[key.LOAD_POWER]
+    assert view[key.ACCEPTED] == 2 and view[key.REJECTED] == 1
     assert in_process("send", "reset").returncode == 0
     assert recorder.stop(signal.SIGINT) == 0, recorder.log()
 
@@ -163,7 +165,7 @@ def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_pa
         deserialize_message(m.data, DiagnosticArray) for m in bag.messages(["/diagnostics"])
     ]
     keys = {pair.key for array in statuses for pair in array.status[0].values}
-    assert {"load_power_W", "damping_dissipation_W"} <= keys
+    assert {key.LOAD_POWER, key.DISSIPATION} <= keys
     # the log runs again offline from what it records (motion, loads from the answers,
     # the state after the reset): its true peaks, the logged tips reproduced
     report = in_process("report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"),
@@ -242,9 +244,9 @@ def test_a_burst_beyond_the_command_queue_is_answered_and_counted(processes, ope
     assert dropped and all(a.message.startswith("2 commands were already waiting") for a in dropped)
     assert set(outcomes) <= {"accepted", "superseded", "rejected"} and outcomes["accepted"] >= 1
     status = operator.wait_for_status(lambda s: True, 5.0, "a status")
-    assert int(status["dropped_commands"]) == int(status["rejected_commands"]) == len(dropped)
-    assert int(status["accepted_commands"]) == outcomes["accepted"]
-    assert int(status["superseded_commands"]) == outcomes["superseded"]
+    assert int(status[key.DROPPED]) == int(status[key.REJECTED]) == len(dropped)
+    assert int(status[key.ACCEPTED]) == outcomes["accepted"]
+    assert int(status[key.SUPERSEDED]) == outcomes["superseded"]
 
 
 def test_a_started_simulator_does_not_run_commands_published_before(processes, operator):
@@ -263,7 +265,7 @@ def test_a_started_simulator_does_not_run_commands_published_before(processes, o
     operator.spin_for(1.0)
     last = operator.states[topics.BOOM_STATE][-1]
     assert list(last.position) == [10.0] * 4
-    assert operator.status()["accepted_commands"] == "0"
+    assert operator.status()[key.ACCEPTED] == "0"
 
 
 def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_path):
@@ -282,8 +284,8 @@ def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_pa
     time.sleep(1.0)
     moving = watch(ros_env, "--ros-args", "-r", "__ns:=/sat1", run=in_process)
     resting = watch(ros_env, "--ros-args", "-r", "__ns:=/sat2", run=in_process)
-    assert moving["boom_length_m"]["a"] > 10.0 and moving["accepted_commands"] == 1
-    assert resting["boom_length_m"]["a"] == 10.0 and resting["accepted_commands"] == 0
+    assert moving["boom_length_m"]["a"] > 10.0 and moving[key.ACCEPTED] == 1
+    assert resting["boom_length_m"]["a"] == 10.0 and resting[key.ACCEPTED] == 0
     for process in (sat1, sat2, *recorders):
         assert process.stop(signal.SIGINT) == 0, process.log()
 

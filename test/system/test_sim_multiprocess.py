@@ -25,6 +25,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion, SwitchedProfile
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
@@ -104,29 +106,29 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
 
     operator.deploy.publish(Float64(data=12.0))
     deployed = operator.wait_for_status(
-        lambda s: s["accepted_commands"] == "1", 10.0, "the deployment to be accepted"
+        lambda s: s[key.ACCEPTED] == "1", 10.0, "the deployment to be accepted"
     )
-    t_deploy = float(deployed["last_command_start_s"])
+    t_deploy = float(deployed[key.LAST_COMMAND_START])
     operator.spin_until(
-        lambda: float(operator.status()["sim_time_s"]) > t_deploy + 2.0,
+        lambda: float(operator.status()[key.SIM_TIME]) > t_deploy + 2.0,
         10.0,
         "the booms to be half way",
     )
     command = trajectory(["boom_a", "boom_b"], ([12.5, 11.5], 8.0), ([13.0, 11.0], 14.0))
     operator.trajectory.publish(command)
     moved = operator.wait_for_status(
-        lambda s: s["accepted_commands"] == "2", 10.0, "the trajectory to be accepted"
+        lambda s: s[key.ACCEPTED] == "2", 10.0, "the trajectory to be accepted"
     )
-    t_command = float(moved["last_command_start_s"])
-    t_end = float(moved["motion_end_s"])
+    t_command = float(moved[key.LAST_COMMAND_START])
+    t_end = float(moved[key.MOTION_END])
     assert t_end == pytest.approx(t_command + 14.0)
     operator.spin_until(
-        lambda: float(operator.status()["sim_time_s"]) > t_end + 1.0, 30.0, "the motion to end"
+        lambda: float(operator.status()[key.SIM_TIME]) > t_end + 1.0, 30.0, "the motion to end"
     )
     assert sim.stop(signal.SIGTERM) == 0, sim.log()
     operator.spin_until_quiet()  # the last samples in flight
     assert recorder.stop(signal.SIGINT) == 0, recorder.log()
-    assert operator.status()["rejected_commands"] == "0"
+    assert operator.status()[key.REJECTED] == "0"
     log = sim.log()
     assert f"/sail/deploy_cmd accepted at t = {t_deploy:.6f} s: deploy to 12 m: cycloidal" in log
     assert "SIGTERM: stopping" in log
@@ -210,14 +212,14 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
         publisher = operator.deploy if isinstance(command, Float64) else operator.trajectory
         publisher.publish(command)
         status = operator.wait_for_status(
-            lambda s, c=count: s["rejected_commands"] == str(c),
+            lambda s, c=count: s[key.REJECTED] == str(c),
             5.0,
             f"rejection {count} ({reason})",
         )
-        assert reason in status["last_rejection"]
+        assert reason in status[key.LAST_REJECTION]
         assert status["level"] == DiagnosticStatus.WARN
     operator.spin_for(1.0)
-    assert operator.status()["accepted_commands"] == "0"
+    assert operator.status()[key.ACCEPTED] == "0"
 
     # untouched: booms at rest at 10 m, and the vibration exactly as if alone
     epoch = operator.epoch_ns()
@@ -234,7 +236,7 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     # on its tick or late, never early, so the least lag of the wall clock behind
     # simulation time is the same in the run's last quarter as in its first
     sim_time = np.array(
-        [float(operator.status(i)["sim_time_s"]) for i in range(2, len(operator.diagnostics))]
+        [float(operator.status(i)[key.SIM_TIME]) for i in range(2, len(operator.diagnostics))]
     )
     lag = np.array(operator.published_ns[2:]) * 1e-9 - sim_time
     quarter = len(lag) // 4
@@ -244,9 +246,9 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
 
     answer = operator.call(operator.pause, SetBool.Request(data=True))
     assert answer.success
-    paused = operator.wait_for_status(lambda s: s["state"] == "paused", 5.0, "paused")
+    paused = operator.wait_for_status(lambda s: s[key.STATE] == "paused", 5.0, "paused")
     operator.spin_for(0.5)
-    assert operator.status()["sim_time_s"] == paused["sim_time_s"]
+    assert operator.status()[key.SIM_TIME] == paused[key.SIM_TIME]
     count = len(operator.states[topics.MODAL_STATE])
     answer = operator.call(operator.reset, Trigger.Request())
     assert answer.success and answer.message.endswith("(paused)")
@@ -258,7 +260,7 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     assert operator.call(operator.pause, SetBool.Request(data=False)).success
     running = operator.wait_for_status(
         lambda s: (
-            s["state"] == "running" and float(s["sim_time_s"]) > float(paused["sim_time_s"]) + 0.3
+            s[key.STATE] == "running" and float(s[key.SIM_TIME]) > float(paused[key.SIM_TIME]) + 0.3
         ),
         5.0,
         "running again",
@@ -300,13 +302,13 @@ def test_divergence_is_an_error_before_anything_non_finite_until_reset(
     error = operator.wait_for_status(
         lambda s: s["level"] == DiagnosticStatus.ERROR, 30.0, "the ERROR diagnostic"
     )
-    assert error["state"] == "error" and "out of the linear range" in error["message"]
+    assert error[key.STATE] == "error" and "out of the linear range" in error["message"]
     # the state is kept (transient local): it may arrive after the diagnostics
     operator.spin_until(lambda: operator.states[topics.TIP_DEFLECTION], 5.0, "the tips")
     tips = np.array([m.position for m in operator.states[topics.TIP_DEFLECTION]])
     assert np.all(np.isfinite(tips)) and np.abs(tips).max() <= 0.3 * 10.0
     operator.spin_for(0.3)
-    assert operator.status()["sim_time_s"] == error["sim_time_s"]  # stopped
+    assert operator.status()[key.SIM_TIME] == error[key.SIM_TIME]  # stopped
     assert sim.process.poll() is None  # but up
 
     request = SetParameters.Request(
@@ -318,7 +320,7 @@ def test_divergence_is_an_error_before_anything_non_finite_until_reset(
     assert operator.call(operator.reset, Trigger.Request()).success
     running = operator.wait_for_status(  # a flat sail stays flat, buckling or not
         lambda s: (
-            s["state"] == "running" and float(s["sim_time_s"]) > float(error["sim_time_s"]) + 0.3
+            s[key.STATE] == "running" and float(s[key.SIM_TIME]) > float(error[key.SIM_TIME]) + 0.3
         ),
         5.0,
         "0.3 s of running after the reset",
@@ -358,10 +360,10 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     if overruns.split("): ")[1].startswith("0;"):  # a late tick's catch-up would show
         assert largest < 1.2 * 5.0, factor
     statuses = [
-        topics.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
+        diagnostics_msg.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
         for m in BagReader(output).messages([topics.DIAGNOSTICS])
     ]
-    windows = {float(status["real_time_factor_window_s"]) for status in statuses}
+    windows = {float(status[key.REAL_TIME_FACTOR_WINDOW]) for status in statuses}
     assert len(windows) > 5 and min(windows - {0.0}) >= RTF_MIN_WINDOW_S
 
 

@@ -68,6 +68,41 @@ def test_analysis_and_tools_import_no_node_module(graph):
             assert not nodes, f"{name} imports {nodes}"
 
 
+def test_messages_are_built_only_in_the_messages_package(graph):
+    """`topics` holds names, QoS and the table, and imports no builder; the builders
+    (`sail_ros.messages`) build on the model and the topics only, and every other
+    module takes them from there."""
+    assert not {t for t in graph["sail_ros.topics"] if t.startswith("sail_ros.messages")}
+    for name, targets in graph.items():
+        if name.startswith("sail_ros.messages"):
+            outside = {
+                t for t in targets if not t.startswith(("sail_ros.messages", "sail_ros.model"))
+            } - {"sail_ros", "sail_ros.topics", "sail_ros.bag", "sail_ros.bag.recording"}
+            assert not outside, f"{name} imports {outside}"
+    topics = ast.parse((PACKAGE / "topics.py").read_text())
+    built = {
+        node.name
+        for node in topics.body
+        if isinstance(node, ast.FunctionDef)
+        and node.returns is not None
+        and ast.unparse(node.returns) in MESSAGE_TYPES
+    }
+    assert built == {"stamp"}, f"topics.py builds messages: {built}"
+
+
+# the message classes the package publishes or writes (what a builder returns)
+MESSAGE_TYPES = {
+    "JointState",
+    "Odometry",
+    "WrenchStamped",
+    "MarkerArray",
+    "Marker",
+    "DiagnosticArray",
+    "Clock",
+    "Time",
+}
+
+
 @pytest.mark.parametrize(
     "module",
     [

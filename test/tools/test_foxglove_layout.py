@@ -22,7 +22,7 @@ PATH = re.compile(r"^(/[A-Za-z0-9_/]+?)((?:\.[A-Za-z_][A-Za-z0-9_]*(?:\[\d+\])?)
 SERVED = {topics.absolute(name): spec for name, (spec, _) in bridge.SERVABLE.items()}
 TYPE_NAMES = {topics.absolute(name): type_name for name, (_, type_name) in bridge.SERVABLE.items()}
 # the joint order of each JointState topic the plots index, and the field of its value
-# (topics.boom_state, tip_deflection, root_moment)
+# (messages.state.boom_state, tip_deflection, root_moment)
 JOINTS = {
     "/sail/boom_state": (topics.BOOM_JOINTS, "position"),
     "/sail/tip_deflection": (topics.TIP_JOINTS, "position"),

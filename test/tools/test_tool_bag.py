@@ -10,7 +10,7 @@ from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 
 from sail_ros.bag import BagReader, BagWriteError, BagWriter, MessageDefinition, default_qos_profile
-from sail_ros.message_bytes import serialize
+from sail_ros.messages.cdr import serialize
 from sail_ros.tools.bag import main
 
 pytestmark = pytest.mark.model

@@ -11,6 +11,7 @@ from sensor_msgs.msg import JointState
 from sail_ros import topics
 from sail_ros.analysis.scenario import load_scenario, reference_scenario
 from sail_ros.bag import BagReader
+from sail_ros.messages import hub as hub_msg
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.nodes.recorder import PARAMETERS_METADATA
 from sail_ros.runtime.config import PARAMETERS, config_from_values
@@ -316,14 +317,19 @@ def test_a_free_hubs_log_gives_back_its_attitude(tmp_path):
     run = run_deployment(model, scenario, log.seconds(log.hub[0]))
     assert log.hub[1].shape == (201, 6) and np.degrees(np.abs(log.hub[1][:, 1]).max()) > 4.0
     np.testing.assert_allclose(log.hub[1], run.hub, rtol=0, atol=1e-12 * np.abs(run.hub).max())
+    assert log.field("hub") is log.hub  # the record's fields through their messages
+    stamps, tips = log.field("tips")
+    assert stamps is log.tips.stamp_ns and tips is log.tips.position
+    assert log.field("root_moments")[1] is log.moments.effort
 
 
 @pytest.mark.parametrize("tilt", [(0.0, 0.0), (1e-9, -2e-9), (0.3, -0.4), (2.0, 1.0)])
 def test_hub_state_messages_give_back_the_hubs_state(tilt):
-    """`topics.hub_from_odometry` inverts `topics.hub_state`, from 1e-9 rad to 2.2 rad."""
+    """`messages.hub.hub_from_odometry` inverts `messages.hub.hub_state`, from 1e-9 rad
+    to 2.2 rad."""
     hub = np.array([0.25, *tilt, -0.01, 0.02, -0.03])
-    message = topics.hub_state(5, hub)
-    np.testing.assert_allclose(topics.hub_from_odometry(message), hub, rtol=1e-14, atol=1e-17)
+    message = hub_msg.hub_state(5, hub)
+    np.testing.assert_allclose(hub_msg.hub_from_odometry(message), hub, rtol=1e-14, atol=1e-17)
 
 
 def test_a_free_hub_deployment_prints_its_attitude_peaks_and_hold_reactions(

@@ -14,6 +14,9 @@ from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.bag import BagWriter
 from sail_ros.bag.recording import ParameterChange, changes_record_of
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import state as state_msg
+from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.tools import deploy, report
 
@@ -119,26 +122,29 @@ def _live_style_log(path, params, count=30, reset_at=None, time_scale=None, hist
             q = q0 * (1.0 + 0.02 * age) if reset_at is not None else q0
             lengths, rates = np.full(4, 20.0), np.zeros(4)
             messages = [
-                (topics.BOOM_STATE, topics.boom_state(stamp, lengths, rates)),
-                (topics.MODAL_STATE, topics.modal_state(stamp, model.coordinate_names, q, 0 * q)),
+                (topics.BOOM_STATE, state_msg.boom_state(stamp, lengths, rates)),
+                (
+                    topics.MODAL_STATE,
+                    state_msg.modal_state(stamp, model.coordinate_names, q, 0 * q),
+                ),
                 (
                     topics.TIP_DEFLECTION,
-                    topics.tip_deflection(stamp, model.tip_deflections(q), np.zeros(4)),
+                    state_msg.tip_deflection(stamp, model.tip_deflections(q), np.zeros(4)),
                 ),
             ]
             if n % every == 0:
                 values = {
-                    "real_time_factor": 0.98 + 0.01 * i / 10,
+                    key.REAL_TIME_FACTOR: 0.98 + 0.01 * i / 10,
                     "step_time_ms": 0.4,
-                    "sim_time_s": 0.1 * i,
+                    key.SIM_TIME: 0.1 * i,
                 }
                 if time_scale is not None:
-                    values["time_scale"] = time_scale
-                    values["real_time_factor_window_s"] = 1.0 if n else 0.0
-                    values["real_time_factor"] = time_scale * (0.997 + 0.001 * (n // every % 3))
+                    values[key.TIME_SCALE] = time_scale
+                    values[key.REAL_TIME_FACTOR_WINDOW] = 1.0 if n else 0.0
+                    values[key.REAL_TIME_FACTOR] = time_scale * (0.997 + 0.001 * (n // every % 3))
                     if n == 0:
-                        values["real_time_factor"] = 0.0  # not measured yet
-                message = topics.diagnostics(stamp, "OK", "running", values)
+                        values[key.REAL_TIME_FACTOR] = 0.0  # not measured yet
+                message = diagnostics_msg.diagnostics(stamp, "OK", "running", values)
                 messages.append((topics.DIAGNOSTICS, message))
             for topic, message in messages:
                 bag.write(topics.absolute(topic), serialize_message(message), log_time_ns=stamp)
@@ -215,7 +221,7 @@ def test_report_of_a_live_style_log_with_diagnostics(tmp_path, capsys):
     assert _rows(out / "parameter_changes.csv") == []
     assert_png(out / "real_time_factor.png", min_height=200)
     rtf = _rows(out / "real_time_factor.csv")
-    assert [float(r["real_time_factor"]) for r in rtf] == pytest.approx([0.98, 0.99, 1.0])
+    assert [float(r[key.REAL_TIME_FACTOR]) for r in rtf] == pytest.approx([0.98, 0.99, 1.0])
     assert [float(r["t_s"]) for r in rtf] == pytest.approx([0.0, 1.0, 2.0])
     energies = _rows(out / "energies.csv")
     total = SailModel(params).energy(SailModel(params).mode_state("c", 0.02), np.zeros(20), 20.0)
@@ -250,7 +256,7 @@ def test_report_of_a_live_log_with_a_reset_and_a_time_scale(tmp_path, capsys, fi
     (panel,) = rtf.panels.values()
     assert panel.lines == ("achieved", "time scale asked for (2)")
     low, high = panel.ylim
-    measured = [float(r["real_time_factor"]) for r in _rows(out / "real_time_factor.csv")][1:]
+    measured = [float(r[key.REAL_TIME_FACTOR]) for r in _rows(out / "real_time_factor.csv")][1:]
     assert low < min(measured) and max(max(measured), 2.0) < high
     assert high - low < 0.1  # the variation (0.004) fills a visible part of the axis
 

@@ -16,12 +16,12 @@ Between processes DDS adds at most the zeros up to the next 4-byte boundary
 
 Every `/sail/shape` of a simulator has the same layout (the mesh's topology is
 fixed), and so has every state message (the names are): only stamps and
-numbers change. The message `topics` builds is serialised once with
-recognisable values to find where those lie; each frame then copies the bytes
+numbers change. The message `messages.shape` or `messages.state` builds is serialised
+once with recognisable values to find where those lie; each frame then copies the bytes
 and writes the new values there (a shape at 20 divisions: ~0.1 ms instead of
 ~1.4 ms for the objects; a modal state of 160 coordinates: its names are not
 converted again). What comes out is, byte for byte, `serialize` of the message
-`topics` builds from the same numbers (tested); the live simulator and the
+those modules build from the same numbers (tested); the live simulator and the
 offline logs (`sail_ros.analysis.log_export`) both write it.
 """
 
@@ -40,6 +40,9 @@ from rosidl_parser.definition import (
 )
 
 from sail_ros import topics
+from sail_ros.messages import hub as hub_msg
+from sail_ros.messages import shape as shape_msg
+from sail_ros.messages import state as state_msg
 from sail_ros.model.record import SAMPLE_FIELDS, StateSample
 
 _LITTLE_ENDIAN_CDR = b"\x00\x01"  # encapsulation header rclpy writes on little-endian hosts
@@ -140,7 +143,7 @@ class _Layout:
 
 
 class ShapeSerializer:
-    """Serialises `topics.shape(stamp_ns, vertices, triangles, boom_lines, frame_id)`
+    """Serialises `messages.shape.shape(stamp_ns, vertices, triangles, boom_lines, frame_id)`
     for one mesh (`triangles` (T, 3) and `boom_points` points per boom line).
 
     Raises:
@@ -158,13 +161,13 @@ class ShapeSerializer:
         vertices = rng.uniform(-1.0, 1.0, (int(self.corners.max()) + 1, 3))
         boom_lines = rng.uniform(-1.0, 1.0, (4, boom_points, 3))
         template = serialize(
-            topics.shape(_TEMPLATE_STAMP_NS, vertices, self.triangles, boom_lines, frame_id)
+            shape_msg.shape(_TEMPLATE_STAMP_NS, vertices, self.triangles, boom_lines, frame_id)
         )
         self._template = template
         self._stamps = _all_offsets(template, _STAMP.pack(*divmod(_TEMPLATE_STAMP_NS, 10**9)))
         self._points = _offset_of(template, vertices[self.corners])
         self._colours = self._points + 24 * self.corners.size + 4  # after the colours' count
-        expected = topics.colour_array(*self._levels(vertices))
+        expected = shape_msg.colour_array(*self._levels(vertices))
         if template[self._colours : self._colours + expected.nbytes] != expected.tobytes():
             raise RuntimeError("/sail/shape: the colours are not where expected")
         self._booms = [_offset_of(template, line) for line in boom_lines]
@@ -173,30 +176,30 @@ class ShapeSerializer:
 
     def _levels(self, vertices):
         heights = vertices[self.corners, 2]
-        return heights, max(float(np.max(np.abs(heights), initial=0.0)), topics.MIN_COLOUR_RANGE)
+        return heights, max(float(np.max(np.abs(heights), initial=0.0)), shape_msg.MIN_COLOUR_RANGE)
 
     def serialize(self, stamp_ns: int, vertices, boom_lines) -> bytes:
         """The CDR bytes of the shape at `stamp_ns` [ns]: `vertices` (P, 3) and
-        `boom_lines` (4, S, 3) [m], as for `topics.shape`."""
+        `boom_lines` (4, S, 3) [m], as for `messages.shape.shape`."""
         vertices = np.asarray(vertices, dtype=float)
         buffer = bytearray(self._template)
         stamp = _STAMP.pack(*divmod(int(stamp_ns), 10**9))
         for offset in self._stamps:
             buffer[offset : offset + _STAMP.size] = stamp
         _write(buffer, self._points, vertices[self.corners])
-        _write(buffer, self._colours, topics.colour_array(*self._levels(vertices)))
+        _write(buffer, self._colours, shape_msg.colour_array(*self._levels(vertices)))
         for offset, line in zip(self._booms, np.asarray(boom_lines, dtype=float), strict=True):
             _write(buffer, offset, line)
         return bytes(buffer)
 
 
-# the fields of a sample the JointState messages carry, each in exactly one of them (a
-# free hub's Odometry is built per sample)
-_SAMPLE_ARRAYS = tuple(f for f in SAMPLE_FIELDS if f.per in ("boom", "coordinate"))
+# the fields of a sample the JointState messages carry, each in exactly one of them
+# (`messages.state.JOINT_FIELDS`; a free hub's Odometry is built per sample)
+_SAMPLE_ARRAYS = tuple(f for f in SAMPLE_FIELDS if f.name in state_msg.JOINT_FIELDS)
 
 
 class StateSerializer:
-    """Serialises `topics.state_messages(stamp_ns, sample, coordinate_names, frame_id,
+    """Serialises `messages.state.state_messages(stamp_ns, sample, coordinate_names, frame_id,
     with_clock, inertial_frame_id)`: the same `(topic, bytes)` pairs, in the same order.
     A free hub's `/sail/hub_state` (`free_hub`) is built and serialised per sample: its
     orientation is computed, not copied.
@@ -224,7 +227,7 @@ class StateSerializer:
         stamp = _STAMP.pack(*divmod(_TEMPLATE_STAMP_NS, 10**9))
         self._layouts = []  # (topic, template, stamp offset, [(array name, offset)])
         placed = []
-        for topic, message in topics.state_messages(
+        for topic, message in state_msg.state_messages(
             _TEMPLATE_STAMP_NS, sample, coordinate_names, frame_id, with_clock
         ):
             template = serialize(message)
@@ -260,7 +263,7 @@ class StateSerializer:
                 view[:] = getattr(sample, name)
             messages.append((topic, bytes(buffer)))
         if self._hub_frames is not None:
-            hub = topics.hub_state(stamp_ns, sample.hub, *self._hub_frames)
+            hub = hub_msg.hub_state(stamp_ns, sample.hub, *self._hub_frames)
             messages.append((topics.HUB_STATE, serialize(hub)))
         return messages
 

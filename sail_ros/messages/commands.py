@@ -1,0 +1,93 @@
+"""The load commands (`sail/pressure_cmd`, `sail/tip_force_cmd`) and the simulator's
+answer to every command (`sail/command_status`)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import NamedTuple
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from sensor_msgs.msg import JointState
+
+from sail_ros.topics import SIM_NODE, stamp
+
+
+def load_command(topic: str, values: Mapping[str, float]) -> JointState:
+    """A `sail/pressure_cmd` (quadrant -> Pa) or `sail/tip_force_cmd` (boom -> N)."""
+    message = JointState(name=list(values))
+    message.effort = [float(v) for v in values.values()]
+    return message
+
+
+ACCEPTED, REJECTED, IGNORED = "accepted", "rejected", "ignored"
+SUPERSEDED = "superseded"  # a newer command replaced it before it started
+# value of an accepted load command's answer: the four values held from then on
+# ("[0.002, 0.0, 0.0, 0.0]", Pa or N), so a log tells every load from the answers alone
+LOADS_HELD = "loads_held"
+_OUTCOME_LEVELS = {
+    ACCEPTED: DiagnosticStatus.OK,
+    REJECTED: DiagnosticStatus.ERROR,
+    IGNORED: DiagnosticStatus.WARN,
+    SUPERSEDED: DiagnosticStatus.WARN,
+}
+
+
+class CommandAnswer(NamedTuple):
+    """What the simulator did with one command (`sail/command_status`).
+
+    Attributes:
+        topic: the command topic, as the simulator resolved it.
+        outcome: "accepted", "superseded" (a newer command replaced it before it
+            started), "rejected" or "ignored" (published before the simulator started).
+        message: the plan ("deploy to 12 m: ...") or the reason.
+        source_timestamp_ns: when its publisher wrote it [ns, the publisher's clock].
+        sequence: the publisher's sequence number of the command.
+        values: further key/value pairs (t_start_s, t_end_s of an accepted motion;
+            t_start_s and LOADS_HELD of an accepted load).
+    """
+
+    topic: str
+    outcome: str
+    message: str
+    source_timestamp_ns: int
+    sequence: int
+    values: dict[str, str]
+
+
+def command_status(stamp_ns_: int, answer: CommandAnswer) -> DiagnosticArray:
+    """`sail/command_status`: one status per command; level OK (accepted), ERROR
+    (rejected) or WARN (ignored), name `sail_sim: <topic>`, the answer's fields
+    as values."""
+    status = DiagnosticStatus(
+        level=_OUTCOME_LEVELS[answer.outcome],
+        name=f"{SIM_NODE}: {answer.topic}",
+        message=answer.message,
+        hardware_id=SIM_NODE,
+    )
+    pairs = {
+        "topic": answer.topic,
+        "outcome": answer.outcome,
+        "source_timestamp_ns": str(answer.source_timestamp_ns),
+        "publication_sequence_number": str(answer.sequence),
+        **answer.values,
+    }
+    status.values = [KeyValue(key=key, value=str(value)) for key, value in pairs.items()]
+    array = DiagnosticArray(status=[status])
+    array.header.stamp = stamp(stamp_ns_)
+    return array
+
+
+def command_answer(array: DiagnosticArray) -> CommandAnswer | None:
+    """The answer in a `sail/command_status` message (None if it holds none)."""
+    for status in array.status:
+        pairs = {pair.key: pair.value for pair in status.values}
+        if "outcome" in pairs and "topic" in pairs:
+            return CommandAnswer(
+                topic=pairs.pop("topic"),
+                outcome=pairs.pop("outcome"),
+                message=status.message,
+                source_timestamp_ns=int(pairs.pop("source_timestamp_ns")),
+                sequence=int(pairs.pop("publication_sequence_number")),
+                values=pairs,
+            )
+    return None
