@@ -5,7 +5,8 @@ file or a bag folder; a file cut short, e.g. by a killed recorder, is read
 up to its last complete record) and writes into `--out`:
 
 - states.csv, tip_deflections.png, boom_lengths.png: boom-tip deflections,
-  boom lengths and extension rates (and root moments);
+  boom lengths and extension rates (and root moments); the columns are the state
+  record's (`sail_ros.model.record`: a_boom_length_m, a_tip_deflection_m, ...);
 - with a free hub (/sail/hub_state): its heave, tilts and their rates in
   states.csv, hub_attitude.png (tilt, heave and, for a `sail-ros deploy` log,
   the reactions of the in-plane and spin holds), its peaks in peaks.csv;
@@ -54,9 +55,8 @@ from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.messages import status as key
-from sail_ros.model import SailModel, yaml_values
+from sail_ros.model import SailModel, record, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
-from sail_ros.model.record import column_names
 from sail_ros.outputs import staged
 from sail_ros.plots.histories import (
     boom_lengths_figure,
@@ -232,8 +232,6 @@ def _write_report(args, log, out: Path) -> str:
 
 
 HUB_FIGURE = "hub_attitude.png"
-# a free hub's columns of states.csv, named as every states table names them
-HUB_STATE_COLUMNS = column_names(True)[len(column_names(False)) :]
 
 
 def _hub(log, path: Path, time_label: str, title: str) -> Path:
@@ -473,33 +471,22 @@ def _recorded_parameters(log):
 
 
 def _write_states(log, path: Path) -> Path:
-    """One row per stamp of boom_state, tip_deflection, root_moment and a free hub's
-    hub_state (empty where one is missing)."""
-    present = [s.stamp_ns for s in (log.boom, log.tips, log.moments) if s is not None]
-    if log.hub is not None:
-        present.append(log.hub[0])
+    """One row per stamp of the log's state messages, a column per component of each of
+    the state record's table fields (`model.record`: boom lengths and rates, tips and
+    their rates, root moments, a free hub's six values), empty where a message is
+    missing."""
+    hub = log.hub is not None
+    fields = record.table_fields(hub)
+    series = {field.name: log.field(field.name) for field in fields}
+    present = [found[0] for found in series.values() if found is not None]
     stamps = functools.reduce(np.union1d, present, np.array([], dtype=np.int64)).astype(np.int64)
-    header = ["t_s", "stamp_ns"]
+    header = ["t_s", "stamp_ns", *record.column_names(hub)]
     columns = [log.seconds(stamps), stamps]
-    for series, names in (
-        (log.boom, ("length_m", "rate_m_s")),
-        (log.tips, ("tip_m", "tip_rate_m_s")),
-    ):
-        header += [f"{boom}_{name}" for name in names for boom in BOOMS]
-        block = np.full((stamps.size, 8), np.nan)
-        if series is not None:
-            rows = np.searchsorted(stamps, series.stamp_ns)
-            block[rows] = np.hstack([series.position, series.velocity])
-        columns += list(block.T)
-    header += [f"{boom}_root_moment_N_m" for boom in BOOMS]
-    block = np.full((stamps.size, 4), np.nan)
-    if log.moments is not None and log.moments.effort.size:
-        block[np.searchsorted(stamps, log.moments.stamp_ns)] = log.moments.effort
-    columns += list(block.T)
-    if log.hub is not None:
-        header += HUB_STATE_COLUMNS
-        block = np.full((stamps.size, len(HUB_STATE_COLUMNS)), np.nan)
-        block[np.searchsorted(stamps, log.hub[0])] = log.hub[1]
+    for field in fields:
+        block = np.full((stamps.size, len(record.component_names(field))), np.nan)
+        found = series[field.name]
+        if found is not None:
+            block[np.searchsorted(stamps, found[0])] = found[1]
         columns += list(block.T)
     return _write_csv(path, header, columns)
 

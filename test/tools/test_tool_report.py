@@ -56,7 +56,7 @@ def test_report_of_a_deploy_log(deploy_log, tmp_path, capsys, figure_checks):
 
     states = _rows(out / "states.csv")
     assert len(states) == 101 and float(states[-1]["t_s"]) == pytest.approx(4.0)
-    assert float(states[0]["a_tip_m"]) == pytest.approx(0.1)
+    assert float(states[0]["a_tip_deflection_m"]) == pytest.approx(0.1)
     energies = _rows(out / "energies.csv")
     first = energies[0]
     # boom a bent in its first mode at rest: all energy is boom a's strain energy
@@ -288,7 +288,7 @@ def test_report_peaks_interpolate_the_log_and_rerun_its_scenario(deploy_log, tmp
     # the accuracy asked of tips: 0.2 % of their peak, the largest boom's
     largest = max(float(rows["rerun"][f"peak_tip_{boom}_m"]) for boom in "abcd")
     for boom in "abcd":
-        sampled = max(abs(float(row[f"{boom}_tip_m"])) for row in states)
+        sampled = max(abs(float(row[f"{boom}_tip_deflection_m"])) for row in states)
         logged = float(rows["log"][f"peak_tip_{boom}_m"])
         rerun = float(rows["rerun"][f"peak_tip_{boom}_m"])
         assert sampled <= logged * (1 + 1e-12)
