@@ -42,15 +42,13 @@ from __future__ import annotations
 import argparse
 import functools
 import ipaddress
-import logging
-import re
 import sys
 import threading
 import time
 
 import foxglove
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from foxglove import MessageSchema, Schema, Service, ServiceSchema
+from foxglove import Schema, Service
 from foxglove.websocket import Capability, StatusLevel
 from rcl_interfaces.msg import ParameterEvent
 from rclpy.event_handler import PublisherEventCallbacks
@@ -63,7 +61,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
 from sail_ros.bag import message_definition
-from sail_ros.bag.definitions import PRIMITIVE_TYPES, find_interface_file, full_type_name
+from sail_ros.bridging.clients import ClientBook, command_refusal
+from sail_ros.bridging.protocol import MESSAGE_ENCODING, Listener, ServerLog, service_schema
 from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.parameters import (
@@ -94,10 +93,6 @@ SUBSCRIPTION_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 SERVICE_TIMEOUT_S = 5.0  # a protocol service call waits this long for the simulator
-MESSAGE_ENCODING = "cdr"
-SCHEMA_ENCODING = "ros2msg"
-# foxglove-sdk's report of a client whose queue is full (its log, target send_lossy)
-_OUTBOX_FULL = re.compile(r"outbox for client (\S+) full")
 # the simulator's services, offered over the protocol: name -> (service class, type name)
 SERVICES = {
     topics.PAUSE_SERVICE: (SetBool, "std_srvs/srv/SetBool"),
@@ -153,48 +148,6 @@ SPECS = [
 STATUS_SUFFIX = ": websocket"  # its name: the node's, then this; keys in messages.status
 
 
-def service_definitions(type_name: str) -> tuple[str, str]:
-    """The request and response schema texts of the service `pkg/srv/Type`, as
-    `<Type>_Request` and `<Type>_Response` messages: its `.srv` file split at `---`.
-
-    Raises:
-        DefinitionNotFoundError: the service is not installed.
-        ValueError: a field is itself a message (not needed by the services served,
-            whose fields are all primitive).
-    """
-    text = find_interface_file(full_type_name(type_name), ".srv").read_text()
-    request, response = re.split(r"^---[ \t]*$\n?", text, maxsplit=1, flags=re.MULTILINE)
-    for part in (request, response):
-        for line in part.splitlines():
-            field_type = line.split("#", 1)[0].split()[:1]
-            base = re.sub(r"(<=\d+)?(\[.*\])?$", "", field_type[0]) if field_type else ""
-            if base and base not in PRIMITIVE_TYPES:
-                raise ValueError(f"{type_name}: field type {base} is not primitive")
-    return request, response
-
-
-class _ServerLog(logging.Handler):
-    """foxglove-sdk's own log lines (its server, in Rust, logs through Python's logging)
-    into the node's log; its reports of a client's full queue to `on_slow_client`."""
-
-    def __init__(self, logger, on_slow_client):
-        super().__init__(logging.INFO)
-        self._logger = logger
-        self._on_slow_client = on_slow_client
-
-    def emit(self, record: logging.LogRecord) -> None:
-        text = record.getMessage()
-        slow = _OUTBOX_FULL.search(text)
-        if slow:
-            self._on_slow_client(slow.group(1))
-        elif record.levelno >= logging.ERROR:
-            self._logger.error(f"foxglove server: {text}")
-        elif record.levelno >= logging.WARNING:
-            self._logger.warning(f"foxglove server: {text}")
-        else:
-            self._logger.info(f"foxglove server: {text}")
-
-
 class Bridge(Node):
     """The `sail_bridge` node and its WebSocket server (listening once constructed).
 
@@ -217,21 +170,8 @@ class Bridge(Node):
         except ValueError:
             raise ConfigError(f"address: {address!r} is not an IP address") from None
         served = self._served_topics(self.config["topics"])
-        self._lock = threading.Lock()  # the counts: executor, server and service threads
-        self.counts = {
-            key.SERVED: 0,
-            key.CLIENT_COMMANDS: 0,
-            key.REFUSED: 0,
-            key.SERVICE_CALLS: 0,
-            key.SLOW_REPORTS: 0,
-        }
-        self.served: dict[str, int] = {}  # topic -> messages handed to the server
-        self.last_refusal = ""
-        self.slow_clients: set[str] = set()
-        self._subscribers: dict[int, set[int]] = {}  # client id -> channel ids
+        self.served: dict[str, int] = {}  # topic -> messages handed to the server (executor)
         self._channels: dict[str, foxglove.Channel] = {}  # served topic -> channel
-        # client channels accepted for publishing: (client id, channel id) -> topic
-        self._client_channels: dict[tuple[int, int], str] = {}
         # The simulator also listens transient local on each command topic
         # (topics.COMMAND_QOS), which a volatile publisher does not match, as meant.
         quiet = PublisherEventCallbacks(incompatible_qos=lambda event: None)
@@ -254,10 +194,11 @@ class Bridge(Node):
             DiagnosticArray, topics.DIAGNOSTICS, topics.DIAGNOSTICS_QOS
         )
 
-        self._server_log = self._capture_server_log()
+        self._server_log = ServerLog(self.get_logger(), self._on_slow_client).attach()
         self.foxglove_context = foxglove.Context()
         for name in served:
             self._serve(name)
+        self.client_book = ClientBook(len(self._channels))  # before the server calls back
         capabilities = []
         services = []
         if self.config["client_publish"]:
@@ -269,16 +210,16 @@ class Bridge(Node):
                 host=address,
                 port=self.config["port"],
                 capabilities=capabilities,
-                server_listener=_Listener(self),
+                server_listener=Listener(self),
                 supported_encodings=[MESSAGE_ENCODING],
                 services=services,
                 context=self.foxglove_context,
                 message_backlog_size=self.config["client_queue"],
             )
         except RuntimeError as error:  # foxglove-sdk's error for a bind that failed
-            self._release_server_log()
+            self._server_log.detach()
             raise OSError(f"cannot listen on {address}:{self.config['port']}: {error}") from None
-        self.url = f"ws://{address}:{self.server.port}"
+        self.url = self.client_book.url = f"ws://{address}:{self.server.port}"
         self.get_logger().info(f"serving on {self.url}")
         if not loopback:
             self.get_logger().warning(
@@ -308,17 +249,6 @@ class Bridge(Node):
                 )
             chosen.append(known[resolved])
         return list(dict.fromkeys(chosen))
-
-    def _capture_server_log(self) -> _ServerLog:
-        """Route foxglove-sdk's log (set before its server starts: the SDK reads the
-        levels once) into the node's log."""
-        handler = _ServerLog(self.get_logger(), self._on_slow_client)
-        for name in ("foxglove", "foxglove_py"):
-            logger = logging.getLogger(name)
-            logger.setLevel(logging.INFO)
-            logger.propagate = False
-            logger.addHandler(handler)
-        return handler
 
     # -- serving the simulator's topics (executor thread) -------------------------------------
 
@@ -353,22 +283,16 @@ class Bridge(Node):
             data += bytes(4 - len(data) % 4)
         # log time: DDS's reception time, as the recorder's log time
         channel.log(data, info.get("received_timestamp") or time.time_ns())
-        with self._lock:
-            self.counts[key.SERVED] += 1
-            self.served[topic] += 1
+        self.client_book.count(key.SERVED)
+        self.served[topic] += 1
 
     # -- clients (the server's threads) ---------------------------------------------------------
 
     def on_subscribe(self, client_id: int, channel_id: int) -> None:
-        with self._lock:
-            self._subscribers.setdefault(client_id, set()).add(channel_id)
+        self.client_book.subscribe(client_id, channel_id)
 
     def on_unsubscribe(self, client_id: int, channel_id: int) -> None:
-        with self._lock:
-            channels = self._subscribers.get(client_id, set())
-            channels.discard(channel_id)
-            if not channels:
-                self._subscribers.pop(client_id, None)
+        self.client_book.unsubscribe(client_id, channel_id)
 
     def on_client_advertise(self, client_id: int, channel) -> None:
         """A client's channel: accepted if it is a command topic of the simulator in CDR of
@@ -377,29 +301,20 @@ class Bridge(Node):
             topic = self.resolve_topic_name(channel.topic)
         except Exception:  # rclpy raises several kinds for a bad name
             topic = channel.topic
-        command = self._commands.get(topic)
-        reason = None
-        if command is None:
-            reason = f"not a command topic (commands: {', '.join(sorted(self._commands))})"
-        elif _full_type_or_none(channel.schema_name) != command[0].type_name:
-            reason = f"schema {channel.schema_name!r}, expected {command[0].type_name}"
-        elif channel.encoding != MESSAGE_ENCODING:
-            reason = f"encoding {channel.encoding!r}, expected {MESSAGE_ENCODING}"
+        commands = {name: spec for name, (spec, _) in self._commands.items()}
+        reason = command_refusal(topic, channel.schema_name, channel.encoding, commands)
         if reason is not None:
             self._refuse(f"client {client_id} may not publish on {channel.topic}: {reason}")
             return
-        with self._lock:
-            self._client_channels[(client_id, channel.id)] = topic
+        self.client_book.accept_channel(client_id, channel.id, topic)
         self.get_logger().info(f"client {client_id} publishes on {topic}")
 
     def on_client_unadvertise(self, client_id: int, channel_id: int) -> None:
-        with self._lock:
-            self._client_channels.pop((client_id, channel_id), None)
+        self.client_book.drop_channel(client_id, channel_id)
 
     def on_message_data(self, client_id: int, channel_id: int, data: bytes) -> None:
         """A client's command: published on DDS unchanged if it decodes as its type."""
-        with self._lock:
-            topic = self._client_channels.get((client_id, channel_id))
+        topic = self.client_book.topic_of(client_id, channel_id)
         if topic is None:
             self._refuse(
                 f"client {client_id}: message on channel {channel_id} dropped (channel refused)",
@@ -415,21 +330,16 @@ class Bridge(Node):
                          f"{spec.type_name} in CDR ({reason})")  # fmt: skip
             return
         publisher.publish(data)
-        with self._lock:
-            self.counts[key.CLIENT_COMMANDS] += 1
+        self.client_book.count(key.CLIENT_COMMANDS)
 
     def _refuse(self, text: str, quiet: bool = False) -> None:
-        with self._lock:
-            self.counts[key.REFUSED] += 1
-            self.last_refusal = text
+        self.client_book.refused(text)
         if not quiet:
             self.get_logger().warning(f"refused: {text}")
             self.server.publish_status(text, StatusLevel.Error)
 
     def _on_slow_client(self, address: str) -> None:
-        with self._lock:
-            self.counts[key.SLOW_REPORTS] += 1
-            self.slow_clients.add(address)
+        self.client_book.slow(address)
         self.get_logger().warning(
             f"client {address} reads slower than the traffic: its queue of "
             f"{self.config['client_queue']} messages is full and its oldest messages are "
@@ -439,24 +349,10 @@ class Bridge(Node):
     # -- services over the protocol -------------------------------------------------------------
 
     def _service(self, name: str) -> Service:
-        kind, type_name = SERVICES[name]
-        request, response = service_definitions(type_name)
-
-        def schema(suffix: str, text: str) -> MessageSchema:
-            return MessageSchema(
-                encoding=MESSAGE_ENCODING,
-                schema=Schema(
-                    name=type_name + suffix, encoding=SCHEMA_ENCODING, data=text.encode()
-                ),
-            )
-
+        _, type_name = SERVICES[name]
         return Service(
             topics.absolute(name, self.get_namespace()),
-            schema=ServiceSchema(
-                type_name,
-                request=schema("_Request", request),
-                response=schema("_Response", response),
-            ),
+            schema=service_schema(type_name),
             handler=functools.partial(self._call, name),
         )
 
@@ -476,8 +372,7 @@ class Bridge(Node):
         if not done.wait(SERVICE_TIMEOUT_S):
             future.cancel()
             raise TimeoutError(f"{client.srv_name}: no answer within {SERVICE_TIMEOUT_S} s")
-        with self._lock:
-            self.counts[key.SERVICE_CALLS] += 1
+        self.client_book.count(key.SERVICE_CALLS)
         self.get_logger().info(f"client {request.client_id} called {client.srv_name}")
         return serialize_message(future.result())
 
@@ -485,15 +380,7 @@ class Bridge(Node):
 
     def status_values(self) -> dict[str, str]:
         """The key/value pairs of the bridge's status (msg_docs/bridge.md)."""
-        with self._lock:
-            return {
-                key.BRIDGE_URL: self.url,
-                key.CLIENTS: str(len(self._subscribers)),
-                key.CHANNELS: str(len(self._channels)),
-                **{name: str(value) for name, value in self.counts.items()},
-                key.SLOW_CLIENTS: " ".join(sorted(self.slow_clients)),
-                key.LAST_REFUSAL: self.last_refusal,
-            }
+        return self.client_book.status_values()
 
     def _publish_status(self) -> None:
         values = self.status_values()
@@ -520,40 +407,7 @@ class Bridge(Node):
         self.server.stop()
         for topic, count in sorted(self.served.items()):
             self.get_logger().info(f"  {topic}: {count} messages served")
-        self._release_server_log()
-
-    def _release_server_log(self) -> None:
-        for name in ("foxglove", "foxglove_py"):
-            logging.getLogger(name).removeHandler(self._server_log)
-
-
-def _full_type_or_none(type_name: str) -> str | None:
-    try:
-        return full_type_name(type_name)
-    except ValueError:
-        return None
-
-
-class _Listener:
-    """foxglove-sdk's server callbacks (`foxglove.websocket.ServerListener`), to the bridge."""
-
-    def __init__(self, bridge: Bridge):
-        self._bridge = bridge
-
-    def on_subscribe(self, client, channel) -> None:
-        self._bridge.on_subscribe(client.id, channel.id)
-
-    def on_unsubscribe(self, client, channel) -> None:
-        self._bridge.on_unsubscribe(client.id, channel.id)
-
-    def on_client_advertise(self, client, channel) -> None:
-        self._bridge.on_client_advertise(client.id, channel)
-
-    def on_client_unadvertise(self, client, client_channel_id: int) -> None:
-        self._bridge.on_client_unadvertise(client.id, client_channel_id)
-
-    def on_message_data(self, client, client_channel_id: int, data: bytes) -> None:
-        self._bridge.on_message_data(client.id, client_channel_id, data)
+        self._server_log.detach()
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -61,9 +61,10 @@ def test_model_imports_only_the_model(graph):
             assert not outside, f"{name} imports {outside}"
 
 
-def test_analysis_and_tools_import_no_node_module(graph):
+def test_analysis_tools_and_the_pure_packages_import_no_node_module(graph):
+    pure = ("sail_ros.analysis", "sail_ros.tools", "sail_ros.runtime", "sail_ros.bridging")
     for name, targets in graph.items():
-        if name.startswith(("sail_ros.analysis", "sail_ros.tools")):
+        if name.startswith(pure):
             nodes = {t for t in targets if t.startswith("sail_ros.nodes")}
             assert not nodes, f"{name} imports {nodes}"
 
