@@ -127,24 +127,22 @@ class RangeWatch:
         self.warning = ""
         self.stopped_at = math.inf
         self._start = 0.0
-        rows = [model.length_free_rows[:4]]  # the tips
-        if model.free_hub:
-            rows.append(np.eye(model.n)[model.hub_slice])
-        self._rows = np.vstack(rows)
+        # the tips and a free hub's z_h, theta_x, theta_y among the peaks' rows
+        self._columns = [0, 1, 2, 3, 8, 9, 10] if model.free_hub else [0, 1, 2, 3]
 
     def start(self, stepper) -> None:
         self.peaks.start(stepper)
         self._start = (stepper.t, *stepper.boom_motion()[:2])
 
     def after_step(self, stepper) -> None:
-        self.peaks.after_step(stepper)
         (t0, lengths0, rates0), t1 = self._start, stepper.t
         lengths1, rates1, _ = stepper.boom_motion()
         self._start = (t1, lengths1, rates1)
         h = t1 - t0
         count = max(1, math.ceil(h / self.RANGE_SPACING_S - 1e-9))
         fractions = np.arange(1, count + 1) / count
-        values, _ = stepper.interpolant(fractions, self._rows)
+        values, _ = self.peaks.after_step(stepper, also=fractions)  # one pass for both
+        values = values[:, self._columns]
         lengths, _ = hermite_motion(
             fractions, np.full(count, h), lengths0, rates0, lengths1, rates1
         )

@@ -154,6 +154,8 @@ def _extension_system() -> np.ndarray:
 
 
 _EXTENSION_FACTORS = _extension_system()
+# LAPACK's solve with those factors, without scipy's checks (what `lu_solve` calls)
+_getrs = scipy.linalg.lapack.get_lapack_funcs("getrs", dtype=float)
 _EXTENSION_ORDERS = np.arange(2 * _PADE_POLES.size + 1)
 _EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
 
@@ -173,7 +175,7 @@ def _extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.n
         rhs = m * f[None, :] ** np.maximum(m - 1, 0) / _EXTENSION_FACTORIALS[:, None]
     else:
         rhs = f[None, :] ** m / _EXTENSION_FACTORIALS[:, None]
-    x = scipy.linalg.lu_solve(_EXTENSION_FACTORS, rhs, check_finite=False)
+    x, _ = _getrs(*_EXTENSION_FACTORS, rhs)
     return x[0], (x[1::2] + 1j * x[2::2]).T
 
 
@@ -256,6 +258,7 @@ class Trial(NamedTuple):
     estimate: np.ndarray
     extensions: tuple
     vibration: tuple  # (FreeVibration at the start, at the end) or ()
+    middle: object = None  # the whole step's matrices (`_STEP_MATRICES`), at its middle
 
 
 class SailStepper:
@@ -384,11 +387,17 @@ class SailStepper:
             self._qd_cache = (self._t, self._velocity(self._t, self._q, self._p))
         return self._qd_cache[1].copy()
 
-    def _velocity(self, t, q, p) -> np.ndarray:
+    def _velocity(self, t, q, p, middle=None) -> np.ndarray:
+        """`M^-1 (p - G q)` at `t`; `middle`: a step's matrices (`_STEP_MATRICES`) at `t`,
+        if at hand."""
         lengths, rates, accelerations = self._motion(t)
         # M is assembled from finite lengths and the state is checked after every
         # step: scipy's finiteness scans would only repeat that
         if rates.any():
+            if isinstance(middle, DenseMatrices):  # a moving step's middle
+                M, _, _, G = middle.matrices
+                factor, _ = potrf(M, lower=True, clean=False)
+                return potrs(factor, p - G @ q, lower=True)[0]
             if self._factor_at[0] == t:  # a step's end: its matrices are at hand
                 _, G = self._mass_gyro(t)
                 factor = self._factor_at[1]
@@ -587,9 +596,12 @@ class SailStepper:
         step in both results; the error of the two halves is estimated as a third of
         their difference from the whole on the outputs (the rule is of order 2)."""
         t0, q0, p0 = self._t, self._q, self._p
-        qh, ph, first = self._rational_step(t0, q0, p0, 0.5 * h)
-        q2, p2, second = self._rational_step(t0 + 0.5 * h, qh, ph, 0.5 * h)
-        q1, p1, _ = self._rational_step(t0, q0, p0, h)
+        half = t0 + 0.5 * h
+        # the three rational steps' middles, as `_rational_step` finds them
+        mats = self._step_matrices((t0 + 0.5 * (0.5 * h), half + 0.5 * (0.5 * h), half))
+        qh, ph, first = self._rational_step(t0, q0, p0, 0.5 * h, mats[0])
+        q2, p2, second = self._rational_step(half, qh, ph, 0.5 * h, mats[1])
+        q1, p1, _ = self._rational_step(t0, q0, p0, h, mats[2])
         t1 = t0 + h
         lengths0, lengths1 = self._motion(t0)[0], self._motion(t1)[0]
         M1, G1 = self._mass_gyro(t1)
@@ -628,7 +640,7 @@ class SailStepper:
             error = float(np.max(estimate / scale))
         if not math.isfinite(error):
             error = math.inf
-        return Trial(h, q2, p2, qd2, error, estimate, (first, second), vibration)
+        return Trial(h, q2, p2, qd2, error, estimate, (first, second), vibration, mats[2])
 
     def _forcing(self, t):
         """`(C, K_eq - K)` of Eq. 2 at `t`: how the motion couples the modes."""
@@ -767,7 +779,7 @@ class SailStepper:
             if self._half_velocity[0] is not trial:
                 self._half_velocity = (
                     trial,
-                    self._velocity(t0 + 0.5 * h, q_half, extensions[1][4]),
+                    self._velocity(t0 + 0.5 * h, q_half, extensions[1][4], trial.middle),
                 )
             qd_half = self._half_velocity[1]
             ends = ((qd0, qd_half, extensions[0][0]), (qd_half, qd1, q_half))
@@ -875,16 +887,29 @@ class SailStepper:
         _, _, _, M, G = self._assembled(t)
         return M, G
 
-    def _rational_step(self, t0, q0, p0, h):
+    def _rational_step(self, t0, q0, p0, h, mats=None):
         """One exponential-midpoint step of `h` [s] from `(q0, p0)` at `t0` with the
-        rational approximant (`_moving_step`): `(q1, p1, extension)`."""
+        rational approximant (`_moving_step`): `(q1, p1, extension)`; `mats`: the
+        matrices at its middle if already assembled (`_step_matrices`)."""
         t_mid = t0 + 0.5 * h
-        lengths, rates, accelerations = self._motion(t_mid)
+        lengths = self._motion(t_mid)[0]
         force = self._force(t_mid, lengths)
+        if mats is None:
+            (mats,) = self._step_matrices((t_mid,))
         with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
-            return self._moving_step(q0, p0, lengths, rates, accelerations, h, force)
+            return self._moving_step(q0, p0, mats, h, force)
 
-    def _moving_step(self, q0, p0, lengths, rates, accelerations, h, force):
+    def _step_matrices(self, times) -> list:
+        """The matrices one moving step needs (`_STEP_MATRICES`) at each of `times` [s]:
+        dense ones assembled in one pass (numpy's cost per call is most of it), or as
+        blocks (`BLOCK_SOLVE_MIN_COORDINATES`)."""
+        motions = [self._motion(t) for t in times]
+        if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
+            return [self.system.assemble_blocks(_STEP_MATRICES, *motion) for motion in motions]
+        stacked = (np.stack([motion[i] for motion in motions]) for i in range(3))
+        return [DenseMatrices(m) for m in self.system.assemble(_STEP_MATRICES, *stacked)]
+
+    def _moving_step(self, q0, p0, mats, h, force):
         """x1 = R(h B) x0 + h phi_R(h B) f with R the (4,4) Padé approximant of exp and
         phi_R(z) = (R(z) - 1) / z, by partial fractions:
         R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x],
@@ -896,11 +921,6 @@ class SailStepper:
         = x_p - (G + tau (K - N)) x_q, y_q = x_q + tau u, y_p = M u + G y_q; the real
         matrices act on the sums over k: q1 = c0 q0 + 2 s, p1 = c0 p0 + 2 (M v + G s),
         v = Re sum_k w_k u_k, s = Re sum_k w_k y_q,k."""
-        motion = (lengths, rates, accelerations)
-        if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
-            mats = self.system.assemble_blocks(_STEP_MATRICES, *motion)
-        else:
-            mats = DenseMatrices(self.system.assemble(_STEP_MATRICES, *motion))
         taus = h / _PADE_POLES
         _, _, Kq, Gq = mats.matvec(q0)
         if force is not None:  # x_p = p0 + tau f
