@@ -116,6 +116,15 @@ class LinearSystem(Protocol):
 potrf, potrs = scipy.linalg.lapack.get_lapack_funcs(("potrf", "potrs"), dtype=float)
 
 
+def _cho_factor(M: np.ndarray):
+    """`scipy.linalg.cho_factor(M, check_finite=False)` (the same LAPACK call, the same
+    factor) without its wrapper's cost, for `M` assembled from checked lengths."""
+    factor, info = potrf(M, lower=False, clean=False)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"the mass matrix is not positive definite (potrf info {info})")
+    return factor, False
+
+
 class IntegrationError(RuntimeError):
     """The state became non-finite; `reset` starts again."""
 
@@ -403,7 +412,7 @@ class SailStepper:
                 factor = self._factor_at[1]
             else:  # inside a step (a sample): M and G alone
                 M, G = self.system.assemble((MASS, GYROSCOPIC), lengths, rates, accelerations)
-                factor = scipy.linalg.cho_factor(M, check_finite=False)
+                factor = _cho_factor(M)
             return scipy.linalg.cho_solve(factor, p - G @ q, check_finite=False)
         # G = 0 at rest, and M depends on the lengths alone: keep its factor
         return scipy.linalg.cho_solve(self._mass_factor(lengths), p, check_finite=False)
@@ -688,7 +697,7 @@ class SailStepper:
         """The Cholesky factor of `M` at `t` (moving or not), kept for the last time asked."""
         if self._factor_at[0] != t:
             M = self._assembled(t)[3]
-            self._factor_at = (t, scipy.linalg.cho_factor(M, check_finite=False))
+            self._factor_at = (t, _cho_factor(M))
         return self._factor_at[1]
 
     def _rows(self, lengths) -> np.ndarray:
