@@ -717,10 +717,14 @@ class SailStepper:
             return self.resolved_frequency
         return self.system.resolved_frequency(lengths)
 
-    def states_at(self, times) -> tuple[np.ndarray, np.ndarray]:
+    def states_at(self, times, rates: str = "exact") -> tuple[np.ndarray, np.ndarray]:
         """`(q, qd)` (each (m, n)) at `times` [s] (m values) within the last step (its end:
         the state itself), from the step's continuous extension (`between`) or, at rest,
-        the exact step from its start."""
+        the exact step from its start. `rates`: how a moving step's velocities inside it
+        are found (`between`): "exact", or "extension" (no assembly nor factorisation per
+        time; `q` the same to the bit) for a caller that reads positions only."""
+        if rates not in ("exact", "extension"):
+            raise ValueError(f"rates must be 'exact' or 'extension', got {rates!r}")
         times = np.asarray(times, dtype=float)
         q, qd = np.empty((times.size, self._q.size)), np.empty((times.size, self._q.size))
         end = np.abs(times - self._t) <= 1e-12 * np.maximum(1.0, np.abs(times))
@@ -739,7 +743,7 @@ class SailStepper:
         if isinstance(trial, Rest):  # at rest: each mode's exact propagator from the start
             q[~end], qd[~end] = self._rest_states(trial, fractions)
             return q, qd
-        q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates="exact")
+        q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates=rates)
         return q, qd
 
     def _velocities(self, times, q, p) -> np.ndarray:
