@@ -81,7 +81,7 @@ def simulate(
     return Run(t_eval.copy(), q, qd, stepper)
 
 
-def sample(stepper: SailStepper, t_eval: np.ndarray, t_end: float, q, qd):
+def sample(stepper: SailStepper, t_eval: np.ndarray, t_end: float, q, qd, rates="exact"):
     """Step `stepper` to `t_end` [s] and write its state at the output times `t_eval`
     (increasing, from its time on) into `q`, `qd` (each (k, n)); yields `(done,
     reached)` after each step, the outputs `t_eval[done:reached]` written.
@@ -92,7 +92,7 @@ def sample(stepper: SailStepper, t_eval: np.ndarray, t_end: float, q, qd):
     whose switches are not known (a plain callable) and fixed steps (`rtol` None) end
     steps at output times too. What the
     stepper raises (a non-finite state, an observer's stop) ends it: the outputs
-    written so far are those of the last yield."""
+    written so far are those of the last yield. `rates`: as `SailStepper.states_at`."""
     inputs = stepper.inputs
     free = stepper.rtol is not None and (inputs is None or hasattr(inputs, "switch_times"))
     done = 0
@@ -102,7 +102,7 @@ def sample(stepper: SailStepper, t_eval: np.ndarray, t_end: float, q, qd):
             stepper.advance_step(t_end if free else t)
         slack = 1e-12 * max(1.0, abs(stepper.t))
         reached = done + int(np.searchsorted(t_eval[done:], stepper.t + slack, "right"))
-        q[done:reached], qd[done:reached] = stepper.states_at(t_eval[done:reached])
+        q[done:reached], qd[done:reached] = stepper.states_at(t_eval[done:reached], rates)
         yield done, reached
         done = reached
 

@@ -162,8 +162,13 @@ class OutputPeaks:
         self._pending_samples += 1
         self._start = (stepper.t, lengths, rates)
 
-    def after_step(self, stepper) -> None:
-        """Sample the step just taken (`SailStepper.on_step`) on its own interpolant."""
+    def after_step(self, stepper, also=None):
+        """Sample the step just taken (`SailStepper.on_step`) on its own interpolant.
+
+        `also`: more fractions of the step (k,) to sample in the same pass (one
+        interpolant call costs what its few samples do not); their `rows` values and
+        rates per second ((k, r) each, root moment rows not yet over L^2) are returned,
+        else None."""
         t0, lengths0, rates0 = self._start
         t1 = stepper.t
         lengths1, rates1, _ = stepper.boom_motion()
@@ -171,7 +176,12 @@ class OutputPeaks:
         spacing = min(self.max_spacing, self.peak_phase / stepper.interpolant_frequency())
         count = max(1, math.ceil(h / spacing - 1e-9))
         fractions = _fractions(count)
-        y, yd = stepper.interpolant(fractions, self.rows)
+        extra = None
+        if also is None:
+            y, yd = stepper.interpolant(fractions, self.rows)
+        else:
+            y, yd = stepper.interpolant(np.concatenate([fractions, also]), self.rows)
+            y, yd, extra = y[:count], yd[:count], (y[count:], yd[count:])
         self._pending.append(
             (t0 + fractions * h, y, yd, fractions, h, lengths0, rates0, lengths1, rates1)
         )
@@ -179,6 +189,7 @@ class OutputPeaks:
         self._start = (t1, lengths1, rates1)
         if self._pending_samples >= self.FLUSH_SAMPLES:
             self._flush()
+        return extra
 
     def _flush(self) -> None:
         if not self._pending:

@@ -17,6 +17,8 @@ from scipy.interpolate import CubicSpline
 
 from sail_ros.model.layout import per_boom
 
+_BOOMS = np.arange(4)
+
 
 class Profile(Protocol):
     """The motion of the four booms against time."""
@@ -368,6 +370,9 @@ class BoomMotion:
         if len(self.profiles) != 4:
             raise ValueError(f"need one profile per boom (4), got {len(self.profiles)}")
         self._distinct = list({id(p): p for p in self.profiles}.values())
+        # which distinct profile drives each boom: one gather per call, not 12 lookups
+        owner = {id(p): j for j, p in enumerate(self._distinct)}
+        self._owner = np.array([owner[id(p)] for p in self.profiles])
 
     def replaced(self, profile, booms) -> BoomMotion:
         """This motion with `profile` for the booms at indices `booms` (0 = a)."""
@@ -376,11 +381,9 @@ class BoomMotion:
     def __call__(self, t):
         if len(self._distinct) == 1:
             return self._distinct[0](t)
-        values = {id(p): p(t) for p in self._distinct}
-        return tuple(
-            np.array([values[id(p)][part][k] for k, p in enumerate(self.profiles)])
-            for part in range(3)
-        )
+        values = np.array([p(t) for p in self._distinct], dtype=float)
+        lengths, rates, accelerations = values[self._owner, :, _BOOMS].T.copy()
+        return lengths, rates, accelerations
 
     def is_static(self, t0, t1) -> bool:
         return all(p.is_static(t0, t1) for p in self._distinct)

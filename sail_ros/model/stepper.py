@@ -116,6 +116,15 @@ class LinearSystem(Protocol):
 potrf, potrs = scipy.linalg.lapack.get_lapack_funcs(("potrf", "potrs"), dtype=float)
 
 
+def _cho_factor(M: np.ndarray):
+    """`scipy.linalg.cho_factor(M, check_finite=False)` (the same LAPACK call, the same
+    factor) without its wrapper's cost, for `M` assembled from checked lengths."""
+    factor, info = potrf(M, lower=False, clean=False)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"the mass matrix is not positive definite (potrf info {info})")
+    return factor, False
+
+
 class IntegrationError(RuntimeError):
     """The state became non-finite; `reset` starts again."""
 
@@ -154,6 +163,8 @@ def _extension_system() -> np.ndarray:
 
 
 _EXTENSION_FACTORS = _extension_system()
+# LAPACK's solve with those factors, without scipy's checks (what `lu_solve` calls)
+_getrs = scipy.linalg.lapack.get_lapack_funcs("getrs", dtype=float)
 _EXTENSION_ORDERS = np.arange(2 * _PADE_POLES.size + 1)
 _EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
 
@@ -173,7 +184,7 @@ def _extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.n
         rhs = m * f[None, :] ** np.maximum(m - 1, 0) / _EXTENSION_FACTORIALS[:, None]
     else:
         rhs = f[None, :] ** m / _EXTENSION_FACTORIALS[:, None]
-    x = scipy.linalg.lu_solve(_EXTENSION_FACTORS, rhs, check_finite=False)
+    x, _ = _getrs(*_EXTENSION_FACTORS, rhs)
     return x[0], (x[1::2] + 1j * x[2::2]).T
 
 
@@ -256,6 +267,7 @@ class Trial(NamedTuple):
     estimate: np.ndarray
     extensions: tuple
     vibration: tuple  # (FreeVibration at the start, at the end) or ()
+    middle: object = None  # the whole step's matrices (`_STEP_MATRICES`), at its middle
 
 
 class SailStepper:
@@ -384,17 +396,23 @@ class SailStepper:
             self._qd_cache = (self._t, self._velocity(self._t, self._q, self._p))
         return self._qd_cache[1].copy()
 
-    def _velocity(self, t, q, p) -> np.ndarray:
+    def _velocity(self, t, q, p, middle=None) -> np.ndarray:
+        """`M^-1 (p - G q)` at `t`; `middle`: a step's matrices (`_STEP_MATRICES`) at `t`,
+        if at hand."""
         lengths, rates, accelerations = self._motion(t)
         # M is assembled from finite lengths and the state is checked after every
         # step: scipy's finiteness scans would only repeat that
         if rates.any():
+            if isinstance(middle, DenseMatrices):  # a moving step's middle
+                M, _, _, G = middle.matrices
+                factor, _ = potrf(M, lower=True, clean=False)
+                return potrs(factor, p - G @ q, lower=True)[0]
             if self._factor_at[0] == t:  # a step's end: its matrices are at hand
                 _, G = self._mass_gyro(t)
                 factor = self._factor_at[1]
             else:  # inside a step (a sample): M and G alone
                 M, G = self.system.assemble((MASS, GYROSCOPIC), lengths, rates, accelerations)
-                factor = scipy.linalg.cho_factor(M, check_finite=False)
+                factor = _cho_factor(M)
             return scipy.linalg.cho_solve(factor, p - G @ q, check_finite=False)
         # G = 0 at rest, and M depends on the lengths alone: keep its factor
         return scipy.linalg.cho_solve(self._mass_factor(lengths), p, check_finite=False)
@@ -587,9 +605,12 @@ class SailStepper:
         step in both results; the error of the two halves is estimated as a third of
         their difference from the whole on the outputs (the rule is of order 2)."""
         t0, q0, p0 = self._t, self._q, self._p
-        qh, ph, first = self._rational_step(t0, q0, p0, 0.5 * h)
-        q2, p2, second = self._rational_step(t0 + 0.5 * h, qh, ph, 0.5 * h)
-        q1, p1, _ = self._rational_step(t0, q0, p0, h)
+        half = t0 + 0.5 * h
+        # the three rational steps' middles, as `_rational_step` finds them
+        mats = self._step_matrices((t0 + 0.5 * (0.5 * h), half + 0.5 * (0.5 * h), half))
+        qh, ph, first = self._rational_step(t0, q0, p0, 0.5 * h, mats[0])
+        q2, p2, second = self._rational_step(half, qh, ph, 0.5 * h, mats[1])
+        q1, p1, _ = self._rational_step(t0, q0, p0, h, mats[2])
         t1 = t0 + h
         lengths0, lengths1 = self._motion(t0)[0], self._motion(t1)[0]
         M1, G1 = self._mass_gyro(t1)
@@ -628,7 +649,7 @@ class SailStepper:
             error = float(np.max(estimate / scale))
         if not math.isfinite(error):
             error = math.inf
-        return Trial(h, q2, p2, qd2, error, estimate, (first, second), vibration)
+        return Trial(h, q2, p2, qd2, error, estimate, (first, second), vibration, mats[2])
 
     def _forcing(self, t):
         """`(C, K_eq - K)` of Eq. 2 at `t`: how the motion couples the modes."""
@@ -676,7 +697,7 @@ class SailStepper:
         """The Cholesky factor of `M` at `t` (moving or not), kept for the last time asked."""
         if self._factor_at[0] != t:
             M = self._assembled(t)[3]
-            self._factor_at = (t, scipy.linalg.cho_factor(M, check_finite=False))
+            self._factor_at = (t, _cho_factor(M))
         return self._factor_at[1]
 
     def _rows(self, lengths) -> np.ndarray:
@@ -696,10 +717,14 @@ class SailStepper:
             return self.resolved_frequency
         return self.system.resolved_frequency(lengths)
 
-    def states_at(self, times) -> tuple[np.ndarray, np.ndarray]:
+    def states_at(self, times, rates: str = "exact") -> tuple[np.ndarray, np.ndarray]:
         """`(q, qd)` (each (m, n)) at `times` [s] (m values) within the last step (its end:
         the state itself), from the step's continuous extension (`between`) or, at rest,
-        the exact step from its start."""
+        the exact step from its start. `rates`: how a moving step's velocities inside it
+        are found (`between`): "exact", or "extension" (no assembly nor factorisation per
+        time; `q` the same to the bit) for a caller that reads positions only."""
+        if rates not in ("exact", "extension"):
+            raise ValueError(f"rates must be 'exact' or 'extension', got {rates!r}")
         times = np.asarray(times, dtype=float)
         q, qd = np.empty((times.size, self._q.size)), np.empty((times.size, self._q.size))
         end = np.abs(times - self._t) <= 1e-12 * np.maximum(1.0, np.abs(times))
@@ -718,7 +743,7 @@ class SailStepper:
         if isinstance(trial, Rest):  # at rest: each mode's exact propagator from the start
             q[~end], qd[~end] = self._rest_states(trial, fractions)
             return q, qd
-        q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates="exact")
+        q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates=rates)
         return q, qd
 
     def _velocities(self, times, q, p) -> np.ndarray:
@@ -767,7 +792,7 @@ class SailStepper:
             if self._half_velocity[0] is not trial:
                 self._half_velocity = (
                     trial,
-                    self._velocity(t0 + 0.5 * h, q_half, extensions[1][4]),
+                    self._velocity(t0 + 0.5 * h, q_half, extensions[1][4], trial.middle),
                 )
             qd_half = self._half_velocity[1]
             ends = ((qd0, qd_half, extensions[0][0]), (qd_half, qd1, q_half))
@@ -875,16 +900,29 @@ class SailStepper:
         _, _, _, M, G = self._assembled(t)
         return M, G
 
-    def _rational_step(self, t0, q0, p0, h):
+    def _rational_step(self, t0, q0, p0, h, mats=None):
         """One exponential-midpoint step of `h` [s] from `(q0, p0)` at `t0` with the
-        rational approximant (`_moving_step`): `(q1, p1, extension)`."""
+        rational approximant (`_moving_step`): `(q1, p1, extension)`; `mats`: the
+        matrices at its middle if already assembled (`_step_matrices`)."""
         t_mid = t0 + 0.5 * h
-        lengths, rates, accelerations = self._motion(t_mid)
+        lengths = self._motion(t_mid)[0]
         force = self._force(t_mid, lengths)
+        if mats is None:
+            (mats,) = self._step_matrices((t_mid,))
         with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
-            return self._moving_step(q0, p0, lengths, rates, accelerations, h, force)
+            return self._moving_step(q0, p0, mats, h, force)
 
-    def _moving_step(self, q0, p0, lengths, rates, accelerations, h, force):
+    def _step_matrices(self, times) -> list:
+        """The matrices one moving step needs (`_STEP_MATRICES`) at each of `times` [s]:
+        dense ones assembled in one pass (numpy's cost per call is most of it), or as
+        blocks (`BLOCK_SOLVE_MIN_COORDINATES`)."""
+        motions = [self._motion(t) for t in times]
+        if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
+            return [self.system.assemble_blocks(_STEP_MATRICES, *motion) for motion in motions]
+        stacked = (np.stack([motion[i] for motion in motions]) for i in range(3))
+        return [DenseMatrices(m) for m in self.system.assemble(_STEP_MATRICES, *stacked)]
+
+    def _moving_step(self, q0, p0, mats, h, force):
         """x1 = R(h B) x0 + h phi_R(h B) f with R the (4,4) Padé approximant of exp and
         phi_R(z) = (R(z) - 1) / z, by partial fractions:
         R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x],
@@ -896,11 +934,6 @@ class SailStepper:
         = x_p - (G + tau (K - N)) x_q, y_q = x_q + tau u, y_p = M u + G y_q; the real
         matrices act on the sums over k: q1 = c0 q0 + 2 s, p1 = c0 p0 + 2 (M v + G s),
         v = Re sum_k w_k u_k, s = Re sum_k w_k y_q,k."""
-        motion = (lengths, rates, accelerations)
-        if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
-            mats = self.system.assemble_blocks(_STEP_MATRICES, *motion)
-        else:
-            mats = DenseMatrices(self.system.assemble(_STEP_MATRICES, *motion))
         taus = h / _PADE_POLES
         _, _, Kq, Gq = mats.matvec(q0)
         if force is not None:  # x_p = p0 + tau f
