@@ -5,7 +5,9 @@
 //   node bridge_client.mjs URL OUT.json STEPS.json
 //
 // Connects, waits for the channels of STEPS.topics (a list of names) to be advertised,
-// subscribes to every channel (or those of STEPS.subscribe), then runs STEPS.steps in order:
+// subscribes to every channel (or those of STEPS.subscribe), waits for a first message on
+// each topic of STEPS.receiving (the bridge has then found the simulator's publishers: a
+// channel exists from the bridge's start), then runs STEPS.steps in order:
 //   {"wait": seconds}
 //   {"publish": {"topic", "type", "value"}}       advertise (once per topic), encode, send
 //   {"publish_hex": {"topic", "type", "hex"}}     the same with these bytes as they are
@@ -191,6 +193,10 @@ try {
   await until(
     () => (plan.topics ?? []).every((topic) => out.channels.some((c) => c.topic === topic)),
     `channels ${JSON.stringify(plan.topics)}`,
+  );
+  await until(
+    () => (plan.receiving ?? []).every((topic) => (out.received[topic] ?? 0) > 0),
+    `a first message on ${JSON.stringify(plan.receiving)}`,
   );
   for (const step of plan.steps ?? []) {
     await run(step);

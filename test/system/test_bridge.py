@@ -145,6 +145,7 @@ def test_foxglove_client_sees_the_log_and_commands_the_sail(processes, js_reader
     out = tmp_path / "client.json"
     plan = {
         "topics": SIM_TOPICS,
+        "receiving": [topics.absolute(topic) for topic in topics.STATE_TOPICS],
         "keep_values": ["/sail/boom_state", "/sail/command_status"],
         "steps": STEPS,
     }
@@ -279,7 +280,12 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     )
     operator.wait_for_simulator(subscribers=2)  # the simulator and the bridge
     state = [topics.absolute(name) for name in topics.STATE_TOPICS]
-    reading = {"topics": SIM_TOPICS, "subscribe": state, "steps": [{"wait": 4.0}]}
+    reading = {
+        "topics": SIM_TOPICS,
+        "subscribe": state,
+        "receiving": state,
+        "steps": [{"wait": 4.0}],
+    }
     stalling = {"topics": SIM_TOPICS, "steps": [{"stall": 3.0}, {"wait": 0.5}]}
     fast = run_client(js_readers, url, reading, tmp_path / "fast.json")
     slow = run_client(js_readers, url, stalling, tmp_path / "slow.json")
