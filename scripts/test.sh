@@ -16,5 +16,5 @@ elif [ "$(cat "$js/node_modules/.installed" 2>/dev/null)" != "$lock" ]; then
 fi
 source "$root/scripts/env.sh"
 cd "$root"
-# two tests at a time, a module per worker (test/conftest.py: `timing` tests run alone)
-exec python -m pytest -n 2 --dist loadfile "$@"
+# two tests at a time (test/conftest.py: which tests share a worker, `timing` tests alone)
+exec python -m pytest -n 2 --dist loadgroup "$@"

@@ -11,7 +11,8 @@ The tests live by tier, one folder each, every module marked with its tier:
 
 `pytest -m model` runs the first two in about a minute. A test marked `slow` is the full
 size of a trial the suite runs CI-sized: it runs only with `--slow` (scripts/stress.sh).
-The test command runs two tests at a time (pytest-xdist, `-n 2`, a module per worker); a
+The test command runs two tests at a time (pytest-xdist, `-n 2`, a module on one worker
+when its tests share a module fixture, any other test wherever a worker is free); a
 test marked `timing` asserts wall-clock behaviour (real-time factor, overruns), so it
 runs while no other test does: it holds a lock exclusively that every other test holds
 shared.
@@ -48,11 +49,21 @@ def pytest_addoption(parser):
     )
 
 
+def _module_fixture_user(item) -> bool:
+    """True if the test uses a fixture of module scope (made once per module and worker)."""
+    definitions = item._fixtureinfo.name2fixturedefs  # pytest's record of the test's fixtures
+    return any(d.scope == "module" for name in item.fixturenames for d in definitions.get(name, ()))
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist reads the groups (--dist loadgroup)
 def pytest_collection_modifyitems(config, items):
     """Every test belongs to exactly one tier, the one of its folder; `slow` trials are
-    deselected unless --slow."""
+    deselected unless --slow. With xdist, a module whose tests share a module fixture runs
+    on one worker (an xdist group), any other test wherever a worker is free."""
     kept, slow = [], []
     for item in items:
+        if _module_fixture_user(item):
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
         tiers = [name for name in TIERS if item.get_closest_marker(name)]
         if len(tiers) != 1:
             raise pytest.UsageError(f"{item.nodeid}: needs exactly one of {TIERS}, has {tiers}")

@@ -9,10 +9,10 @@ what a clone would (git's tracked and unignored files), shares the set-up
 `.venv`, and must be as clean afterwards: whatever the examples write is
 ignored by git.
 
-The suite runs it CI-sized: the main job and every block that works offline, not
-the live walk-throughs (blocks that start processes in the background, driven in
-test_drive.py) nor the Monte Carlo study (run in test_studies_dask.py). The whole
-README runs with `--slow` (scripts/stress.sh).
+The suite runs it CI-sized: every block that works offline, not the main job (its
+`sail-ros demo` runs in test_sim_multiprocess.py), the live walk-throughs (blocks that
+start processes in the background, driven in test_drive.py) nor the Monte Carlo study
+(run in test_studies_dask.py). The whole README runs with `--slow` (scripts/stress.sh).
 """
 
 import hashlib
@@ -33,6 +33,7 @@ SETUP_INPUTS = ("requirements.txt", "constraints.txt", "setup.py")  # as scripts
 TIMEOUT_S = 900  # all blocks take ~2 min on an idle 2-core machine
 LIVE = re.compile(r"&\s*$", re.MULTILINE)  # a process left running in the background
 STUDY = "sail-ros montecarlo"
+MAIN_JOB = "scripts/main.sh"
 FENCE = re.compile(r"^```([^\n`]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)
 
 
@@ -77,8 +78,8 @@ def environment_is_current(tree: Path) -> bool:
 
 
 def offline(body: str) -> bool:
-    """A block that starts nothing in the background and runs no study."""
-    return not LIVE.search(body) and STUDY not in body
+    """A block that starts nothing in the background and runs no study nor the main job."""
+    return not LIVE.search(body) and STUDY not in body and MAIN_JOB not in body
 
 
 @pytest.mark.slow
@@ -87,23 +88,23 @@ def test_readme_runs_top_to_bottom(tmp_path, ros_env):
     assert "accepted: deploy to 12 m" in output
     assert "rejected, as it should be" in output
     assert "40 samples ran, 0 failed" in output
+    assert "simulator and recorder stopped cleanly" in output  # scripts/main.sh
+    stored = re.search(r"simulator parameters stored: \d+ \(.*\)", output)  # as quoted
+    assert stored and stored.group(0) in (tree / "README.md").read_text(), stored
     assert (tree / "out" / "run1" / "metadata.yaml").is_file()
     assert (tree / "out" / "run1_report").is_dir()
     check_offline_output(output, tree)
 
 
-def test_readme_main_job_and_offline_blocks_run(tmp_path, ros_env):
+def test_readme_offline_blocks_run(tmp_path, ros_env):
     output, tree = run_readme(tmp_path, ros_env, offline)
     assert "accepted: deploy to 12 m" not in output  # the live walk-through did not run
     check_offline_output(output, tree)
 
 
 def check_offline_output(output: str, tree: Path) -> None:
-    """What the main job and the offline blocks print and leave behind."""
-    assert "simulator and recorder stopped cleanly" in output  # scripts/main.sh
+    """What the offline blocks print and leave behind."""
     assert "lowest frequencies at full deployment" in output  # the Python example printed
-    stored = re.search(r"simulator parameters stored: \d+ \(.*\)", output)  # as quoted
-    assert stored and stored.group(0) in (tree / "README.md").read_text(), stored
     assert (tree / "out" / "loaded_report").is_dir()
     assert (tree / "out" / "plant.mat").is_file()
     status = subprocess.run(

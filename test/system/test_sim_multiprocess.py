@@ -6,6 +6,7 @@ against the model run offline for the same motion.
 """
 
 import math
+import re
 import signal
 import subprocess
 import sys
@@ -15,6 +16,7 @@ import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from harness import ROOT
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
@@ -365,6 +367,9 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     ]
     windows = {float(status[key.REAL_TIME_FACTOR_WINDOW]) for status in statuses}
     assert len(windows) > 5 and min(windows - {0.0}) >= RTF_MIN_WINDOW_S
+    # the count the README quotes of the main job (scripts/main.sh runs this demo)
+    stored = re.search(r"simulator parameters stored: \d+ \(", result.stdout)
+    assert stored and stored.group(0) in (ROOT / "README.md").read_text(), stored
 
 
 def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
