@@ -62,7 +62,9 @@ def pytest_collection_modifyitems(config, items):
     on one worker (an xdist group), any other test wherever a worker is free."""
     kept, slow = [], []
     for item in items:
-        if _module_fixture_user(item):
+        if item.get_closest_marker("timing") is not None:
+            item.add_marker(pytest.mark.xdist_group("timing"))
+        elif _module_fixture_user(item):
             item.add_marker(pytest.mark.xdist_group(item.module.__name__))
         tiers = [name for name in TIERS if item.get_closest_marker(name)]
         if len(tiers) != 1:
@@ -78,7 +80,9 @@ def pytest_collection_modifyitems(config, items):
         (slow if is_slow and not config.getoption("--slow") else kept).append(item)
     if slow:
         config.hook.pytest_deselected(items=slow)
-        items[:] = kept
+    # the timing tests first: one worker runs them alone while the other starts its first
+    kept.sort(key=lambda item: item.get_closest_marker("timing") is None)
+    items[:] = kept
 
 
 _TIER_SECONDS: dict[str, float] = {}
@@ -106,21 +110,56 @@ def pytest_terminal_summary(terminalreporter, config):
     )
 
 
+class _TimingLock:
+    """Between xdist workers, a lock file of this run's temporary root: every other test
+    holds it shared while it runs, `timing` tests exclusively; one worker runs those one
+    after another (an xdist group, first in the order) and keeps the lock from the first
+    to its next other test."""
+
+    def __init__(self):
+        self._file = None
+        self._mode = None
+
+    def hold(self, path: Path, mode: int) -> None:
+        if self._mode == mode:
+            return
+        if self._file is None:
+            self._file = path.open("a")  # noqa: SIM115 (held across tests)
+        fcntl.flock(self._file, fcntl.LOCK_UN)
+        fcntl.flock(self._file, mode)
+        self._mode = mode
+
+    def unlock(self) -> None:
+        if self._file is not None:
+            fcntl.flock(self._file, fcntl.LOCK_UN)
+            self._mode = None
+
+    def release(self) -> None:
+        if self._file is not None:
+            fcntl.flock(self._file, fcntl.LOCK_UN)
+            self._file.close()
+            self._file, self._mode = None, None
+
+
+_TIMING_LOCK = _TimingLock()
+
+
 @pytest.fixture(autouse=True)
 def _alone_when_timing(request, tmp_path_factory):
-    """Between xdist workers: a `timing` test runs alone (an exclusive lock on a file of
-    this run's temporary root), any other test beside other tests (the lock shared)."""
+    """A `timing` test runs while no test runs on another worker (see _TimingLock)."""
     if "PYTEST_XDIST_WORKER" not in os.environ:
         yield
         return
     timing = request.node.get_closest_marker("timing") is not None
     path = tmp_path_factory.getbasetemp().parent / "timing.lock"  # one per run
-    with path.open("a") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX if timing else fcntl.LOCK_SH)
-        try:
-            yield
-        finally:
-            fcntl.flock(lock, fcntl.LOCK_UN)
+    _TIMING_LOCK.hold(path, fcntl.LOCK_EX if timing else fcntl.LOCK_SH)
+    yield
+    if not timing:  # let a timing test of the other worker in between two others
+        _TIMING_LOCK.unlock()
+
+
+def pytest_sessionfinish(session):
+    _TIMING_LOCK.release()
 
 
 @pytest.fixture(scope="session")
