@@ -125,7 +125,7 @@ def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_pa
     """`send tip-force` and `send pressure` load a damped sail; a force beyond the limit
     is rejected; the root moments, the load power and the dissipation are published
     and recorded; a reset takes the loads off."""
-    processes(
+    sim = processes(
         "sim",
         parameters={
             "sail.mass_damping": 0.5,
@@ -154,6 +154,10 @@ def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_pa
     assert view[key.DISSIPATION] >= 0.0 and view[key.LOAD_POWER] == view[key.LOAD_POWER]
     assert view[key.ACCEPTED] == 2 and view[key.REJECTED] == 1
     assert in_process("send", "reset").returncode == 0
+    # the states after the reset, published before the recorder stops: seen by a watcher
+    # (which the recorder, subscribed all along, then has too), the simulator stopped first
+    watch(ros_env, run=in_process)
+    assert sim.stop(signal.SIGINT) == 0, sim.log()
     assert recorder.stop(signal.SIGINT) == 0, recorder.log()
 
     bag = BagReader(tmp_path / "bag")
