@@ -376,19 +376,19 @@ def test_a_hub_wrench_from_the_terminal_tilts_a_free_hub_and_watch_shows_it(proc
     max_hub_torque is accepted and tilts the hub about x, which `watch` shows from
     /sail/hub_state; one beyond the limit is rejected in the policy's words (exit 1); a
     value that is not finite never leaves the terminal (exit 2)."""
-    processes("sim", parameters={"sail.free_hub": True})
-    assert "hub" in watch(ros_env)  # waits for the simulator
-    pushed = tool(ros_env, "send", "hub-wrench", "--torque-x", "0.5")
+    processes("sim", parameters={"sail.free_hub": True, **FAST_STATUS})
+    assert "hub" in watch(ros_env, run=in_process)  # waits for the simulator
+    pushed = in_process("send", "hub-wrench", "--torque-x", "0.5")
     assert pushed.returncode == 0, pushed.stderr
     assert pushed.stdout.startswith("accepted: hub force_z = 0 N, torque_x = 0.5 N m")
-    too_much = tool(ros_env, "send", "hub-wrench", "--torque-y", "5")
+    too_much = in_process("send", "hub-wrench", "--torque-y", "5")
     assert too_much.returncode == 1
     assert "|torque.y| = 5 N m exceeds max_hub_torque = 1 N m" in too_much.stdout
-    bad = tool(ros_env, "send", "hub-wrench", "--force", "nan")
+    bad = in_process("send", "hub-wrench", "--force", "nan")
     assert bad.returncode == 2 and bad.stderr == "error: --force = nan N is not finite\n"
     time.sleep(1.0)
-    hub = watch(ros_env)["hub"]
+    hub = watch(ros_env, run=in_process)["hub"]
     assert hub["theta_x_rad"] > 0.0 and hub["thd_x_rad_s"] > 0.0
     assert abs(hub["theta_y_rad"]) < 1e-3 * hub["theta_x_rad"]
-    text = tool(ros_env, "watch", "--once", "--timeout", "30")
+    text = in_process("watch", "--once", "--timeout", "30")
     assert "  free hub: heave z_h " in text.stdout and "|theta|" in text.stdout

@@ -110,8 +110,11 @@ def publish_main(argv) -> int:
     executor.add_node(node)
     latched = node.create_publisher(Float64, LATCHED_TOPIC, LATCHED_QOS)
     latched.publish(Float64(data=0.25))  # before anyone listens: only durability delivers it
+    # every message kept until each reliable reader acknowledged it, as the simulator's
+    # state topics keep 500: with 10 a reader slowed by a busy machine lost messages
     publishers = {
-        topic: node.create_publisher(cls, args.prefix + topic, 10) for topic, cls in STREAMS.items()
+        topic: node.create_publisher(cls, args.prefix + topic, max(10, args.count))
+        for topic, cls in STREAMS.items()
     }
     while (
         min(p.get_subscription_count() for p in publishers.values()) < args.subscribers
