@@ -110,10 +110,10 @@ def publish_main(argv) -> int:
     executor.add_node(node)
     latched = node.create_publisher(Float64, LATCHED_TOPIC, LATCHED_QOS)
     latched.publish(Float64(data=0.25))  # before anyone listens: only durability delivers it
-    # every message kept until each reliable reader acknowledged it, as the simulator's
-    # state topics keep 500: with 10 a reader slowed by a busy machine lost messages
+    # up to 500 messages kept until each reliable reader acknowledged them, as the
+    # simulator's state topics keep: with 10 a reader slowed by a busy machine lost some
     publishers = {
-        topic: node.create_publisher(cls, args.prefix + topic, max(10, args.count))
+        topic: node.create_publisher(cls, args.prefix + topic, min(args.count, 500))
         for topic, cls in STREAMS.items()
     }
     while (
@@ -646,20 +646,22 @@ def test_sigkill_at_random_times_loses_only_the_open_chunk(ros_env, listener, tm
         print(f"trial {trial}: the first recorder received nothing in 30 s, started again:\n{log}")
 
 
-def chunk_within(listener: Listener, folder: Path, timeout: float) -> bool:
-    """Whether a chunk is on disk in `folder` within `timeout` [s] (spinning `listener`)."""
+def chunk_within(listener: Listener, folder: Path, timeout: float, topic=None) -> bool:
+    """Whether a chunk (holding `topic`, if given) is on disk in `folder` within `timeout`
+    [s] (spinning `listener`)."""
     deadline = time.monotonic() + timeout
-    while not recorded(folder):
+    while not recorded(folder, topic):
         if time.monotonic() > deadline:
             return False
         listener.spinner.spin_once(timeout_sec=0.02)
     return True
 
 
-def recorded(folder: Path) -> bool:
-    """Whether a (live) recording in `folder` holds a complete chunk."""
+def recorded(folder: Path, topic=None) -> bool:
+    """Whether a (live) recording in `folder` holds a complete chunk (with a message of
+    `topic`, if given)."""
     try:
-        return any(True for _ in BagReader(folder).messages())
+        return any(True for _ in BagReader(folder).messages(None if topic is None else [topic]))
     except (OSError, ValueError):  # not created yet, or its header not yet written
         return False
 
