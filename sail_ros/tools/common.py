@@ -25,6 +25,9 @@ from sail_ros.model import SailParameters, yaml_values
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
 
+# the --help note of the tools that take --lengths and --rates
+LIMITS_NOTE = """Lengths and rates are the simulator's (lengths within [min_length, max_length],
+|rate| <= max_rate; --set NAME=VALUE changes the limits)."""
 SET_HELP = (
     "a sail parameter or a limit, as the simulator's `-p NAME:=VALUE`: e.g. --set "
     "n_boom_modes=10, --set max_length=100 (repeatable; docs/scenarios.md lists them)"

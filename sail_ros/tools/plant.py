@@ -32,6 +32,7 @@ from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
 from sail_ros.outputs import staged
 from sail_ros.tools.common import (
+    LIMITS_NOTE,
     add_sail_options,
     configuration,
     describe_parameters,
@@ -48,15 +49,13 @@ WRITES = (
     "--npz FILE and --mat FILE (A, B, C, D with the names and units of states, inputs and "
     "outputs), --figure PNG (the Bode figure); each whole or not at all."
 )
-NOTES = """Lengths and rates are the simulator's (lengths within [min_length, max_length],
-|rate| <= max_rate; --set NAME=VALUE changes the limits)."""
 
 
 def build_parser() -> ToolParser:
     parser = ToolParser(
         prog="sail-ros plant",
         description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
+        epilog=help_epilog(EXAMPLES, WRITES, LIMITS_NOTE),
     )
     add_sail_options(parser)
     parser.add_argument(

@@ -31,6 +31,7 @@ from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, dask_client
 from sail_ros.tools.common import (
+    LIMITS_NOTE,
     add_sail_options,
     configuration,
     describe_parameters,
@@ -56,15 +57,13 @@ WRITES = (
     "DIR/stability_map.png (stable and unstable over rate x prestress, the critical "
     "prestress of each length), DIR/eigenvalue_loci.png; each whole or not at all."
 )
-NOTES = """Lengths and rates are the simulator's (lengths within [min_length, max_length],
-|rate| <= max_rate; --set NAME=VALUE changes the limits)."""
 
 
 def build_parser() -> ToolParser:
     parser = ToolParser(
         prog="sail-ros stability",
         description=__doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
+        epilog=help_epilog(EXAMPLES, WRITES, LIMITS_NOTE),
     )
     add_sail_options(parser)
     grid = parser.add_argument_group("grid")
