@@ -25,6 +25,5 @@ SAIL_ROS_KILL_TRIALS="${SAIL_ROS_KILL_TRIALS:-20}" \
 trial "the whole README" test_readme_runs_top_to_bottom --slow "$@"
 
 # 1000 valid, then 1000 malformed deploy commands a second, 10 s each, at a simulator
-# that keeps real time and counts every command (~30 s; the suite: 500 a second, 2 s)
-SAIL_ROS_FLOOD_RATE=1000 SAIL_ROS_FLOOD_SECONDS=10 \
-  trial "a flood of commands" test_a_flood_of_commands_is_held_in_real_time_and_counted "$@"
+# that keeps real time and counts every command (~50 s)
+trial "a flood of commands" test_a_flood_of_commands_is_held_in_real_time_and_counted --slow "$@"
