@@ -129,9 +129,15 @@ def _applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:
     kinds = (*topics.LOAD_NAMES, topics.HUB_WRENCH_CMD)
     loads = {topics.absolute(name, log.namespace): name for name in kinds}
     applied = []
-    for message in BagReader(log.path).messages([status]):
-        answer = commands_msg.command_answer(deserialize_message(message.data, DiagnosticArray))
-        if answer is None or answer.outcome != commands_msg.ACCEPTED or answer.topic not in loads:
+    answers = (
+        answer
+        for message in BagReader(log.path).messages([status])
+        for answer in commands_msg.command_answers(
+            deserialize_message(message.data, DiagnosticArray)
+        )
+    )
+    for answer in answers:
+        if answer.outcome != commands_msg.ACCEPTED or answer.topic not in loads:
             continue
         held = answer.values.get(commands_msg.LOADS_HELD)
         if held is None:

@@ -3,7 +3,7 @@ answer to every command (`sail/command_status`)."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import NamedTuple
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -54,10 +54,16 @@ class CommandAnswer(NamedTuple):
     values: dict[str, str]
 
 
-def command_status(stamp_ns_: int, answer: CommandAnswer) -> DiagnosticArray:
-    """`sail/command_status`: one status per command; level OK (accepted), ERROR
-    (rejected) or WARN (ignored), name `sail_sim: <topic>`, the answer's fields
-    as values."""
+def command_status(stamp_ns_: int, answers: Sequence[CommandAnswer]) -> DiagnosticArray:
+    """`sail/command_status`: the answers to the commands a tick handled, one status
+    per command in the order handled; level OK (accepted), ERROR (rejected) or WARN
+    (superseded, ignored), name `sail_sim: <topic>`, the answer's fields as values."""
+    array = DiagnosticArray(status=[_status(answer) for answer in answers])
+    array.header.stamp = stamp(stamp_ns_)
+    return array
+
+
+def _status(answer: CommandAnswer) -> DiagnosticStatus:
     status = DiagnosticStatus(
         level=_OUTCOME_LEVELS[answer.outcome],
         name=f"{SIM_NODE}: {answer.topic}",
@@ -72,22 +78,23 @@ def command_status(stamp_ns_: int, answer: CommandAnswer) -> DiagnosticArray:
         **answer.values,
     }
     status.values = [KeyValue(key=key, value=str(value)) for key, value in pairs.items()]
-    array = DiagnosticArray(status=[status])
-    array.header.stamp = stamp(stamp_ns_)
-    return array
+    return status
 
 
-def command_answer(array: DiagnosticArray) -> CommandAnswer | None:
-    """The answer in a `sail/command_status` message (None if it holds none)."""
+def command_answers(array: DiagnosticArray) -> list[CommandAnswer]:
+    """The answers in a `sail/command_status` message, in the order handled."""
+    answers = []
     for status in array.status:
         pairs = {pair.key: pair.value for pair in status.values}
         if "outcome" in pairs and "topic" in pairs:
-            return CommandAnswer(
-                topic=pairs.pop("topic"),
-                outcome=pairs.pop("outcome"),
-                message=status.message,
-                source_timestamp_ns=int(pairs.pop("source_timestamp_ns")),
-                sequence=int(pairs.pop("publication_sequence_number")),
-                values=pairs,
+            answers.append(
+                CommandAnswer(
+                    topic=pairs.pop("topic"),
+                    outcome=pairs.pop("outcome"),
+                    message=status.message,
+                    source_timestamp_ns=int(pairs.pop("source_timestamp_ns")),
+                    sequence=int(pairs.pop("publication_sequence_number")),
+                    values=pairs,
+                )
             )
-    return None
+    return answers

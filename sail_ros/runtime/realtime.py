@@ -59,8 +59,8 @@ class Outputs(Protocol):
     def status(self, stamp_ns: int, level: str, message: str, values: dict) -> None:
         """The integrator status (/diagnostics)."""
 
-    def answer(self, answer: commands_msg.CommandAnswer) -> None:
-        """The answer to one command (sail/command_status)."""
+    def answers(self, answers: list[commands_msg.CommandAnswer]) -> None:
+        """The answers to commands handled together, in that order (sail/command_status)."""
 
     def log(self, severity: str, text: str) -> None:
         """A line for the log: severity "info", "warning" or "error"."""
@@ -220,7 +220,8 @@ class RealTimeRun:
         if why_not == STALE:
             self.ignored += 1
             text = "published before this simulator started; not run"
-            self._answer(Pending(topic, message, info), commands_msg.IGNORED, text, {}, "warning")
+            pending = Pending(topic, message, info)
+            self.outputs.answers([self._answer(pending, commands_msg.IGNORED, text, {}, "warning")])
             return False
         if self.queue.offer(Pending(topic, message, info)):
             return self.sim.state != RUNNING
@@ -229,27 +230,30 @@ class RealTimeRun:
         )
         with self.lock:
             self.sim.count_rejection(error)
-        self._answer(
-            Pending(topic, message, info), commands_msg.REJECTED, str(error), {}, "warning"
+        pending = Pending(topic, message, info)
+        self.outputs.answers(
+            [self._answer(pending, commands_msg.REJECTED, str(error), {}, "warning")]
         )
         return False
 
     def _run_commands(self) -> None:
         """The waiting commands as one batch (`intake.split_batch`): motion commands
         planned newest first, one a newer accepted one replaces answered superseded
-        unplanned, the accepted ones applied oldest first; then the loads in order."""
+        unplanned, the accepted ones applied oldest first; then the loads in order. Their
+        answers go out together, one message."""
         batch = self.queue.take()
         if not batch:
             return
         motions, loads = split_batch(batch)
         sim = self.sim
         plans = {}
+        answers = []
         for index in motions:
             pending = batch[index]
             if covered(batch, index, plans):
                 self.superseded += 1
                 text = "replaced by a newer command before it started; not run"
-                self._answer(pending, commands_msg.SUPERSEDED, text, {}, "info")
+                answers.append(self._answer(pending, commands_msg.SUPERSEDED, text, {}, "info"))
                 continue
             try:
                 if pending.topic == topics.DEPLOY_CMD:
@@ -259,11 +263,14 @@ class RealTimeRun:
                 else:
                     plans[index] = sim.plan_trajectory(pending.message)
             except CommandError as error:
-                self._rejected(pending, error)
+                sim.count_rejection(error)
+                answers.append(
+                    self._answer(pending, commands_msg.REJECTED, str(error), {}, "warning")
+                )
         for index in sorted(plans):
             plan = sim.apply_motion(plans[index])
             values = {"t_start_s": repr(plan.t_start), "t_end_s": repr(plan.t_end)}
-            self._accepted(batch[index], plan.summary, values)
+            answers.append(self._accepted(batch[index], plan.summary, values))
         for index in loads:
             topic = batch[index].topic
             try:
@@ -272,33 +279,33 @@ class RealTimeRun:
                 else:
                     change = sim.load(topic, batch[index].message)
             except CommandError as error:
-                self._answer(batch[index], commands_msg.REJECTED, str(error), {}, "warning")
+                answers.append(
+                    self._answer(batch[index], commands_msg.REJECTED, str(error), {}, "warning")
+                )
                 continue
             # the loads now held, all of the kind: a log then tells the loads from the answers
             held = change.values
             values = {"t_start_s": repr(sim.t_model), commands_msg.LOADS_HELD: _numbers(held)}
-            self._accepted(batch[index], change.summary, values)
+            answers.append(self._accepted(batch[index], change.summary, values))
+        self.outputs.answers(answers)
 
-    def _rejected(self, pending: Pending, error: CommandError) -> None:
-        self.sim.count_rejection(error)
-        self._answer(pending, commands_msg.REJECTED, str(error), {}, "warning")
-
-    def _accepted(self, pending: Pending, summary: str, values: dict) -> None:
+    def _accepted(self, pending: Pending, summary: str, values: dict) -> commands_msg.CommandAnswer:
         text = f"accepted at t = {self.sim.t_model:.6f} s: {summary}"
-        self._answer(pending, commands_msg.ACCEPTED, summary, values, "info", text)
+        return self._answer(pending, commands_msg.ACCEPTED, summary, values, "info", text)
 
-    def _answer(self, pending, outcome, text, values, severity, line=None) -> None:
+    def _answer(
+        self, pending, outcome, text, values, severity, line=None
+    ) -> commands_msg.CommandAnswer:
+        """The answer to `pending`, its line logged (`CommandLog`); the caller publishes."""
         topic = self.resolve(pending.topic)
         self._commands.record(outcome, severity, f"{topic} {line or f'{outcome}: {text}'}")
-        self.outputs.answer(
-            commands_msg.CommandAnswer(
-                topic=topic,
-                outcome=outcome,
-                message=text,
-                source_timestamp_ns=int(pending.info.get("source_timestamp") or 0),
-                sequence=int(pending.info.get("publication_sequence_number") or 0),
-                values=values,
-            )
+        return commands_msg.CommandAnswer(
+            topic=topic,
+            outcome=outcome,
+            message=text,
+            source_timestamp_ns=int(pending.info.get("source_timestamp") or 0),
+            sequence=int(pending.info.get("publication_sequence_number") or 0),
+            values=values,
         )
 
     # -- integration ---------------------------------------------------------------------------

@@ -203,10 +203,10 @@ class SimClient(Node):
     # -- watching ---------------------------------------------------------------------------
 
     def _on_answer(self, array: DiagnosticArray) -> None:
-        answer = commands_msg.command_answer(array)
-        if answer is not None:
-            self.answers.append(answer)
-            self.latest["answer"] = answer
+        answers = commands_msg.command_answers(array)
+        if answers:
+            self.answers.extend(answers)
+            self.latest["answer"] = answers[-1]
 
     def _keeper(self, name: str):
         def keep(message: JointState) -> None:

@@ -37,7 +37,8 @@ class Outputs:
     """Everything a run hands out, kept."""
 
     def __init__(self):
-        self.states, self.shapes, self.statuses, self.answers, self.lines = [], [], [], [], []
+        self.states, self.shapes, self.statuses, self.answered, self.lines = [], [], [], [], []
+        self.answer_messages = 0
 
     def state(self, stamp_ns, sample):
         self.states.append((stamp_ns, sample))
@@ -48,8 +49,10 @@ class Outputs:
     def status(self, stamp_ns, level, message, values):
         self.statuses.append({"level": level, "message": message, **values})
 
-    def answer(self, answer):
-        self.answers.append(answer)
+    def answers(self, answers):
+        assert answers, "an empty batch of answers"
+        self.answered.extend(answers)
+        self.answer_messages += 1
 
     def log(self, severity, text):
         self.lines.append((severity, text))
@@ -168,14 +171,14 @@ def test_pause_resume_and_reset_hold_and_restart_the_clock(model):
 
 
 def count(outputs, outcome):
-    return sum(answer.outcome == outcome for answer in outputs.answers)
+    return sum(answer.outcome == outcome for answer in outputs.answered)
 
 
 def test_a_flood_of_deploy_commands_costs_one_plan_a_tick(model):
     """1000 valid deploy commands a second for 2 s, 20 between two ticks: the newest of
     each batch is planned and applied, the others are answered superseded unplanned; the
     run never falls behind, every command is answered and counted, and the log holds a
-    few lines and counts instead of 2000 lines."""
+    few lines and counts instead of 2000 lines; a tick's answers go out as one message."""
     run, clock, outputs, _ = make_run(model, shape_rate_hz=0.0)
     planned = []
     plan = run.sim.plan_deploy
@@ -190,6 +193,7 @@ def test_a_flood_of_deploy_commands_costs_one_plan_a_tick(model):
     assert status[key.ACCEPTED] == 100 and status[key.SUPERSEDED] == 1900
     assert status[key.REJECTED] == 0 and len(planned) == 100
     assert count(outputs, commands_msg.ACCEPTED) + count(outputs, commands_msg.SUPERSEDED) == sent
+    assert outputs.answer_messages == 100
     assert run.overruns == 0 and run.sim.t == pytest.approx(2.0, abs=1e-9)
     advance(run, clock, 6.0)
     assert len(outputs.lines) < 20
@@ -207,7 +211,7 @@ def test_a_flood_of_malformed_commands_is_rejected_and_counted(model):
     status = run.status()[3]
     assert status[key.REJECTED] == sent and status[key.ACCEPTED] == 0
     assert count(outputs, commands_msg.REJECTED) == sent
-    assert all("not a finite length" in a.message for a in outputs.answers)
+    assert all("not a finite length" in a.message for a in outputs.answered)
     advance(run, clock, 6.0)  # the interval of the counts ends
     warnings = [text for severity, text in outputs.lines if severity == "warning"]
     assert sum(text.startswith("sail/deploy_cmd rejected:") for text in warnings) == COMMAND_LINES
@@ -244,7 +248,7 @@ def test_a_batch_ends_as_acting_on_its_commands_one_by_one(
         topic = topics.DEPLOY_CMD if isinstance(message, Float64) else topics.BOOM_LENGTH_CMD
         run.submit(topic, message, info(i))
     advance(run, clock, 0.02)
-    by_sequence = sorted(outputs.answers, key=lambda answer: answer.sequence)
+    by_sequence = sorted(outputs.answered, key=lambda answer: answer.sequence)
     assert [answer.outcome for answer in by_sequence] == outcomes
     lengths = run.sim.motion(1e6)[0]
     assert (lengths[0], lengths[1]) == pytest.approx((final_a, final_b))
@@ -254,7 +258,7 @@ def test_a_full_intake_rejects_and_counts(model):
     run, clock, outputs, _ = make_run(model, max_queued_commands=5)
     for i in range(8):
         run.submit(topics.PRESSURE_CMD, commands_msg.load_command(topics.PRESSURE_CMD, {}), info(i))
-    rejected = [a for a in outputs.answers if a.outcome == commands_msg.REJECTED]
+    rejected = [a for a in outputs.answered if a.outcome == commands_msg.REJECTED]
     assert len(rejected) == 3 and "5 commands were already waiting" in rejected[0].message
     advance(run, clock, 0.02)
     status = run.status()[3]
@@ -265,10 +269,10 @@ def test_commands_published_before_the_start_are_ignored_and_counted(model):
     run, clock, outputs, _ = make_run(model)
     stale = {"source_timestamp": START_NS - 1, "publication_sequence_number": 1}
     assert run.submit(topics.DEPLOY_CMD, deploy(12.0), stale) is False
-    assert outputs.answers[-1].outcome == commands_msg.IGNORED
+    assert outputs.answered[-1].outcome == commands_msg.IGNORED
     assert run.status()[3][key.IGNORED] == 1
     assert run.submit(topics.DEPLOY_CMD, deploy(12.0), stale) is False  # the same again
-    assert len(outputs.answers) == 1  # a repeat of a sample is not a new command
+    assert len(outputs.answered) == 1  # a repeat of a sample is not a new command
 
 
 FREE = {"sail.free_hub": True, "sail.hub_mass": 20.0, "sail.hub_inertia_x": 10.0,
@@ -301,16 +305,16 @@ def test_a_free_hub_is_in_every_sample_and_takes_its_wrench(model):
     ):
         run.submit(topics.HUB_WRENCH_CMD, command, info(i))
         advance(run, clock, 0.02)
-        assert outputs.answers[-1].outcome == commands_msg.REJECTED
-        assert reason in outputs.answers[-1].message
+        assert outputs.answered[-1].outcome == commands_msg.REJECTED
+        assert reason in outputs.answered[-1].message
     other = wrench(force_z=0.5)
     other.header.frame_id = "base_link"
     run.submit(topics.HUB_WRENCH_CMD, other, info(10))
     advance(run, clock, 0.02)
-    assert "header.frame_id is 'base_link'" in outputs.answers[-1].message
+    assert "header.frame_id is 'base_link'" in outputs.answered[-1].message
     run.submit(topics.HUB_WRENCH_CMD, wrench(force_z=0.5, torque_x=0.2), info(11))
     advance(run, clock, 0.02)
-    answer = outputs.answers[-1]
+    answer = outputs.answered[-1]
     assert answer.outcome == commands_msg.ACCEPTED and answer.values[commands_msg.LOADS_HELD] == (
         "[0.5, 0.2, 0.0]"
     )
@@ -320,7 +324,7 @@ def test_a_free_hub_is_in_every_sample_and_takes_its_wrench(model):
     clamped, clock, outputs, _ = make_run(model)
     clamped.submit(topics.HUB_WRENCH_CMD, wrench(force_z=0.5), info(0))
     advance(clamped, clock, 0.02)
-    assert "the hub is clamped" in outputs.answers[-1].message
+    assert "the hub is clamped" in outputs.answered[-1].message
     assert outputs.states[0][1].hub is None
 
 

@@ -293,7 +293,7 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
     client.create_subscription(
         DiagnosticArray,
         topics.COMMAND_STATUS,
-        lambda m: answers.append(commands_msg.command_answer(m)),
+        lambda m: answers.extend(commands_msg.command_answers(m)),
         topics.COMMAND_STATUS_QOS,
     )
     spin_until(lambda: len(hubs) > 20, 5.0, "hub states")

@@ -72,7 +72,7 @@ class Answers:
         operator.create_subscription(
             DiagnosticArray,
             topics.COMMAND_STATUS,
-            lambda array: self.received.append(commands_msg.command_answer(array)),
+            lambda array: self.received.extend(commands_msg.command_answers(array)),
             topics.COMMAND_STATUS_QOS,
         )
 
@@ -113,8 +113,9 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
 
     bag = BagReader(tmp_path / "bag")
     answers = [
-        commands_msg.command_answer(deserialize_message(m.data, DiagnosticArray))
+        answer
         for m in bag.messages(["/sail/command_status"])
+        for answer in commands_msg.command_answers(deserialize_message(m.data, DiagnosticArray))
     ]
     assert [a.outcome for a in answers] == ["accepted", "rejected", "accepted"]
     report = in_process("report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"))
