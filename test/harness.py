@@ -4,8 +4,9 @@ the operator node that drives a simulator, in-process tool runs and figure check
 Importing it (conftest does, first) puts this run on one private DDS domain, on loopback
 only, before any rclpy context exists: the variables reach this process and the
 processes the tests start, and nothing of the run leaves the machine or meets another
-run. A test that needs a second domain leases one (`spare_domain`, the same lease the
-tools take, `tools.domains.DomainLease`).
+run; its participants announce themselves as often as the tools' do (`ros.discovery`).
+A test that needs a second domain leases one (`spare_domain`, the same lease the tools
+take, `tools.domains.DomainLease`).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from sail_ros import topics
 from sail_ros.cli import TOOLS
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
+from sail_ros.ros.discovery import announce_often
 from sail_ros.tools.domains import FIRST_DOMAIN, DomainLease, bound_udp_ports, domain_in_use
 
 ROOT = Path(__file__).resolve().parents[1]  # the repository
@@ -83,6 +85,7 @@ os.environ["SAIL_ROS_TEST_DOMAIN_ID"] = str(DOMAIN_ID)
 os.environ["SAIL_ROS_TEST_DOMAIN_RUNNER"] = _RUNNER
 os.environ["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+announce_often()  # the test process's own participants announce as the tools' do
 os.environ.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
 _SCRATCH = Path(tempfile.mkdtemp(prefix="sail_ros_test_"))
 os.environ.setdefault("HOME", str(_SCRATCH))

@@ -30,6 +30,7 @@ from sail_ros.cli import nearest, parse_arguments
 from sail_ros.early_signals import RECEIVED as EARLY_SIGNALS
 from sail_ros.model import yaml_values
 from sail_ros.model.fields import ConfigError
+from sail_ros.ros.discovery import announce_often
 
 
 def suggestion(name: str, known) -> str:
@@ -243,6 +244,7 @@ def run_node(name: str, parser: argparse.ArgumentParser, argv: list[str], body) 
         get_logger(name).error(str(error))
         return 2
     with StopSignals() as stop:
+        announce_often()
         rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)
         try:
             return body(namespace, stop)

@@ -30,6 +30,7 @@ from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, parse_command_line
+from sail_ros.ros.discovery import announce_often
 from sail_ros.tools.common import stdout_closed
 from sail_ros.tools.domains import LAST_DOMAIN
 
@@ -253,6 +254,7 @@ def init_context(ros_argv: list[str], domain_id: int | None):
     (the tool decides how Ctrl-C ends it)."""
     from rclpy.signals import SignalHandlerOptions
 
+    announce_often()
     context = rclpy.Context()
     options = {} if domain_id is None else {"domain_id": domain_id}
     rclpy.init(
