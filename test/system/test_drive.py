@@ -89,25 +89,26 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
     deployed = tool(ros_env, "send", "deploy", "12")
     assert deployed.returncode == 0, deployed.stderr
     assert deployed.stdout.startswith("accepted: deploy to 12 m")
-    refused = tool(ros_env, "send", "deploy", "500")
+    # the rest in this process: the same mains, without a process start each
+    refused = in_process("send", "deploy", "500")
     assert refused.returncode == 1
     assert "rejected: target = 500 m is outside [min_length, max_length]" in refused.stdout
-    moved = tool(ros_env, "send", "move", "--booms", "a", "c", "--point", "10", "14", "13")
+    moved = in_process("send", "move", "--booms", "a", "c", "--point", "10", "14", "13")
     assert moved.returncode == 0, moved.stderr
     assert "accepted: trajectory for boom_a, boom_c" in moved.stdout
 
-    view = watch(ros_env)
+    view = watch(ros_env, run=in_process)
     assert view[key.ACCEPTED] == 2 and view[key.REJECTED] == 1
     assert view[key.LAST_REJECTION].startswith("target = 500 m")
     assert view["last_answer"].startswith("accepted: trajectory")
     assert view["boom_length_m"]["b"] > 10.0  # the deployment moves them
 
-    assert tool(ros_env, "send", "pause").stdout.startswith("paused at t = ")
-    reset = tool(ros_env, "send", "reset")
+    assert in_process("send", "pause").stdout.startswith("paused at t = ")
+    reset = in_process("send", "reset")
     assert reset.returncode == 0 and "reset to the initial state" in reset.stdout
-    paused = watch(ros_env)
+    paused = watch(ros_env, run=in_process)
     assert paused[key.STATE] == "paused" and paused["boom_length_m"]["a"] == 10.0
-    assert tool(ros_env, "send", "resume").stdout.startswith("resumed at t = ")
+    assert in_process("send", "resume").stdout.startswith("resumed at t = ")
     assert sim.stop(signal.SIGINT) == 0, sim.log()
     assert recorder.stop(signal.SIGINT) == 0, recorder.log()
 
