@@ -21,7 +21,7 @@ from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
-from sail_ros.model.peaks import OutputPeaks, Peaks, hermite_motion
+from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, hermite_motion
 from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.policy import OutOfRangeError, Policy
@@ -143,14 +143,24 @@ class RangeWatch:
         fractions = np.arange(1, count + 1) / count
         values, _ = self.peaks.after_step(stepper, also=fractions)  # one pass for both
         values = values[:, self._columns]
-        lengths, _ = hermite_motion(
-            fractions, np.full(count, h), lengths0, rates0, lengths1, rates1
-        )
         policy = self.policy
-        near = np.max(np.abs(values[:, :4]) / lengths, axis=1) > policy.tip_warn_fraction
+        tips = np.abs(values[:, :4])
+        ends = (lengths0, rates0, lengths1, rates1)
+        # the lengths inside the step (the motion's cubic) only if a tip may be near its
+        # range: no boom is shorter there than min(L0, L1) - 4/27 h (|Ld0| + |Ld1|)
+        shortest = np.minimum(lengths0, lengths1)
+        shortest -= HERMITE_BOUND * h * (np.abs(rates0) + np.abs(rates1))
+        lengths = None
+        near = np.zeros(count, dtype=bool)
+        if not (np.all(shortest > 0) and np.all(tips <= policy.tip_warn_fraction * shortest)):
+            lengths = hermite_motion(fractions, np.full(count, h), *ends)[0]
+            near = np.max(tips / lengths, axis=1) > policy.tip_warn_fraction
         if self.model.free_hub:
             near |= np.hypot(values[:, 5], values[:, 6]) > policy.tilt_warn_rad
-        for i in np.flatnonzero(near | ~np.all(np.isfinite(values), axis=1)):
+        finite = np.isfinite(values).all(axis=1)
+        if lengths is None and (near.any() or not finite.all()):
+            lengths = hermite_motion(fractions, np.full(count, h), *ends)[0]
+        for i in np.flatnonzero(near | ~finite):
             t, row = t0 + fractions[i] * h, values[i]
             hub = np.append(row[4:], [0.0] * 3) if self.model.free_hub else None
             warning, error = policy.range_state(row[:4], lengths[i], hub)

@@ -146,30 +146,19 @@ class FreeVibration:
         e = self.a.real
         return e + self.s, -wd * self.a.imag - 0.5 * decay * e
 
-    def oscillation(self, seconds) -> np.ndarray:
-        """(m, 2 count): `e^(-d t / 2) cos(omega_d t)` of each mode, then `e^(-d t / 2)
-        sin(omega_d t)`, at `t` = each of `seconds` (m,) [s] from now (earlier if
-        negative): how `a` turns and decays (`in_outputs`)."""
-        count = self.count
-        wd, decay = self.modes.omega_d[-count:], self.modes.d[-count:]
-        phase = np.multiply.outer(seconds, wd)
-        turns = np.concatenate([np.cos(phase), np.sin(phase)], axis=1)
-        if decay.any():
-            turns *= np.tile(np.exp(np.multiply.outer(seconds, -0.5 * decay)), 2)
-        return turns
-
     def in_outputs(self, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """`(Q, Qd, static)`: `oscillation(t) @ Q + static` and `oscillation(t) @ Qd` are
-        these modes' coordinates and velocities `t` later, as outputs `shapes` (count, r)
-        per unit modal coordinate (the modes `V^T` for `q` itself): with `a(t) = a e^((i
-        omega_d - d / 2) t)`, `e = Re a(t)`, `v = -omega_d Im a(t) - d e / 2`."""
+        """`(Q, Qd, static)`: `oscillation(t) @ Q + static` and `oscillation(t) @ Qd` (of
+        these modes' `omega_d`, `d`) are their coordinates and velocities `t` later, as
+        outputs `shapes` (count, r) per unit modal coordinate (the modes `V^T` for `q`
+        itself): with `a(t) = a e^((i omega_d - d / 2) t)`, `e = Re a(t)`, `v = -omega_d
+        Im a(t) - d e / 2`."""
         count = self.count
         wd, d = self.modes.omega_d[-count:], self.modes.d[-count:]
-        ar, ai = self.a.real[:, None], self.a.imag[:, None]
-        wd, d = wd[:, None], d[:, None]
-        Q = np.concatenate([ar * shapes, -ai * shapes])
-        Qd = np.concatenate([(-wd * ai - 0.5 * d * ar) * shapes, (0.5 * d * ai - wd * ar) * shapes])
-        return Q, Qd, self.s @ shapes
+        ar, ai = self.a.real, self.a.imag
+        on_e = np.concatenate([ar, -ai])  # of the cosines, then the sines
+        on_v = np.concatenate([-wd * ai - 0.5 * d * ar, 0.5 * d * ai - wd * ar])
+        doubled = np.concatenate([shapes, shapes])
+        return on_e[:, None] * doubled, on_v[:, None] * doubled, self.s @ shapes
 
     def replace_in(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """`q`, `qd` ((n,) or (m, n)) with these modes' part replaced by this vibration
@@ -178,6 +167,22 @@ class FreeVibration:
         e, v = self.coordinates()
         MV = self.modes.MV[:, -self.count :]
         return q + (e - q @ MV) @ V.T, qd + (v - qd @ MV) @ V.T
+
+
+def oscillation(seconds, omega_d: np.ndarray, decay: np.ndarray) -> np.ndarray:
+    """(m, 2k): `e^(-d t / 2) cos(omega_d t)` of k modes, then `e^(-d t / 2) sin(omega_d
+    t)`, at `t` = each of `seconds` (m,) [s], for damped frequencies `omega_d` [rad/s] and
+    decay rates `decay` [1/s] (each (k,), or (m, k): each time its own modes; None for
+    undamped modes)."""
+    t = np.asarray(seconds, dtype=float)[:, None]
+    phase = t * omega_d
+    k = phase.shape[1]
+    turns = np.empty((phase.shape[0], 2 * k))
+    np.cos(phase, out=turns[:, :k])
+    np.sin(phase, out=turns[:, k:])
+    if decay is not None:
+        turns *= np.tile(np.exp(-0.5 * t * decay), 2)
+    return turns
 
 
 def _damped(w: np.ndarray, d: np.ndarray) -> np.ndarray:

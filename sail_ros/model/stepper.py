@@ -74,6 +74,7 @@ from sail_ros.model.fast_modes import (
     follow,
     followed,
     forcing_of,
+    oscillation,
     slow_part,
 )
 from sail_ros.model.layout import per_boom
@@ -211,22 +212,22 @@ class _Extension:
     `parts` of the step, each with its own fraction `f`) as `Trial.extensions` keeps
     them, and their followed modes (`fast_modes`: the first half's free vibration at the
     step's start, the second's at its end, `vibration`), whose part the extension's
-    samples leave (`kept`) and take turned instead: `oscillation(t) @ Q + static` and
-    `oscillation(t) @ Qd` (per part, on the whole coordinates; `t = (f - part) seconds`
-    from the free vibration's time)."""
+    samples leave (`kept`) and take turned instead (`free`)."""
 
     def __init__(self, trial: Trial, h: float):
         self.extensions = trial.extensions
         self.parts = len(trial.extensions)
-        self.seconds = h / self.parts
+        self.h = h
         self.vibration = trial.vibration
         if self.vibration:
             count = self.vibration[0].count
             self.V = np.array([near.modes.V[:, -count:] for near in self.vibration])
             self.MV = np.array([near.modes.MV[:, -count:] for near in self.vibration])
-            free = [near.in_outputs(V.T) for near, V in zip(self.vibration, self.V, strict=True)]
-            self.Q, self.Qd, self.static = (np.array(part) for part in zip(*free, strict=True))
+            self.omega_d = np.array([near.modes.omega_d[-count:] for near in self.vibration])
+            decay = np.array([near.modes.d[-count:] for near in self.vibration])
+            self.decay = decay if decay.any() else None
         self._coordinates = None
+        self._free = ((), None)  # (rows, their terms): none yet
 
     def coordinates(self) -> np.ndarray:
         """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
@@ -247,6 +248,41 @@ class _Extension:
             return x
         V, MV = (self.V, self.MV) if part is None else (self.V[part], self.MV[part])
         return x - (x @ MV) @ np.swapaxes(V, -1, -2)
+
+    def free(self, part, local, rows=None) -> tuple[np.ndarray, np.ndarray]:
+        """The followed modes' coordinates and velocities (each (m, n), or their outputs
+        `rows` (r, n): (m, r)) at fractions `local` (m,) of the rational steps `part` (an
+        index, or one per sample): each part's free vibration turned on by `(local -
+        part) h / parts` (`FreeVibration.in_outputs`, kept for the last `rows`)."""
+        if self._free[0] is not rows:
+            shapes = np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2)
+            outputs = [near.in_outputs(S) for near, S in zip(self.vibration, shapes, strict=True)]
+            self._free = (rows, [np.array(terms) for terms in zip(*outputs, strict=True)])
+        Q, Qd, static = self._free[1]
+        seconds = (local - part) * (self.h / self.parts)
+        decay = None if self.decay is None else self.decay[part]
+        turns = oscillation(seconds, self.omega_d[part], decay)
+        if np.ndim(part) == 0:
+            return turns @ Q[part] + static[part], turns @ Qd[part]
+        pick = (part, np.arange(part.size))  # each sample's own part
+        return (turns @ Q)[pick] + static[part], (turns @ Qd)[pick]
+
+    def curve(self, fractions: np.ndarray, rows) -> tuple[np.ndarray, np.ndarray]:
+        """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
+        `dq/dt` themselves) at `fractions` (m,) of the step (`between`, rates "slope"):
+        every part computed for every sample, each sample taking its own."""
+        parts = self.parts
+        part = np.minimum((fractions * parts).astype(int), parts - 1)
+        local = fractions * parts - part
+        pick = (part, np.arange(fractions.size))
+        coordinates = self.coordinates() if rows is None else self.coordinates() @ rows.T
+        q = (_weights(local).T @ coordinates)[pick]
+        slope = (_weights(local, slope=True).T @ coordinates)[pick] * (parts / self.h)
+        if self.vibration:
+            q_free, qd_free = self.free(part, local, rows)
+            q += q_free
+            slope += qd_free
+        return q, slope
 
 
 # A stretch of time whose motion starts or ends within this fraction of it from its ends
@@ -853,12 +889,14 @@ class SailStepper:
             self._extension_of = (trial, _Extension(trial, self._t - t0))
         return self._extension_of[1]
 
-    def _extended(self, fractions, qd0, qd1, rates, rows=None):
-        """`between`; with `rows` (r, n) (rates "slope") the outputs `rows q` and `rows qd`
-        (each (m, r)) instead, for no more than they cost."""
+    def _extended(self, fractions, qd0, qd1, rates):
+        """`between`."""
         t0, _, _, trial = self._last
         h = self._t - t0
         ext = self._extension()
+        fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
+        if rates == "slope":
+            return ext.curve(fractions, None)
         parts = ext.parts
         # the ends of each rational step: the step's ends, and its middle when halved
         # (the extension's rates start and end there; exact rates need no ends)
@@ -871,52 +909,31 @@ class SailStepper:
             ends = ((qd0, qd_half), (qd_half, qd1))
         elif rates == "extension":
             ends = ((qd0, qd1),)
-        fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
+        q = np.empty((fractions.size, self._q.size))
+        qd = np.empty_like(q)
         part = np.minimum((fractions * parts).astype(int), parts - 1)
-        order = None  # each rational step's samples together, in slices
-        if parts > 1 and np.any(part[1:] < part[:-1]):
-            order = np.argsort(part, kind="stable")
-            fractions, part = fractions[order], part[order]
-        bounds = np.searchsorted(part, np.arange(parts + 1)).tolist()
-        local = fractions * parts - part
-        if rates == "slope":
-            coordinates = ext.coordinates()
-            if rows is not None:  # into the outputs first: fewer columns from here on
-                coordinates = coordinates @ rows.T
-        if ext.vibration:
-            Q, Qd, static = ext.Q, ext.Qd, ext.static
-            if rows is not None:
-                Q, Qd, static = Q @ rows.T, Qd @ rows.T, static @ rows.T
-        width = self._q.size if rows is None else rows.shape[0]
-        q, qd = np.empty((fractions.size, width)), np.empty((fractions.size, width))
         for k in range(parts):
-            a, b = bounds[k], bounds[k + 1]
-            if a == b:
+            inside = part == k
+            if not inside.any():
                 continue
-            local_k = local[a:b]
-            if rates == "slope":  # d q / dt = (d q / d local) parts / h
-                q[a:b] = _weights(local_k).T @ coordinates[k]
-                qd[a:b] = _weights(local_k, slope=True).T @ coordinates[k] * (parts / h)
+            local = fractions[inside] * parts - k
+            q_start, y_q, u, v, p_start, mats = ext.extensions[k]
+            c, w = _extension_weights(local)
+            q_part = np.outer(c, q_start) + 2.0 * (w @ y_q).real
+            velocity = 2.0 * (w @ u).real  # sum_k 2 Re[w_k u_k]
+            if rates == "exact":
+                times = t0 + (k + local) * h / parts
+                p = _extended_momentum(mats, c, velocity, q_part, q_start, p_start)
+                qd_part = self._velocities(times, q_part, p)
             else:
-                q_start, y_q, u, v, p_start, mats = ext.extensions[k]
-                c, w = _extension_weights(local_k)
-                q_part = np.outer(c, q_start) + 2.0 * (w @ y_q).real
-                velocity = 2.0 * (w @ u).real  # sum_k 2 Re[w_k u_k]
-                if rates == "exact":
-                    times = t0 + (k + local_k) * h / parts
-                    p = _extended_momentum(mats, c, velocity, q_part, q_start, p_start)
-                    qd_part = self._velocities(times, q_part, p)
-                else:
-                    start_qd, end_qd = ends[k]
-                    drift = np.outer(local_k, end_qd - start_qd - 2.0 * v)
-                    qd_part = np.outer(c, start_qd) + velocity + drift
-                q[a:b], qd[a:b] = ext.kept(q_part, k), ext.kept(qd_part, k)
+                start_qd, end_qd = ends[k]
+                drift = np.outer(local, end_qd - start_qd - 2.0 * v)
+                qd_part = np.outer(c, start_qd) + velocity + drift
             if ext.vibration:
-                turns = ext.vibration[k].oscillation((local_k - k) * ext.seconds)
-                q[a:b] += turns @ Q[k] + static[k]
-                qd[a:b] += turns @ Qd[k]
-        if order is not None:
-            q[order], qd[order] = q.copy(), qd.copy()
+                q_free, qd_free = ext.free(k, local)
+                q_part = ext.kept(q_part, k) + q_free
+                qd_part = ext.kept(qd_part, k) + qd_free
+            q[inside], qd[inside] = q_part, qd_part
         return q, qd
 
     def step_limit(self) -> float:
@@ -1104,7 +1121,7 @@ class SailStepper:
         if isinstance(trial, Rest):
             q, qd = self._rest_states(trial, fractions)
             return q @ rows.T, qd @ rows.T
-        return self._extended(fractions, qd0, None, "slope", rows)
+        return self._extension().curve(fractions, rows)
 
     def _exact_propagator(self, lengths, h):
         """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M): the
