@@ -24,6 +24,7 @@ from sail_ros.analysis.stability import CRITICAL, STABLE, UNSTABLE, stability_sw
 from sail_ros.bag import BagReader
 from sail_ros.model import SailParameters
 from sail_ros.tools import deploy, montecarlo, stability
+from sail_ros.tools.cluster import dask_client
 
 pytestmark = pytest.mark.multiprocess
 
@@ -156,6 +157,22 @@ def test_the_same_study_gives_the_same_csv_on_any_cluster(
     jammed = [r for r in ran if float(r["jam_boom"]) >= 0]
     assert jammed  # half the samples jam a boom
     assert (tmp_path / "one" / "samples.parquet").is_file()
+
+
+def malloc_trim_threshold():
+    import os
+
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
+
+
+def test_local_workers_keep_glibc_malloc_defaults(monkeypatch):
+    """Dask's nanny would start them with MALLOC_TRIM_THRESHOLD_=65536, under which a
+    sample costs more CPU (sail_ros.tools.cluster): the local cluster's workers do not
+    get it, and neither does this process."""
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    with dask_client(workers=1) as client:
+        assert list(client.run(malloc_trim_threshold).values()) == [None]
+    assert malloc_trim_threshold() is None
 
 
 def test_worst_samples_rerun_to_the_same_numbers(study_file, tmp_path, capsys, external_cluster):
