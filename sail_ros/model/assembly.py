@@ -167,7 +167,14 @@ def _transport(name: str, integral: str, coefficient) -> tuple[Term, ...]:
 
 def _times(constant: str, coefficient):
     """The coefficient times a physical constant (a Rayleigh factor)."""
-    return lambda motion, c: getattr(c, constant) * coefficient(motion, c)
+    return _vanishing(constant, lambda motion, c: getattr(c, constant) * coefficient(motion, c))
+
+
+def _vanishing(constant: str, coefficient):
+    """`coefficient`, marked as 0 wherever the physical constant `constant` is (a plan
+    leaves it out then: `_Component.selection`)."""
+    coefficient.vanishes_with = constant
+    return coefficient
 
 
 # Boom k (n_B x n_B), model.md §5: M_B, Md_B, G_B, Gd_B, N_B, K_B; §12: C_d = alpha M + beta K
@@ -186,7 +193,11 @@ BOOM_TERMS = (
         (STIFFNESS_EQ, STIFFNESS_CANONICAL),
     ),
     *_elastic("bending K_B", "d2_d2", lambda b, c: c.boom_bending_stiffness / b.L**3),
-    *_elastic("axial load K_B", "d1_d1", lambda b, c: -c.boom_axial_load / b.L),
+    *_elastic(
+        "axial load K_B",
+        "d1_d1",
+        _vanishing("boom_axial_load", lambda b, c: -c.boom_axial_load / b.L),
+    ),
 )
 
 # Quadrant Q_ab (n~ x n~), model.md §5: M_M, Md_M, G_M, Gd_M, N_M, K_M; §12: C_d as above.
@@ -558,14 +569,19 @@ class _Component:
         self.signs = signs  # (4, entries) or None: +-1 of every entry as it lands
         self.signed = signs is not None
 
-    def selection(self, outputs: tuple[str, ...]):
+    def selection(self, outputs: tuple[str, ...], constants: Constants):
         """`(functions, weights, integrals)`: the distinct coefficient functions that feed
         `outputs` (a term's `G` and `G - G^T` share one), (functions, outputs x
         integrals) with 1 where a function's value goes into an integral of an output,
         and the integrals (the ones the outputs use, for a signed component); the other
-        terms are not evaluated."""
+        terms, and those that vanish with a physical constant that is 0 here (a
+        coefficient `_vanishing`, e.g. the Rayleigh damping's when there is none), are
+        not evaluated."""
         select = np.zeros((len(self.terms), len(outputs), len(self._column)))
         for t, term in enumerate(self.terms):
+            vanishes_with = getattr(term.coefficient, "vanishes_with", None)
+            if vanishes_with is not None and getattr(constants, vanishes_with) == 0.0:
+                continue
             for o, output in enumerate(outputs):
                 if output in term.matrices:
                     select[t, o, self._column[term.integral_key]] = 1.0
@@ -761,7 +777,10 @@ class SystemAssembler:
                 border_scatter = np.concatenate([hub_targets.ravel(), border_constants])
             plan = _Plan(
                 computed,
-                tuple(component.selection(computed) for component in self._components()),
+                tuple(
+                    component.selection(computed, self.constants)
+                    for component in self._components()
+                ),
                 np.concatenate([scatter, constant_targets]),
                 constant_values,
                 damped,

@@ -146,19 +146,16 @@ class FreeVibration:
         e = self.a.real
         return e + self.s, -wd * self.a.imag - 0.5 * decay * e
 
-    def in_outputs(self, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """`(Q, Qd, static)`: `oscillation(t) @ Q + static` and `oscillation(t) @ Qd` (of
-        these modes' `omega_d`, `d`) are their coordinates and velocities `t` later, as
-        outputs `shapes` (count, r) per unit modal coordinate (the modes `V^T` for `q`
-        itself): with `a(t) = a e^((i omega_d - d / 2) t)`, `e = Re a(t)`, `v = -omega_d
-        Im a(t) - d e / 2`."""
+    def turning(self) -> tuple[np.ndarray, np.ndarray]:
+        """`(on_e, on_v)` (2 count each): with `a(t) = a e^((i omega_d - d / 2) t)`, each
+        mode's `e = Re a(t)` and `v = -omega_d Im a(t) - d e / 2` at `t` are the sums of
+        its cosine and its sine column of `oscillation(t) * on_e` (of `* on_v`)."""
         count = self.count
         wd, d = self.modes.omega_d[-count:], self.modes.d[-count:]
         ar, ai = self.a.real, self.a.imag
-        on_e = np.concatenate([ar, -ai])  # of the cosines, then the sines
-        on_v = np.concatenate([-wd * ai - 0.5 * d * ar, 0.5 * d * ai - wd * ar])
-        doubled = np.concatenate([shapes, shapes])
-        return on_e[:, None] * doubled, on_v[:, None] * doubled, self.s @ shapes
+        return np.concatenate([ar, -ai]), np.concatenate(
+            [-wd * ai - 0.5 * d * ar, 0.5 * d * ai - wd * ar]
+        )
 
     def replace_in(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """`q`, `qd` ((n,) or (m, n)) with these modes' part replaced by this vibration

@@ -226,6 +226,9 @@ class _Extension:
             self.omega_d = np.array([near.modes.omega_d[-count:] for near in self.vibration])
             decay = np.array([near.modes.d[-count:] for near in self.vibration])
             self.decay = decay if decay.any() else None
+            self.static = np.array([near.s for near in self.vibration])
+            turning = [near.turning() for near in self.vibration]
+            self.on_e, self.on_v = (np.array(terms) for terms in zip(*turning, strict=True))
         self._coordinates = None
         self._free = ((), None)  # (rows, their terms): none yet
 
@@ -253,19 +256,22 @@ class _Extension:
         """The followed modes' coordinates and velocities (each (m, n), or their outputs
         `rows` (r, n): (m, r)) at fractions `local` (m,) of the rational steps `part` (an
         index, or one per sample): each part's free vibration turned on by `(local -
-        part) h / parts` (`FreeVibration.in_outputs`, kept for the last `rows`)."""
-        if self._free[0] is not rows:
-            shapes = np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2)
-            outputs = [near.in_outputs(S) for near, S in zip(self.vibration, shapes, strict=True)]
-            self._free = (rows, [np.array(terms) for terms in zip(*outputs, strict=True)])
-        Q, Qd, static = self._free[1]
+        part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`)."""
+        if self._free[0] is not rows:  # the modes' shapes in the outputs, kept
+            self._free = (rows, np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2))
+        shapes = self._free[1]
         seconds = (local - part) * (self.h / self.parts)
         decay = None if self.decay is None else self.decay[part]
         turns = oscillation(seconds, self.omega_d[part], decay)
+        count = self.V.shape[2]
+        e = turns * self.on_e[part]
+        e = e[:, :count] + e[:, count:] + self.static[part]
+        v = turns * self.on_v[part]
+        v = v[:, :count] + v[:, count:]
         if np.ndim(part) == 0:
-            return turns @ Q[part] + static[part], turns @ Qd[part]
+            return e @ shapes[part], v @ shapes[part]
         pick = (part, np.arange(part.size))  # each sample's own part
-        return (turns @ Q)[pick] + static[part], (turns @ Qd)[pick]
+        return (e @ shapes)[pick], (v @ shapes)[pick]
 
     def curve(self, fractions: np.ndarray, rows) -> tuple[np.ndarray, np.ndarray]:
         """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
