@@ -180,7 +180,7 @@ def run_deployment(
     initial=None,
     policy: Policy | None = None,
     rtol: float | None = DEFAULT_RTOL,
-    rates: str = "exact",
+    rates: str | None = "exact",
 ) -> DeploymentRun:
     """Integrate the scenario and sample it at `t_eval` [s] (and at its load switches,
     which thereby fall on step boundaries); the peaks of the tips and root moments
@@ -198,7 +198,9 @@ def run_deployment(
         rates: the velocities at output times inside moving steps
             (`SailStepper.states_at`): "exact", or "extension" (cheaper, off by about
             0.3 % of peak; the coordinates, the steps' ends and the peaks the same to
-            the bit) for a caller that reads positions only.
+            the bit) for a caller that reads positions only, or None (cheaper still:
+            `qd` nan at output times inside steps) for one that reads velocities only
+            at the steps' ends (the run's last output time is one).
 
     Raises:
         ValueError: the scenario asks what the policy refuses (`check_scenario`).

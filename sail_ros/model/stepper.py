@@ -252,11 +252,12 @@ class _Extension:
         V, MV = (self.V, self.MV) if part is None else (self.V[part], self.MV[part])
         return x - (x @ MV) @ np.swapaxes(V, -1, -2)
 
-    def free(self, part, local, rows=None) -> tuple[np.ndarray, np.ndarray]:
+    def free(self, part, local, rows=None, velocities=True):
         """The followed modes' coordinates and velocities (each (m, n), or their outputs
         `rows` (r, n): (m, r)) at fractions `local` (m,) of the rational steps `part` (an
         index, or one per sample): each part's free vibration turned on by `(local -
-        part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`)."""
+        part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`); without
+        `velocities`, the coordinates alone."""
         if self._free[0] is not rows:  # the modes' shapes in the outputs, kept
             self._free = (rows, np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2))
         shapes = self._free[1]
@@ -266,6 +267,8 @@ class _Extension:
         count = self.V.shape[2]
         e = turns * self.on_e[part]
         e = e[:, :count] + e[:, count:] + self.static[part]
+        if not velocities:
+            return e @ shapes[part]
         v = turns * self.on_v[part]
         v = v[:, :count] + v[:, count:]
         if np.ndim(part) == 0:
@@ -822,14 +825,18 @@ class SailStepper:
             return self.resolved_frequency
         return self.system.resolved_frequency(lengths)
 
-    def states_at(self, times, rates: str = "exact") -> tuple[np.ndarray, np.ndarray]:
+    def states_at(self, times, rates: str | None = "exact") -> tuple[np.ndarray, np.ndarray]:
         """`(q, qd)` (each (m, n)) at `times` [s] (m values) within the last step (its end:
         the state itself), from the step's continuous extension (`between`) or, at rest,
         the exact step from its start. `rates`: how a moving step's velocities inside it
         are found (`between`): "exact", or "extension" (no assembly nor factorisation per
-        time; `q` the same to the bit) for a caller that reads positions only."""
-        if rates not in ("exact", "extension"):
-            raise ValueError(f"rates must be 'exact' or 'extension', got {rates!r}")
+        time; `q` the same to the bit) for a caller that reads positions only, or None
+        for one that reads no velocities but the state at the step's end (`qd` nan inside
+        the step; `q` the same to the bit)."""
+        if rates not in ("exact", "extension", None):
+            raise ValueError(
+                f"rates must be 'exact' or 'extension', got {rates!r} (or None: no rates)"
+            )
         times = np.asarray(times, dtype=float)
         q, qd = np.empty((times.size, self._q.size)), np.empty((times.size, self._q.size))
         end = np.abs(times - self._t) <= 1e-12 * np.maximum(1.0, np.abs(times))
@@ -847,8 +854,10 @@ class SailStepper:
         fractions = (inside - t0) / (self._t - t0)
         if isinstance(trial, Rest):  # at rest: each mode's exact propagator from the start
             q[~end], qd[~end] = self._rest_states(trial, fractions)
-            return q, qd
-        q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates=rates)
+            if rates is None:
+                qd[~end] = math.nan
+        else:
+            q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates=rates)
         return q, qd
 
     def _velocities(self, times, q, p) -> np.ndarray:
@@ -885,7 +894,7 @@ class SailStepper:
         the rates are as accurate as the positions, at one assembly and one Cholesky
         factorisation per sample (the batch outputs, `states_at`); "slope", the time
         derivative of the curve `q(f)` itself, the slope a Hermite interpolation between
-        samples needs (`interpolant`)."""
+        samples needs (`interpolant`); None, none (`qd` nan: the positions alone)."""
         return self._extended(fractions, qd0, qd1, rates)
 
     def _extension(self) -> _Extension:
@@ -916,7 +925,7 @@ class SailStepper:
         elif rates == "extension":
             ends = ((qd0, qd1),)
         q = np.empty((fractions.size, self._q.size))
-        qd = np.empty_like(q)
+        qd = np.full_like(q, math.nan) if rates is None else np.empty_like(q)
         part = np.minimum((fractions * parts).astype(int), parts - 1)
         for k in range(parts):
             inside = part == k
@@ -926,6 +935,11 @@ class SailStepper:
             q_start, y_q, u, v, p_start, mats = ext.extensions[k]
             c, w = _extension_weights(local)
             q_part = np.outer(c, q_start) + 2.0 * (w @ y_q).real
+            if rates is None:  # positions only
+                q[inside] = q_part
+                if ext.vibration:
+                    q[inside] = ext.kept(q_part, k) + ext.free(k, local, velocities=False)
+                continue
             velocity = 2.0 * (w @ u).real  # sum_k 2 Re[w_k u_k]
             if rates == "exact":
                 times = t0 + (k + local) * h / parts
