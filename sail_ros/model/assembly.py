@@ -39,6 +39,7 @@ builds all requested matrices together.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from collections.abc import Callable
 from typing import NamedTuple
@@ -699,8 +700,10 @@ class SystemAssembler:
         self._quadrants = _Component(
             QUADRANT_TERMS, quadrant, np.stack([flat(layout.quadrant_slots(q)) for q in QUADRANTS])
         )
-        self._first = np.array([q.first for q in QUADRANTS])
-        self._second = np.array([q.second for q in QUADRANTS])
+        # each quadrant's first boom, then each one's second
+        self._quadrant_booms = np.array(
+            [q.first for q in QUADRANTS] + [q.second for q in QUADRANTS]
+        )
         self._plans: dict[tuple[str, ...], _Plan] = {}
         self.blocks = BlockLayout(layout)
         self._hub: _HubCoupling | None = None  # the hub terms, lifted with the quadrants'
@@ -825,15 +828,9 @@ class SystemAssembler:
         )
 
     def _kinematics(self, lengths, rates, accelerations):
-        first, second = self._first, self._second
-        return BoomKinematics(lengths, rates, accelerations), QuadrantKinematics(
-            lengths[..., first],
-            rates[..., first],
-            accelerations[..., first],
-            lengths[..., second],
-            rates[..., second],
-            accelerations[..., second],
-        )
+        pairs = np.stack([lengths, rates, accelerations])[..., self._quadrant_booms]
+        first, second = pairs[..., :4], pairs[..., 4:]
+        return BoomKinematics(lengths, rates, accelerations), QuadrantKinematics(*first, *second)
 
     def evaluate(self, outputs, lengths, rates, accelerations) -> np.ndarray:
         """The requested matrices stacked, shape (len(outputs), n, n); for `m` motions
@@ -852,18 +849,17 @@ class SystemAssembler:
         motions = (booms, quadrants, quadrants)  # the hub terms go with the quadrants
         components = self._components()
         lead = np.shape(lengths)[:-1]
-        values = np.concatenate(
-            [
-                component.values(motion, self.constants, selection, k)
-                for component, selection, motion in zip(
-                    components, plan.selections, motions[: len(components)], strict=True
-                )
-            ]
-            + [np.broadcast_to(plan.constant_values, (*lead, plan.constant_values.size))],
-            axis=-1,
-        )
+        parts = [
+            component.values(motion, self.constants, selection, k)
+            for component, selection, motion in zip(
+                components, plan.selections, motions[: len(components)], strict=True
+            )
+        ]
+        if plan.constant_values.size:
+            parts.append(np.broadcast_to(plan.constant_values, (*lead, plan.constant_values.size)))
+        values = np.concatenate(parts, axis=-1)
         size = k * self.n * self.n
-        count = int(np.prod(lead))
+        count = math.prod(lead)
         scatter = plan.scatter if not lead else (plan.scatter + size * np.arange(count)[:, None])
         out = np.bincount(scatter.ravel(), weights=values.ravel(), minlength=count * size)
         out = out.reshape(*lead, k, self.n, self.n)
