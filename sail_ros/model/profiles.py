@@ -77,6 +77,7 @@ class CycloidalProfile:
         self.duration, self.t0 = float(duration), float(t0)
         self._zero = np.zeros(4)
         self._ends = list(zip(self.start.tolist(), self.end.tolist(), strict=True))
+        self._still = bool(np.array_equal(self.start, self.end))
 
     @classmethod
     def within_limits(cls, start, end, max_rate: float, max_acceleration: float, t0=0.0):
@@ -125,7 +126,7 @@ class CycloidalProfile:
         )
 
     def is_static(self, t0, t1) -> bool:
-        return t1 <= self.t0 or t0 >= self.t_end or np.array_equal(self.start, self.end)
+        return t1 <= self.t0 or t0 >= self.t_end or self._still
 
     def extremes(self):
         """As `StaticProfile.extremes`: peak rate `2 |Lf - L0| / T` at mid-way, peak
