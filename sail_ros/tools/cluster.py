@@ -8,14 +8,21 @@ several threads per process only compete). `scheduler="tcp://host:8786"`
 uses a cluster started with the standard `dask scheduler` and `dask worker`
 commands; its workers must have sail_ros installed.
 
-Local workers keep glibc's own malloc settings: Dask's nanny starts them with
-MALLOC_TRIM_THRESHOLD_=65536 (`distributed.nanny.pre-spawn-environ`), which
-returns freed memory to the system at once and, being set, stops glibc raising
-its mmap threshold, so the model's many short-lived arrays come back as page
-faults: measured, a sample took 12-26 % more CPU in such a worker than in the
-same worker without it. A value set in the environment still reaches them. An
-external cluster's workers are started by their owner (`dask worker`): the same
-holds there.
+Two of Dask's defaults cost the model's many small steps CPU in a worker, and
+local workers go without them (`LOCAL_WORKER_CONFIG`; measured, a sample took
+21-34 % more CPU in a worker with Dask's defaults than called in a plain
+process, 7-11 % more without them):
+- MALLOC_TRIM_THRESHOLD_=65536, which the nanny sets before it starts a worker
+  (`distributed.nanny.pre-spawn-environ`): glibc then returns freed memory to
+  the system at once and, the threshold being set, no longer raises its mmap
+  threshold, so the model's short-lived arrays come back as page faults (12-26
+  % more CPU). Local workers keep glibc's own settings; a value set in the
+  environment still reaches them.
+- the statistical profiler (`distributed.worker.profile`), which takes the
+  worker's stack every 10 ms (10-15 % more CPU): the dashboard's profile page
+  of a local cluster stays empty.
+An external cluster's workers are started by their owner (`dask worker`), with
+that owner's settings: the same holds there.
 """
 
 from __future__ import annotations
@@ -25,8 +32,12 @@ import logging
 import os
 import sys
 
-# what local workers are started with: glibc's malloc defaults (the module docstring)
-LOCAL_WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+# what local workers are started with (the module docstring): glibc's malloc defaults,
+# no statistical profiler
+LOCAL_WORKER_CONFIG = {
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.worker.profile.enabled": False,
+}
 
 
 @contextlib.contextmanager

@@ -159,20 +159,23 @@ def test_the_same_study_gives_the_same_csv_on_any_cluster(
     assert (tmp_path / "one" / "samples.parquet").is_file()
 
 
-def malloc_trim_threshold():
+def worker_settings():
     import os
 
-    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
+    import dask
+
+    profiler = dask.config.get("distributed.worker.profile.enabled")
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_"), profiler
 
 
-def test_local_workers_keep_glibc_malloc_defaults(monkeypatch):
-    """Dask's nanny would start them with MALLOC_TRIM_THRESHOLD_=65536, under which a
-    sample costs more CPU (sail_ros.tools.cluster): the local cluster's workers do not
-    get it, and neither does this process."""
+def test_local_workers_keep_glibc_malloc_defaults_and_no_profiler(monkeypatch):
+    """Dask's nanny would start them with MALLOC_TRIM_THRESHOLD_=65536 and its profiler,
+    under which a sample costs more CPU (sail_ros.tools.cluster): the local cluster's
+    workers get neither, and this process keeps its environment."""
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     with dask_client(workers=1) as client:
-        assert list(client.run(malloc_trim_threshold).values()) == [None]
-    assert malloc_trim_threshold() is None
+        assert list(client.run(worker_settings).values()) == [(None, False)]
+    assert worker_settings()[0] is None
 
 
 def test_worst_samples_rerun_to_the_same_numbers(study_file, tmp_path, capsys, external_cluster):
