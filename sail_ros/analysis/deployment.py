@@ -21,7 +21,7 @@ from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
-from sail_ros.model.peaks import OutputPeaks, Peaks, hermite_motion
+from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, hermite_motion
 from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.policy import OutOfRangeError, Policy
@@ -143,14 +143,24 @@ class RangeWatch:
         fractions = np.arange(1, count + 1) / count
         values, _ = self.peaks.after_step(stepper, also=fractions)  # one pass for both
         values = values[:, self._columns]
-        lengths, _ = hermite_motion(
-            fractions, np.full(count, h), lengths0, rates0, lengths1, rates1
-        )
         policy = self.policy
-        near = np.max(np.abs(values[:, :4]) / lengths, axis=1) > policy.tip_warn_fraction
+        tips = np.abs(values[:, :4])
+        ends = (lengths0, rates0, lengths1, rates1)
+        # the lengths inside the step (the motion's cubic) only if a tip may be near its
+        # range: no boom is shorter there than min(L0, L1) - 4/27 h (|Ld0| + |Ld1|)
+        shortest = np.minimum(lengths0, lengths1)
+        shortest -= HERMITE_BOUND * h * (np.abs(rates0) + np.abs(rates1))
+        lengths = None
+        near = np.zeros(count, dtype=bool)
+        if not (np.all(shortest > 0) and np.all(tips <= policy.tip_warn_fraction * shortest)):
+            lengths = hermite_motion(fractions, np.full(count, h), *ends)[0]
+            near = np.max(tips / lengths, axis=1) > policy.tip_warn_fraction
         if self.model.free_hub:
             near |= np.hypot(values[:, 5], values[:, 6]) > policy.tilt_warn_rad
-        for i in np.flatnonzero(near | ~np.all(np.isfinite(values), axis=1)):
+        finite = np.isfinite(values).all(axis=1)
+        if lengths is None and (near.any() or not finite.all()):
+            lengths = hermite_motion(fractions, np.full(count, h), *ends)[0]
+        for i in np.flatnonzero(near | ~finite):
             t, row = t0 + fractions[i] * h, values[i]
             hub = np.append(row[4:], [0.0] * 3) if self.model.free_hub else None
             warning, error = policy.range_state(row[:4], lengths[i], hub)
@@ -170,7 +180,7 @@ def run_deployment(
     initial=None,
     policy: Policy | None = None,
     rtol: float | None = DEFAULT_RTOL,
-    rates: str = "exact",
+    rates: str | None = "exact",
 ) -> DeploymentRun:
     """Integrate the scenario and sample it at `t_eval` [s] (and at its load switches,
     which thereby fall on step boundaries); the peaks of the tips and root moments
@@ -188,7 +198,9 @@ def run_deployment(
         rates: the velocities at output times inside moving steps
             (`SailStepper.states_at`): "exact", or "extension" (cheaper, off by about
             0.3 % of peak; the coordinates, the steps' ends and the peaks the same to
-            the bit) for a caller that reads positions only.
+            the bit) for a caller that reads positions only, or None (cheaper still:
+            `qd` nan at output times inside steps) for one that reads velocities only
+            at the steps' ends (the run's last output time is one).
 
     Raises:
         ValueError: the scenario asks what the policy refuses (`check_scenario`).

@@ -39,6 +39,7 @@ builds all requested matrices together.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from collections.abc import Callable
 from typing import NamedTuple
@@ -167,7 +168,14 @@ def _transport(name: str, integral: str, coefficient) -> tuple[Term, ...]:
 
 def _times(constant: str, coefficient):
     """The coefficient times a physical constant (a Rayleigh factor)."""
-    return lambda motion, c: getattr(c, constant) * coefficient(motion, c)
+    return _vanishing(constant, lambda motion, c: getattr(c, constant) * coefficient(motion, c))
+
+
+def _vanishing(constant: str, coefficient):
+    """`coefficient`, marked as 0 wherever the physical constant `constant` is (a plan
+    leaves it out then: `_Component.selection`)."""
+    coefficient.vanishes_with = constant
+    return coefficient
 
 
 # Boom k (n_B x n_B), model.md §5: M_B, Md_B, G_B, Gd_B, N_B, K_B; §12: C_d = alpha M + beta K
@@ -186,7 +194,11 @@ BOOM_TERMS = (
         (STIFFNESS_EQ, STIFFNESS_CANONICAL),
     ),
     *_elastic("bending K_B", "d2_d2", lambda b, c: c.boom_bending_stiffness / b.L**3),
-    *_elastic("axial load K_B", "d1_d1", lambda b, c: -c.boom_axial_load / b.L),
+    *_elastic(
+        "axial load K_B",
+        "d1_d1",
+        _vanishing("boom_axial_load", lambda b, c: -c.boom_axial_load / b.L),
+    ),
 )
 
 # Quadrant Q_ab (n~ x n~), model.md §5: M_M, Md_M, G_M, Gd_M, N_M, K_M; §12: C_d as above.
@@ -558,14 +570,19 @@ class _Component:
         self.signs = signs  # (4, entries) or None: +-1 of every entry as it lands
         self.signed = signs is not None
 
-    def selection(self, outputs: tuple[str, ...]):
+    def selection(self, outputs: tuple[str, ...], constants: Constants):
         """`(functions, weights, integrals)`: the distinct coefficient functions that feed
         `outputs` (a term's `G` and `G - G^T` share one), (functions, outputs x
         integrals) with 1 where a function's value goes into an integral of an output,
         and the integrals (the ones the outputs use, for a signed component); the other
-        terms are not evaluated."""
+        terms, and those that vanish with a physical constant that is 0 here (a
+        coefficient `_vanishing`, e.g. the Rayleigh damping's when there is none), are
+        not evaluated."""
         select = np.zeros((len(self.terms), len(outputs), len(self._column)))
         for t, term in enumerate(self.terms):
+            vanishes_with = getattr(term.coefficient, "vanishes_with", None)
+            if vanishes_with is not None and getattr(constants, vanishes_with) == 0.0:
+                continue
             for o, output in enumerate(outputs):
                 if output in term.matrices:
                     select[t, o, self._column[term.integral_key]] = 1.0
@@ -683,8 +700,10 @@ class SystemAssembler:
         self._quadrants = _Component(
             QUADRANT_TERMS, quadrant, np.stack([flat(layout.quadrant_slots(q)) for q in QUADRANTS])
         )
-        self._first = np.array([q.first for q in QUADRANTS])
-        self._second = np.array([q.second for q in QUADRANTS])
+        # each quadrant's first boom, then each one's second
+        self._quadrant_booms = np.array(
+            [q.first for q in QUADRANTS] + [q.second for q in QUADRANTS]
+        )
         self._plans: dict[tuple[str, ...], _Plan] = {}
         self.blocks = BlockLayout(layout)
         self._hub: _HubCoupling | None = None  # the hub terms, lifted with the quadrants'
@@ -761,7 +780,10 @@ class SystemAssembler:
                 border_scatter = np.concatenate([hub_targets.ravel(), border_constants])
             plan = _Plan(
                 computed,
-                tuple(component.selection(computed) for component in self._components()),
+                tuple(
+                    component.selection(computed, self.constants)
+                    for component in self._components()
+                ),
                 np.concatenate([scatter, constant_targets]),
                 constant_values,
                 damped,
@@ -806,15 +828,9 @@ class SystemAssembler:
         )
 
     def _kinematics(self, lengths, rates, accelerations):
-        first, second = self._first, self._second
-        return BoomKinematics(lengths, rates, accelerations), QuadrantKinematics(
-            lengths[..., first],
-            rates[..., first],
-            accelerations[..., first],
-            lengths[..., second],
-            rates[..., second],
-            accelerations[..., second],
-        )
+        pairs = np.stack([lengths, rates, accelerations])[..., self._quadrant_booms]
+        first, second = pairs[..., :4], pairs[..., 4:]
+        return BoomKinematics(lengths, rates, accelerations), QuadrantKinematics(*first, *second)
 
     def evaluate(self, outputs, lengths, rates, accelerations) -> np.ndarray:
         """The requested matrices stacked, shape (len(outputs), n, n); for `m` motions
@@ -833,18 +849,17 @@ class SystemAssembler:
         motions = (booms, quadrants, quadrants)  # the hub terms go with the quadrants
         components = self._components()
         lead = np.shape(lengths)[:-1]
-        values = np.concatenate(
-            [
-                component.values(motion, self.constants, selection, k)
-                for component, selection, motion in zip(
-                    components, plan.selections, motions[: len(components)], strict=True
-                )
-            ]
-            + [np.broadcast_to(plan.constant_values, (*lead, plan.constant_values.size))],
-            axis=-1,
-        )
+        parts = [
+            component.values(motion, self.constants, selection, k)
+            for component, selection, motion in zip(
+                components, plan.selections, motions[: len(components)], strict=True
+            )
+        ]
+        if plan.constant_values.size:
+            parts.append(np.broadcast_to(plan.constant_values, (*lead, plan.constant_values.size)))
+        values = np.concatenate(parts, axis=-1)
         size = k * self.n * self.n
-        count = int(np.prod(lead))
+        count = math.prod(lead)
         scatter = plan.scatter if not lead else (plan.scatter + size * np.arange(count)[:, None])
         out = np.bincount(scatter.ravel(), weights=values.ravel(), minlength=count * size)
         out = out.reshape(*lead, k, self.n, self.n)

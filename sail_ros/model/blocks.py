@@ -29,8 +29,11 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import scipy.linalg
 
 from sail_ros.model.layout import QUADRANTS, Layout
+
+_gesv = scipy.linalg.lapack.get_lapack_funcs("gesv", dtype=complex)
 
 _POWERS = np.arange(3)
 _BOOMS = np.arange(4)
@@ -246,9 +249,17 @@ class DenseMatrices:
 
     def matvec(self, x: np.ndarray) -> np.ndarray:
         """`A_i x_i` for every matrix `i` (`x` (k, n) or (n,)); returns (k, n)."""
-        return (self.matrices @ np.broadcast_to(x, self.matrices.shape[:2])[..., None])[..., 0]
+        if x.ndim == 1:
+            return self.matrices @ x
+        return (self.matrices @ x[..., None])[..., 0]
 
     def solve_shifted(self, taus: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        """`(A_0 + tau_j A_1 + tau_j^2 A_2)^-1 rhs_j`, dense; (p, n) complex."""
+        """`(A_0 + tau_j A_1 + tau_j^2 A_2)^-1 rhs_j`, dense; (p, n) complex (LAPACK's
+        solve one system at a time: numpy's stacked solve costs more per call)."""
         systems = _combine(taus[:, None] ** _POWERS, self.matrices[:3])
-        return np.linalg.solve(systems, rhs[..., None])[..., 0]
+        out = np.empty(rhs.shape, dtype=complex)
+        for j, system in enumerate(systems):
+            _, _, out[j], info = _gesv(system, rhs[j], overwrite_a=True)
+            if info > 0:
+                raise np.linalg.LinAlgError(f"singular shifted matrix (gesv info {info})")
+        return out

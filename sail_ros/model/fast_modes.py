@@ -54,22 +54,24 @@ FOLLOW_ADIABATIC = 500.0
 @dataclass(frozen=True)
 class FrozenModes:
     """Modes of `(K, M)` at fixed lengths: frequencies `omega` [rad/s] ascending, `V`
-    (n, k) with `V^T M V = I`, modal damping `d` [1/s], `M` and `MV = M V`; all n of
-    them (`updates` 0), or the k highest carried on from a neighbouring length
-    (`updated`, `updates` since the last full set)."""
+    (n, k) with `V^T M V = I`, modal damping `d` [1/s], `M`, `MV = M V` and the damped
+    frequencies `omega_d` [rad/s] (`_damped`); all n of them (`updates` 0), or the k
+    highest carried on from a neighbouring length (`updated`, `updates` since the last
+    full set)."""
 
     omega: np.ndarray
     V: np.ndarray
     d: np.ndarray
     M: np.ndarray
     MV: np.ndarray
+    omega_d: np.ndarray
     updates: int = 0
 
     @classmethod
     def of(cls, M: np.ndarray, K: np.ndarray, damping: tuple[float, float]) -> FrozenModes:
         """All modes, from the mass and elastic stiffness at the lengths and the Rayleigh
         coefficients `(alpha, beta)`: `V^T C_d V = diag(alpha + beta omega^2)`."""
-        lam, V = scipy.linalg.eigh(K, M, check_finite=False)
+        lam, V = _eigh(K, M)
         return cls._made(lam, V, M, damping, 0)
 
     def updated(self, count: int, M, K, damping, factor) -> FrozenModes:
@@ -79,15 +81,30 @@ class FrozenModes:
         each time by `(omega_below / omega_lowest)^2`, the ratio of the highest mode left
         out to the lowest kept (below 1/9 where modes are followed, `FOLLOW_ABOVE_RESOLVED`);
         `factor` is the Cholesky factor of `M` (`scipy.linalg.cho_factor`)."""
-        Y = scipy.linalg.cho_solve(factor, K @ self.V[:, -count:], check_finite=False)
-        lam, Z = scipy.linalg.eigh(Y.T @ K @ Y, Y.T @ M @ Y, check_finite=False)
+        c, lower = factor
+        Y, _ = _potrs(c, K @ self.V[:, -count:], lower=lower)
+        lam, Z = _eigh(Y.T @ K @ Y, Y.T @ M @ Y)
         return self._made(lam, Y @ Z, M, damping, self.updates + 1)
 
     @classmethod
     def _made(cls, lam, V, M, damping, updates) -> FrozenModes:
         lam = np.maximum(lam, 0.0)
         alpha, beta = damping
-        return cls(np.sqrt(lam), V, alpha + beta * lam, M, M @ V, updates)
+        omega, d = np.sqrt(lam), alpha + beta * lam
+        return cls(omega, V, d, M, M @ V, _damped(omega, d), updates)
+
+
+# LAPACK without scipy's wrappers (the same calls as `scipy.linalg.eigh(K, M)` and
+# `cho_solve`), on matrices assembled from checked lengths
+_sygvd, _potrs = scipy.linalg.lapack.get_lapack_funcs(("sygvd", "potrs"), dtype=float)
+
+
+def _eigh(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`scipy.linalg.eigh(K, M)`: eigenvalues ascending and `M`-orthonormal vectors."""
+    lam, V, info = _sygvd(K, M)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"the frozen modes' eigenproblem failed (sygvd info {info})")
+    return lam, V
 
 
 def followed(modes: FrozenModes, h: float, resolved: float, relative_rate: float) -> int:
@@ -115,47 +132,64 @@ class FreeVibration:
         """From `q`, `qd` and the generalised force on these modes from the load and the
         other modes (`forcing_of`)."""
         V = modes.V[:, -count:]
-        w, d = modes.omega[-count:], modes.d[-count:]
+        w, d, wd = modes.omega[-count:], modes.d[-count:], modes.omega_d[-count:]
         s = (V.T @ forcing) / w**2
         MV = modes.MV[:, -count:]
         e = MV.T @ q - s
         v = MV.T @ qd
-        wd, decay = _damped(w, d)
-        return cls(modes, count, e - 1j * (v + 0.5 * decay * e) / wd, s)
+        return cls(modes, count, e - 1j * (v + 0.5 * d * e) / wd, s)
 
     def coordinates(self) -> tuple[np.ndarray, np.ndarray]:
         """The modal coordinates `(e + s, v)` of these modes."""
-        w, d = self.modes.omega[-self.count :], self.modes.d[-self.count :]
-        wd, decay = _damped(w, d)
+        count = self.count
+        wd, decay = self.modes.omega_d[-count:], self.modes.d[-count:]
         e = self.a.real
         return e + self.s, -wd * self.a.imag - 0.5 * decay * e
 
-    def turned(self, seconds) -> FreeVibration:
-        """This vibration `seconds` [s] later (earlier if negative), in the same modes; an
-        array of m times gives m vibrations, `a` of shape (m, count)."""
-        w, d = self.modes.omega[-self.count :], self.modes.d[-self.count :]
-        wd, decay = _damped(w, d)
-        rate = 1j * wd - 0.5 * decay
-        return FreeVibration(
-            self.modes, self.count, self.a * np.exp(np.multiply.outer(seconds, rate)), self.s
+    def turning(self) -> tuple[np.ndarray, np.ndarray]:
+        """`(on_e, on_v)` (2 count each): with `a(t) = a e^((i omega_d - d / 2) t)`, each
+        mode's `e = Re a(t)` and `v = -omega_d Im a(t) - d e / 2` at `t` are the sums of
+        its cosine and its sine column of `oscillation(t) * on_e` (of `* on_v`)."""
+        count = self.count
+        wd, d = self.modes.omega_d[-count:], self.modes.d[-count:]
+        ar, ai = self.a.real, self.a.imag
+        return np.concatenate([ar, -ai]), np.concatenate(
+            [-wd * ai - 0.5 * d * ar, 0.5 * d * ai - wd * ar]
         )
 
     def replace_in(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """`q`, `qd` ((n,) or (m, n), one row per vibration) with these modes' part replaced
-        by this vibration (and the static part)."""
+        """`q`, `qd` ((n,) or (m, n)) with these modes' part replaced by this vibration
+        (and the static part)."""
         V = self.modes.V[:, -self.count :]
         e, v = self.coordinates()
         MV = self.modes.MV[:, -self.count :]
         return q + (e - q @ MV) @ V.T, qd + (v - qd @ MV) @ V.T
 
 
-def _damped(w: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Damped frequency `omega_d` [rad/s] and decay rate `d` [1/s]. Past a damping ratio
-    of 0.87 `omega_d` stays at `omega / 2`: such a mode is then taken to decay at
-    `d / 2 >= 0.87 omega`, faster than its slow root `omega (zeta - sqrt(zeta^2 - 1))`
-    beyond critical damping, but it has lost `e^-1.7` of its free vibration per
-    followed step either way (`omega h > 2`)."""
-    return np.sqrt(np.maximum(w**2 - 0.25 * d**2, 0.25 * w**2)), d
+def oscillation(seconds, omega_d: np.ndarray, decay: np.ndarray) -> np.ndarray:
+    """(m, 2k): `e^(-d t / 2) cos(omega_d t)` of k modes, then `e^(-d t / 2) sin(omega_d
+    t)`, at `t` = each of `seconds` (m,) [s], for damped frequencies `omega_d` [rad/s] and
+    decay rates `decay` [1/s] (each (k,), or (m, k): each time its own modes; None for
+    undamped modes)."""
+    t = np.asarray(seconds, dtype=float)[:, None]
+    phase = t * omega_d
+    k = phase.shape[1]
+    turns = np.empty((phase.shape[0], 2 * k))
+    np.cos(phase, out=turns[:, :k])
+    np.sin(phase, out=turns[:, k:])
+    if decay is not None:
+        turns *= np.tile(np.exp(-0.5 * t * decay), 2)
+    return turns
+
+
+def _damped(w: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Damped frequency `omega_d` [rad/s] of modes of frequency `w` [rad/s] and damping `d`
+    [1/s] (decaying at `d / 2`). Past a damping ratio of 0.87 `omega_d` stays at
+    `omega / 2`: such a mode is then taken to decay at `d / 2 >= 0.87 omega`, faster
+    than its slow root `omega (zeta - sqrt(zeta^2 - 1))` beyond critical damping, but
+    it has lost `e^-1.7` of its free vibration per followed step either way
+    (`omega h > 2`)."""
+    return np.sqrt(np.maximum(w**2 - 0.25 * d**2, 0.25 * w**2))
 
 
 def slow_part(modes: FrozenModes, count: int, x: np.ndarray) -> np.ndarray:
@@ -179,8 +213,8 @@ def follow(start: FreeVibration, end_modes: FrozenModes, h: float, end_forcing) 
     whose static response is taken under `end_forcing` (see the module docstring)."""
     m = start.count
     w0, w1 = start.modes.omega[-m:], end_modes.omega[-m:]
-    wd0, d0 = _damped(w0, start.modes.d[-m:])
-    wd1, d1 = _damped(w1, end_modes.d[-m:])
+    wd0, d0 = start.modes.omega_d[-m:], start.modes.d[-m:]
+    wd1, d1 = end_modes.omega_d[-m:], end_modes.d[-m:]
     phase = 0.5 * (wd0 + wd1) * h
     V0, V1 = start.modes.V[:, -m:], end_modes.V[:, -m:]
     overlap = end_modes.MV[:, -m:].T @ V0

@@ -65,8 +65,18 @@ class PeakSearch:
         self._last = (float(t[-1]), y[-1], yd[-1])
         self._keep(t, np.abs(y))
         if t.size > 1:
-            times, values = hermite_extrema(t, y, yd)
-            self._keep(times, np.abs(values))
+            # only the intervals whose cubic may pass a largest value so far (the same
+            # maxima, and times, as from every interval): |p| <= max(|y0|, |y1|) + 4/27
+            # (|d0| + |d1|) (`HERMITE_BOUND`)
+            h = np.diff(t)[:, None]
+            magnitudes, rates = np.abs(y), np.abs(yd)
+            bound = np.maximum(magnitudes[:-1], magnitudes[1:])
+            bound += HERMITE_BOUND * h * (rates[:-1] + rates[1:])
+            near = np.flatnonzero(np.any(bound * (1.0 + 1e-9) >= self.value, axis=1))
+            if near.size:
+                times, values = _extrema(t[near], t[near + 1], y[near], y[near + 1],
+                                         yd[near], yd[near + 1])  # fmt: skip
+                self._keep(times, np.abs(values))
 
     def restart(self) -> None:
         """The next sample does not continue the last (e.g. the state was reset)."""
@@ -88,9 +98,19 @@ def hermite_extrema(t, y, yd) -> tuple[np.ndarray, np.ndarray]:
     """Times and values (each (2 (m - 1), c)) of the interior stationary points of the
     cubic Hermite through consecutive samples `(t, y, yd)` ((m,), (m, c), (m, c));
     intervals without one repeat their start (value and time), which changes no max."""
-    h = np.diff(t)[:, None]
-    y0, y1 = y[:-1], y[1:]
-    d0, d1 = yd[:-1] * h, yd[1:] * h  # rates per unit of the interval's parameter s
+    return _extrema(t[:-1], t[1:], y[:-1], y[1:], yd[:-1], yd[1:])
+
+
+# |p(s)| <= max(|y0|, |y1|) + HERMITE_BOUND (|d0| + |d1|) on [0, 1] for the cubic Hermite
+# (its basis: h00 + h01 = 1, both in [0, 1]; |h10|, |h11| <= 4/27)
+HERMITE_BOUND = 4.0 / 27.0
+
+
+def _extrema(t0, t1, y0, y1, yd0, yd1) -> tuple[np.ndarray, np.ndarray]:
+    """`hermite_extrema` of the intervals from `(t0, y0, yd0)` to `(t1, y1, yd1)` ((k,),
+    (k, c) each)."""
+    h = (t1 - t0)[:, None]
+    d0, d1 = yd0 * h, yd1 * h  # rates per unit of the interval's parameter s
     # p(s) on s in [0, 1]; p'(s) = a s^2 + b s + c
     a = 6.0 * (y0 - y1) + 3.0 * (d0 + d1)
     b = 6.0 * (y1 - y0) - 4.0 * d0 - 2.0 * d1
@@ -103,7 +123,7 @@ def hermite_extrema(t, y, yd) -> tuple[np.ndarray, np.ndarray]:
             s = np.where(quadratic, (-b + sign * root) / (2.0 * a), -c / b)
             inside = (b * b - 4.0 * a * c >= 0.0) & (s > 0.0) & (s < 1.0)
             s = np.where(inside, s, 0.0)
-            times.append(t[:-1, None] + s * h)
+            times.append(t0[:, None] + s * h)
             values.append(hermite(s, y0, d0, y1, d1)[0])
     return np.vstack(times), np.vstack(values)
 

@@ -18,6 +18,7 @@ from scipy.interpolate import CubicSpline
 from sail_ros.model.layout import per_boom
 
 _BOOMS = np.arange(4)
+_BOOMS_K = range(4)
 
 
 class Profile(Protocol):
@@ -75,6 +76,8 @@ class CycloidalProfile:
             raise ValueError(f"t0 must be finite, got {t0!r}")
         self.duration, self.t0 = float(duration), float(t0)
         self._zero = np.zeros(4)
+        self._ends = list(zip(self.start.tolist(), self.end.tolist(), strict=True))
+        self._still = bool(np.array_equal(self.start, self.end))
 
     @classmethod
     def within_limits(cls, start, end, max_rate: float, max_acceleration: float, t0=0.0):
@@ -102,15 +105,28 @@ class CycloidalProfile:
             return self.start, self._zero, self._zero
         if tau >= 1.0:
             return self.end, self._zero, self._zero
-        travel = self.end - self.start
-        angle = 2.0 * math.pi * tau
-        lengths = self.start + travel * (tau - math.sin(angle) / (2.0 * math.pi))
-        rates = travel / self.duration * (1.0 - math.cos(angle))
-        accelerations = travel * (2.0 * math.pi / self.duration**2) * math.sin(angle)
+        lengths, rates, accelerations = np.array([self.boom_at(k, t) for k in _BOOMS_K]).T
         return lengths, rates, accelerations
 
+    def boom_at(self, k: int, t: float) -> tuple[float, float, float]:
+        """Boom `k`'s `(length [m], rate [m/s], acceleration [m/s^2])` at `t` [s] as plain
+        floats (`BoomMotion` joins the booms of several profiles so)."""
+        start, end = self._ends[k]
+        tau = (t - self.t0) / self.duration
+        if tau <= 0.0:
+            return start, 0.0, 0.0
+        if tau >= 1.0:
+            return end, 0.0, 0.0
+        travel = end - start
+        angle = 2.0 * math.pi * tau
+        return (
+            start + travel * (tau - math.sin(angle) / (2.0 * math.pi)),
+            travel / self.duration * (1.0 - math.cos(angle)),
+            travel * (2.0 * math.pi / self.duration**2) * math.sin(angle),
+        )
+
     def is_static(self, t0, t1) -> bool:
-        return t1 <= self.t0 or t0 >= self.t_end or np.array_equal(self.start, self.end)
+        return t1 <= self.t0 or t0 >= self.t_end or self._still
 
     def extremes(self):
         """As `StaticProfile.extremes`: peak rate `2 |Lf - L0| / T` at mid-way, peak
@@ -373,6 +389,9 @@ class BoomMotion:
         # which distinct profile drives each boom: one gather per call, not 12 lookups
         owner = {id(p): j for j, p in enumerate(self._distinct)}
         self._owner = np.array([owner[id(p)] for p in self.profiles])
+        # profiles that give one boom's motion alone (`CycloidalProfile.boom_at`): each
+        # evaluated for its own boom only
+        self._per_boom = all(hasattr(p, "boom_at") for p in self._distinct)
 
     def replaced(self, profile, booms) -> BoomMotion:
         """This motion with `profile` for the booms at indices `booms` (0 = a)."""
@@ -381,6 +400,10 @@ class BoomMotion:
     def __call__(self, t):
         if len(self._distinct) == 1:
             return self._distinct[0](t)
+        if self._per_boom:
+            rows = [p.boom_at(k, t) for k, p in enumerate(self.profiles)]
+            lengths, rates, accelerations = np.array(list(zip(*rows, strict=True)))
+            return lengths, rates, accelerations
         values = np.array([p(t) for p in self._distinct], dtype=float)
         lengths, rates, accelerations = values[self._owner, :, _BOOMS].T.copy()
         return lengths, rates, accelerations

@@ -74,6 +74,8 @@ from sail_ros.model.fast_modes import (
     follow,
     followed,
     forcing_of,
+    oscillation,
+    slow_part,
 )
 from sail_ros.model.layout import per_boom
 from sail_ros.model.profiles import SWITCH_RESOLUTION
@@ -125,6 +127,15 @@ def _cho_factor(M: np.ndarray):
     return factor, False
 
 
+def _cho_solve(factor, b: np.ndarray) -> np.ndarray:
+    """`scipy.linalg.cho_solve(factor, b, check_finite=False)`: the same LAPACK call."""
+    c, lower = factor
+    x, info = potrs(c, b, lower=lower)
+    if info != 0:
+        raise ValueError(f"illegal value in potrs argument {-info}")
+    return x
+
+
 class IntegrationError(RuntimeError):
     """The state became non-finite; `reset` starts again."""
 
@@ -149,6 +160,7 @@ def _diagonal_pade_partial_fractions(order: int):
 PADE_ORDER = 4
 _PADE_CONSTANT, _PADE_POLES, _PADE_RESIDUES = _diagonal_pade_partial_fractions(PADE_ORDER)
 _PADE_WEIGHTS = -_PADE_RESIDUES / _PADE_POLES  # r_k (hB - z_k)^-1 = -(r_k / z_k) (I - tau_k B)^-1
+_PADE_WEIGHT_SUM = float(_PADE_WEIGHTS.real.sum())
 
 
 def _extension_system() -> np.ndarray:
@@ -169,6 +181,19 @@ _EXTENSION_ORDERS = np.arange(2 * _PADE_POLES.size + 1)
 _EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
 
 
+def _weights(fractions, slope: bool = False) -> np.ndarray:
+    """(5, m): `(c, Re w_1, Im w_1, Re w_2, Im w_2)` of `_extension_weights` at each of
+    `fractions` (m,), one column each; with `slope`, those of `dR_f / df`."""
+    f = np.atleast_1d(np.asarray(fractions, dtype=float))
+    m = _EXTENSION_ORDERS[:, None]
+    if slope:
+        rhs = m * f[None, :] ** np.maximum(m - 1, 0) / _EXTENSION_FACTORIALS[:, None]
+    else:
+        rhs = f[None, :] ** m / _EXTENSION_FACTORIALS[:, None]
+    x, _ = _getrs(*_EXTENSION_FACTORS, rhs)
+    return x
+
+
 def _extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """`(c, w)` ((m,) and (m, 2)) of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the
     continuous extension of the step's Padé approximant to the fractions `f` of the step:
@@ -178,14 +203,95 @@ def _extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.n
     k <= 20 (near f = 0 or 1, at omega h ~ 5.5); the extension only samples, nothing
     integrated grows. With `slope`, the weights of `dR_f / df` (the same conditions on
     the derivative of the Taylor series, `m f^(m-1) / m!`)."""
-    f = np.atleast_1d(np.asarray(fractions, dtype=float))
-    m = _EXTENSION_ORDERS[:, None]
-    if slope:
-        rhs = m * f[None, :] ** np.maximum(m - 1, 0) / _EXTENSION_FACTORIALS[:, None]
-    else:
-        rhs = f[None, :] ** m / _EXTENSION_FACTORIALS[:, None]
-    x, _ = _getrs(*_EXTENSION_FACTORS, rhs)
+    x = _weights(fractions, slope)
     return x[0], (x[1::2] + 1j * x[2::2]).T
+
+
+class _Extension:
+    """The last moving step's continuous extension (`between`): its rational steps (the
+    `parts` of the step, each with its own fraction `f`) as `Trial.extensions` keeps
+    them, and their followed modes (`fast_modes`: the first half's free vibration at the
+    step's start, the second's at its end, `vibration`), whose part the extension's
+    samples leave (`kept`) and take turned instead (`free`)."""
+
+    def __init__(self, trial: Trial, h: float):
+        self.extensions = trial.extensions
+        self.parts = len(trial.extensions)
+        self.h = h
+        self.vibration = trial.vibration
+        if self.vibration:
+            count = self.vibration[0].count
+            self.V = np.array([near.modes.V[:, -count:] for near in self.vibration])
+            self.MV = np.array([near.modes.MV[:, -count:] for near in self.vibration])
+            self.omega_d = np.array([near.modes.omega_d[-count:] for near in self.vibration])
+            decay = np.array([near.modes.d[-count:] for near in self.vibration])
+            self.decay = decay if decay.any() else None
+            self.static = np.array([near.s for near in self.vibration])
+            turning = [near.turning() for near in self.vibration]
+            self.on_e, self.on_v = (np.array(terms) for terms in zip(*turning, strict=True))
+        self._coordinates = None
+        self._free = ((), None)  # (rows, their terms): none yet
+
+    def coordinates(self) -> np.ndarray:
+        """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
+        fraction combine into the coordinates (the rational step's start, `2 Re y_q,k`,
+        `-2 Im y_q,k`), less the followed modes' part."""
+        if self._coordinates is None:
+            start = np.array([extension[0] for extension in self.extensions])
+            y_q = np.array([extension[1] for extension in self.extensions])
+            rows = np.empty((self.parts, _EXTENSION_ORDERS.size, start.shape[1]))
+            rows[:, 0], rows[:, 1::2], rows[:, 2::2] = start, 2.0 * y_q.real, -2.0 * y_q.imag
+            self._coordinates = self.kept(rows)
+        return self._coordinates
+
+    def kept(self, x: np.ndarray, part: int | None = None) -> np.ndarray:
+        """`x` (parts, m, n): each part's rows of coordinates or velocities less their part
+        in its followed modes; with `part`, `x` (m, n) of that part alone."""
+        if not self.vibration:
+            return x
+        V, MV = (self.V, self.MV) if part is None else (self.V[part], self.MV[part])
+        return x - (x @ MV) @ np.swapaxes(V, -1, -2)
+
+    def free(self, part, local, rows=None, velocities=True):
+        """The followed modes' coordinates and velocities (each (m, n), or their outputs
+        `rows` (r, n): (m, r)) at fractions `local` (m,) of the rational steps `part` (an
+        index, or one per sample): each part's free vibration turned on by `(local -
+        part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`); without
+        `velocities`, the coordinates alone."""
+        if self._free[0] is not rows:  # the modes' shapes in the outputs, kept
+            self._free = (rows, np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2))
+        shapes = self._free[1]
+        seconds = (local - part) * (self.h / self.parts)
+        decay = None if self.decay is None else self.decay[part]
+        turns = oscillation(seconds, self.omega_d[part], decay)
+        count = self.V.shape[2]
+        e = turns * self.on_e[part]
+        e = e[:, :count] + e[:, count:] + self.static[part]
+        if not velocities:
+            return e @ shapes[part]
+        v = turns * self.on_v[part]
+        v = v[:, :count] + v[:, count:]
+        if np.ndim(part) == 0:
+            return e @ shapes[part], v @ shapes[part]
+        pick = (part, np.arange(part.size))  # each sample's own part
+        return (e @ shapes)[pick], (v @ shapes)[pick]
+
+    def curve(self, fractions: np.ndarray, rows) -> tuple[np.ndarray, np.ndarray]:
+        """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
+        `dq/dt` themselves) at `fractions` (m,) of the step (`between`, rates "slope"):
+        every part computed for every sample, each sample taking its own."""
+        parts = self.parts
+        part = np.minimum((fractions * parts).astype(int), parts - 1)
+        local = fractions * parts - part
+        pick = (part, np.arange(fractions.size))
+        coordinates = self.coordinates() if rows is None else self.coordinates() @ rows.T
+        q = (_weights(local).T @ coordinates)[pick]
+        slope = (_weights(local, slope=True).T @ coordinates)[pick] * (parts / self.h)
+        if self.vibration:
+            q_free, qd_free = self.free(part, local, rows)
+            q += q_free
+            slope += qd_free
+        return q, slope
 
 
 # A stretch of time whose motion starts or ends within this fraction of it from its ends
@@ -268,6 +374,7 @@ class Trial(NamedTuple):
     extensions: tuple
     vibration: tuple  # (FreeVibration at the start, at the end) or ()
     middle: object = None  # the whole step's matrices (`_STEP_MATRICES`), at its middle
+    outputs: np.ndarray | None = None  # the end's largest outputs (`_outputs`)
 
 
 class SailStepper:
@@ -374,6 +481,7 @@ class SailStepper:
         self._qd_cache = (self._t, qd.copy())
         self._last = None  # (t0, q0, qd0, Trial or Rest) of the last step, for `states_at`
         self._half_velocity = (None, None)  # (Trial, velocity at its middle), for `between`
+        self._extension_of = (None, None)  # (Trial, its `_Extension`), for `between`
         self._proposal = math.inf  # the error control's next step [s]
         self._estimate = np.zeros(len(OUTPUT_KINDS))
         self._peaks = np.zeros(len(OUTPUT_KINDS))
@@ -413,9 +521,9 @@ class SailStepper:
             else:  # inside a step (a sample): M and G alone
                 M, G = self.system.assemble((MASS, GYROSCOPIC), lengths, rates, accelerations)
                 factor = _cho_factor(M)
-            return scipy.linalg.cho_solve(factor, p - G @ q, check_finite=False)
+            return _cho_solve(factor, p - G @ q)
         # G = 0 at rest, and M depends on the lengths alone: keep its factor
-        return scipy.linalg.cho_solve(self._mass_factor(lengths), p, check_finite=False)
+        return _cho_solve(self._mass_factor(lengths), p)
 
     @property
     def error_estimate(self) -> dict:
@@ -439,9 +547,7 @@ class SailStepper:
 
     def _outputs(self, t, q, qd) -> np.ndarray:
         """Largest magnitude per output kind (4,) of the state `q`, `qd` at `t`."""
-        rows = self._rows(self._motion(t)[0])
-        y, yd = np.abs(rows @ q), np.abs(rows @ qd)
-        return np.array([y[:4].max(), yd[:4].max(), y[4:].max(), yd[4:].max()])
+        return _largest(self._rows(self._motion(t)[0]), q, qd)
 
     def _observe(self, t, q, qd) -> None:
         if self.rtol is not None:
@@ -547,7 +653,8 @@ class SailStepper:
                 q, p, rest = self._static_step(lengths, h, force)
             self._commit(h, q, p, rest)
         elif self.rtol is None:
-            q, p, extension = self._rational_step(self._t, self._q, self._p, h)
+            with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
+                q, p, extension = self._rational_step(self._t, self._q, self._p, h)
             self._commit(h, q, p, Trial(h, q, p, None, 0.0, np.zeros(4), (extension,), ()))
         else:
             trial = self._attempt(h)
@@ -579,7 +686,7 @@ class SailStepper:
         if moving and self.rtol is not None:
             self._estimate += trial.estimate
             self._proposal = h * min(GROWTH, SAFETY * max(trial.error, 1e-12) ** (-1.0 / 3.0))
-            self._observe(self._t, q, self.qd)
+            self._peaks = np.maximum(self._peaks, trial.outputs)
         self._enter_switch()
         if self.on_step is not None:
             self.on_step(self)
@@ -605,20 +712,17 @@ class SailStepper:
         step in both results; the error of the two halves is estimated as a third of
         their difference from the whole on the outputs (the rule is of order 2)."""
         t0, q0, p0 = self._t, self._q, self._p
-        half = t0 + 0.5 * h
+        half, t1 = t0 + 0.5 * h, t0 + h
         # the three rational steps' middles, as `_rational_step` finds them
         mats = self._step_matrices((t0 + 0.5 * (0.5 * h), half + 0.5 * (0.5 * h), half))
-        qh, ph, first = self._rational_step(t0, q0, p0, 0.5 * h, mats[0])
-        q2, p2, second = self._rational_step(half, qh, ph, 0.5 * h, mats[1])
-        q1, p1, _ = self._rational_step(t0, q0, p0, h, mats[2])
-        t1 = t0 + h
-        lengths0, lengths1 = self._motion(t0)[0], self._motion(t1)[0]
-        M1, G1 = self._mass_gyro(t1)
-        qd2, qd1 = scipy.linalg.cho_solve(
-            self._mass_factor_at(t1),
-            np.stack([p2 - G1 @ q2, p1 - G1 @ q1], axis=1),
-            check_finite=False,
-        ).T
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
+            qh, ph, first = self._rational_step(t0, q0, p0, 0.5 * h, mats[0])
+            q2, p2, second = self._rational_step(half, qh, ph, 0.5 * h, mats[1])
+            q1, p1, _ = self._rational_step(t0, q0, p0, h, mats[2])
+            lengths0, lengths1 = self._motion(t0)[0], self._motion(t1)[0]
+            C1, K_extra1, _, M1, G1 = self._assembled(t1)
+            factor, _ = self._mass_factor_at(t1)
+            qd2, qd1 = potrs(factor, np.stack([p2 - G1 @ q2, p1 - G1 @ q1], axis=1))[0].T
         vibration = ()
         modes0 = self._modes(t0)
         count = followed(modes0, 0.5 * h, self._resolved(lengths0), self._relative_rate(t0, h))
@@ -635,37 +739,41 @@ class SailStepper:
             )
             # the end's slow part is the rational steps' (the halves' and the whole's agree
             # there to the error estimated)
-            forcing = forcing_of(modes1, count, self._held(u, lengths1), self._forcing(t1), q2, qd2)
+            forcing = forcing_of(modes1, count, self._held(u, lengths1), (C1, K_extra1), q2, qd2)
             end = follow(start, modes1, h, forcing)
+            # the whole step's followed modes are the halves': they leave the estimate
+            dq, dqd = slow_part(modes1, count, q2 - q1), slow_part(modes1, count, qd2 - qd1)
             q2, qd2 = end.replace_in(q2, qd2)
-            q1, qd1 = end.replace_in(q1, qd1)
             p2 = M1 @ qd2 + G1 @ q2
             vibration = (start, end)
+        else:
+            dq, dqd = q2 - q1, qd2 - qd1
         rows = self._rows(lengths1)
-        dq, dqd = np.abs(rows @ (q2 - q1)) / 3.0, np.abs(rows @ (qd2 - qd1)) / 3.0
-        estimate = np.array([dq[:4].max(), dqd[:4].max(), dq[4:].max(), dqd[4:].max()])
+        estimate = _largest(rows, dq, dqd) / 3.0
+        outputs = _largest(rows, q2, qd2)
         with np.errstate(over="ignore", invalid="ignore"):
-            scale = self._floors + self.rtol * np.maximum(self._peaks, self._outputs(t1, q2, qd2))
+            scale = self._floors + self.rtol * np.maximum(self._peaks, outputs)
             error = float(np.max(estimate / scale))
         if not math.isfinite(error):
             error = math.inf
-        return Trial(h, q2, p2, qd2, error, estimate, (first, second), vibration, mats[2])
+        return Trial(h, q2, p2, qd2, error, estimate, (first, second), vibration, mats[2], outputs)
 
     def _forcing(self, t):
         """`(C, K_eq - K)` of Eq. 2 at `t`: how the motion couples the modes."""
-        C, K_eq, K, _, _ = self._assembled(t)
-        return C, K_eq - K
+        C, K_extra, _, _, _ = self._assembled(t)
+        return C, K_extra
 
     def _assembled(self, t):
-        """`C, K_eq, K, M, G` at `t`, kept for the last two times asked (a step's end is
-        the next one's start)."""
+        """`C, K_eq - K, K, M, G` at `t`, kept for the last two times asked (a step's end
+        is the next one's start)."""
         found = self._assembly_cache.get(t)
         if found is None:
             if len(self._assembly_cache) >= 2:
                 self._assembly_cache.pop(next(iter(self._assembly_cache)))
-            found = self.system.assemble(
+            C, K_eq, K, M, G = self.system.assemble(
                 (DAMPING, STIFFNESS_EQ, STIFFNESS, MASS, GYROSCOPIC), *self._motion(t)
             )
+            found = (C, K_eq - K, K, M, G)
             self._assembly_cache[t] = found
         return found
 
@@ -717,14 +825,18 @@ class SailStepper:
             return self.resolved_frequency
         return self.system.resolved_frequency(lengths)
 
-    def states_at(self, times, rates: str = "exact") -> tuple[np.ndarray, np.ndarray]:
+    def states_at(self, times, rates: str | None = "exact") -> tuple[np.ndarray, np.ndarray]:
         """`(q, qd)` (each (m, n)) at `times` [s] (m values) within the last step (its end:
         the state itself), from the step's continuous extension (`between`) or, at rest,
         the exact step from its start. `rates`: how a moving step's velocities inside it
         are found (`between`): "exact", or "extension" (no assembly nor factorisation per
-        time; `q` the same to the bit) for a caller that reads positions only."""
-        if rates not in ("exact", "extension"):
-            raise ValueError(f"rates must be 'exact' or 'extension', got {rates!r}")
+        time; `q` the same to the bit) for a caller that reads positions only, or None
+        for one that reads no velocities but the state at the step's end (`qd` nan inside
+        the step; `q` the same to the bit)."""
+        if rates not in ("exact", "extension", None):
+            raise ValueError(
+                f"rates must be 'exact' or 'extension', got {rates!r} (or None: no rates)"
+            )
         times = np.asarray(times, dtype=float)
         q, qd = np.empty((times.size, self._q.size)), np.empty((times.size, self._q.size))
         end = np.abs(times - self._t) <= 1e-12 * np.maximum(1.0, np.abs(times))
@@ -742,8 +854,10 @@ class SailStepper:
         fractions = (inside - t0) / (self._t - t0)
         if isinstance(trial, Rest):  # at rest: each mode's exact propagator from the start
             q[~end], qd[~end] = self._rest_states(trial, fractions)
-            return q, qd
-        q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates=rates)
+            if rates is None:
+                qd[~end] = math.nan
+        else:
+            q[~end], qd[~end] = self.between(fractions, qd0, self.qd, rates=rates)
         return q, qd
 
     def _velocities(self, times, q, p) -> np.ndarray:
@@ -780,56 +894,66 @@ class SailStepper:
         the rates are as accurate as the positions, at one assembly and one Cholesky
         factorisation per sample (the batch outputs, `states_at`); "slope", the time
         derivative of the curve `q(f)` itself, the slope a Hermite interpolation between
-        samples needs (`interpolant`)."""
+        samples needs (`interpolant`); None, none (`qd` nan: the positions alone)."""
+        return self._extended(fractions, qd0, qd1, rates)
+
+    def _extension(self) -> _Extension:
+        """The last step's continuous extension, kept for that step."""
+        t0, _, _, trial = self._last
+        if self._extension_of[0] is not trial:
+            self._extension_of = (trial, _Extension(trial, self._t - t0))
+        return self._extension_of[1]
+
+    def _extended(self, fractions, qd0, qd1, rates):
+        """`between`."""
         t0, _, _, trial = self._last
         h = self._t - t0
-        extensions = trial.extensions
-        parts = len(extensions)
+        ext = self._extension()
+        fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
+        if rates == "slope":
+            return ext.curve(fractions, None)
+        parts = ext.parts
         # the ends of each rational step: the step's ends, and its middle when halved
         # (the extension's rates start and end there; exact rates need no ends)
-        if parts == 2 and rates != "exact":
-            q_half = extensions[1][0]
+        if parts == 2 and rates == "extension":
             if self._half_velocity[0] is not trial:
-                self._half_velocity = (
-                    trial,
-                    self._velocity(t0 + 0.5 * h, q_half, extensions[1][4], trial.middle),
-                )
+                q_half, _, _, _, p_half, _ = ext.extensions[1]
+                middle = self._velocity(t0 + 0.5 * h, q_half, p_half, trial.middle)
+                self._half_velocity = (trial, middle)
             qd_half = self._half_velocity[1]
-            ends = ((qd0, qd_half, extensions[0][0]), (qd_half, qd1, q_half))
-        elif rates != "exact":
-            ends = ((qd0, qd1, extensions[0][0]),)
-        fractions = np.asarray(fractions, dtype=float)
+            ends = ((qd0, qd_half), (qd_half, qd1))
+        elif rates == "extension":
+            ends = ((qd0, qd1),)
         q = np.empty((fractions.size, self._q.size))
-        qd = np.empty_like(q)
+        qd = np.full_like(q, math.nan) if rates is None else np.empty_like(q)
         part = np.minimum((fractions * parts).astype(int), parts - 1)
         for k in range(parts):
             inside = part == k
             if not inside.any():
                 continue
             local = fractions[inside] * parts - k
-            q_start, y_q, u, v, p_start, mats = extensions[k]
+            q_start, y_q, u, v, p_start, mats = ext.extensions[k]
             c, w = _extension_weights(local)
-            q[inside] = np.outer(c, q_start) + 2.0 * (w @ y_q).real
+            q_part = np.outer(c, q_start) + 2.0 * (w @ y_q).real
+            if rates is None:  # positions only
+                q[inside] = q_part
+                if ext.vibration:
+                    q[inside] = ext.kept(q_part, k) + ext.free(k, local, velocities=False)
+                continue
             velocity = 2.0 * (w @ u).real  # sum_k 2 Re[w_k u_k]
-            if rates == "slope":  # d q / dt = (d q / d local) parts / h
-                dc, dw = _extension_weights(local, slope=True)
-                slope = np.outer(dc, q_start) + 2.0 * (dw @ y_q).real
-                qd[inside] = slope * (parts / h)
-            elif rates == "exact":
+            if rates == "exact":
                 times = t0 + (k + local) * h / parts
-                p = _extended_momentum(mats, c, velocity, q[inside], q_start, p_start)
-                qd[inside] = self._velocities(times, q[inside], p)
+                p = _extended_momentum(mats, c, velocity, q_part, q_start, p_start)
+                qd_part = self._velocities(times, q_part, p)
             else:
-                start_qd, end_qd, _ = ends[k]
-                qd[inside] = (
-                    np.outer(c, start_qd) + velocity + np.outer(local, end_qd - start_qd - 2.0 * v)
-                )
-        if trial.vibration:
-            for near, early in zip(trial.vibration, (True, False), strict=True):
-                rows = (fractions < 0.5) == early
-                if rows.any():
-                    offset = (fractions[rows] - (0.0 if early else 1.0)) * h
-                    q[rows], qd[rows] = near.turned(offset).replace_in(q[rows], qd[rows])
+                start_qd, end_qd = ends[k]
+                drift = np.outer(local, end_qd - start_qd - 2.0 * v)
+                qd_part = np.outer(c, start_qd) + velocity + drift
+            if ext.vibration:
+                q_free, qd_free = ext.free(k, local)
+                q_part = ext.kept(q_part, k) + q_free
+                qd_part = ext.kept(qd_part, k) + qd_free
+            q[inside], qd[inside] = q_part, qd_part
         return q, qd
 
     def step_limit(self) -> float:
@@ -909,8 +1033,7 @@ class SailStepper:
         force = self._force(t_mid, lengths)
         if mats is None:
             (mats,) = self._step_matrices((t_mid,))
-        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
-            return self._moving_step(q0, p0, mats, h, force)
+        return self._moving_step(q0, p0, mats, h, force)
 
     def _step_matrices(self, times) -> list:
         """The matrices one moving step needs (`_STEP_MATRICES`) at each of `times` [s]:
@@ -938,15 +1061,14 @@ class SailStepper:
         _, _, Kq, Gq = mats.matvec(q0)
         if force is not None:  # x_p = p0 + tau f
             Kq = Kq - force
-        u = mats.solve_shifted(taus, (p0 - Gq)[None, :] - taus[:, None] * Kq[None, :])
+        u = mats.solve_shifted(taus, (p0 - Gq) - taus[:, None] * Kq)
         weighted = _PADE_WEIGHTS[:, None] * u
         v = weighted.sum(axis=0).real
-        s = _PADE_WEIGHTS.real.sum() * q0 + (taus[:, None] * weighted).sum(axis=0).real
+        s = _PADE_WEIGHT_SUM * q0 + (taus[:, None] * weighted).sum(axis=0).real
         # y_q,k, u_k and the matrices at the middle: for `between`
         extension = (q0, q0 + taus[:, None] * u, u, v, p0, mats)
-        zero = np.zeros_like(q0)
-        Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))  # one call beats two
-        return _PADE_CONSTANT * q0 + 2.0 * s, _PADE_CONSTANT * p0 + 2.0 * (Mv + Gs), extension
+        p1 = _PADE_CONSTANT * p0 + 2.0 * _products(mats, v, s)
+        return _PADE_CONSTANT * q0 + 2.0 * s, p1, extension
 
     def _static_step(self, lengths, h, force):
         """The exact step of `h` [s] at rest under the held generalised force `force`
@@ -1018,9 +1140,8 @@ class SailStepper:
         t0, _, qd0, trial = self._last
         if isinstance(trial, Rest):
             q, qd = self._rest_states(trial, fractions)
-        else:
-            q, qd = self.between(fractions, qd0, self.qd, rates="slope")
-        return q @ rows.T, qd @ rows.T
+            return q @ rows.T, qd @ rows.T
+        return self._extension().curve(fractions, rows)
 
     def _exact_propagator(self, lengths, h):
         """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M): the
@@ -1046,6 +1167,23 @@ class SailStepper:
         return P, V, lam, d, VtM
 
 
+def _largest(rows, q, qd) -> np.ndarray:
+    """The largest magnitude of each output kind (`OUTPUT_KINDS`) in `rows q` and `rows qd`
+    (`rows`: tips then root moments, 4 each)."""
+    y = np.abs(rows @ np.stack([q, qd], axis=1))  # (8, 2): q, qd
+    return y.reshape(2, 4, 2).max(axis=1).ravel()  # tips (q, qd), moments (q, qd)
+
+
+def _products(mats, v: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """`M v + G s` with a step's matrices `mats` (`_STEP_MATRICES`)."""
+    if isinstance(mats, DenseMatrices):
+        M, _, _, G = mats.matrices
+        return M @ v + G @ s
+    zero = np.zeros_like(v)
+    Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))
+    return Mv + Gs
+
+
 def _extended_momentum(mats, c, velocity, q, q_start, p_start) -> np.ndarray:
     """The canonical momenta (m, n) of a rational step's continuous extension: `p(f) =
     c p0 + sum_k 2 Re[w_k y_p,k]` with `y_p,k = M u_k + G y_q,k` under the step's own
@@ -1056,10 +1194,8 @@ def _extended_momentum(mats, c, velocity, q, q_start, p_start) -> np.ndarray:
     if isinstance(mats, DenseMatrices):
         M, _, _, G = mats.matrices
         return p + velocity @ M.T + shift @ G.T
-    zero = np.zeros_like(q_start)
     for i, (v, s) in enumerate(zip(velocity, shift, strict=True)):
-        Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))
-        p[i] += Mv + Gs
+        p[i] += _products(mats, v, s)
     return p
 
 

@@ -7,6 +7,22 @@ and one thread each (one BLAS thread too: the model's matrices are small and
 several threads per process only compete). `scheduler="tcp://host:8786"`
 uses a cluster started with the standard `dask scheduler` and `dask worker`
 commands; its workers must have sail_ros installed.
+
+Two of Dask's defaults cost the model's many small steps CPU in a worker, and
+local workers go without them (`LOCAL_WORKER_CONFIG`; measured, a sample took
+21-34 % more CPU in a worker with Dask's defaults than called in a plain
+process, 7-11 % more without them):
+- MALLOC_TRIM_THRESHOLD_=65536, which the nanny sets before it starts a worker
+  (`distributed.nanny.pre-spawn-environ`): glibc then returns freed memory to
+  the system at once and, the threshold being set, no longer raises its mmap
+  threshold, so the model's short-lived arrays come back as page faults (12-26
+  % more CPU). Local workers keep glibc's own settings; a value set in the
+  environment still reaches them.
+- the statistical profiler (`distributed.worker.profile`), which takes the
+  worker's stack every 10 ms (10-15 % more CPU): the dashboard's profile page
+  of a local cluster stays empty.
+An external cluster's workers are started by their owner (`dask worker`), with
+that owner's settings: the same holds there.
 """
 
 from __future__ import annotations
@@ -16,11 +32,19 @@ import logging
 import os
 import sys
 
+# what local workers are started with (the module docstring): glibc's malloc defaults,
+# no statistical profiler
+LOCAL_WORKER_CONFIG = {
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.worker.profile.enabled": False,
+}
+
 
 @contextlib.contextmanager
 def dask_client(scheduler: str | None = None, workers: int | None = None):
     """A connected `dask.distributed.Client`; the local cluster ends with the block."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by local workers
+    import dask
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
@@ -41,6 +65,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
     if count < 1:
         raise ValueError(f"--workers must be >= 1, got {count}")
     with (
+        dask.config.set(LOCAL_WORKER_CONFIG),
         LocalCluster(
             n_workers=count,
             threads_per_worker=1,

@@ -41,3 +41,21 @@ def test_unknown_rates_are_refused_by_name():
     stepper.advance_step(6.0)
     with pytest.raises(ValueError, match="rates must be 'exact' or 'extension', got 'slope'"):
         stepper.states_at([0.5 * stepper.t], rates="slope")
+
+
+def test_without_rates_the_positions_are_the_same_and_the_step_end_is_the_state():
+    """With rates None (a Monte Carlo row: positions at the output times, the state at
+    the end) the coordinates are the same to the bit, no velocities inside the step, the
+    state at its end."""
+    model = SailModel(SailParameters(n_boom_modes=3, n_membrane_modes=3))
+    q0 = np.zeros(model.n)
+    q0[0] = 0.02
+    stepper = model.stepper(CycloidalProfile(10.0, 15.0, 6.0), q0=q0)
+    stepper.advance_step(6.0)
+    t0 = stepper.t
+    stepper.advance_step(6.0)  # a step whose followed modes are turned in its samples
+    times = t0 + (stepper.t - t0) * np.array([0.2, 0.5, 0.9, 1.0])
+    q_exact, qd_exact = stepper.states_at(times)
+    q, qd = stepper.states_at(times, rates=None)
+    assert np.array_equal(q, q_exact)
+    assert np.isnan(qd[:3]).all() and np.array_equal(qd[3], stepper.qd)

@@ -24,6 +24,7 @@ from sail_ros.analysis.stability import CRITICAL, STABLE, UNSTABLE, stability_sw
 from sail_ros.bag import BagReader
 from sail_ros.model import SailParameters
 from sail_ros.tools import deploy, montecarlo, stability
+from sail_ros.tools.cluster import dask_client
 
 pytestmark = pytest.mark.multiprocess
 
@@ -156,6 +157,25 @@ def test_the_same_study_gives_the_same_csv_on_any_cluster(
     jammed = [r for r in ran if float(r["jam_boom"]) >= 0]
     assert jammed  # half the samples jam a boom
     assert (tmp_path / "one" / "samples.parquet").is_file()
+
+
+def worker_settings():
+    import os
+
+    import dask
+
+    profiler = dask.config.get("distributed.worker.profile.enabled")
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_"), profiler
+
+
+def test_local_workers_keep_glibc_malloc_defaults_and_no_profiler(monkeypatch):
+    """Dask's nanny would start them with MALLOC_TRIM_THRESHOLD_=65536 and its profiler,
+    under which a sample costs more CPU (sail_ros.tools.cluster): the local cluster's
+    workers get neither, and this process keeps its environment."""
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    with dask_client(workers=1) as client:
+        assert list(client.run(worker_settings).values()) == [(None, False)]
+    assert worker_settings()[0] is None
 
 
 def test_worst_samples_rerun_to_the_same_numbers(study_file, tmp_path, capsys, external_cluster):
