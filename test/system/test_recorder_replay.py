@@ -584,12 +584,14 @@ def test_sigkill_at_random_times_loses_only_the_open_chunk(ros_env, listener, tm
             folder = tmp_path / f"trial_{trial}"
             listener.clear()
             recorder = start_recorder(folder)
-            if not chunk_within(listener, folder, 30.0) and not restarted:
+            # a trial starts once a chunk with the state topic is on disk (the first chunk
+            # may hold only the topics the recorder subscribed to first)
+            if not chunk_within(listener, folder, 30.0, state_topic) and not restarted:
                 recorder.kill()
                 restarted.append((trial, recorder.communicate(timeout=10.0)[1]))
                 folder = tmp_path / f"trial_{trial}_again"
                 recorder = start_recorder(folder)
-            if not chunk_within(listener, folder, 30.0):  # say what the recorder saw
+            if not chunk_within(listener, folder, 30.0, state_topic):  # what did it see?
                 recorder.kill()
                 _, log = recorder.communicate(timeout=10.0)
                 raise AssertionError(f"trial {trial}: no chunk in 30 s; recorder:\n{log}")
