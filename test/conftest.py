@@ -85,6 +85,21 @@ def pytest_collection_modifyitems(config, items):
     items[:] = kept
 
 
+def pytest_collection_finish(session):
+    """On an xdist worker with --dist loadgroup: every grouped test carries its group in
+    its node id, which is how xdist tells its scheduler (pytest 9.2 ignores that, and the
+    groups silently fall apart: pytest-xdist#1386; constraints.txt pins 9.1)."""
+    if not (os.environ.get("PYTEST_XDIST_WORKER") and session.config.getvalue("loadgroup")):
+        return
+    lost = [
+        item.nodeid
+        for item in session.items
+        if item.get_closest_marker("xdist_group") is not None and "@" not in item.nodeid
+    ]
+    if lost:
+        raise pytest.UsageError(f"xdist ignores the test groups, e.g. {lost[0]}")
+
+
 _TIER_SECONDS: dict[str, float] = {}
 _STARTED = time.monotonic()
 

@@ -308,14 +308,16 @@ def recording(ros_env, listener_node, tmp_path_factory):
     )
     try:
         go(listener_node, publisher)
-        listener_node.spin_until(
-            lambda: (
-                all(len(listener_node.received[t]) == 120 for t in STREAMS)
-                and listener_node.received[LATCHED_TOPIC]
-            ),
-            30.0,
-            "120 messages",
-        )
+        counts = {}
+
+        def complete() -> bool:
+            counts.update({t: len(m) for t, m in listener_node.received.items()})
+            return all(counts[t] == 120 for t in STREAMS) and counts[LATCHED_TOPIC] > 0
+
+        deadline = time.monotonic() + 30.0
+        while not complete():
+            assert time.monotonic() < deadline, f"30 s and not 120 messages per stream: {counts}"
+            listener_node.spinner.spin_once(timeout_sec=0.02)
         received = {t: [data for _, data in m] for t, m in listener_node.received.items()}
         recorder.send_signal(signal.SIGINT)
         code, _, err = finish(recorder)
