@@ -4,6 +4,7 @@ end counted?
 Starts `sail_sim` as a process (default settings, real time) and, from a node in
 this process, publishes commands at a fixed rate for a phase each:
 
+- `quiet`: none, for what the machine's other load costs the simulator;
 - `valid`: deploy commands to alternating targets (10.2 m, 10.4 m, ...), each valid;
 - `malformed`: deploy commands to NaN, each rejected.
 
@@ -15,6 +16,7 @@ state periods, 40 ms at 50 Hz).
 
     python benchmarks/command_flood.py                       # 1000/s, 10 s per phase
     python benchmarks/command_flood.py --rate 500 --seconds 3
+    python benchmarks/command_flood.py -- -p realtime_priority:=50
 """
 
 from __future__ import annotations
@@ -79,7 +81,7 @@ def phase(observer, executor, kind: str, rate: float, seconds: float) -> dict:
     sent, start = 0, time.monotonic()
     while (now := time.monotonic()) < start + seconds:
         due = int((now - start) * rate)
-        while sent < due:
+        while sent < due and kind != "quiet":
             target = math.nan if kind == "malformed" else 10.2 + 0.2 * (sent % 5)
             observer.deploy.publish(Float64(data=target))
             sent += 1
@@ -101,6 +103,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rate", type=float, default=1000.0, help="commands per second (1000)")
     parser.add_argument("--seconds", type=float, default=10.0, help="length of a phase [s]")
+    parser.add_argument(
+        "sim_args", nargs="*", help="more ROS arguments of the simulator (-p name:=value)"
+    )
     args = parser.parse_args()
     domain = 100 + os.getpid() % 100
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
@@ -111,7 +116,16 @@ def main() -> int:
 
 def _run(args, domain: int, env: dict, log) -> int:
     sim = subprocess.Popen(
-        [sys.executable, "-m", "sail_ros.cli", "sim", "--ros-args", "-p", "shape_rate_hz:=5.0"],
+        [
+            sys.executable,
+            "-m",
+            "sail_ros.cli",
+            "sim",
+            "--ros-args",
+            "-p",
+            "shape_rate_hz:=5.0",
+            *args.sim_args,
+        ],
         env=env,
         stdout=log,
         stderr=subprocess.STDOUT,
@@ -132,7 +146,7 @@ def _run(args, domain: int, env: dict, log) -> int:
         )
         print(f"  {'phase':<10}{'sent':>7}{'accepted':>10}{'superseded':>12}{'rejected':>10}"
               f"{'add up':>8}{'overruns':>10}{'largest gap [ms]':>18}")  # fmt: skip
-        for kind in ("valid", "malformed"):
+        for kind in ("quiet", "valid", "malformed"):
             found = phase(observer, executor, kind, args.rate, args.seconds)
             outcomes = found["outcomes"]
             adds_up = sum(outcomes.values()) == found["sent"]
