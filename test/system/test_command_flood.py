@@ -1,12 +1,15 @@
 """A flood of commands at a simulator process: valid deploy commands, then malformed
-ones, at 1000 a second (as benchmarks/command_flood.py). The suite floods 1.5 s each; the
-full size, 10 s each, is a trial of scripts/stress.sh (`--slow`; SAIL_ROS_FLOOD_RATE and
-SAIL_ROS_FLOOD_SECONDS size it). The simulator keeps real time (at most one late state,
-one more than two state periods after the one before, and at most one overrun more than
-in as long a quiet phase just before, which counts what the machine's other load costs;
-no state later than five periods, where the flood once stalled the simulator for
-seconds) and every command ends counted: accepted, superseded or rejected, adding up to
-what was sent."""
+ones, at 1000 a second (as benchmarks/command_flood.py). Every command ends counted:
+accepted, superseded or rejected, adding up to what was sent; the simulator never
+stalls (no state later than five state periods after the one before, where the flood
+once stalled it for seconds).
+
+Whether it keeps real time is the full-size trial's question, 10 s per phase, in
+scripts/stress.sh (`--slow`; SAIL_ROS_FLOOD_RATE and SAIL_ROS_FLOOD_SECONDS size it): at
+most one late state (more than two state periods after the one before) and at most one
+overrun more than in as long a quiet phase just before, which counts what the machine's
+other load costs. The suite floods 1.5 s per phase, where one tick delayed by the
+machine is already one overrun too many to tell from the flood's cost."""
 
 import math
 import os
@@ -63,7 +66,8 @@ def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operato
     operator.wait_for_simulator()
     quiet = operator.wait_for_status(lambda s: True, 5.0, "a status before the quiet phase")
     quiet_first = len(states)
-    flood(operator, KINDS["valid"], 0.0, seconds)
+    if size == "stress":
+        flood(operator, KINDS["valid"], 0.0, seconds)
     quiet_late = late_states(states[quiet_first:])
     before = operator.wait_for_status(lambda s: True, 5.0, "a status after the quiet phase")
     quiet_overruns = int(before[key.OVERRUNS]) - int(quiet[key.OVERRUNS])
@@ -82,11 +86,12 @@ def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operato
             assert outcomes[key.REJECTED] == 0 and outcomes[key.ACCEPTED] >= 1, outcomes
         else:
             assert outcomes[key.REJECTED] == sent, outcomes
-        overruns = int(after[key.OVERRUNS]) - int(before[key.OVERRUNS])
-        assert overruns <= quiet_overruns + 1, (kind, overruns, quiet_overruns)
         published = states[first:]
         assert len(published) > 0.8 * seconds / STATE_PERIOD_S, kind
         late = late_states(published)
-        assert len(late) <= len(quiet_late) + 1, f"{kind}: late {late}, quiet phase {quiet_late}"
         assert max(late, default=0.0) <= 5 * STATE_PERIOD_S, f"{kind}: {max(late) * 1e3:.1f} ms"
+        if size == "stress":
+            overruns = int(after[key.OVERRUNS]) - int(before[key.OVERRUNS])
+            assert overruns <= quiet_overruns + 1, (kind, overruns, quiet_overruns)
+            assert len(late) <= len(quiet_late) + 1, f"{kind}: late {late}, quiet {quiet_late}"
         before = after
