@@ -128,7 +128,7 @@ class RangeWatch:
         self.stopped_at = math.inf
         self._start = 0.0
         # the tips and a free hub's z_h, theta_x, theta_y among the peaks' rows
-        self._columns = [0, 1, 2, 3, 8, 9, 10] if model.free_hub else [0, 1, 2, 3]
+        self._columns = OutputPeaks.TIP_ROWS + (OutputPeaks.HUB_ROWS if model.free_hub else [])
 
     def start(self, stepper) -> None:
         self.peaks.start(stepper)

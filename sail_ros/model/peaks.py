@@ -144,6 +144,9 @@ class OutputPeaks:
     """
 
     FLUSH_SAMPLES = 4096
+    # what `rows` holds, by index: tips a..d, root moments a..d, a free hub's z_h,
+    # theta_x, theta_y
+    TIP_ROWS, HUB_ROWS = [0, 1, 2, 3], [8, 9, 10]
 
     def __init__(self, model, peak_phase: float = PEAK_PHASE, max_spacing: float = MAX_SPACING_S):
         self.model = model

@@ -62,7 +62,6 @@ SWITCH_INTERVAL_S = 0.0005  # the interpreter's switch interval in the simulator
 # buys nothing, and each wake-up of the commands' executor costs ~0.4 ms of the
 # interpreter that a tick would wait for. After a wake-up everything waiting is taken.
 INTAKE_PAUSE_S = 0.005
-INTAKE_BATCH = 1000  # most commands taken from one subscription per wake-up (its depth)
 SPECS = [ParamSpec.of(name, field) for name, field in PARAMETERS.items()]
 
 
@@ -251,7 +250,9 @@ class SimNode(Node):
         submitted in the order they arrived (DDS's reception times)."""
         taken = [(name, message, info)]
         for other, subscription in self._command_subscriptions:
-            taken.extend((other, *pair) for pair in take_waiting(subscription, INTAKE_BATCH))
+            taken.extend(
+                (other, *pair) for pair in take_waiting(subscription, topics.COMMAND_INTAKE_DEPTH)
+            )
         taken.sort(key=lambda command: command[2].get("received_timestamp") or 0)
         wake = False
         for command in taken:

@@ -217,20 +217,19 @@ class RealTimeRun:
         why_not = self.intake.admit(topic, info)
         if why_not == DUPLICATE:
             return False
+        pending = Pending(topic, message, info)
         if why_not == STALE:
             self.ignored += 1
             text = "published before this simulator started; not run"
-            pending = Pending(topic, message, info)
             self.outputs.answers([self._answer(pending, commands_msg.IGNORED, text, {}, "warning")])
             return False
-        if self.queue.offer(Pending(topic, message, info)):
+        if self.queue.offer(pending):
             return self.sim.state != RUNNING
         error = CommandError(
             f"{self.queue.capacity} commands were already waiting (max_queued_commands); not run"
         )
         with self.lock:
             self.sim.count_rejection(error)
-        pending = Pending(topic, message, info)
         self.outputs.answers(
             [self._answer(pending, commands_msg.REJECTED, str(error), {}, "warning")]
         )
