@@ -12,7 +12,10 @@ Per phase it prints: commands sent; their outcomes as the simulator's /diagnosti
 count them (accepted, superseded, rejected) and whether they add up to what was
 sent; overruns; and the largest wall-time gap between two /sail/boom_state samples
 as the simulator published them (DDS source timestamps; the issue's bound is two
-state periods, 40 ms at 50 Hz).
+state periods, 40 ms at 50 Hz). Beside them, what a bystander saw: a process of its
+own that sleeps 2 ms at a time, counting the wake-ups later than one integration step
+(10 ms) and the largest delay. Late ticks where the bystander was late too are the
+machine's (its cores all taken), not the simulator's.
 
     python benchmarks/command_flood.py                       # 1000/s, 10 s per phase
     python benchmarks/command_flood.py --rate 500 --seconds 3
@@ -28,6 +31,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -67,26 +71,43 @@ class Observer(Node):
         )
 
 
-def spin_for(executor, seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        executor.spin_once(timeout_sec=0.005)
+# sleeps 2 ms at a time for argv[1] seconds; prints how many wake-ups came more than
+# 10 ms late and the largest delay [ms]
+BYSTANDER = """
+import sys, time
+end, late, largest = time.monotonic() + float(sys.argv[1]), 0, 0.0
+while (asked := time.monotonic()) < end:
+    time.sleep(0.002)
+    delay = time.monotonic() - asked - 0.002
+    late, largest = late + (delay > 0.010), max(largest, delay)
+print(late, largest * 1e3)
+"""
 
 
-def phase(observer, executor, kind: str, rate: float, seconds: float) -> dict:
-    """Publish `kind` commands at `rate` per second for `seconds`; what the simulator did."""
-    spin_for(executor, 1.2)  # a status from before the phase
+def phase(observer, kind: str, rate: float, seconds: float) -> dict:
+    """Publish `kind` commands at `rate` per second for `seconds`; what the simulator did,
+    and what a bystander process saw meanwhile."""
+    time.sleep(1.2)  # a status from before the phase
     before = dict(observer.statuses[-1])
     first_state = len(observer.published_ns)
+    bystander = subprocess.Popen(
+        [sys.executable, "-c", BYSTANDER, str(seconds)], stdout=subprocess.PIPE, text=True
+    )
     sent, start = 0, time.monotonic()
     while (now := time.monotonic()) < start + seconds:
         due = int((now - start) * rate)
-        while sent < due and kind != "quiet":
+        if kind == "quiet":
+            time.sleep(start + seconds - now)
+            continue
+        while sent < due:
             target = math.nan if kind == "malformed" else 10.2 + 0.2 * (sent % 5)
             observer.deploy.publish(Float64(data=target))
             sent += 1
-        executor.spin_once(timeout_sec=0.0005)
-    spin_for(executor, 2.5)  # the last commands answered, a status after them
+        # the next command's time: sleeping, not spinning, leaves the machine's cores
+        # to the simulator (the observer's callbacks run on their own thread)
+        time.sleep(max(0.0, start + (sent + 1) / rate - time.monotonic()))
+    bystander_late, bystander_largest_ms = bystander.communicate()[0].split()
+    time.sleep(2.5)  # the last commands answered, a status after them
     after = observer.statuses[-1]
     outcomes = {name: int(after[name]) - int(before[name]) for name in COUNTS}
     stamps = observer.published_ns[first_state:]
@@ -96,6 +117,8 @@ def phase(observer, executor, kind: str, rate: float, seconds: float) -> dict:
         "outcomes": outcomes,
         "overruns": int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]),
         "largest_gap_ms": gap_ms,
+        "bystander_late": int(bystander_late),
+        "bystander_largest_ms": float(bystander_largest_ms),
     }
 
 
@@ -135,28 +158,35 @@ def _run(args, domain: int, env: dict, log) -> int:
     observer = Observer(context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(observer)
+    spinning = threading.Thread(target=executor.spin, daemon=True)
     try:
         deadline = time.monotonic() + 30.0
         while not (observer.statuses and observer.deploy.get_subscription_count() >= 1):
             if time.monotonic() > deadline:
                 raise SystemExit(f"the simulator did not come up; see {log.name}")
             executor.spin_once(timeout_sec=0.1)
+        spinning.start()
         print(
             f"{args.rate:g} commands/s for {args.seconds:g} s per phase (simulator log: {log.name})"
         )
         print(f"  {'phase':<10}{'sent':>7}{'accepted':>10}{'superseded':>12}{'rejected':>10}"
-              f"{'add up':>8}{'overruns':>10}{'largest gap [ms]':>18}")  # fmt: skip
+              f"{'add up':>8}{'overruns':>10}{'largest gap [ms]':>18}"
+              f"{'bystander late':>16}{'its largest [ms]':>18}")  # fmt: skip
         for kind in ("quiet", "valid", "malformed"):
-            found = phase(observer, executor, kind, args.rate, args.seconds)
+            found = phase(observer, kind, args.rate, args.seconds)
             outcomes = found["outcomes"]
             adds_up = sum(outcomes.values()) == found["sent"]
             print(
                 f"  {kind:<10}{found['sent']:>7}{outcomes[key.ACCEPTED]:>10}"
                 f"{outcomes[key.SUPERSEDED]:>12}{outcomes[key.REJECTED]:>10}"
                 f"{'yes' if adds_up else 'NO':>8}{found['overruns']:>10}"
-                f"{found['largest_gap_ms']:>18.1f}"
+                f"{found['largest_gap_ms']:>18.1f}{found['bystander_late']:>16}"
+                f"{found['bystander_largest_ms']:>18.1f}"
             )
     finally:
+        executor.shutdown()
+        if spinning.is_alive():
+            spinning.join()
         executor.remove_node(observer)
         observer.destroy_node()
         rclpy.try_shutdown(context=context)

@@ -248,15 +248,20 @@ class SimNode(Node):
     def _receive(self, name: str, message, info: dict) -> None:
         """A command from the commands' executor, then every other one already waiting,
         submitted in the order they arrived (DDS's reception times)."""
-        taken = [(name, message, info)]
-        for other, subscription in self._command_subscriptions:
-            taken.extend(
-                (other, *pair) for pair in take_waiting(subscription, topics.COMMAND_INTAKE_DEPTH)
-            )
-        taken.sort(key=lambda command: command[2].get("received_timestamp") or 0)
-        wake = False
-        for command in taken:
-            wake = self.run.submit(*command) or wake
+        # With the run's lock held, as a tick: the two then never take turns at the
+        # interpreter (every switch interval), which under a flood doubled a tick's wall
+        # time; a tick waits for at most one burst, and a burst for at most one tick.
+        with self.run.lock:
+            taken = [(name, message, info)]
+            for other, subscription in self._command_subscriptions:
+                taken.extend(
+                    (other, *pair)
+                    for pair in take_waiting(subscription, topics.COMMAND_INTAKE_DEPTH)
+                )
+            taken.sort(key=lambda command: command[2].get("received_timestamp") or 0)
+            wake = False
+            for command in taken:
+                wake = self.run.submit(*command) or wake
         if wake:
             self._ticker.poke()  # paused: no tick would come before the next status
 
