@@ -10,7 +10,8 @@ this process, publishes commands at a fixed rate for a phase each:
 
 Per phase it prints: commands sent; their outcomes as the simulator's /diagnostics
 count them (accepted, superseded, rejected) and whether they add up to what was
-sent; overruns; and the largest wall-time gap between two /sail/boom_state samples
+sent; overruns; the simulator process's CPU (a share of one core); and the largest
+wall-time gap between two /sail/boom_state samples
 as the simulator published them (DDS source timestamps; the issue's bound is two
 state periods, 40 ms at 50 Hz). Beside them, what a bystander saw: a process of its
 own that sleeps 2 ms at a time, counting the wake-ups later than one integration step
@@ -84,12 +85,19 @@ print(late, largest * 1e3)
 """
 
 
-def phase(observer, kind: str, rate: float, seconds: float) -> dict:
+def cpu_seconds(pid: int) -> float:
+    """CPU time [s] process `pid` has used (user + system)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def phase(observer, sim_pid: int, kind: str, rate: float, seconds: float) -> dict:
     """Publish `kind` commands at `rate` per second for `seconds`; what the simulator did,
     and what a bystander process saw meanwhile."""
     time.sleep(1.2)  # a status from before the phase
     before = dict(observer.statuses[-1])
     first_state = len(observer.published_ns)
+    cpu_before = cpu_seconds(sim_pid)
     bystander = subprocess.Popen(
         [sys.executable, "-c", BYSTANDER, str(seconds)], stdout=subprocess.PIPE, text=True
     )
@@ -106,6 +114,7 @@ def phase(observer, kind: str, rate: float, seconds: float) -> dict:
         # the next command's time: sleeping, not spinning, leaves the machine's cores
         # to the simulator (the observer's callbacks run on their own thread)
         time.sleep(max(0.0, start + (sent + 1) / rate - time.monotonic()))
+    cpu = (cpu_seconds(sim_pid) - cpu_before) / (time.monotonic() - start)
     bystander_late, bystander_largest_ms = bystander.communicate()[0].split()
     time.sleep(2.5)  # the last commands answered, a status after them
     after = observer.statuses[-1]
@@ -117,6 +126,7 @@ def phase(observer, kind: str, rate: float, seconds: float) -> dict:
         "outcomes": outcomes,
         "overruns": int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]),
         "largest_gap_ms": gap_ms,
+        "cpu": cpu,
         "bystander_late": int(bystander_late),
         "bystander_largest_ms": float(bystander_largest_ms),
     }
@@ -170,17 +180,17 @@ def _run(args, domain: int, env: dict, log) -> int:
             f"{args.rate:g} commands/s for {args.seconds:g} s per phase (simulator log: {log.name})"
         )
         print(f"  {'phase':<10}{'sent':>7}{'accepted':>10}{'superseded':>12}{'rejected':>10}"
-              f"{'add up':>8}{'overruns':>10}{'largest gap [ms]':>18}"
+              f"{'add up':>8}{'overruns':>10}{'largest gap [ms]':>18}{'CPU':>6}"
               f"{'bystander late':>16}{'its largest [ms]':>18}")  # fmt: skip
         for kind in ("quiet", "valid", "malformed"):
-            found = phase(observer, kind, args.rate, args.seconds)
+            found = phase(observer, sim.pid, kind, args.rate, args.seconds)
             outcomes = found["outcomes"]
             adds_up = sum(outcomes.values()) == found["sent"]
             print(
                 f"  {kind:<10}{found['sent']:>7}{outcomes[key.ACCEPTED]:>10}"
                 f"{outcomes[key.SUPERSEDED]:>12}{outcomes[key.REJECTED]:>10}"
                 f"{'yes' if adds_up else 'NO':>8}{found['overruns']:>10}"
-                f"{found['largest_gap_ms']:>18.1f}{found['bystander_late']:>16}"
+                f"{found['largest_gap_ms']:>18.1f}{found['cpu']:>6.0%}{found['bystander_late']:>16}"
                 f"{found['bystander_largest_ms']:>18.1f}"
             )
     finally:

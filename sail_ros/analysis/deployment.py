@@ -145,25 +145,29 @@ class RangeWatch:
         values = values[:, self._columns]
         policy = self.policy
         tips = np.abs(values[:, :4])
-        ends = (lengths0, rates0, lengths1, rates1)
-        # the lengths inside the step (the motion's cubic) only if a tip may be near its
-        # range: no boom is shorter there than min(L0, L1) - 4/27 h (|Ld0| + |Ld1|)
+        inside = None  # the lengths inside the step (the motion's cubic), made when needed
+
+        def lengths_inside() -> np.ndarray:
+            nonlocal inside
+            if inside is None:
+                ends = (lengths0, rates0, lengths1, rates1)
+                inside = hermite_motion(fractions, np.full(count, h), *ends)[0]
+            return inside
+
+        # needed only if a tip may be near its range: no boom is shorter inside the step
+        # than min(L0, L1) - 4/27 h (|Ld0| + |Ld1|)
         shortest = np.minimum(lengths0, lengths1)
         shortest -= HERMITE_BOUND * h * (np.abs(rates0) + np.abs(rates1))
-        lengths = None
         near = np.zeros(count, dtype=bool)
         if not (np.all(shortest > 0) and np.all(tips <= policy.tip_warn_fraction * shortest)):
-            lengths = hermite_motion(fractions, np.full(count, h), *ends)[0]
-            near = np.max(tips / lengths, axis=1) > policy.tip_warn_fraction
+            near = np.max(tips / lengths_inside(), axis=1) > policy.tip_warn_fraction
         if self.model.free_hub:
             near |= np.hypot(values[:, 5], values[:, 6]) > policy.tilt_warn_rad
         finite = np.isfinite(values).all(axis=1)
-        if lengths is None and (near.any() or not finite.all()):
-            lengths = hermite_motion(fractions, np.full(count, h), *ends)[0]
         for i in np.flatnonzero(near | ~finite):
             t, row = t0 + fractions[i] * h, values[i]
             hub = np.append(row[4:], [0.0] * 3) if self.model.free_hub else None
-            warning, error = policy.range_state(row[:4], lengths[i], hub)
+            warning, error = policy.range_state(row[:4], lengths_inside()[i], hub)
             if error:
                 self.stopped_at = t
                 raise OutOfRangeError(f"integration stopped at t = {t:.6g} s: {error}")
