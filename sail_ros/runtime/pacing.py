@@ -85,15 +85,16 @@ class Pacer:
         wall = self.now() if wall is None else wall
         return self._t_anchor + self.time_scale * (wall - self._wall_anchor)
 
-    def tick(self, t_model: float) -> tuple[float, float, bool]:
-        """Begin a tick with the model at `t_model` [s].
+    def tick(self, t_model: float, wall: float | None = None) -> tuple[float, float, bool]:
+        """Begin a tick with the model at `t_model` [s] that woke at `wall` [s of the
+        steady clock; default now].
 
         Returns:
             `(due, deadline, overrun)`: the simulation time to reach [s], the
             wall time [s] by which to stop integrating (the budget), and
             whether this tick is an overrun.
         """
-        wall = self.now()
+        wall = self.now() if wall is None else wall
         due = self.due(wall)
         overrun = False
         if self.running and self.paced and self._last_tick is not None:

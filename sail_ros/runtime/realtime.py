@@ -197,9 +197,10 @@ class RealTimeRun:
     def tick(self) -> None:
         """One wake-up (the ticker holds `lock`): act on the commands, integrate what is
         due while running, publish the status when due."""
+        woke = self.clock()  # the commands' work is the tick's, not lateness
         self._run_commands()
         if self.sim.state == RUNNING:
-            self._integrate()
+            self._integrate(woke)
         now = self.clock()
         if now >= self._diagnostics_due:
             self.publish_status()
@@ -309,11 +310,12 @@ class RealTimeRun:
 
     # -- integration ---------------------------------------------------------------------------
 
-    def _integrate(self) -> None:
-        """Integrate whole grid steps up to the time due (never beyond), publishing the
-        samples that fall on them, within the tick's wall-time budget."""
+    def _integrate(self, woke: float) -> None:
+        """Integrate whole grid steps up to the time due when the tick woke at `woke`
+        [s, steady clock] (never beyond), publishing the samples that fall on them,
+        within the tick's wall-time budget."""
         sim = self.sim
-        due, deadline, overrun = self.pacer.tick(sim.t)
+        due, deadline, overrun = self.pacer.tick(sim.t, woke)
         if overrun:
             self.overruns += 1
             now = self.clock()

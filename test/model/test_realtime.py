@@ -129,6 +129,30 @@ def test_overruns_are_counted_each_and_logged_once_in_five_seconds(model):
     assert sum("overrun at t = " in text for _, text in outputs.lines) == 2
 
 
+def test_a_tick_is_late_by_when_it_woke_not_by_its_commands_work(model):
+    """Planning a command takes wall time inside the tick (12 ms here, over one 10 ms
+    step): the tick came on time, so no overrun; it integrates to the time it woke at."""
+    run, clock, outputs, _ = make_run(model, shape_rate_hz=0.0)
+    advance(run, clock, 0.5)
+    plan = run.sim.plan_deploy
+
+    def slow_plan(*args):
+        clock.now += 0.012
+        return plan(*args)
+
+    run.sim.plan_deploy = slow_plan
+    for sequence in range(10):
+        run.submit(topics.DEPLOY_CMD, deploy(10.5 + 0.01 * sequence), info(sequence))
+        woke = clock.now + run.tick_period
+        advance(run, clock, run.tick_period)
+        assert run.sim.t == pytest.approx(0.5 + 0.02 * (sequence + 1), abs=1e-9)
+        clock.now = woke  # the next tick one period after this one woke
+    assert run.overruns == 0 and count(outputs, commands_msg.ACCEPTED) == 10
+    clock.now += 0.05  # a tick that woke 50 ms late is one
+    advance(run, clock, run.tick_period)
+    assert run.overruns == 1
+
+
 def test_the_real_time_factor_is_not_taken_over_short_windows(model):
     """A status off the schedule (a reset or a pause publishes one) must not close a
     window of a few milliseconds: the factor would read tens of times the time scale."""
