@@ -15,8 +15,9 @@ wall-time gap between two /sail/boom_state samples
 as the simulator published them (DDS source timestamps; the issue's bound is two
 state periods, 40 ms at 50 Hz). Beside them, what a bystander saw: a process of its
 own that sleeps 2 ms at a time, counting the wake-ups later than one integration step
-(10 ms) and the largest delay. Late ticks where the bystander was late too are the
-machine's (its cores all taken), not the simulator's.
+(10 ms) and the largest delay. And the CPU time the hypervisor took from the
+machine's cores meanwhile (steal, /proc/stat; in 10 ms units). Late ticks where the
+bystander was late too are the machine's, not the simulator's.
 
     python benchmarks/command_flood.py                       # 1000/s, 10 s per phase
     python benchmarks/command_flood.py --rate 500 --seconds 3
@@ -91,13 +92,20 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def stolen_seconds() -> float:
+    """CPU time [s] the hypervisor has taken from this machine's cores (/proc/stat's
+    steal, all cores)."""
+    fields = Path("/proc/stat").read_text().split("\n", 1)[0].split()
+    return int(fields[8]) / os.sysconf("SC_CLK_TCK")
+
+
 def phase(observer, sim_pid: int, kind: str, rate: float, seconds: float) -> dict:
     """Publish `kind` commands at `rate` per second for `seconds`; what the simulator did,
     and what a bystander process saw meanwhile."""
     time.sleep(1.2)  # a status from before the phase
     before = dict(observer.statuses[-1])
     first_state = len(observer.published_ns)
-    cpu_before = cpu_seconds(sim_pid)
+    cpu_before, stolen_before = cpu_seconds(sim_pid), stolen_seconds()
     bystander = subprocess.Popen(
         [sys.executable, "-c", BYSTANDER, str(seconds)], stdout=subprocess.PIPE, text=True
     )
@@ -115,6 +123,7 @@ def phase(observer, sim_pid: int, kind: str, rate: float, seconds: float) -> dic
         # to the simulator (the observer's callbacks run on their own thread)
         time.sleep(max(0.0, start + (sent + 1) / rate - time.monotonic()))
     cpu = (cpu_seconds(sim_pid) - cpu_before) / (time.monotonic() - start)
+    stolen = stolen_seconds() - stolen_before
     bystander_late, bystander_largest_ms = bystander.communicate()[0].split()
     time.sleep(2.5)  # the last commands answered, a status after them
     after = observer.statuses[-1]
@@ -127,6 +136,7 @@ def phase(observer, sim_pid: int, kind: str, rate: float, seconds: float) -> dic
         "overruns": int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]),
         "largest_gap_ms": gap_ms,
         "cpu": cpu,
+        "stolen_ms": 1e3 * stolen,
         "bystander_late": int(bystander_late),
         "bystander_largest_ms": float(bystander_largest_ms),
     }
@@ -181,7 +191,7 @@ def _run(args, domain: int, env: dict, log) -> int:
         )
         print(f"  {'phase':<10}{'sent':>7}{'accepted':>10}{'superseded':>12}{'rejected':>10}"
               f"{'add up':>8}{'overruns':>10}{'largest gap [ms]':>18}{'CPU':>6}"
-              f"{'bystander late':>16}{'its largest [ms]':>18}")  # fmt: skip
+              f"{'bystander late':>16}{'its largest [ms]':>18}{'stolen [ms]':>13}")  # fmt: skip
         for kind in ("quiet", "valid", "malformed"):
             found = phase(observer, sim.pid, kind, args.rate, args.seconds)
             outcomes = found["outcomes"]
@@ -191,7 +201,7 @@ def _run(args, domain: int, env: dict, log) -> int:
                 f"{outcomes[key.SUPERSEDED]:>12}{outcomes[key.REJECTED]:>10}"
                 f"{'yes' if adds_up else 'NO':>8}{found['overruns']:>10}"
                 f"{found['largest_gap_ms']:>18.1f}{found['cpu']:>6.0%}{found['bystander_late']:>16}"
-                f"{found['bystander_largest_ms']:>18.1f}"
+                f"{found['bystander_largest_ms']:>18.1f}{found['stolen_ms']:>13.0f}"
             )
     finally:
         executor.shutdown()
