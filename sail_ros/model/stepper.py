@@ -773,7 +773,8 @@ class SailStepper:
             lengths0, lengths1 = self._motion(t0)[0], self._motion(t1)[0]
             C1, K_extra1, _, M1, G1 = self._assembled(t1)
             factor, _ = self._mass_factor_at(t1)
-            qd2, qd1 = potrs(factor, np.stack([p2 - G1 @ q2, p1 - G1 @ q1], axis=1))[0].T
+            # (n, 2) in LAPACK's column order: no copy on the way in
+            qd2, qd1 = potrs(factor, np.array([p2 - G1 @ q2, p1 - G1 @ q1]).T)[0].T
         vibration = ()
         modes0 = self._modes(t0)
         count = followed(modes0, 0.5 * h, self._resolved(lengths0), self._relative_rate(t0, h))
@@ -915,7 +916,7 @@ class SailStepper:
         """`qd = M^-1 (p - G q)` (m, n) with `M`, `G` at each of `times` [s] (m,): the
         matrices of all m assembled in one pass, each `M` factored by Cholesky."""
         motions = [self._motion(float(t)) for t in times]
-        stacked = (np.stack([motion[i] for motion in motions]) for i in range(3))
+        stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
         matrices = self.system.assemble((MASS, GYROSCOPIC), *stacked)
         qd = p - np.einsum("mij,mj->mi", matrices[:, 1], q)
         for M, row in zip(matrices[:, 0], qd, strict=True):
@@ -1093,7 +1094,7 @@ class SailStepper:
         motions = [self._motion(t) for t in times]
         if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
             return [self.system.assemble_blocks(_STEP_MATRICES, *motion) for motion in motions]
-        stacked = (np.stack([motion[i] for motion in motions]) for i in range(3))
+        stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
         return [DenseMatrices(m) for m in self.system.assemble(_STEP_MATRICES, *stacked)]
 
     def _moving_step(self, q0, p0, mats, h, force):
@@ -1221,7 +1222,7 @@ class SailStepper:
 def _largest(rows, q, qd) -> np.ndarray:
     """The largest magnitude of each output kind (`OUTPUT_KINDS`) in `rows q` and `rows qd`
     (`rows`: tips then root moments, 4 each)."""
-    y = np.abs(rows @ np.stack([q, qd], axis=1))  # (8, 2): q, qd
+    y = np.abs(rows @ np.array([q, qd]).T)  # (8, 2): q, qd
     return y.reshape(2, 4, 2).max(axis=1).ravel()  # tips (q, qd), moments (q, qd)
 
 
