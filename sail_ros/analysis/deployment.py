@@ -21,7 +21,7 @@ from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
-from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, hermite_motion
+from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, hermite_motion, step_fractions
 from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.policy import OutOfRangeError, Policy
@@ -140,7 +140,7 @@ class RangeWatch:
         self._start = (t1, lengths1, rates1)
         h = t1 - t0
         count = max(1, math.ceil(h / self.RANGE_SPACING_S - 1e-9))
-        fractions = np.arange(1, count + 1) / count
+        fractions = step_fractions(count)
         values, _ = self.peaks.after_step(stepper, also=fractions)  # one pass for both
         values = values[:, self._columns]
         policy = self.policy
@@ -158,8 +158,14 @@ class RangeWatch:
         # than min(L0, L1) - 4/27 h (|Ld0| + |Ld1|)
         shortest = np.minimum(lengths0, lengths1)
         shortest -= HERMITE_BOUND * h * (np.abs(rates0) + np.abs(rates1))
+        # (a nan or inf tip is not within)
+        within = np.all(shortest > 0) and np.all(
+            tips.max(axis=0) <= policy.tip_warn_fraction * shortest
+        )
+        if within and not self.model.free_hub:
+            return  # every tip finite and in range at every sample: nothing more to see
         near = np.zeros(count, dtype=bool)
-        if not (np.all(shortest > 0) and np.all(tips <= policy.tip_warn_fraction * shortest)):
+        if not within:
             near = np.max(tips / lengths_inside(), axis=1) > policy.tip_warn_fraction
         if self.model.free_hub:
             near |= np.hypot(values[:, 5], values[:, 6]) > policy.tilt_warn_rad

@@ -625,7 +625,8 @@ class _Component:
         if not functions:
             return np.zeros((*np.shape(motion[0]), weights.shape[1]))
         coefficients = np.array([function(motion, constants) for function in functions])
-        return np.moveaxis(coefficients, 0, -1) @ weights
+        # the functions' axis last (`np.moveaxis` as a plain transpose)
+        return coefficients.transpose(*range(1, coefficients.ndim), 0) @ weights
 
 
 class _HubCoupling:
@@ -828,7 +829,7 @@ class SystemAssembler:
         )
 
     def _kinematics(self, lengths, rates, accelerations):
-        pairs = np.stack([lengths, rates, accelerations])[..., self._quadrant_booms]
+        pairs = np.array([lengths, rates, accelerations])[..., self._quadrant_booms]
         first, second = pairs[..., :4], pairs[..., 4:]
         return BoomKinematics(lengths, rates, accelerations), QuadrantKinematics(*first, *second)
 

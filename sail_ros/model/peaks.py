@@ -174,7 +174,7 @@ class OutputPeaks:
                 np.array([stepper.t]),
                 y[None],
                 yd[None],
-                _fractions(1),
+                step_fractions(1),
                 1.0,
                 lengths,
                 rates,
@@ -198,7 +198,7 @@ class OutputPeaks:
         h = t1 - t0
         spacing = min(self.max_spacing, self.peak_phase / stepper.interpolant_frequency())
         count = max(1, math.ceil(h / spacing - 1e-9))
-        fractions = _fractions(count)
+        fractions = step_fractions(count)
         extra = None
         if also is None:
             y, yd = stepper.interpolant(fractions, self.rows)
@@ -256,7 +256,7 @@ def with_tilt(y, yd, first: int = 9):
 
 
 @functools.lru_cache(maxsize=64)
-def _fractions(count: int) -> np.ndarray:
+def step_fractions(count: int) -> np.ndarray:
     """1/count, 2/count, ..., 1 (read-only: shared by every step of that count)."""
     fractions = np.arange(1, count + 1) / count
     fractions.flags.writeable = False

@@ -212,7 +212,7 @@ class _Extension:
     `parts` of the step, each with its own fraction `f`) as `Trial.extensions` keeps
     them, and their followed modes (`fast_modes`: the first half's free vibration at the
     step's start, the second's at its end, `vibration`), whose part the extension's
-    samples leave (`kept`) and take turned instead (`free`)."""
+    samples leave (`kept`) and take turned instead (`free`; `curve` for the peaks)."""
 
     def __init__(self, trial: Trial, h: float):
         self.extensions = trial.extensions
@@ -230,7 +230,7 @@ class _Extension:
             turning = [near.turning() for near in self.vibration]
             self.on_e, self.on_v = (np.array(terms) for terms in zip(*turning, strict=True))
         self._coordinates = None
-        self._free = ((), None)  # (rows, their terms): none yet
+        self._coefficients_of = ((), None)  # (rows, `_coefficients`): none yet
 
     def coordinates(self) -> np.ndarray:
         """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
@@ -252,46 +252,97 @@ class _Extension:
         V, MV = (self.V, self.MV) if part is None else (self.V[part], self.MV[part])
         return x - (x @ MV) @ np.swapaxes(V, -1, -2)
 
-    def free(self, part, local, rows=None, velocities=True):
-        """The followed modes' coordinates and velocities (each (m, n), or their outputs
-        `rows` (r, n): (m, r)) at fractions `local` (m,) of the rational steps `part` (an
-        index, or one per sample): each part's free vibration turned on by `(local -
-        part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`); without
+    def free(self, part: int, local, velocities: bool = True):
+        """The followed modes' coordinates and velocities (each (m, n)) at fractions
+        `local` (m,) of the rational step `part`: its free vibration turned on by `(local
+        - part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`); without
         `velocities`, the coordinates alone."""
-        if self._free[0] is not rows:  # the modes' shapes in the outputs, kept
-            self._free = (rows, np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2))
-        shapes = self._free[1]
         seconds = (local - part) * (self.h / self.parts)
         decay = None if self.decay is None else self.decay[part]
         turns = oscillation(seconds, self.omega_d[part], decay)
         count = self.V.shape[2]
+        shapes = self.V[part].T
         e = turns * self.on_e[part]
         e = e[:, :count] + e[:, count:] + self.static[part]
         if not velocities:
-            return e @ shapes[part]
+            return e @ shapes
         v = turns * self.on_v[part]
-        v = v[:, :count] + v[:, count:]
-        if np.ndim(part) == 0:
-            return e @ shapes[part], v @ shapes[part]
-        pick = (part, np.arange(part.size))  # each sample's own part
-        return (e @ shapes)[pick], (v @ shapes)[pick]
+        return e @ shapes, (v[:, :count] + v[:, count:]) @ shapes
 
-    def curve(self, fractions: np.ndarray, rows) -> tuple[np.ndarray, np.ndarray]:
+    def curve(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
         """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
         `dq/dt` themselves) at `fractions` (m,) of the step (`between`, rates "slope"):
-        every part computed for every sample, each sample taking its own."""
-        parts = self.parts
+        each sample's features in its own rational step (the powers `x^j` of its fraction
+        `x` of that step, the followed modes' turns) times that step's coefficients
+        (`_coefficients`), one product per rational step. The same curve as `between`'s
+        positions, summed otherwise (round-off apart)."""
+        fractions = np.asarray(fractions, dtype=float)
+        parts, m = self.parts, fractions.size
         part = np.minimum((fractions * parts).astype(int), parts - 1)
         local = fractions * parts - part
-        pick = (part, np.arange(fractions.size))
+        orders = _EXTENSION_ORDERS.size
+        count = self.V.shape[2] if self.vibration else 0
+        features = np.empty((m, orders + 2 * count))
+        features[:, 0] = 1.0
+        for j in range(1, orders):
+            np.multiply(features[:, j - 1], local, out=features[:, j])
+        if count:
+            # from the first half's start, back from the second half's end (`free`)
+            seconds = (local - part) * (self.h / parts)
+            phase = seconds[:, None] * self.omega_d[part]
+            turns = features[:, orders:]
+            np.cos(phase, out=turns[:, :count])
+            np.sin(phase, out=turns[:, count:])
+            if self.decay is not None:
+                turns *= np.tile(np.exp(-0.5 * seconds[:, None] * self.decay[part]), 2)
+        X = self._coefficients(rows)
+        if parts == 1:
+            out = features @ X[0]
+        else:
+            out = np.empty((m, X.shape[2]))
+            for k in range(parts):
+                inside = part == k
+                out[inside] = features[inside] @ X[k]
+        r = out.shape[1] // 2
+        return out[:, :r], out[:, r:]
+
+    def _coefficients(self, rows) -> np.ndarray:
+        """(parts, 5 + 2 count, 2 r): what each rational step's features (`curve`) give
+        the outputs `rows` (r, n; None: the coordinates) and their slopes: the
+        extension's kept coordinates (`coordinates`) through the weights' power series
+        (`_POWER_WEIGHTS`; `_POWER_SLOPES`, per second), the static part on `x^0`, the
+        followed modes' shapes weighted by `on_e` (`on_v`) on their turns (`free`); kept
+        for the last rows asked."""
+        if self._coefficients_of[0] is rows:
+            return self._coefficients_of[1]
         coordinates = self.coordinates() if rows is None else self.coordinates() @ rows.T
-        q = (_weights(local).T @ coordinates)[pick]
-        slope = (_weights(local, slope=True).T @ coordinates)[pick] * (parts / self.h)
-        if self.vibration:
-            q_free, qd_free = self.free(part, local, rows)
-            q += q_free
-            slope += qd_free
-        return q, slope
+        parts, orders, r = coordinates.shape
+        count = self.V.shape[2] if self.vibration else 0
+        X = np.empty((parts, orders + 2 * count, 2 * r))
+        X[:, :orders, :r] = _POWER_WEIGHTS @ coordinates
+        X[:, :orders, r:] = _POWER_SLOPES @ coordinates * (parts / self.h)
+        if count:
+            shapes = np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2)  # (parts, c, r)
+            doubled = np.concatenate([shapes, shapes], axis=1)  # cosine, then sine rows
+            X[:, orders:, :r] = self.on_e[:, :, None] * doubled
+            X[:, orders:, r:] = self.on_v[:, :, None] * doubled
+            X[:, 0, :r] += (self.static[:, None, :] @ shapes)[:, 0]
+        self._coefficients_of = (rows, X)
+        return X
+
+
+def _power_series() -> tuple[np.ndarray, np.ndarray]:
+    """`(P, D)` (5, 5): the weights `(c, Re w_1, Im w_1, ...)` of `_weights` at `x` are
+    `P^T [1, x, ..., x^4]` (they solve a linear system whose right-hand side is `x^m /
+    m!`), so `rows . weights = [1, x, ..., x^4] . (P rows)`; `D` gives the slopes': the
+    derivative of `x^m` is `m x^(m-1)`."""
+    inverse, _ = _getrs(*_EXTENSION_FACTORS, np.diag(1.0 / _EXTENSION_FACTORIALS))
+    P = inverse.T
+    shift = np.diag(_EXTENSION_ORDERS[1:].astype(float), -1)  # d x^m / dx = m x^(m-1)
+    return P, shift.T @ P
+
+
+_POWER_WEIGHTS, _POWER_SLOPES = _power_series()
 
 
 # A stretch of time whose motion starts or ends within this fraction of it from its ends
@@ -722,7 +773,8 @@ class SailStepper:
             lengths0, lengths1 = self._motion(t0)[0], self._motion(t1)[0]
             C1, K_extra1, _, M1, G1 = self._assembled(t1)
             factor, _ = self._mass_factor_at(t1)
-            qd2, qd1 = potrs(factor, np.stack([p2 - G1 @ q2, p1 - G1 @ q1], axis=1))[0].T
+            # (n, 2) in LAPACK's column order: no copy on the way in
+            qd2, qd1 = potrs(factor, np.array([p2 - G1 @ q2, p1 - G1 @ q1]).T)[0].T
         vibration = ()
         modes0 = self._modes(t0)
         count = followed(modes0, 0.5 * h, self._resolved(lengths0), self._relative_rate(t0, h))
@@ -864,7 +916,7 @@ class SailStepper:
         """`qd = M^-1 (p - G q)` (m, n) with `M`, `G` at each of `times` [s] (m,): the
         matrices of all m assembled in one pass, each `M` factored by Cholesky."""
         motions = [self._motion(float(t)) for t in times]
-        stacked = (np.stack([motion[i] for motion in motions]) for i in range(3))
+        stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
         matrices = self.system.assemble((MASS, GYROSCOPIC), *stacked)
         qd = p - np.einsum("mij,mj->mi", matrices[:, 1], q)
         for M, row in zip(matrices[:, 0], qd, strict=True):
@@ -1042,7 +1094,7 @@ class SailStepper:
         motions = [self._motion(t) for t in times]
         if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
             return [self.system.assemble_blocks(_STEP_MATRICES, *motion) for motion in motions]
-        stacked = (np.stack([motion[i] for motion in motions]) for i in range(3))
+        stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
         return [DenseMatrices(m) for m in self.system.assemble(_STEP_MATRICES, *stacked)]
 
     def _moving_step(self, q0, p0, mats, h, force):
@@ -1170,7 +1222,7 @@ class SailStepper:
 def _largest(rows, q, qd) -> np.ndarray:
     """The largest magnitude of each output kind (`OUTPUT_KINDS`) in `rows q` and `rows qd`
     (`rows`: tips then root moments, 4 each)."""
-    y = np.abs(rows @ np.stack([q, qd], axis=1))  # (8, 2): q, qd
+    y = np.abs(rows @ np.array([q, qd]).T)  # (8, 2): q, qd
     return y.reshape(2, 4, 2).max(axis=1).ravel()  # tips (q, qd), moments (q, qd)
 
 
