@@ -47,6 +47,7 @@ from std_msgs.msg import Float64
 from sail_ros import topics
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
+from sail_ros.ros.commanding import command_publisher
 
 COUNTS = (key.ACCEPTED, key.SUPERSEDED, key.REJECTED, key.IGNORED)
 
@@ -56,7 +57,7 @@ class Observer(Node):
 
     def __init__(self, context):
         super().__init__("flood_observer", context=context)
-        self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
+        self.deploy = command_publisher(self, topics.DEPLOY_CMD)
         self.published_ns: list[int] = []
         self.statuses: list[dict] = []
         self.create_subscription(

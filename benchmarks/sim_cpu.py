@@ -37,6 +37,7 @@ from std_msgs.msg import Float64
 
 from sail_ros import topics
 from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.ros.commanding import command_publisher
 from sail_ros.topics import TOPIC_QOS
 
 SETTINGS = [
@@ -128,7 +129,7 @@ class Observer(Node):
         self.create_subscription(
             DiagnosticArray, topics.DIAGNOSTICS, self._on_status, topics.DIAGNOSTICS_QOS
         )
-        self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
+        self.deploy = command_publisher(self, topics.DEPLOY_CMD)
 
     def _count(self, _data) -> None:
         self.received += 1

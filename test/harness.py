@@ -30,14 +30,13 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
-from trajectory_msgs.msg import JointTrajectory
 
 from sail_ros import topics
 from sail_ros.cli import TOOLS
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
+from sail_ros.ros.commanding import command_publisher
 from sail_ros.ros.discovery import announce_often
 from sail_ros.tools.domains import FIRST_DOMAIN, DomainLease, bound_udp_ports, domain_in_use
 
@@ -154,10 +153,8 @@ class Operator(Node):
         self.create_subscription(
             DiagnosticArray, topics.DIAGNOSTICS, self._on_status, topics.DIAGNOSTICS_QOS
         )
-        self.deploy = self.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
-        self.trajectory = self.create_publisher(
-            JointTrajectory, topics.BOOM_LENGTH_CMD, topics.COMMAND_QOS
-        )
+        self.deploy = command_publisher(self, topics.DEPLOY_CMD)
+        self.trajectory = command_publisher(self, topics.BOOM_LENGTH_CMD)
         self.reset = self.create_client(Trigger, topics.RESET_SERVICE)
         self.pause = self.create_client(SetBool, topics.PAUSE_SERVICE)
         self.set_parameters = self.create_client(SetParameters, "/sail_sim/set_parameters")

@@ -51,7 +51,6 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from foxglove import Schema, Service
 from foxglove.websocket import Capability, StatusLevel
 from rcl_interfaces.msg import ParameterEvent
-from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.logging import get_logger
 from rclpy.node import Node
@@ -65,6 +64,7 @@ from sail_ros.bridging.clients import ClientBook, command_refusal
 from sail_ros.bridging.protocol import MESSAGE_ENCODING, Listener, ServerLog, service_schema
 from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
+from sail_ros.ros.commanding import command_publisher
 from sail_ros.ros.parameters import (
     ConfigError,
     ParamSpec,
@@ -172,19 +172,8 @@ class Bridge(Node):
         served = self._served_topics(self.config["topics"])
         self.served: dict[str, int] = {}  # topic -> messages handed to the server (executor)
         self._channels: dict[str, foxglove.Channel] = {}  # served topic -> channel
-        # The simulator also listens transient local on each command topic
-        # (topics.COMMAND_QOS), which a volatile publisher does not match, as meant.
-        quiet = PublisherEventCallbacks(incompatible_qos=lambda event: None)
         self._commands = {
-            self.resolve_topic_name(name): (
-                topics.TOPICS[name],
-                self.create_publisher(
-                    topics.TOPICS[name].message_type,
-                    name,
-                    topics.COMMAND_QOS,
-                    event_callbacks=quiet,
-                ),
-            )
+            self.resolve_topic_name(name): (topics.TOPICS[name], command_publisher(self, name))
             for name in (*topics.COMMAND_TOPICS, topics.HUB_WRENCH_CMD)
         }
         self._service_clients = {

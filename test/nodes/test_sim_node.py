@@ -29,6 +29,7 @@ from sail_ros.messages import hub as hub_msg
 from sail_ros.messages import status as key
 from sail_ros.model.fields import ConfigError
 from sail_ros.nodes.sim import SPECS, SimNode, main
+from sail_ros.ros.commanding import command_publisher
 
 pytestmark = pytest.mark.node
 
@@ -197,7 +198,7 @@ def test_command_times_read_minus_one_when_there_is_none(ros):
     sim, client, spin_until = ros(diagnostics_rate_hz=20.0)
     status = client.diagnostics[-1]
     assert (status[key.LAST_COMMAND_START], status[key.MOTION_END]) == ("-1.0", "-1.0")
-    deploy = client.create_publisher(Float64, topics.DEPLOY_CMD, topics.COMMAND_QOS)
+    deploy = command_publisher(client, topics.DEPLOY_CMD)
     spin_until(lambda: deploy.get_subscription_count() >= 1, 5.0, "the deploy subscription")
     deploy.publish(Float64(data=11.0))
     spin_until(lambda: client.diagnostics[-1][key.ACCEPTED] == "1", 5.0, "the command")
@@ -276,7 +277,6 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
     every state sample, its orientation the quaternion of the tilt vector; a wrench on
     /sail/hub_wrench_cmd is answered and moves the hub; the modal state names the hub's
     coordinates."""
-    from geometry_msgs.msg import WrenchStamped
     from nav_msgs.msg import Odometry
 
     sim, client, spin_until = ros(
@@ -304,7 +304,7 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
     assert last.pose.pose.orientation.w == pytest.approx(1.0, abs=1e-3) and theta_x > 0
     q = last.pose.pose.orientation
     assert q.x**2 + q.y**2 + q.z**2 + q.w**2 == pytest.approx(1.0, abs=1e-12)
-    wrench = client.create_publisher(WrenchStamped, topics.HUB_WRENCH_CMD, topics.COMMAND_QOS)
+    wrench = command_publisher(client, topics.HUB_WRENCH_CMD)
     spin_until(lambda: wrench.get_subscription_count() >= 1, 5.0, "the wrench subscription")
     wrench.publish(hub_msg.hub_wrench_command(0.5, 0.0, 0.0))
     spin_until(lambda: answers, 5.0, "the answer")
