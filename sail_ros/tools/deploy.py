@@ -305,9 +305,9 @@ def _accuracy_line(accuracy) -> str:
         return f"  {steps} of fixed length: no error estimate"
     error = accuracy.relative_error
     return (
-        f"  {steps} at rtol {accuracy.rtol:g}; estimated error: tips "
-        f"{100 * error['tips']:.2g} %, root moments {100 * error['root_moments']:.2g} % "
-        "of peak"
+        f"  {steps} at rtol {accuracy.rtol:g}; error bound (the steps' local estimates "
+        f"summed, 10-20x the error made): tips {100 * error['tips']:.2g} %, root moments "
+        f"{100 * error['root_moments']:.2g} % of peak"
     )
 
 
