@@ -10,14 +10,15 @@ this process, publishes commands at a fixed rate for a phase each:
 
 Per phase it prints: commands sent; their outcomes as the simulator's /diagnostics
 count them (accepted, superseded, rejected) and whether they add up to what was
-sent; overruns; the simulator process's CPU (a share of one core); and the largest
-wall-time gap between two /sail/boom_state samples
-as the simulator published them (DDS source timestamps; the issue's bound is two
-state periods, 40 ms at 50 Hz). Beside them, what a bystander saw: a process of its
-own that sleeps 2 ms at a time, counting the wake-ups later than one integration step
-(10 ms) and the largest delay. And the CPU time the hypervisor took from the
-machine's cores meanwhile (steal, /proc/stat; in 10 ms units). Late ticks where the
-bystander was late too are the machine's, not the simulator's.
+sent; overruns; late states, gaps between two /sail/boom_state samples as the
+simulator published them (DDS source timestamps) over the issue's bound of two
+state periods (40 ms at 50 Hz), in brackets those while the bystander was late too;
+the largest gap; and the simulator process's CPU (a share of one core). Then what
+the machine did meanwhile: a bystander, a process of its own that sleeps 2 ms at a
+time, counts its wake-ups later than one integration step (10 ms) and its largest
+delay; and the CPU time the hypervisor took from the machine's cores (steal,
+/proc/stat; in 10 ms units). A late state while the bystander was late too is the
+machine's, not the simulator's.
 
     python benchmarks/command_flood.py                       # 1000/s, 10 s per phase
     python benchmarks/command_flood.py --rate 500 --seconds 3
@@ -74,17 +75,21 @@ class Observer(Node):
         )
 
 
-# sleeps 2 ms at a time for argv[1] seconds; prints how many wake-ups came more than
-# 10 ms late and the largest delay [ms]
+# sleeps 2 ms at a time for argv[1] seconds; prints the largest delay [ms], then each
+# wake-up more than 10 ms late as the span it slept [ns, system clock]
 BYSTANDER = """
 import sys, time
-end, late, largest = time.monotonic() + float(sys.argv[1]), 0, 0.0
+end, largest = time.monotonic() + float(sys.argv[1]), 0.0
 while (asked := time.monotonic()) < end:
+    asked_ns = time.time_ns()
     time.sleep(0.002)
     delay = time.monotonic() - asked - 0.002
-    late, largest = late + (delay > 0.010), max(largest, delay)
-print(late, largest * 1e3)
+    largest = max(largest, delay)
+    if delay > 0.010:
+        print(asked_ns, time.time_ns())
+print(largest * 1e3)
 """
+STATE_PERIOD_NS = 20_000_000  # 50 Hz
 
 
 def cpu_seconds(pid: int) -> float:
@@ -125,20 +130,25 @@ def phase(observer, sim_pid: int, kind: str, rate: float, seconds: float) -> dic
         time.sleep(max(0.0, start + (sent + 1) / rate - time.monotonic()))
     cpu = (cpu_seconds(sim_pid) - cpu_before) / (time.monotonic() - start)
     stolen = stolen_seconds() - stolen_before
-    bystander_late, bystander_largest_ms = bystander.communicate()[0].split()
+    *stalls, bystander_largest_ms = bystander.communicate()[0].splitlines()
+    stalls = [tuple(map(int, line.split())) for line in stalls]
     time.sleep(2.5)  # the last commands answered, a status after them
     after = observer.statuses[-1]
     outcomes = {name: int(after[name]) - int(before[name]) for name in COUNTS}
     stamps = observer.published_ns[first_state:]
-    gap_ms = max((b - a) / 1e6 for a, b in zip(stamps[:-1], stamps[1:], strict=True))
+    gaps = list(zip(stamps[:-1], stamps[1:], strict=True))
+    late = [(a, b) for a, b in gaps if b - a > 2 * STATE_PERIOD_NS]
     return {
         "sent": sent,
         "outcomes": outcomes,
         "overruns": int(after[key.OVERRUNS]) - int(before[key.OVERRUNS]),
-        "largest_gap_ms": gap_ms,
+        "largest_gap_ms": max((b - a) / 1e6 for a, b in gaps),
+        "late_states": len(late),
+        # late states while the bystander was late too: the machine's, not the simulator's
+        "late_with_bystander": sum(any(s0 < b and a < s1 for s0, s1 in stalls) for a, b in late),
         "cpu": cpu,
         "stolen_ms": 1e3 * stolen,
-        "bystander_late": int(bystander_late),
+        "bystander_late": len(stalls),
         "bystander_largest_ms": float(bystander_largest_ms),
     }
 
@@ -190,19 +200,21 @@ def _run(args, domain: int, env: dict, log) -> int:
         print(
             f"{args.rate:g} commands/s for {args.seconds:g} s per phase (simulator log: {log.name})"
         )
-        print(f"  {'phase':<10}{'sent':>7}{'accepted':>10}{'superseded':>12}{'rejected':>10}"
-              f"{'add up':>8}{'overruns':>10}{'largest gap [ms]':>18}{'CPU':>6}"
-              f"{'bystander late':>16}{'its largest [ms]':>18}{'stolen [ms]':>13}")  # fmt: skip
+        print(f"  {'phase':<10}{'sent':>6}{'accepted':>9}{'superseded':>11}{'rejected':>9}"
+              f"{'add up':>7}{'overruns':>9}{'late states':>12}{'largest gap':>12}{'CPU':>5}"
+              f"{'bystander late':>15}{'largest':>8}{'stolen':>7}")  # fmt: skip
         for kind in ("quiet", "valid", "malformed"):
             found = phase(observer, sim.pid, kind, args.rate, args.seconds)
             outcomes = found["outcomes"]
             adds_up = sum(outcomes.values()) == found["sent"]
+            late = f"{found['late_states']} ({found['late_with_bystander']})"
             print(
-                f"  {kind:<10}{found['sent']:>7}{outcomes[key.ACCEPTED]:>10}"
-                f"{outcomes[key.SUPERSEDED]:>12}{outcomes[key.REJECTED]:>10}"
-                f"{'yes' if adds_up else 'NO':>8}{found['overruns']:>10}"
-                f"{found['largest_gap_ms']:>18.1f}{found['cpu']:>6.0%}{found['bystander_late']:>16}"
-                f"{found['bystander_largest_ms']:>18.1f}{found['stolen_ms']:>13.0f}"
+                f"  {kind:<10}{found['sent']:>6}{outcomes[key.ACCEPTED]:>9}"
+                f"{outcomes[key.SUPERSEDED]:>11}{outcomes[key.REJECTED]:>9}"
+                f"{'yes' if adds_up else 'NO':>7}{found['overruns']:>9}{late:>12}"
+                f"{found['largest_gap_ms']:>9.1f} ms{found['cpu']:>5.0%}"
+                f"{found['bystander_late']:>15}{found['bystander_largest_ms']:>5.1f} ms"
+                f"{found['stolen_ms']:>4.0f} ms"
             )
     finally:
         executor.shutdown()
