@@ -62,6 +62,11 @@ SWITCH_INTERVAL_S = 0.0005  # the interpreter's switch interval in the simulator
 # buys nothing, and each wake-up of the commands' executor costs ~0.4 ms of the
 # interpreter that a tick would wait for. After a wake-up everything waiting is taken.
 INTAKE_PAUSE_S = 0.005
+# A burst that fills the queue waits this long at most for a tick to take it (the ticks
+# are at most MAX_TICK_PERIOD_S apart, and one is called at once), looking every
+# QUEUE_POLL_S; what still finds the queue full is rejected.
+QUEUE_WAIT_S = 0.1
+QUEUE_POLL_S = 0.0005
 SPECS = [ParamSpec.of(name, field) for name, field in PARAMETERS.items()]
 
 
@@ -259,11 +264,31 @@ class SimNode(Node):
                     for pair in take_waiting(subscription, topics.COMMAND_INTAKE_DEPTH)
                 )
             taken.sort(key=lambda command: command[2].get("received_timestamp") or 0)
-            wake = False
-            for command in taken:
-                wake = self.run.submit(*command) or wake
+            wake, rest = self._submit_while_room(taken)
+        while rest:
+            # The queue is full (a burst larger than it, or the sender stalled and then
+            # caught up): a tick takes it as one batch now, and the rest waits for that,
+            # at most QUEUE_WAIT_S, rather than being rejected; then what still finds it
+            # full is rejected and counted.
+            self._ticker.poke()
+            deadline = time.monotonic() + QUEUE_WAIT_S
+            while self.run.queue.full() and time.monotonic() < deadline:
+                time.sleep(QUEUE_POLL_S)
+            with self.run.lock:
+                woken, rest = self._submit_while_room(rest, force=time.monotonic() >= deadline)
+            wake = wake or woken
         if wake:
             self._ticker.poke()  # paused: no tick would come before the next status
+
+    def _submit_while_room(self, commands: list, force: bool = False) -> tuple[bool, list]:
+        """Submit `commands` in order while the queue has room (all of them if `force`);
+        whether the run should be woken, and the commands left."""
+        wake = False
+        for index, command in enumerate(commands):
+            if self.run.queue.full() and not force:
+                return wake, commands[index:]
+            wake = self.run.submit(*command) or wake
+        return wake, []
 
     def _on_reset(self, request, response):
         response.message = self.run.reset()

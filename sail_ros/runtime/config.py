@@ -105,9 +105,10 @@ class SimSettings:
         10, "-", "mesh subdivisions of each quadrant edge in sail/shape", minimum=1, maximum=50
     )
     max_queued_commands: int = setting(
-        100, "-", "most commands waiting for the simulator at once; one more is rejected on "
-        "sail/command_status and counted in /diagnostics (a motion command a newer one "
-        "replaces before it started is answered superseded and leaves the queue)",
+        100, "-", "most commands waiting for the simulator at once; a burst that fills them "
+        "has a tick take them at once and waits for it (at most 0.1 s), then one more is "
+        "rejected on sail/command_status and counted in /diagnostics (a motion command a "
+        "newer one replaces before it started is answered superseded and leaves the queue)",
         minimum=1, maximum=10000,
     )  # fmt: skip
     solar_pressure: float = setting(

@@ -9,8 +9,9 @@ told apart by what DDS says of each sample: the publisher's source timestamp
 and sequence number (`CommandIntake`).
 
 Commands are taken from DDS on their own thread and wait in a bounded
-`CommandQueue` for the simulator's thread; one that finds the queue full is
-rejected at once. The simulator's thread takes everything waiting as one batch
+`CommandQueue` for the simulator's thread; a burst that fills it waits for a
+tick to take it (`nodes.sim`), and a command that still finds it full is
+rejected. The simulator's thread takes everything waiting as one batch
 (`split_batch`): a motion command that a newer motion command of the same batch
 replaces (a deploy replaces every boom's motion, a trajectory its booms') never
 starts, so it is answered "superseded" without being planned, and only the
@@ -99,6 +100,11 @@ class CommandQueue:
                 return False
             self._items.append(item)
             return True
+
+    def full(self) -> bool:
+        """Whether one more would be refused."""
+        with self._lock:
+            return len(self._items) >= self.capacity
 
     def take(self) -> list:
         """Everything waiting, oldest first; the queue is empty afterwards."""

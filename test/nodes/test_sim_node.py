@@ -14,9 +14,11 @@ from diagnostic_msgs.msg import DiagnosticArray
 from harness import DOMAIN_ID
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, SetParameters
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
@@ -209,6 +211,31 @@ def test_command_times_read_minus_one_when_there_is_none(ros):
         lambda: client.diagnostics[-1][key.MOTION_END] == "-1.0", 2.0, "the status after the reset"
     )  # the reset ended the motion...
     assert float(client.diagnostics[-1][key.LAST_COMMAND_START]) == start  # ...not its record
+
+
+def test_a_burst_larger_than_the_queue_waits_for_a_tick_instead_of_being_rejected(ros):
+    """300 deploy commands at once at a queue of 10 (`max_queued_commands`), from a
+    publisher that keeps them all: the commands' thread has a tick take each full queue
+    rather than rejecting the rest; every command ends accepted or superseded."""
+    sim, client, spin_until = ros(max_queued_commands=10, diagnostics_rate_hz=20.0)
+    deep = QoSProfile(
+        depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE
+    )
+    quiet = PublisherEventCallbacks(incompatible_qos=lambda event: None)
+    deploy = client.create_publisher(Float64, topics.DEPLOY_CMD, deep, event_callbacks=quiet)
+    spin_until(lambda: deploy.get_subscription_count() >= 1, 5.0, "the deploy subscription")
+    time.sleep(0.5)  # the simulator's side of the match too (volatile: nothing before it)
+    for i in range(300):
+        deploy.publish(Float64(data=10.5 + 0.001 * i))
+    outcomes = (key.ACCEPTED, key.SUPERSEDED, key.REJECTED)
+    spin_until(
+        lambda: sum(int(client.diagnostics[-1][name]) for name in outcomes) >= 300,
+        10.0,
+        "every command counted",
+    )
+    status = client.diagnostics[-1]
+    assert int(status[key.REJECTED]) == 0 and int(status[key.DROPPED]) == 0, status
+    assert int(status[key.ACCEPTED]) + int(status[key.SUPERSEDED]) == 300
 
 
 def _fifo_threads() -> dict[str, int]:
