@@ -202,7 +202,7 @@ def _run(args, domain: int, env: dict, log) -> int:
         )
         print(f"  {'phase':<10}{'sent':>6}{'accepted':>9}{'superseded':>11}{'rejected':>9}"
               f"{'add up':>7}{'overruns':>9}{'late states':>12}{'largest gap':>12}{'CPU':>5}"
-              f"{'bystander late':>15}{'largest':>8}{'stolen':>7}")  # fmt: skip
+              f"{'bystander late':>15}{'largest':>8}{'stolen':>10}")  # fmt: skip
         for kind in ("quiet", "valid", "malformed"):
             found = phase(observer, sim.pid, kind, args.rate, args.seconds)
             outcomes = found["outcomes"]
@@ -214,7 +214,7 @@ def _run(args, domain: int, env: dict, log) -> int:
                 f"{'yes' if adds_up else 'NO':>7}{found['overruns']:>9}{late:>12}"
                 f"{found['largest_gap_ms']:>9.1f} ms{found['cpu']:>5.0%}"
                 f"{found['bystander_late']:>15}{found['bystander_largest_ms']:>5.1f} ms"
-                f"{found['stolen_ms']:>4.0f} ms"
+                f"{found['stolen_ms']:>7.0f} ms"
             )
     finally:
         executor.shutdown()
