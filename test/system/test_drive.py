@@ -228,11 +228,12 @@ def test_commands_from_publishers_that_send_at_once_all_arrive(processes, operat
     assert all(a.topic == "/sail/boom_length_cmd" for a in answers.received)
 
 
-def test_a_burst_beyond_the_command_queue_is_answered_and_counted(processes, operator):
+def test_a_burst_beyond_the_command_queue_waits_and_is_answered_and_counted(processes, operator):
     """30 commands at once into a queue of 2 while the simulator integrates as fast as
-    it can (its thread busy in 50 ms ticks): each command gets exactly one answer,
-    accepted, superseded by a newer one of its batch, or rejected because the queue was
-    full (saying so), and /diagnostics counts exactly those."""
+    it can (its thread busy in 20 ms ticks): the burst waits for ticks to take the full
+    queue instead of being rejected, each command gets exactly one answer, accepted or
+    superseded by a newer one of its batch, and /diagnostics counts exactly those; what
+    still finds the queue full after the wait is rejected (test_sim_node)."""
     answers = Answers(operator)
     processes("sim", parameters={"time_scale": 0.0, "max_queued_commands": 2})
     operator.wait_for_simulator()
@@ -247,11 +248,9 @@ def test_a_burst_beyond_the_command_queue_is_answered_and_counted(processes, ope
     operator.spin_for(0.5)
     assert sorted(a.sequence for a in answers.received) == list(range(1, 31))
     outcomes = collections.Counter(a.outcome for a in answers.received)
-    dropped = [a for a in answers.received if a.outcome == "rejected"]
-    assert dropped and all(a.message.startswith("2 commands were already waiting") for a in dropped)
-    assert set(outcomes) <= {"accepted", "superseded", "rejected"} and outcomes["accepted"] >= 1
+    assert set(outcomes) <= {"accepted", "superseded"} and outcomes["accepted"] >= 1, outcomes
     status = operator.wait_for_status(lambda s: True, 5.0, "a status")
-    assert int(status[key.DROPPED]) == int(status[key.REJECTED]) == len(dropped)
+    assert int(status[key.DROPPED]) == int(status[key.REJECTED]) == 0
     assert int(status[key.ACCEPTED]) == outcomes["accepted"]
     assert int(status[key.SUPERSEDED]) == outcomes["superseded"]
 
