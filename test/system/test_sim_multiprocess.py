@@ -365,8 +365,12 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
         diagnostics_msg.diagnostic_values(deserialize_message(m.data, DiagnosticArray))
         for m in BagReader(output).messages([topics.DIAGNOSTICS])
     ]
-    windows = {float(status[key.REAL_TIME_FACTOR_WINDOW]) for status in statuses}
-    assert len(windows) > 5 and min(windows - {0.0}) >= RTF_MIN_WINDOW_S
+    # every measurement over a window of at least the minimum (0.0: none yet). A status
+    # repeats the last measurement: a new one is where the window changes (counted so,
+    # not as distinct values: steady ticks give two measurements the same window)
+    windows = [float(status[key.REAL_TIME_FACTOR_WINDOW]) for status in statuses]
+    measured = [b for a, b in zip([0.0, *windows], windows, strict=False) if b > 0.0 and b != a]
+    assert len(measured) >= 5 and min(measured) >= RTF_MIN_WINDOW_S, windows
     # the count the README quotes of the main job (scripts/main.sh runs this demo)
     stored = re.search(r"simulator parameters stored: \d+ \(", result.stdout)
     assert stored and stored.group(0) in (ROOT / "README.md").read_text(), stored
