@@ -289,12 +289,8 @@ class _Extension:
         if count:
             # from the first half's start, back from the second half's end (`free`)
             seconds = (local - part) * (self.h / parts)
-            phase = seconds[:, None] * self.omega_d[part]
-            turns = features[:, orders:]
-            np.cos(phase, out=turns[:, :count])
-            np.sin(phase, out=turns[:, count:])
-            if self.decay is not None:
-                turns *= np.tile(np.exp(-0.5 * seconds[:, None] * self.decay[part]), 2)
+            decay = None if self.decay is None else self.decay[part]
+            features[:, orders:] = oscillation(seconds, self.omega_d[part], decay)
         X = self._coefficients(rows)
         if parts == 1:
             out = features @ X[0]
