@@ -63,10 +63,9 @@ SWITCH_INTERVAL_S = 0.0005  # the interpreter's switch interval in the simulator
 # interpreter that a tick would wait for. After a wake-up everything waiting is taken.
 INTAKE_PAUSE_S = 0.005
 # A burst that fills the queue waits this long at most for a tick to take it (the ticks
-# are at most MAX_TICK_PERIOD_S apart, and one is called at once), looking every
-# QUEUE_POLL_S; what still finds the queue full is rejected.
+# are at most MAX_TICK_PERIOD_S apart, and one is called at once); what still finds the
+# queue full is rejected.
 QUEUE_WAIT_S = 0.1
-QUEUE_POLL_S = 0.0005
 SPECS = [ParamSpec.of(name, field) for name, field in PARAMETERS.items()]
 
 
@@ -271,11 +270,9 @@ class SimNode(Node):
             # at most QUEUE_WAIT_S, rather than being rejected; then what still finds it
             # full is rejected and counted.
             self._ticker.poke()
-            deadline = time.monotonic() + QUEUE_WAIT_S
-            while self.run.queue.full() and time.monotonic() < deadline:
-                time.sleep(QUEUE_POLL_S)
+            room = self.run.queue.wait_for_room(QUEUE_WAIT_S)
             with self.run.lock:
-                woken, rest = self._submit_while_room(rest, force=time.monotonic() >= deadline)
+                woken, rest = self._submit_while_room(rest, force=not room)
             wake = wake or woken
         if wake:
             self._ticker.poke()  # paused: no tick would come before the next status

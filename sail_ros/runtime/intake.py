@@ -91,6 +91,7 @@ class CommandQueue:
         self.overflowed = 0
         self._items: collections.deque = collections.deque()
         self._lock = threading.Lock()
+        self._taken = threading.Condition(self._lock)  # notified when `take` empties it
 
     def offer(self, item) -> bool:
         """Queue `item`; False (and one more `overflowed`) if the queue is full."""
@@ -106,11 +107,17 @@ class CommandQueue:
         with self._lock:
             return len(self._items) >= self.capacity
 
+    def wait_for_room(self, timeout: float) -> bool:
+        """Wait at most `timeout` [s] until one more would be accepted; whether it would."""
+        with self._taken:
+            return self._taken.wait_for(lambda: len(self._items) < self.capacity, timeout)
+
     def take(self) -> list:
         """Everything waiting, oldest first; the queue is empty afterwards."""
         with self._lock:
             items = list(self._items)
             self._items.clear()
+            self._taken.notify_all()
             return items
 
 
