@@ -33,7 +33,7 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> dict:
     from sail_ros.model import CycloidalProfile, SailModel, SailParameters
     from sail_ros.model import stepper as stepper_module
     from sail_ros.model.blocks import DenseMatrices
-    from sail_ros.model.stepper import _PADE_POLES, _STEP_MATRICES
+    from sail_ros.model.rational import PADE_POLES, STEP_MATRICES
 
     profile = CycloidalProfile(10.0, 15.0, 15.0)
     models = {
@@ -68,15 +68,15 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> dict:
         return best
 
     motion = tuple(np.broadcast_to(np.asarray(v, float), (4,)) for v in profile(3.3))
-    taus = 0.05 / _PADE_POLES
+    taus = 0.05 / PADE_POLES
     parts = {}
     for hub, model in models.items():
         blocks = model.n >= stepper_module.BLOCK_SOLVE_MIN_COORDINATES
 
         def assemble(model=model, blocks=blocks):
             if blocks:
-                return model.assemble_blocks(_STEP_MATRICES, *motion)
-            return DenseMatrices(model.assemble(_STEP_MATRICES, *motion))
+                return model.assemble_blocks(STEP_MATRICES, *motion)
+            return DenseMatrices(model.assemble(STEP_MATRICES, *motion))
 
         matrices = assemble()
         rhs = np.ones((taus.size, model.n), dtype=complex)

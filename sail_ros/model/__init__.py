@@ -12,7 +12,9 @@ A one-way chain, each module importing only those above it:
 - `parameters`, `sail_model`: `SailParameters` and `SailModel`;
 - `stepper`, `sampling`, `integrate`: time integration against a narrow
   `LinearSystem` (the matrices at a boom motion), which `SailModel` is; the
-  state sampled on a grid between long moving steps; batch runs;
+  state sampled on a grid between long moving steps; batch runs; the steps
+  themselves: `rational` (moving), `exact_step` (at rest), `fast_modes` (the
+  followed high modes), `blocks` (a large system's solves);
 - `profiles`: boom motion (`Profile`, the profiles, `BoomMotion`);
 - `record`: the state sample, `peaks`: true peaks inside the steps;
 - `shape`: the deflected sail sampled on a mesh.

@@ -14,21 +14,10 @@ forces `Q = B_u u` of the inputs (model.md §12) add `- C_d qd + Q` to `pd`:
 (second-order Magnus; `phi_1(z) = (e^z - 1) / z`; inputs held over the step):
 
 * While the booms move, `exp` is replaced by its (4, 4) diagonal Padé
-  approximant, split into partial fractions; each conjugate pole pair costs
-  one complex `n x n` solve with the matrix
-  `M + tau (G - G^T + C_d) + tau^2 (K - N)`; the same partial fractions give
-  `phi_1` for free (the force only changes the right-hand side). Undamped, `B`
-  is Hamiltonian and the step symplectic; high modes keep unit amplification
-  (stable, energy-neutral) and only lag in phase; damped, none grows (the
-  approximant is A-stable).
-* While the booms stand still, the step is the exact propagator built from
-  the eigenvectors of `(K, M)` and cached, so energy is conserved to
-  round-off and a step is one matrix-vector product. Rayleigh damping is
-  classical (`V^T C_d V` diagonal), so each mode is a damped oscillator with
-  its own exact 2 x 2 propagator; a load held over the step moves the
-  equilibrium to `K^-1 Q`, about which the same propagator acts; a rigid-body
-  mode (`lam = 0` exactly, a free hub) has no equilibrium and takes the load as
-  `eta + h etad + h^2 f / 2`.
+  approximant (`rational`: one complex `n x n` solve per conjugate pole pair;
+  symplectic undamped, A-stable damped; a continuous extension inside the step).
+* While the booms stand still, the step is exact (`exact_step`: each mode's own
+  propagator from the modes of `(K, M)`, cached; energy kept to round-off).
 
 The step is chosen to meet a tolerance on the outputs users read (tips, root
 moments, their rates; `rtol` of each one's peak so far, `atol` floors): a step
@@ -51,34 +40,39 @@ systems solve by eliminating each quadrant's membrane) and that frequency bound.
 from __future__ import annotations
 
 import math
-from math import factorial
 from typing import NamedTuple, Protocol
 
 import numpy as np
 import scipy.linalg
 
 from sail_ros.model.assembly import (
-    CANONICAL_DAMPING,
     DAMPING,
     GYROSCOPIC,
     MASS,
     STIFFNESS,
-    STIFFNESS_CANONICAL,
     STIFFNESS_EQ,
     STRUCTURAL_DAMPING,
 )
 from sail_ros.model.blocks import BlockMatrices, DenseMatrices
+from sail_ros.model.exact_step import Rest, exact_propagator, rest_states, rest_step
 from sail_ros.model.fast_modes import (
     FreeVibration,
     FrozenModes,
     follow,
     followed,
     forcing_of,
-    oscillation,
     slow_part,
 )
 from sail_ros.model.layout import per_boom
 from sail_ros.model.profiles import SWITCH_RESOLUTION
+from sail_ros.model.rational import (
+    PADE_POLES,
+    STEP_MATRICES,
+    Extension,
+    extended_momentum,
+    extension_weights,
+    moving_step,
+)
 
 
 class LinearSystem(Protocol):
@@ -140,207 +134,6 @@ class IntegrationError(RuntimeError):
     """The state became non-finite; `reset` starts again."""
 
 
-def _diagonal_pade_partial_fractions(order: int):
-    """Constant term and (pole, residue) pairs of the (order, order) Padé
-    approximant of exp(z), one pole of each conjugate pair (order even)."""
-    c = [
-        factorial(2 * order - j)
-        * factorial(order)
-        / (factorial(2 * order) * factorial(j) * factorial(order - j))
-        for j in range(order + 1)
-    ]
-    numerator = np.polynomial.Polynomial(c)
-    denominator = np.polynomial.Polynomial([cj * (-1) ** j for j, cj in enumerate(c)])
-    poles = denominator.roots()
-    residues = numerator(poles) / denominator.deriv()(poles)
-    upper = poles.imag > 0
-    return float((-1) ** order), poles[upper], residues[upper]
-
-
-PADE_ORDER = 4
-_PADE_CONSTANT, _PADE_POLES, _PADE_RESIDUES = _diagonal_pade_partial_fractions(PADE_ORDER)
-_PADE_WEIGHTS = -_PADE_RESIDUES / _PADE_POLES  # r_k (hB - z_k)^-1 = -(r_k / z_k) (I - tau_k B)^-1
-_PADE_WEIGHT_SUM = float(_PADE_WEIGHTS.real.sum())
-
-
-def _extension_system() -> np.ndarray:
-    """The LU factors of the linear map from `(c, Re w_k, Im w_k)` to the Taylor
-    coefficients of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]` up to order 4: the
-    coefficient of `z^m` is `c [m = 0] + 2 Re sum_k w_k z_k^-m`."""
-    rows = []
-    for m in range(2 * _PADE_POLES.size + 1):
-        g = 2.0 * _PADE_POLES ** (-m)  # Re(w g) = Re w Re g - Im w Im g
-        rows.append([float(m == 0), *np.column_stack([g.real, -g.imag]).ravel()])
-    return scipy.linalg.lu_factor(np.array(rows))
-
-
-_EXTENSION_FACTORS = _extension_system()
-# LAPACK's solve with those factors, without scipy's checks (what `lu_solve` calls)
-_getrs = scipy.linalg.lapack.get_lapack_funcs("getrs", dtype=float)
-_EXTENSION_ORDERS = np.arange(2 * _PADE_POLES.size + 1)
-_EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
-
-
-def _weights(fractions, slope: bool = False) -> np.ndarray:
-    """(5, m): `(c, Re w_1, Im w_1, Re w_2, Im w_2)` of `_extension_weights` at each of
-    `fractions` (m,), one column each; with `slope`, those of `dR_f / df`."""
-    f = np.atleast_1d(np.asarray(fractions, dtype=float))
-    m = _EXTENSION_ORDERS[:, None]
-    if slope:
-        rhs = m * f[None, :] ** np.maximum(m - 1, 0) / _EXTENSION_FACTORIALS[:, None]
-    else:
-        rhs = f[None, :] ** m / _EXTENSION_FACTORIALS[:, None]
-    x, _ = _getrs(*_EXTENSION_FACTORS, rhs)
-    return x
-
-
-def _extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """`(c, w)` ((m,) and (m, 2)) of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the
-    continuous extension of the step's Padé approximant to the fractions `f` of the step:
-    same poles `z_k`, Taylor series equal to `exp(f z)` to order 4 (error ~(omega h)^5
-    for a mode), `R_1` the approximant itself. On the imaginary axis `|R_f| <= 1` for
-    the fractions j / k, k <= 5 (an undamped mode is not amplified), at most 1.026 for
-    k <= 20 (near f = 0 or 1, at omega h ~ 5.5); the extension only samples, nothing
-    integrated grows. With `slope`, the weights of `dR_f / df` (the same conditions on
-    the derivative of the Taylor series, `m f^(m-1) / m!`)."""
-    x = _weights(fractions, slope)
-    return x[0], (x[1::2] + 1j * x[2::2]).T
-
-
-class _Extension:
-    """The last moving step's continuous extension (`between`): its rational steps (the
-    `parts` of the step, each with its own fraction `f`) as `Trial.extensions` keeps
-    them, and their followed modes (`fast_modes`: the first half's free vibration at the
-    step's start, the second's at its end, `vibration`), whose part the extension's
-    samples leave (`kept`) and take turned instead (`free`; `curve` for the peaks)."""
-
-    def __init__(self, trial: Trial, h: float):
-        self.extensions = trial.extensions
-        self.parts = len(trial.extensions)
-        self.h = h
-        self.vibration = trial.vibration
-        if self.vibration:
-            count = self.vibration[0].count
-            self.V = np.array([near.modes.V[:, -count:] for near in self.vibration])
-            self.MV = np.array([near.modes.MV[:, -count:] for near in self.vibration])
-            self.omega_d = np.array([near.modes.omega_d[-count:] for near in self.vibration])
-            decay = np.array([near.modes.d[-count:] for near in self.vibration])
-            self.decay = decay if decay.any() else None
-            self.static = np.array([near.s for near in self.vibration])
-            turning = [near.turning() for near in self.vibration]
-            self.on_e, self.on_v = (np.array(terms) for terms in zip(*turning, strict=True))
-        self._coordinates = None
-        self._coefficients_of = ((), None)  # (rows, `_coefficients`): none yet
-
-    def coordinates(self) -> np.ndarray:
-        """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
-        fraction combine into the coordinates (the rational step's start, `2 Re y_q,k`,
-        `-2 Im y_q,k`), less the followed modes' part."""
-        if self._coordinates is None:
-            start = np.array([extension[0] for extension in self.extensions])
-            y_q = np.array([extension[1] for extension in self.extensions])
-            rows = np.empty((self.parts, _EXTENSION_ORDERS.size, start.shape[1]))
-            rows[:, 0], rows[:, 1::2], rows[:, 2::2] = start, 2.0 * y_q.real, -2.0 * y_q.imag
-            self._coordinates = self.kept(rows)
-        return self._coordinates
-
-    def kept(self, x: np.ndarray, part: int | None = None) -> np.ndarray:
-        """`x` (parts, m, n): each part's rows of coordinates or velocities less their part
-        in its followed modes; with `part`, `x` (m, n) of that part alone."""
-        if not self.vibration:
-            return x
-        V, MV = (self.V, self.MV) if part is None else (self.V[part], self.MV[part])
-        return x - (x @ MV) @ np.swapaxes(V, -1, -2)
-
-    def free(self, part: int, local, velocities: bool = True):
-        """The followed modes' coordinates and velocities (each (m, n)) at fractions
-        `local` (m,) of the rational step `part`: its free vibration turned on by `(local
-        - part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`); without
-        `velocities`, the coordinates alone."""
-        seconds = (local - part) * (self.h / self.parts)
-        decay = None if self.decay is None else self.decay[part]
-        turns = oscillation(seconds, self.omega_d[part], decay)
-        count = self.V.shape[2]
-        shapes = self.V[part].T
-        e = turns * self.on_e[part]
-        e = e[:, :count] + e[:, count:] + self.static[part]
-        if not velocities:
-            return e @ shapes
-        v = turns * self.on_v[part]
-        return e @ shapes, (v[:, :count] + v[:, count:]) @ shapes
-
-    def curve(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
-        """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
-        `dq/dt` themselves) at `fractions` (m,) of the step (`between`, rates "slope"):
-        each sample's features in its own rational step (the powers `x^j` of its fraction
-        `x` of that step, the followed modes' turns) times that step's coefficients
-        (`_coefficients`), one product per rational step. The same curve as `between`'s
-        positions, summed otherwise (round-off apart)."""
-        fractions = np.asarray(fractions, dtype=float)
-        parts, m = self.parts, fractions.size
-        part = np.minimum((fractions * parts).astype(int), parts - 1)
-        local = fractions * parts - part
-        orders = _EXTENSION_ORDERS.size
-        count = self.V.shape[2] if self.vibration else 0
-        features = np.empty((m, orders + 2 * count))
-        features[:, 0] = 1.0
-        for j in range(1, orders):
-            np.multiply(features[:, j - 1], local, out=features[:, j])
-        if count:
-            # from the first half's start, back from the second half's end (`free`)
-            seconds = (local - part) * (self.h / parts)
-            decay = None if self.decay is None else self.decay[part]
-            features[:, orders:] = oscillation(seconds, self.omega_d[part], decay)
-        X = self._coefficients(rows)
-        if parts == 1:
-            out = features @ X[0]
-        else:
-            out = np.empty((m, X.shape[2]))
-            for k in range(parts):
-                inside = part == k
-                out[inside] = features[inside] @ X[k]
-        r = out.shape[1] // 2
-        return out[:, :r], out[:, r:]
-
-    def _coefficients(self, rows) -> np.ndarray:
-        """(parts, 5 + 2 count, 2 r): what each rational step's features (`curve`) give
-        the outputs `rows` (r, n; None: the coordinates) and their slopes: the
-        extension's kept coordinates (`coordinates`) through the weights' power series
-        (`_POWER_WEIGHTS`; `_POWER_SLOPES`, per second), the static part on `x^0`, the
-        followed modes' shapes weighted by `on_e` (`on_v`) on their turns (`free`); kept
-        for the last rows asked."""
-        if self._coefficients_of[0] is rows:
-            return self._coefficients_of[1]
-        coordinates = self.coordinates() if rows is None else self.coordinates() @ rows.T
-        parts, orders, r = coordinates.shape
-        count = self.V.shape[2] if self.vibration else 0
-        X = np.empty((parts, orders + 2 * count, 2 * r))
-        X[:, :orders, :r] = _POWER_WEIGHTS @ coordinates
-        X[:, :orders, r:] = _POWER_SLOPES @ coordinates * (parts / self.h)
-        if count:
-            shapes = np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2)  # (parts, c, r)
-            doubled = np.concatenate([shapes, shapes], axis=1)  # cosine, then sine rows
-            X[:, orders:, :r] = self.on_e[:, :, None] * doubled
-            X[:, orders:, r:] = self.on_v[:, :, None] * doubled
-            X[:, 0, :r] += (self.static[:, None, :] @ shapes)[:, 0]
-        self._coefficients_of = (rows, X)
-        return X
-
-
-def _power_series() -> tuple[np.ndarray, np.ndarray]:
-    """`(P, D)` (5, 5): the weights `(c, Re w_1, Im w_1, ...)` of `_weights` at `x` are
-    `P^T [1, x, ..., x^4]` (they solve a linear system whose right-hand side is `x^m /
-    m!`), so `rows . weights = [1, x, ..., x^4] . (P rows)`; `D` gives the slopes': the
-    derivative of `x^m` is `m x^(m-1)`."""
-    inverse, _ = _getrs(*_EXTENSION_FACTORS, np.diag(1.0 / _EXTENSION_FACTORIALS))
-    P = inverse.T
-    shift = np.diag(_EXTENSION_ORDERS[1:].astype(float), -1)  # d x^m / dx = m x^(m-1)
-    return P, shift.T @ P
-
-
-_POWER_WEIGHTS, _POWER_SLOPES = _power_series()
-
-
 # A stretch of time whose motion starts or ends within this fraction of it from its ends
 # counts as at rest (the booms move for a microsecond at zero rate): whether a motion that
 # starts at a step's end makes that step exact then does not hang on round-off in the
@@ -348,8 +141,6 @@ _POWER_WEIGHTS, _POWER_SLOPES = _power_series()
 STATIC_MARGIN = 1e-4
 # times whose boom motion the stepper keeps (`_motion`)
 MOTION_CACHE = 32
-# matrices one moving step needs, in this order
-_STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
 # rad: omega_r * h of one rational step. The (4,4) Padé lags a mode by ~4e-8 (omega h)^9
 # rad per step: 2e-5 at 2 rad. A bound beneath the tolerance's choice (the modes above
 # are followed, `fast_modes`); `sail_ros.nodes.sim_params` sizes sub-steps with it.
@@ -391,22 +182,6 @@ def _rayleigh(system) -> tuple[float, float]:
     return float(alpha), float(beta)
 
 
-class Rest(NamedTuple):
-    """A step at rest, as `states_at` and `interpolant` need it: the start's `q0`, `p0`,
-    the step `h` [s], the modes (`V`, `lam`, modal damping `d`, `V^T M`), the elastic
-    modes' equilibrium `shift` under the load and the rigid modes' modal force."""
-
-    q0: np.ndarray
-    p0: np.ndarray
-    h: float
-    V: np.ndarray
-    lam: np.ndarray
-    d: np.ndarray
-    VtM: np.ndarray
-    shift: np.ndarray
-    rigid_force: np.ndarray
-
-
 class Trial(NamedTuple):
     """One attempted moving step: the state at its end, its error against the tolerance
     (<= 1 meets it), the estimated error per output (`OUTPUT_KINDS`, their units), and
@@ -420,7 +195,7 @@ class Trial(NamedTuple):
     estimate: np.ndarray
     extensions: tuple
     vibration: tuple  # (FreeVibration at the start, at the end) or ()
-    middle: object = None  # the whole step's matrices (`_STEP_MATRICES`), at its middle
+    middle: object = None  # the whole step's matrices (`STEP_MATRICES`), at its middle
     outputs: np.ndarray | None = None  # the end's largest outputs (`_outputs`)
 
 
@@ -528,7 +303,7 @@ class SailStepper:
         self._qd_cache = (self._t, qd.copy())
         self._last = None  # (t0, q0, qd0, Trial or Rest) of the last step, for `states_at`
         self._half_velocity = (None, None)  # (Trial, velocity at its middle), for `between`
-        self._extension_of = (None, None)  # (Trial, its `_Extension`), for `between`
+        self._extension_of = (None, None)  # (Trial, its `Extension`), for `between`
         self._proposal = math.inf  # the error control's next step [s]
         self._estimate = np.zeros(len(OUTPUT_KINDS))
         self._peaks = np.zeros(len(OUTPUT_KINDS))
@@ -552,7 +327,7 @@ class SailStepper:
         return self._qd_cache[1].copy()
 
     def _velocity(self, t, q, p, middle=None) -> np.ndarray:
-        """`M^-1 (p - G q)` at `t`; `middle`: a step's matrices (`_STEP_MATRICES`) at `t`,
+        """`M^-1 (p - G q)` at `t`; `middle`: a step's matrices (`STEP_MATRICES`) at `t`,
         if at hand."""
         lengths, rates, accelerations = self._motion(t)
         # M is assembled from finite lengths and the state is checked after every
@@ -901,7 +676,7 @@ class SailStepper:
             )
         fractions = (inside - t0) / (self._t - t0)
         if isinstance(trial, Rest):  # at rest: each mode's exact propagator from the start
-            q[~end], qd[~end] = self._rest_states(trial, fractions)
+            q[~end], qd[~end] = rest_states(trial, fractions)
             if rates is None:
                 qd[~end] = math.nan
         else:
@@ -925,7 +700,7 @@ class SailStepper:
         (m values in (0, 1)) of it, given the velocities `qd0`, `qd1` [m/s] at its ends.
 
         Each rational step's own resolvent solutions, recombined with the weights of
-        the continuous extension `R_f` (`_extension_weights`): `q(f) = c q0 + sum_k 2
+        the continuous extension `R_f` (`extension_weights`): `q(f) = c q0 + sum_k 2
         Re[w_k y_q,k]`, and, with the midpoint matrices, `M^-1 (p - G q)(f) = c qd*_0 +
         sum_k 2 Re[w_k u_k]`. `qd*_0` (the start's velocity under the midpoint matrices)
         is taken as the velocity at the rational step's start, and a term linear in `f`
@@ -945,11 +720,11 @@ class SailStepper:
         samples needs (`interpolant`); None, none (`qd` nan: the positions alone)."""
         return self._extended(fractions, qd0, qd1, rates)
 
-    def _extension(self) -> _Extension:
+    def _extension(self) -> Extension:
         """The last step's continuous extension, kept for that step."""
         t0, _, _, trial = self._last
         if self._extension_of[0] is not trial:
-            self._extension_of = (trial, _Extension(trial, self._t - t0))
+            self._extension_of = (trial, Extension(trial.extensions, trial.vibration, self._t - t0))
         return self._extension_of[1]
 
     def _extended(self, fractions, qd0, qd1, rates):
@@ -981,7 +756,7 @@ class SailStepper:
                 continue
             local = fractions[inside] * parts - k
             q_start, y_q, u, v, p_start, mats = ext.extensions[k]
-            c, w = _extension_weights(local)
+            c, w = extension_weights(local)
             q_part = np.outer(c, q_start) + 2.0 * (w @ y_q).real
             if rates is None:  # positions only
                 q[inside] = q_part
@@ -991,7 +766,7 @@ class SailStepper:
             velocity = 2.0 * (w @ u).real  # sum_k 2 Re[w_k u_k]
             if rates == "exact":
                 times = t0 + (k + local) * h / parts
-                p = _extended_momentum(mats, c, velocity, q_part, q_start, p_start)
+                p = extended_momentum(mats, c, velocity, q_part, q_start, p_start)
                 qd_part = self._velocities(times, q_part, p)
             else:
                 start_qd, end_qd = ends[k]
@@ -1074,94 +849,37 @@ class SailStepper:
 
     def _rational_step(self, t0, q0, p0, h, mats=None):
         """One exponential-midpoint step of `h` [s] from `(q0, p0)` at `t0` with the
-        rational approximant (`_moving_step`): `(q1, p1, extension)`; `mats`: the
+        rational approximant (`rational.moving_step`): `(q1, p1, extension)`; `mats`: the
         matrices at its middle if already assembled (`_step_matrices`)."""
         t_mid = t0 + 0.5 * h
         lengths = self._motion(t_mid)[0]
         force = self._force(t_mid, lengths)
         if mats is None:
             (mats,) = self._step_matrices((t_mid,))
-        return self._moving_step(q0, p0, mats, h, force)
+        return moving_step(q0, p0, mats, h, force)
 
     def _step_matrices(self, times) -> list:
-        """The matrices one moving step needs (`_STEP_MATRICES`) at each of `times` [s]:
+        """The matrices one moving step needs (`STEP_MATRICES`) at each of `times` [s]:
         dense ones assembled in one pass (numpy's cost per call is most of it), or as
         blocks (`BLOCK_SOLVE_MIN_COORDINATES`)."""
         motions = [self._motion(t) for t in times]
         if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
-            return [self.system.assemble_blocks(_STEP_MATRICES, *motion) for motion in motions]
+            return [self.system.assemble_blocks(STEP_MATRICES, *motion) for motion in motions]
         stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
-        return [DenseMatrices(m) for m in self.system.assemble(_STEP_MATRICES, *stacked)]
-
-    def _moving_step(self, q0, p0, mats, h, force):
-        """x1 = R(h B) x0 + h phi_R(h B) f with R the (4,4) Padé approximant of exp and
-        phi_R(z) = (R(z) - 1) / z, by partial fractions:
-        R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x],
-        h phi_R(hB) f = sum_k 2 Re[(h r_k / z_k) (hB - z_k)^-1 f], and
-        (hB - z)^-1 x = -(1/z) (I - tau B)^-1 x with tau = h / z; so
-        x1 = c0 x0 + sum_k 2 Re[w_k (I - tau_k B)^-1 (x0 + tau_k f)], w_k = -r_k / z_k.
-
-        (I - tau B) y = x  <=>  [M + tau (G - G^T + C_d) + tau^2 (K - N)] u
-        = x_p - (G + tau (K - N)) x_q, y_q = x_q + tau u, y_p = M u + G y_q; the real
-        matrices act on the sums over k: q1 = c0 q0 + 2 s, p1 = c0 p0 + 2 (M v + G s),
-        v = Re sum_k w_k u_k, s = Re sum_k w_k y_q,k."""
-        taus = h / _PADE_POLES
-        _, _, Kq, Gq = mats.matvec(q0)
-        if force is not None:  # x_p = p0 + tau f
-            Kq = Kq - force
-        u = mats.solve_shifted(taus, (p0 - Gq) - taus[:, None] * Kq)
-        weighted = _PADE_WEIGHTS[:, None] * u
-        v = weighted.sum(axis=0).real
-        s = _PADE_WEIGHT_SUM * q0 + (taus[:, None] * weighted).sum(axis=0).real
-        # y_q,k, u_k and the matrices at the middle: for `between`
-        extension = (q0, q0 + taus[:, None] * u, u, v, p0, mats)
-        p1 = _PADE_CONSTANT * p0 + 2.0 * _products(mats, v, s)
-        return _PADE_CONSTANT * q0 + 2.0 * s, p1, extension
+        return [DenseMatrices(m) for m in self.system.assemble(STEP_MATRICES, *stacked)]
 
     def _static_step(self, lengths, h, force):
         """The exact step of `h` [s] at rest under the held generalised force `force`
-        (None: none): `(q, p, Rest)`."""
+        (None: none): `(q, p, Rest)` (`exact_step`), its propagator kept per lengths and
+        `h` (a simulator at rest repeats them)."""
         key = (lengths.tobytes(), h)
-        cached = self._static_cache.get(key)
-        if cached is None:
+        propagator = self._static_cache.get(key)
+        if propagator is None:
             if len(self._static_cache) >= 16:
                 self._static_cache.clear()
-            cached = self._exact_propagator(lengths, h)
-            self._static_cache[key] = cached
-        propagator, V, lam, d, VtM = cached
-        n = self.system.n
-        x = np.concatenate([self._q, self._p])
-        shift = np.zeros(n)  # the elastic modes' equilibrium under the load
-        rigid_force = np.zeros(lam.size)  # modal force on the rigid-body modes (lam = 0)
-        if force is None:
-            x = propagator @ x
-        else:  # elastic modes about their equilibrium q_s = K^-1 Q (p_s = 0: nothing moves
-            # there); rigid ones (model.md §13.10) accelerate uniformly: eta += h^2 f / 2,
-            # etad += h f
-            rigid = lam == 0.0
-            modal = V.T @ force
-            elastic = ~rigid
-            shift = V[:, elastic] @ (modal[elastic] / lam[elastic])
-            rigid_force[rigid] = modal[rigid]
-            x[:n] -= shift
-            x = propagator @ x
-            x[:n] += shift + V @ (0.5 * h * h * rigid_force)
-            x[n:] += VtM.T @ (h * rigid_force)
-        rest = Rest(self._q, self._p, h, V, lam, d, VtM, shift, rigid_force)
-        return x[:n], x[n:], rest
-
-    @staticmethod
-    def _rest_states(rest: Rest, fractions) -> tuple[np.ndarray, np.ndarray]:
-        """`(q, qd)` (each (m, n)) at `fractions` (m,) of a step at rest, each mode by its
-        own exact propagator over `f h` about the equilibrium of its load (at rest `G = 0`
-        and `qd = M^-1 p = V etad`)."""
-        tau = np.asarray(fractions, dtype=float)[:, None] * rest.h
-        c, s, sd, cd = _modal_propagator(rest.lam, rest.d, tau)
-        eta0 = rest.VtM @ (rest.q0 - rest.shift)  # q = shift + V eta, p = VtM^T etad
-        etad0 = rest.V.T @ rest.p0
-        eta = c * eta0 + s * etad0 + 0.5 * tau**2 * rest.rigid_force
-        etad = sd * eta0 + cd * etad0 + tau * rest.rigid_force
-        return rest.shift + eta @ rest.V.T, etad @ rest.V.T
+            propagator = exact_propagator(self.system, lengths, h)
+            self._static_cache[key] = propagator
+        return rest_step(propagator, self._q, self._p, h, force)
 
     def interpolant_frequency(self) -> float:
         """The highest angular frequency [rad/s] in the last step's curve (`interpolant`):
@@ -1173,7 +891,7 @@ class SailStepper:
         if isinstance(trial, Rest):
             return float(np.sqrt(max(float(trial.lam[-1]), 0.0)))
         h = self._t - t0
-        frequency = 2.0 * math.pi * _PADE_POLES.size * len(trial.extensions) / h
+        frequency = 2.0 * math.pi * PADE_POLES.size * len(trial.extensions) / h
         for vibration in trial.vibration:
             frequency = max(frequency, float(vibration.modes.omega[-1]))
         return frequency
@@ -1187,32 +905,9 @@ class SailStepper:
         rows = np.asarray(rows, dtype=float)
         t0, _, qd0, trial = self._last
         if isinstance(trial, Rest):
-            q, qd = self._rest_states(trial, fractions)
+            q, qd = rest_states(trial, fractions)
             return q @ rows.T, qd @ rows.T
         return self._extension().curve(fractions, rows)
-
-    def _exact_propagator(self, lengths, h):
-        """exp(h B) for fixed lengths (G = N = 0) from the modes of (K, M): the
-        propagator, the mode matrix `V`, eigenvalues `lam` (omega^2; 0 for a free hub's
-        rigid-body modes), modal damping `d` and `V^T M`.
-
-        With V^T M V = I and K V = M V diag(lam): eta = V^T M q, etad = V^T p, and each
-        mode moves by its own 2 x 2 propagator (`_modal_propagator`); Rayleigh damping
-        is classical (`V^T C_d V = diag(d)`).
-        """
-        zero = np.zeros(4)
-        M, K, C_d = self.system.assemble((MASS, STIFFNESS, STRUCTURAL_DAMPING), lengths, zero, zero)
-        lam, V = self.system.modes_of(M, K)
-        d = np.einsum("ij,ik,kj->j", V, C_d, V)  # diag(V^T C_d V): classical damping
-        c, s, sd, cd = _modal_propagator(lam, d, h)
-        VtM = V.T @ M  # eta = VtM q; q = V eta; p = VtM^T etad
-        n = self.system.n
-        P = np.empty((2 * n, 2 * n))
-        P[:n, :n] = (V * c) @ VtM
-        P[:n, n:] = (V * s) @ V.T
-        P[n:, :n] = (VtM.T * sd) @ VtM
-        P[n:, n:] = (VtM.T * cd) @ V.T
-        return P, V, lam, d, VtM
 
 
 def _largest(rows, q, qd) -> np.ndarray:
@@ -1220,65 +915,3 @@ def _largest(rows, q, qd) -> np.ndarray:
     (`rows`: tips then root moments, 4 each)."""
     y = np.abs(rows @ np.array([q, qd]).T)  # (8, 2): q, qd
     return y.reshape(2, 4, 2).max(axis=1).ravel()  # tips (q, qd), moments (q, qd)
-
-
-def _products(mats, v: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """`M v + G s` with a step's matrices `mats` (`_STEP_MATRICES`)."""
-    if isinstance(mats, DenseMatrices):
-        M, _, _, G = mats.matrices
-        return M @ v + G @ s
-    zero = np.zeros_like(v)
-    Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))
-    return Mv + Gs
-
-
-def _extended_momentum(mats, c, velocity, q, q_start, p_start) -> np.ndarray:
-    """The canonical momenta (m, n) of a rational step's continuous extension: `p(f) =
-    c p0 + sum_k 2 Re[w_k y_p,k]` with `y_p,k = M u_k + G y_q,k` under the step's own
-    middle matrices `mats` (`_STEP_MATRICES`), so `c p0 + M sum 2 Re[w_k u_k] + G (q(f)
-    - c q0)`."""
-    p = np.outer(c, p_start)
-    shift = q - np.outer(c, q_start)
-    if isinstance(mats, DenseMatrices):
-        M, _, _, G = mats.matrices
-        return p + velocity @ M.T + shift @ G.T
-    for i, (v, s) in enumerate(zip(velocity, shift, strict=True)):
-        p[i] += _products(mats, v, s)
-    return p
-
-
-def _modal_propagator(lam, d, tau):
-    """`exp(tau [[0, 1], [-lam, -d]])` of every mode as its four entries `(c, s, sd, cd)`:
-    `eta(tau) = c eta + s etad`, `etad(tau) = sd eta + cd etad`, for modal stiffness `lam`
-    (omega^2; < 0 for a buckled mode) and damping `d` (n,), at times `tau` [s] (a scalar
-    or an array broadcasting against (n,)).
-
-    Undamped: `c = cos(omega tau)`, `s = sin(omega tau) / omega` (cosh and sinh for
-    lam < 0; `s -> tau` at lam = 0). Damped: from the roots `r = -d/2 +- sqrt(d^2/4 -
-    lam)` of each mode, `exp(tau A) = (r1 e^(r2 tau) - r2 e^(r1 tau)) / (r1 - r2) I +
-    (e^(r1 tau) - e^(r2 tau)) / (r1 - r2) A`, in complex arithmetic; a critically
-    damped mode (equal roots) takes its limit `e^(r tau) ((1 - r tau) I + tau A)`."""
-    lam = np.asarray(lam, dtype=float)
-    d = np.asarray(d, dtype=float)
-    tau = np.asarray(tau, dtype=float)
-    if not np.any(d):
-        root = np.sqrt(np.abs(lam))
-        c = np.where(lam >= 0, np.cos(root * tau), np.cosh(root * tau))
-        s = np.where(
-            lam >= 0,
-            tau * np.sinc(root * tau / np.pi),
-            np.sinh(root * tau) / np.where(root > 0, root, 1.0),
-        )
-        return c, s, -lam * s, c
-    half = np.sqrt((0.25 * d * d - lam).astype(complex))
-    r2 = -0.5 * d - half
-    # r1 r2 = lam: the slow root of an overdamped mode without cancellation
-    r1 = np.where(r2 != 0, lam / np.where(r2 != 0, r2, 1.0), -0.5 * d + half)
-    e1, e2 = np.exp(r1 * tau), np.exp(r2 * tau)
-    gap = r1 - r2
-    equal = np.abs(gap) <= 1e-12 * np.maximum(np.abs(r1), 1.0)
-    safe = np.where(equal, 1.0, gap)
-    # exp(tau A) = a I + b A with A = [[0, 1], [-lam, -d]]
-    a = np.where(equal, e1 * (1.0 - r1 * tau), (r1 * e2 - r2 * e1) / safe)
-    b = np.where(equal, tau * e1, (e1 - e2) / safe)
-    return a.real, b.real, (-lam * b).real, (a - d * b).real

@@ -8,7 +8,7 @@ import pytest
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.model import stepper as stepper_module
 from sail_ros.model.blocks import DenseMatrices
-from sail_ros.model.stepper import _PADE_POLES, _STEP_MATRICES
+from sail_ros.model.rational import PADE_POLES, STEP_MATRICES
 
 pytestmark = pytest.mark.model
 
@@ -40,16 +40,16 @@ def test_blocks_add_up_to_the_assembled_matrices_and_act_like_them(
 ):
     model = _model(n_boom_modes, n_membrane_modes, **hub)
     motion = (LENGTHS, RATES, ACCELERATIONS)
-    full = model.assemble(_STEP_MATRICES, *motion)
-    blocks = model.assemble_blocks(_STEP_MATRICES, *motion)
+    full = model.assemble(STEP_MATRICES, *motion)
+    blocks = model.assemble_blocks(STEP_MATRICES, *motion)
     assert np.array_equal(blocks.dense(), full)
     rng = np.random.default_rng(1)
-    x = rng.standard_normal((len(_STEP_MATRICES), model.n))
+    x = rng.standard_normal((len(STEP_MATRICES), model.n))
     expected = np.einsum("kij,kj->ki", full, x)
     for products in (blocks.matvec(x), DenseMatrices(full).matvec(x)):
         assert np.allclose(products, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
-    taus = 0.07 / _PADE_POLES
+    taus = 0.07 / PADE_POLES
     rhs = rng.standard_normal((taus.size, model.n)) + 1j * rng.standard_normal((taus.size, model.n))
     systems = full[0] + taus[:, None, None] * full[1] + taus[:, None, None] ** 2 * full[2]
     for u in (blocks.solve_shifted(taus, rhs), DenseMatrices(full).solve_shifted(taus, rhs)):
@@ -85,8 +85,8 @@ def test_matrices_at_many_motions_at_once_are_those_at_each(hub):
         RATES + rng.uniform(-0.5, 0.5, (5, 4)),
         ACCELERATIONS + rng.uniform(-0.1, 0.1, (5, 4)),
     )
-    many = model.assemble(_STEP_MATRICES, *motions)
-    assert many.shape == (5, len(_STEP_MATRICES), model.n, model.n)
+    many = model.assemble(STEP_MATRICES, *motions)
+    assert many.shape == (5, len(STEP_MATRICES), model.n, model.n)
     for i in range(5):
-        one = model.assemble(_STEP_MATRICES, *(m[i] for m in motions))
+        one = model.assemble(STEP_MATRICES, *(m[i] for m in motions))
         np.testing.assert_allclose(many[i], one, rtol=1e-13, atol=1e-13 * np.abs(one).max())

@@ -8,21 +8,21 @@ import scipy.linalg
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.assembly import GYROSCOPIC, MASS, STIFFNESS_CANONICAL
 from sail_ros.model.loads import inputs
+from sail_ros.model.rational import PADE_POLES, PADE_WEIGHTS, extension_weights
 from sail_ros.model.sampling import GridSampler
-from sail_ros.model.stepper import _PADE_POLES, _PADE_WEIGHTS, _extension_weights
 
 pytestmark = pytest.mark.model
 
 
 def extension(fraction, z):
-    (c,), (w,) = _extension_weights(fraction)
+    (c,), (w,) = extension_weights(fraction)
     return c + sum(wk / (1 - z / zk) + np.conj(wk) / (1 - z / np.conj(zk))
-                   for wk, zk in zip(w, _PADE_POLES, strict=True))  # fmt: skip
+                   for wk, zk in zip(w, PADE_POLES, strict=True))  # fmt: skip
 
 
 def test_the_extension_is_the_pade_step_at_its_end_and_amplifies_no_mode():
-    (c,), (w,) = _extension_weights(1.0)
-    assert c == pytest.approx(1.0, abs=1e-12) and w == pytest.approx(_PADE_WEIGHTS, rel=1e-12)
+    (c,), (w,) = extension_weights(1.0)
+    assert c == pytest.approx(1.0, abs=1e-12) and w == pytest.approx(PADE_WEIGHTS, rel=1e-12)
     y = np.concatenate([np.linspace(0.0, 50.0, 20001), np.geomspace(50.0, 1e8, 2000)])
     for k in range(2, 6):
         for j in range(1, k):

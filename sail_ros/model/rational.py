@@ -1,0 +1,285 @@
+"""The rational step: the exponential midpoint rule with the (4, 4) Padé approximant of
+`exp`, and its continuous extension (docs/model.md §4, §11).
+
+One step of `h` from `x = [q; p]` is `x1 = R(h B) x0 + h phi_R(h B) f`, `B` and `f`
+at the step's middle. Split into partial fractions, each conjugate pair of `R`'s poles
+costs one complex `n x n` solve with `M + tau (G - G^T + C_d) + tau^2 (K - N)`, and the
+same solves give `phi_R` (the force changes only the right-hand side). Undamped, `B` is
+Hamiltonian and the step symplectic: high modes keep unit amplification and lag only
+in phase; damped, none grows (the approximant is A-stable).
+
+Inside a step, `R_f` (the same poles, Taylor series equal to `exp(f z)` to order 4)
+recombines the step's own solves into the state at a fraction `f` of it, at no further
+solve: `Extension` holds them, with the followed modes (`fast_modes`) put in turned.
+"""
+
+from __future__ import annotations
+
+from math import factorial
+
+import numpy as np
+import scipy.linalg
+
+from sail_ros.model.assembly import CANONICAL_DAMPING, GYROSCOPIC, MASS, STIFFNESS_CANONICAL
+from sail_ros.model.blocks import DenseMatrices
+from sail_ros.model.fast_modes import oscillation
+
+# the matrices one moving step needs, in this order (`moving_step`)
+STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
+
+
+def _diagonal_pade_partial_fractions(order: int):
+    """Constant term and (pole, residue) pairs of the (order, order) Padé
+    approximant of exp(z), one pole of each conjugate pair (order even)."""
+    c = [
+        factorial(2 * order - j)
+        * factorial(order)
+        / (factorial(2 * order) * factorial(j) * factorial(order - j))
+        for j in range(order + 1)
+    ]
+    numerator = np.polynomial.Polynomial(c)
+    denominator = np.polynomial.Polynomial([cj * (-1) ** j for j, cj in enumerate(c)])
+    poles = denominator.roots()
+    residues = numerator(poles) / denominator.deriv()(poles)
+    upper = poles.imag > 0
+    return float((-1) ** order), poles[upper], residues[upper]
+
+
+PADE_ORDER = 4
+_PADE_CONSTANT, PADE_POLES, _PADE_RESIDUES = _diagonal_pade_partial_fractions(PADE_ORDER)
+PADE_WEIGHTS = -_PADE_RESIDUES / PADE_POLES  # r_k (hB - z_k)^-1 = -(r_k / z_k) (I - tau_k B)^-1
+_PADE_WEIGHT_SUM = float(PADE_WEIGHTS.real.sum())
+
+
+def _extension_system() -> np.ndarray:
+    """The LU factors of the linear map from `(c, Re w_k, Im w_k)` to the Taylor
+    coefficients of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]` up to order 4: the
+    coefficient of `z^m` is `c [m = 0] + 2 Re sum_k w_k z_k^-m`."""
+    rows = []
+    for m in range(2 * PADE_POLES.size + 1):
+        g = 2.0 * PADE_POLES ** (-m)  # Re(w g) = Re w Re g - Im w Im g
+        rows.append([float(m == 0), *np.column_stack([g.real, -g.imag]).ravel()])
+    return scipy.linalg.lu_factor(np.array(rows))
+
+
+_EXTENSION_FACTORS = _extension_system()
+# LAPACK's solve with those factors, without scipy's checks (what `lu_solve` calls)
+_getrs = scipy.linalg.lapack.get_lapack_funcs("getrs", dtype=float)
+_EXTENSION_ORDERS = np.arange(2 * PADE_POLES.size + 1)
+_EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
+
+
+def _weights(fractions, slope: bool = False) -> np.ndarray:
+    """(5, m): `(c, Re w_1, Im w_1, Re w_2, Im w_2)` of `extension_weights` at each of
+    `fractions` (m,), one column each; with `slope`, those of `dR_f / df`."""
+    f = np.atleast_1d(np.asarray(fractions, dtype=float))
+    m = _EXTENSION_ORDERS[:, None]
+    if slope:
+        rhs = m * f[None, :] ** np.maximum(m - 1, 0) / _EXTENSION_FACTORIALS[:, None]
+    else:
+        rhs = f[None, :] ** m / _EXTENSION_FACTORIALS[:, None]
+    x, _ = _getrs(*_EXTENSION_FACTORS, rhs)
+    return x
+
+
+def extension_weights(fractions, slope: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """`(c, w)` ((m,) and (m, 2)) of `R_f(z) = c + sum_k 2 Re[w_k / (1 - z / z_k)]`, the
+    continuous extension of the step's Padé approximant to the fractions `f` of the step:
+    same poles `z_k`, Taylor series equal to `exp(f z)` to order 4 (error ~(omega h)^5
+    for a mode), `R_1` the approximant itself. On the imaginary axis `|R_f| <= 1` for
+    the fractions j / k, k <= 5 (an undamped mode is not amplified), at most 1.026 for
+    k <= 20 (near f = 0 or 1, at omega h ~ 5.5); the extension only samples, nothing
+    integrated grows. With `slope`, the weights of `dR_f / df` (the same conditions on
+    the derivative of the Taylor series, `m f^(m-1) / m!`)."""
+    x = _weights(fractions, slope)
+    return x[0], (x[1::2] + 1j * x[2::2]).T
+
+
+class Extension:
+    """A moving step's continuous extension (`SailStepper.between`): its rational steps
+    (the `parts` of the step of `h` [s], each with its own fraction `f`), each as
+    `moving_step` returns its `extension`, and their followed modes (`fast_modes`: the
+    first half's free vibration at the step's start, the second's at its end,
+    `vibration`), whose part the extension's samples leave (`kept`) and take turned
+    instead (`free`; `curve` for the peaks)."""
+
+    def __init__(self, extensions: tuple, vibration: tuple, h: float):
+        self.extensions = extensions
+        self.parts = len(extensions)
+        self.h = h
+        self.vibration = vibration
+        if self.vibration:
+            count = self.vibration[0].count
+            self.V = np.array([near.modes.V[:, -count:] for near in self.vibration])
+            self.MV = np.array([near.modes.MV[:, -count:] for near in self.vibration])
+            self.omega_d = np.array([near.modes.omega_d[-count:] for near in self.vibration])
+            decay = np.array([near.modes.d[-count:] for near in self.vibration])
+            self.decay = decay if decay.any() else None
+            self.static = np.array([near.s for near in self.vibration])
+            turning = [near.turning() for near in self.vibration]
+            self.on_e, self.on_v = (np.array(terms) for terms in zip(*turning, strict=True))
+        self._coordinates = None
+        self._coefficients_of = ((), None)  # (rows, `_coefficients`): none yet
+
+    def coordinates(self) -> np.ndarray:
+        """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
+        fraction combine into the coordinates (the rational step's start, `2 Re y_q,k`,
+        `-2 Im y_q,k`), less the followed modes' part."""
+        if self._coordinates is None:
+            start = np.array([extension[0] for extension in self.extensions])
+            y_q = np.array([extension[1] for extension in self.extensions])
+            rows = np.empty((self.parts, _EXTENSION_ORDERS.size, start.shape[1]))
+            rows[:, 0], rows[:, 1::2], rows[:, 2::2] = start, 2.0 * y_q.real, -2.0 * y_q.imag
+            self._coordinates = self.kept(rows)
+        return self._coordinates
+
+    def kept(self, x: np.ndarray, part: int | None = None) -> np.ndarray:
+        """`x` (parts, m, n): each part's rows of coordinates or velocities less their part
+        in its followed modes; with `part`, `x` (m, n) of that part alone."""
+        if not self.vibration:
+            return x
+        V, MV = (self.V, self.MV) if part is None else (self.V[part], self.MV[part])
+        return x - (x @ MV) @ np.swapaxes(V, -1, -2)
+
+    def free(self, part: int, local, velocities: bool = True):
+        """The followed modes' coordinates and velocities (each (m, n)) at fractions
+        `local` (m,) of the rational step `part`: its free vibration turned on by `(local
+        - part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`); without
+        `velocities`, the coordinates alone."""
+        seconds = (local - part) * (self.h / self.parts)
+        decay = None if self.decay is None else self.decay[part]
+        turns = oscillation(seconds, self.omega_d[part], decay)
+        count = self.V.shape[2]
+        shapes = self.V[part].T
+        e = turns * self.on_e[part]
+        e = e[:, :count] + e[:, count:] + self.static[part]
+        if not velocities:
+            return e @ shapes
+        v = turns * self.on_v[part]
+        return e @ shapes, (v[:, :count] + v[:, count:]) @ shapes
+
+    def curve(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
+        """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
+        `dq/dt` themselves) at `fractions` (m,) of the step (`between`, rates "slope"):
+        each sample's features in its own rational step (the powers `x^j` of its fraction
+        `x` of that step, the followed modes' turns) times that step's coefficients
+        (`_coefficients`), one product per rational step. The same curve as `between`'s
+        positions, summed otherwise (round-off apart)."""
+        fractions = np.asarray(fractions, dtype=float)
+        parts, m = self.parts, fractions.size
+        part = np.minimum((fractions * parts).astype(int), parts - 1)
+        local = fractions * parts - part
+        orders = _EXTENSION_ORDERS.size
+        count = self.V.shape[2] if self.vibration else 0
+        features = np.empty((m, orders + 2 * count))
+        features[:, 0] = 1.0
+        for j in range(1, orders):
+            np.multiply(features[:, j - 1], local, out=features[:, j])
+        if count:
+            # from the first half's start, back from the second half's end (`free`)
+            seconds = (local - part) * (self.h / parts)
+            decay = None if self.decay is None else self.decay[part]
+            features[:, orders:] = oscillation(seconds, self.omega_d[part], decay)
+        X = self._coefficients(rows)
+        if parts == 1:
+            out = features @ X[0]
+        else:
+            out = np.empty((m, X.shape[2]))
+            for k in range(parts):
+                inside = part == k
+                out[inside] = features[inside] @ X[k]
+        r = out.shape[1] // 2
+        return out[:, :r], out[:, r:]
+
+    def _coefficients(self, rows) -> np.ndarray:
+        """(parts, 5 + 2 count, 2 r): what each rational step's features (`curve`) give
+        the outputs `rows` (r, n; None: the coordinates) and their slopes: the
+        extension's kept coordinates (`coordinates`) through the weights' power series
+        (`_POWER_WEIGHTS`; `_POWER_SLOPES`, per second), the static part on `x^0`, the
+        followed modes' shapes weighted by `on_e` (`on_v`) on their turns (`free`); kept
+        for the last rows asked."""
+        if self._coefficients_of[0] is rows:
+            return self._coefficients_of[1]
+        coordinates = self.coordinates() if rows is None else self.coordinates() @ rows.T
+        parts, orders, r = coordinates.shape
+        count = self.V.shape[2] if self.vibration else 0
+        X = np.empty((parts, orders + 2 * count, 2 * r))
+        X[:, :orders, :r] = _POWER_WEIGHTS @ coordinates
+        X[:, :orders, r:] = _POWER_SLOPES @ coordinates * (parts / self.h)
+        if count:
+            shapes = np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2)  # (parts, c, r)
+            doubled = np.concatenate([shapes, shapes], axis=1)  # cosine, then sine rows
+            X[:, orders:, :r] = self.on_e[:, :, None] * doubled
+            X[:, orders:, r:] = self.on_v[:, :, None] * doubled
+            X[:, 0, :r] += (self.static[:, None, :] @ shapes)[:, 0]
+        self._coefficients_of = (rows, X)
+        return X
+
+
+def _power_series() -> tuple[np.ndarray, np.ndarray]:
+    """`(P, D)` (5, 5): the weights `(c, Re w_1, Im w_1, ...)` of `_weights` at `x` are
+    `P^T [1, x, ..., x^4]` (they solve a linear system whose right-hand side is `x^m /
+    m!`), so `rows . weights = [1, x, ..., x^4] . (P rows)`; `D` gives the slopes': the
+    derivative of `x^m` is `m x^(m-1)`."""
+    inverse, _ = _getrs(*_EXTENSION_FACTORS, np.diag(1.0 / _EXTENSION_FACTORIALS))
+    P = inverse.T
+    shift = np.diag(_EXTENSION_ORDERS[1:].astype(float), -1)  # d x^m / dx = m x^(m-1)
+    return P, shift.T @ P
+
+
+_POWER_WEIGHTS, _POWER_SLOPES = _power_series()
+
+
+def moving_step(q0, p0, mats, h, force):
+    """One step of `h` [s] from `(q0, p0)` with the matrices `mats` (`STEP_MATRICES`) at
+    its middle and the generalised force `force` [N] (or None) held over it: `(q1, p1,
+    extension)`, `extension` what `Extension` needs of it.
+
+    x1 = R(h B) x0 + h phi_R(h B) f with R the (4,4) Padé approximant of exp and
+    phi_R(z) = (R(z) - 1) / z, by partial fractions:
+    R(hB) x = c0 x + sum_k 2 Re[r_k (hB - z_k)^-1 x],
+    h phi_R(hB) f = sum_k 2 Re[(h r_k / z_k) (hB - z_k)^-1 f], and
+    (hB - z)^-1 x = -(1/z) (I - tau B)^-1 x with tau = h / z; so
+    x1 = c0 x0 + sum_k 2 Re[w_k (I - tau_k B)^-1 (x0 + tau_k f)], w_k = -r_k / z_k.
+
+    (I - tau B) y = x  <=>  [M + tau (G - G^T + C_d) + tau^2 (K - N)] u
+    = x_p - (G + tau (K - N)) x_q, y_q = x_q + tau u, y_p = M u + G y_q; the real
+    matrices act on the sums over k: q1 = c0 q0 + 2 s, p1 = c0 p0 + 2 (M v + G s),
+    v = Re sum_k w_k u_k, s = Re sum_k w_k y_q,k."""
+    taus = h / PADE_POLES
+    _, _, Kq, Gq = mats.matvec(q0)
+    if force is not None:  # x_p = p0 + tau f
+        Kq = Kq - force
+    u = mats.solve_shifted(taus, (p0 - Gq) - taus[:, None] * Kq)
+    weighted = PADE_WEIGHTS[:, None] * u
+    v = weighted.sum(axis=0).real
+    s = _PADE_WEIGHT_SUM * q0 + (taus[:, None] * weighted).sum(axis=0).real
+    # y_q,k, u_k and the matrices at the middle: for the continuous extension
+    extension = (q0, q0 + taus[:, None] * u, u, v, p0, mats)
+    p1 = _PADE_CONSTANT * p0 + 2.0 * _products(mats, v, s)
+    return _PADE_CONSTANT * q0 + 2.0 * s, p1, extension
+
+
+def _products(mats, v: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """`M v + G s` with a step's matrices `mats` (`STEP_MATRICES`)."""
+    if isinstance(mats, DenseMatrices):
+        M, _, _, G = mats.matrices
+        return M @ v + G @ s
+    zero = np.zeros_like(v)
+    Mv, _, _, Gs = mats.matvec(np.stack([v, zero, zero, s]))
+    return Mv + Gs
+
+
+def extended_momentum(mats, c, velocity, q, q_start, p_start) -> np.ndarray:
+    """The canonical momenta (m, n) of a rational step's continuous extension: `p(f) =
+    c p0 + sum_k 2 Re[w_k y_p,k]` with `y_p,k = M u_k + G y_q,k` under the step's own
+    middle matrices `mats` (`STEP_MATRICES`), so `c p0 + M sum 2 Re[w_k u_k] + G (q(f)
+    - c q0)`."""
+    p = np.outer(c, p_start)
+    shift = q - np.outer(c, q_start)
+    if isinstance(mats, DenseMatrices):
+        M, _, _, G = mats.matrices
+        return p + velocity @ M.T + shift @ G.T
+    for i, (v, s) in enumerate(zip(velocity, shift, strict=True)):
+        p[i] += _products(mats, v, s)
+    return p
