@@ -161,6 +161,7 @@ class RealTimeRun:
         self._diagnostics_due = math.inf
         self._window = self._window_start()
         self._sampled_from = 0
+        self._state_published_t = math.nan  # simulation time of the last state sent [s]
         self._use_config()
 
     # -- lifecycle ---------------------------------------------------------------------------
@@ -365,6 +366,12 @@ class RealTimeRun:
     def reset(self, config: SimConfig | None = None) -> str:
         """Back to the initial state at the current time (`Simulation.reset`); the answer."""
         with self.lock:
+            # the state the reset leaves goes out first where a tick ended between two
+            # samples, so that the reset's own sample repeats its stamp: that is how a
+            # log tells a reset (`analysis.log_rerun`). After an error the state there is
+            # out of range or non-finite and stays unpublished.
+            if self.sim.t != self._state_published_t and not self.sim.error:
+                self._publish_state()
             self.sim.reset(config or self.config)
             self._set_running()
             self._start_sampling()
@@ -427,6 +434,7 @@ class RealTimeRun:
 
     def _publish_state(self) -> None:
         self.outputs.state(self.stamp_ns(), self.sim.sample())
+        self._state_published_t = self.sim.t
 
     def _publish_shape(self) -> None:
         self.outputs.shape(self.stamp_ns(), self.sim.q, self.sim.lengths)

@@ -194,6 +194,31 @@ def test_pause_resume_and_reset_hold_and_restart_the_clock(model):
     assert run.sim.t == pytest.approx(held + 0.3, abs=1e-9)
 
 
+def test_a_reset_between_two_samples_sends_the_state_it_leaves_then_repeats_its_stamp(model):
+    """A tick may end between two state samples (50 Hz: every 2nd step of 10 ms); a reset
+    there first sends the state it leaves, so its own sample repeats that stamp (a log
+    tells a reset by it); stamps never decrease."""
+    run, clock, outputs, _ = make_run(model, initial_tip_deflection=[0.0, 0.05, 0.0, 0.0])
+    advance(run, clock, 0.35, period=0.01)
+    steps = run.sim.steps
+    assert steps % 2 == 1 and outputs.states[-1][1].t < run.sim.t  # between two samples
+    left = run.sim.q
+    sent = len(outputs.states)
+    run.reset()
+    (before_ns, before), (reset_ns, after) = outputs.states[sent:]
+    assert before_ns == reset_ns and before.t == after.t == run.sim.t
+    np.testing.assert_array_equal(before.q, left)
+    assert after.q == pytest.approx(model.initial_coordinates([0, 0.05, 0, 0]), abs=1e-15)
+    # on a sample, nothing more goes out than the reset's own
+    advance(run, clock, 0.02, period=0.02)
+    assert outputs.states[-1][1].t == run.sim.t
+    sent = len(outputs.states)
+    run.reset()
+    assert len(outputs.states) == sent + 1 and outputs.states[-1][0] == outputs.states[-2][0]
+    stamps = [stamp for stamp, _ in outputs.states]
+    assert np.all(np.diff(stamps) >= 0)
+
+
 def count(outputs, outcome):
     return sum(answer.outcome == outcome for answer in outputs.answered)
 
