@@ -40,6 +40,7 @@ from pathlib import Path
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from machine import stolen_seconds
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -96,13 +97,6 @@ def cpu_seconds(pid: int) -> float:
     """CPU time [s] process `pid` has used (user + system)."""
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
-def stolen_seconds() -> float:
-    """CPU time [s] the hypervisor has taken from this machine's cores (/proc/stat's
-    steal, all cores)."""
-    fields = Path("/proc/stat").read_text().split("\n", 1)[0].split()
-    return int(fields[8]) / os.sysconf("SC_CLK_TCK")
 
 
 def phase(observer, sim_pid: int, kind: str, rate: float, seconds: float) -> dict:

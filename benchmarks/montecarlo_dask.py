@@ -6,7 +6,9 @@ of 2 worker processes (one thread each) and the speed-up, with the cases batched
 directly; a sample's cost split into building its model, integrating, its outputs
 and the rest (transport: the worker-seconds per sample beyond the sample's own);
 Dask's overhead per case (an empty case through the cluster); whether the rows are
-the same from 1 and 2 workers; and the cluster size (workers like these) that a
+the same from 1 and 2 workers; the CPU time the hypervisor took from the machine's
+cores during each measurement (steal: on a shared virtual machine the same run takes
+longer while it is high); and the cluster size (workers like these) that a
 100 000-sample study needs to finish in ten minutes.
 
     python benchmarks/montecarlo_dask.py [--samples 1000]
@@ -17,6 +19,8 @@ from __future__ import annotations
 import argparse
 import os
 import time
+
+from machine import stolen_seconds
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -64,19 +68,21 @@ def main() -> None:
     cases = [(study, i, base) for i in range(args.samples)]
 
     run_sample(cases[0])  # integrals built and cached, as in a warm worker
-    started = time.perf_counter()
+    started, stolen_before = time.perf_counter(), stolen_seconds()
     for case in cases[:20]:
         row = run_sample(case)
         assert not row["error"], row["error"]
     direct = (time.perf_counter() - started) / 20
+    stolen_direct = stolen_seconds() - stolen_before
 
-    walls, rows = {}, {}
+    walls, rows, stolen = {}, {}, {}
     for workers, batch in ((1, None), (2, None), (2, 1)):
         with dask_client(workers=workers) as client:
             client.run(run_sample, cases[0])  # warm every worker: integrals built once each
-            started = time.perf_counter()
+            started, stolen_before = time.perf_counter(), stolen_seconds()
             outcome = run_cases(run_sample, cases, client, batch=batch)
             walls[workers, batch] = time.perf_counter() - started
+            stolen[workers, batch] = stolen_seconds() - stolen_before
             rows[workers, batch] = outcome.results
             assert not any(r["error"] for r in outcome.results)
             if workers == 2 and batch is None:
@@ -92,12 +98,15 @@ def main() -> None:
     per_worker_sample = 2 * walls[2, None] / args.samples
     batched = batch_size(args.samples, 2)
     print(f"samples                      {args.samples} (reference deployment, n_B, n_M = 4, 6)")
-    print(f"one sample, called directly  {1e3 * direct:.1f} ms")
+    print(f"one sample, called directly  {1e3 * direct:.1f} ms  (20 samples; steal "
+          f"{stolen_direct:.2f} s)")  # fmt: skip
     print(f"1 worker                     {walls[1, None]:.1f} s  "
-          f"({1e3 * walls[1, None] / args.samples:.1f} ms/sample)")  # fmt: skip
+          f"({1e3 * walls[1, None] / args.samples:.1f} ms/sample; "
+          f"steal {stolen[1, None]:.1f} s)")  # fmt: skip
     print(f"2 workers                    {walls[2, None]:.1f} s  (speed-up "
-          f"{walls[1, None] / walls[2, None]:.2f}x; {batched} samples per task)")  # fmt: skip
-    print(f"2 workers, 1 sample per task {walls[2, 1]:.1f} s")
+          f"{walls[1, None] / walls[2, None]:.2f}x; {batched} samples per task; "
+          f"steal {stolen[2, None]:.1f} s)")  # fmt: skip
+    print(f"2 workers, 1 sample per task {walls[2, 1]:.1f} s  (steal {stolen[2, 1]:.1f} s)")
     print(f"a sample on 2 workers [ms]   build {1e3 * split[0]:.1f}, integrate "
           f"{1e3 * split[1]:.1f}, outputs {1e3 * split[2]:.1f}, transport and the rest "
           f"{1e3 * (per_worker_sample - split.sum()):.1f} (worker-time per sample "
