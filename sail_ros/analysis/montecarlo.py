@@ -391,9 +391,9 @@ def run_sample(case) -> dict:
         model = SailModel(params)
         t_eval = output_times(scenario.duration, study.output_rate_hz)
         built = time.perf_counter()
-        # a row reads positions at the output times (the tips' envelope) and the state
-        # at the end, a step's end: no rates inside steps, which change none of it
-        run = run_deployment(model, scenario, t_eval, policy=policy, rates=None)
+        # a row reads the tips at the output times (their envelope) and the state at the
+        # end, a step's end: nothing else of the state inside steps
+        run = run_deployment(model, scenario, t_eval, policy=policy, states=False)
         integrated = time.perf_counter()
         if run.alarm:
             raise OutOfRangeError(run.alarm)

@@ -16,6 +16,7 @@ from sail_ros.bag import BagReader
 from sail_ros.messages import hub as hub_msg
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.nodes.recorder import PARAMETERS_METADATA
+from sail_ros.policy import Policy
 from sail_ros.runtime.config import PARAMETERS, config_from_values
 from sail_ros.tools import deploy
 
@@ -261,6 +262,44 @@ def test_a_loaded_damped_scenario_logs_root_moments_and_switches_on_step_boundar
     common = np.isin(loaded.t, unloaded.t)
     assert np.abs(loaded.root_moments[common] - unloaded.root_moments).max() > 0.1  # N m
     assert loaded.root_moments.shape == (len(loaded.t), 4)
+
+
+@pytest.mark.parametrize("case", ["loaded", "leaves the range"])
+def test_a_run_without_states_has_the_same_tips_peaks_and_end(case):
+    """`run_deployment(states=False)`, a Monte Carlo sample's run: the tips at every
+    output time from the steps' curve, the sampled states' to round-off, the same steps,
+    peaks and end, the rest of the state nan; a run that leaves the linear range keeps
+    the same outputs before its alarm."""
+    from sail_ros.analysis.deployment import run_deployment
+    from sail_ros.analysis.scenario import scenario_from_dict
+
+    if case == "loaded":
+        scenario = load_scenario(CONFIG / "scenario_loaded.yaml")
+        t_eval = np.arange(0.0, 12.05, 0.1)
+    else:  # as test_tool_policy's retraction: a 4 m tip passes 0.3 of a shrinking boom
+        profile = {"type": "cycloidal", "start": 15.0, "end": 10.0, "duration": 5.0}
+        document = {"scenario": {"duration": 6.0, "profile": profile,
+                                 "initial": {"mode_state": {"a": 4.0}}}}  # fmt: skip
+        scenario = scenario_from_dict(document)
+        t_eval = np.arange(0.0, 6.05, 0.1)
+    model = SailModel(SailParameters(**scenario.sail))
+    policy = Policy(max_rate=3.0, max_acceleration=2.0)
+    full = run_deployment(model, scenario, t_eval, rates=None, policy=policy)
+    lean = run_deployment(model, scenario, t_eval, states=False, policy=policy)
+    assert np.array_equal(lean.t, full.t) and lean.alarm == full.alarm
+    assert bool(lean.alarm) == (case == "leaves the range")
+    assert lean.accuracy.steps == full.accuracy.steps
+    np.testing.assert_allclose(lean.tips, full.tips, rtol=0, atol=1e-12 * np.abs(full.tips).max())
+    for kind in ("tip_deflection", "root_moment"):
+        for part in (0, 1):  # values, times
+            assert np.array_equal(getattr(lean.peaks, kind)[part], getattr(full.peaks, kind)[part])
+    # the state only where an output is a step's end (the start, the load switches, the
+    # end, a few by chance): the same there
+    ends = np.isfinite(lean.q).all(axis=1)
+    assert ends[0] and ends.sum() < 0.1 * ends.size and np.isnan(lean.q[~ends]).all()
+    np.testing.assert_array_equal(lean.q[ends], full.q[ends])
+    if not lean.alarm:
+        assert ends[-1] and np.array_equal(lean.qd[-1], full.qd[-1])
 
 
 def test_reference_options_conflict_with_a_scenario(capsys):
