@@ -20,10 +20,12 @@ from pathlib import Path
 
 import yaml
 
+from sail_ros import topics
 from sail_ros.cli import nearest
 from sail_ros.model import SailParameters, yaml_values
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
+from sail_ros.runtime.config import PARAMETERS
 
 # the --help note of the tools that take --lengths and --rates
 LIMITS_NOTE = """Lengths and rates are the simulator's (lengths within [min_length, max_length],
@@ -113,7 +115,18 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
                 f"--set: unknown parameter {name!r}{hint}; sail parameters: "
                 f"{', '.join(sorted(sail_names))}; limits: {', '.join(Policy.field_names())}"
             )
-    file_sail = SailParameters.from_yaml(args.config).to_dict() if args.config else {}
+    given = simulator_parameters(args.config) if args.config else None
+    if given is None:  # a sail parameters file (or none)
+        file_sail = SailParameters.from_yaml(args.config).to_dict() if args.config else {}
+        file_policy = {}
+    else:  # the simulator's params file: what the simulator would take of it
+        file_sail = {k.removeprefix(topics.SAIL_PREFIX): v for k, v in given.items()
+                     if k.startswith(topics.SAIL_PREFIX)}  # fmt: skip
+        file_policy = {k: v for k, v in given.items() if k in policy_names}
+        try:
+            SailParameters.from_dict(file_sail)
+        except ValueError as error:
+            raise ValueError(f"{args.config}: {error}") from None
     sail_changes = {k: v for k, v in changes.items() if k in sail_names}
     sail = SailParameters.from_dict({**file_sail, **sail_changes})
     if sail_section:
@@ -122,7 +135,6 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
             sail = SailParameters.from_dict({**file_sail, **overrides, **sail_changes})
         except ValueError as error:
             raise ValueError(f"{where or 'sail section'}: {error}") from None
-    file_policy = _policy_section(args.config) if args.config else {}
     policy_changes = {k: v for k, v in changes.items() if k in policy_names}
     policy = Policy(**{**file_policy, **policy_changes})
     sources = [f"{args.config}" if file_policy else ""] + [
@@ -134,16 +146,61 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
     return config
 
 
-def _policy_section(path) -> dict:
-    """The limits in a simulator params file (`<node>: ros__parameters: {max_rate: ..}`)."""
+# parameters every rclpy node has besides its own
+NODE_BUILT_INS = ("use_sim_time", "start_type_description_service")
+
+
+def simulator_parameters(path) -> dict | None:
+    """The parameters a ROS 2 params file (`<node>: ros__parameters: ...`) gives the
+    simulator (its sections for `sail_sim`, in any namespace, and for every node, `/**`),
+    by the names the node declares (`sail.n_boom_modes`), nested mappings flattened as
+    ROS does; None for a file that is not a params file.
+
+    Raises:
+        ValueError: the file names a parameter the simulator does not have (which the
+            simulator refuses, `ros.parameters.reject_unknown`), or holds no section it
+            would read, naming them.
+    """
     document = yaml_values.load_file(path, "config")
-    names = set(Policy.field_names())
-    if isinstance(document, dict):
-        for body in document.values():
-            if isinstance(body, dict) and isinstance(body.get("ros__parameters"), dict):
-                parameters = body["ros__parameters"]
-                return {k: v for k, v in parameters.items() if k in names}
-    return {}
+    if not isinstance(document, dict) or not any(
+        isinstance(body, dict) and "ros__parameters" in body for body in document.values()
+    ):
+        return None
+    node = topics.SIM_NODE
+    sections = [
+        body.get("ros__parameters") or {}
+        for name, body in document.items()
+        if name in (node, "/**") or str(name).endswith("/" + node)
+    ]
+    if not sections:
+        raise ValueError(
+            f"{path}: no parameters for {node} (sections: "
+            f"{', '.join(map(str, document))}); the simulator would take none of them"
+        )
+    given = {}
+    for section in sections:
+        given.update(_flattened(section))
+    known = set(PARAMETERS) | set(NODE_BUILT_INS)
+    unknown = sorted(name for name in given if name not in known)
+    if unknown:
+        named = []
+        for name in unknown:
+            close = nearest(name, known)
+            named.append(f"{name!r}" + (f" (did you mean {close!r}?)" if close else ""))
+        raise ValueError(f"{path}: unknown parameter(s) of {node}: {', '.join(named)}")
+    return given
+
+
+def _flattened(mapping: dict, prefix: str = "") -> dict:
+    """`{"sail": {"n_boom_modes": 4}}` as ROS reads it: `{"sail.n_boom_modes": 4}`."""
+    flat = {}
+    for key, value in mapping.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            flat.update(_flattened(value, name + "."))
+        else:
+            flat[name] = value
+    return flat
 
 
 def sail_parameters(args: argparse.Namespace) -> SailParameters:

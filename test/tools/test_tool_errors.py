@@ -18,6 +18,13 @@ def files(tmp_path_factory):
     root = tmp_path_factory.mktemp("inputs")
     (root / "broken.yaml").write_text("sail: [1, 2\n")
     (root / "misspelt.yaml").write_text("sail:\n  max_rat: 2.0\n")
+    # the simulator's params file with a misspelt limit, a misspelt sail field, or under
+    # another node's name: the simulator refuses the first two and ignores the third
+    (root / "sim_limit.yaml").write_text("sail_sim:\n  ros__parameters:\n    max_rat: 2.0\n")
+    (root / "sim_sail.yaml").write_text(
+        "/**:\n  ros__parameters:\n    sail:\n      n_boom_mode: 5\n"
+    )
+    (root / "sim_node.yaml").write_text("sail_simm:\n  ros__parameters:\n    max_rate: 2.0\n")
     (root / "no_mcap").mkdir()
     (root / "text.mcap").write_text("not an mcap file\n")
     (root / "blocker").write_text("")  # a file where a folder is needed
@@ -35,9 +42,20 @@ def files(tmp_path_factory):
 
 
 BAD_INPUTS = [
-    ("modes", ["--config", "{root}/missing.yaml"], "cannot read '{root}/missing.yaml'"),
+    ("modes", ["--config", "{root}/missing.yaml"], "cannot read config '{root}/missing.yaml'"),
     ("modes", ["--config", "{root}/broken.yaml"], "broken.yaml: not valid YAML"),
     ("modes", ["--config", "{root}/misspelt.yaml"], "unknown sail parameter(s) 'max_rat'"),
+    (
+        "deploy",
+        ["--config", "{root}/sim_limit.yaml"],
+        "unknown parameter(s) of sail_sim: 'max_rat' (did you mean 'max_rate'?)",
+    ),
+    (
+        "modes",
+        ["--config", "{root}/sim_sail.yaml"],
+        "'sail.n_boom_mode' (did you mean 'sail.n_boom_modes'?)",
+    ),
+    ("plant", ["--config", "{root}/sim_node.yaml"], "no parameters for sail_sim (sections: "),
     ("modes", ["--set", "n_boom_modes=0"], "n_boom_modes must be an integer in [1, 30], got 0"),
     ("modes", ["--set", "membrane_thickness"], "--set expects KEY=VALUE"),
     ("modes", ["--set", "sail_side=[1,"], "--set sail_side: '[1,' is not a value"),
