@@ -5,13 +5,15 @@ import subprocess
 import sys
 
 import pytest
-from harness import spin_until
+import yaml
+from harness import CONFIG, spin_until
 from rcl_interfaces.msg import Parameter as ParameterMessage
 from rcl_interfaces.msg import ParameterEvent, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from sail_ros.nodes import bridge, recorder, replay
 from sail_ros.nodes.recorder import Recorder
 from sail_ros.nodes.replay import Replay
 from sail_ros.nodes.sim import SimNode
@@ -99,3 +101,14 @@ def test_a_params_file_without_a_section_for_the_node_stops_it(tmp_path, ros_env
     assert f"--params-file {params} has no section for node 'sail_sim' (it has 'sail_simm'; " \
         "did you mean 'sail_sim' for 'sail_simm'?)" in result.stderr  # fmt: skip
     assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("node", [bridge, recorder, replay], ids=lambda node: node.NODE_NAME)
+def test_a_nodes_params_file_holds_its_defaults(node):
+    """config/<node>.yaml says its values are the defaults: they are (an empty list, which
+    a params file cannot type, is left out)."""
+    name = node.NODE_NAME.removeprefix("sail_")
+    document = yaml.safe_load((CONFIG / f"{name}.yaml").read_text())
+    values = document[node.NODE_NAME]["ros__parameters"]
+    defaults = {spec.name: spec.default for spec in node.SPECS if spec.default != []}
+    assert values == defaults
