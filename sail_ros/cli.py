@@ -108,12 +108,25 @@ def help_epilog(examples, writes: str = "", notes: str = "") -> str:
     """The end of a tool's `--help`: `notes` (paragraphs), the files it writes, where the
     physics is documented, and last the examples (commands, one a line; a comment after
     `#` is kept)."""
-    paragraphs = [textwrap.fill(" ".join(p.split()), 88) for p in notes.split("\n\n") if p.strip()]
+    paragraphs = [_filled(p) for p in notes.split("\n\n") if p.strip()]
     if writes:
         paragraphs.append(textwrap.fill("Writes: " + " ".join(writes.split()), 88))
     paragraphs.append(textwrap.fill(PHYSICS_DOC, 88))
     paragraphs.append("Examples:\n" + "\n".join(f"  {line}" for line in examples))
     return "\n\n".join(paragraphs)
+
+
+def _filled(paragraph: str) -> str:
+    """A paragraph of a docstring wrapped to 88 columns, a list (lines starting "- ") as a
+    list: each item wrapped under its dash."""
+    lines = []
+    for item in re.split(r"\n\s*(?=- )", paragraph.strip()):
+        text = " ".join(item.split())
+        if text.startswith("- "):
+            lines.append(textwrap.fill(text[2:], 88, initial_indent="- ", subsequent_indent="  "))
+        else:
+            lines.append(textwrap.fill(text, 88))
+    return "\n".join(lines)
 
 
 def _usage():

@@ -41,7 +41,14 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Examples:\n" + __doc__.split("\n\n")[-1].rstrip() + "\n\n" + PHYSICS_DOC,
     )
     verbs = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
-    recover = verbs.add_parser("recover", help="a complete copy of a log cut short")
+    recover = verbs.add_parser(
+        "recover",
+        help="a complete copy of a log cut short",
+        description="A complete copy of a log cut short (a killed recorder's): every "
+        "complete message and metadata record, indexed, in a new bag folder.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Examples:\n" + __doc__.split("\n\n")[-1].rstrip(),
+    )
     recover.add_argument("path", type=Path, help="bag folder or .mcap file")
     recover.add_argument(
         "-o", "--output", type=Path, help="new bag folder (default: <path>_recovered)"

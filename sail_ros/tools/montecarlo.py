@@ -70,7 +70,9 @@ def build_parser() -> ToolParser:
     )
     parser.add_argument("study", type=Path, metavar="STUDY.yaml", help="the study file")
     parser.add_argument("--out", type=Path, help="output folder (default: <study>_results)")
-    parser.add_argument("--samples", type=int, help="run this many samples instead (0, 1, ...)")
+    parser.add_argument(
+        "--samples", type=int, help="run this many samples instead (at least 1: samples 0, 1, ...)"
+    )
     parser.add_argument("--no-figures", action="store_true", help="skip the figures")
     add_sail_options(parser)
     add_cluster_options(parser)

@@ -100,9 +100,9 @@ EXAMPLES = (
 WRITES = (
     "into --out DIR: states.csv, tip_deflections.png, root_moments.png, boom_lengths.png, "
     "energies.csv, modal_energies.png, real_time_factor.csv, real_time_factor.png, "
-    "hub_attitude.png (those the log has data for), peaks.csv; the folder is built under a "
-    "temporary name and moved into place when all is written (an existing folder keeps its "
-    "other files)."
+    "hub_attitude.png (those the log has data for), parameter_changes.csv, peaks.csv; the "
+    "folder is built under a temporary name and moved into place when all is written (an "
+    "existing folder keeps its other files)."
 )
 
 

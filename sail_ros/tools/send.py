@@ -168,6 +168,9 @@ def build_parser() -> ToolParser:
     commands.add_parser("pause", help="hold the simulation (sail/pause, true)")
     commands.add_parser("resume", help="go on (sail/pause, false)")
     commands.add_parser("reset", help="back to the initial state (sail/reset)")
+    for name, command in commands.choices.items():  # each command's own examples
+        own = [line for line in EXAMPLES if line.split()[:3] == ["sail-ros", "send", name]]
+        command.epilog = "Examples:\n" + "\n".join(f"  {line}" for line in own)
     return parser
 
 

@@ -2,6 +2,7 @@
 names answered with the nearest known one, quiet broken pipes, and `--help` that ends
 with examples that parse and names every file the tool writes."""
 
+import argparse
 import contextlib
 import importlib
 import io
@@ -160,6 +161,20 @@ def test_help_ends_with_examples_that_parse(tool):
     assert sum(example.split()[1] == tool for example in module.EXAMPLES) >= 2
     for example in module.EXAMPLES:
         parse_example(example)
+
+
+@pytest.mark.parametrize("tool", ["send", "bag"])
+def test_each_command_of_a_tool_ends_its_help_with_its_own_examples(tool):
+    parser = module_of(tool).build_parser()
+    (commands,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    for name, command in commands.choices.items():
+        text = command.format_help()
+        assert "\nExamples:\n" in text, (tool, name)
+        examples = [line.strip() for line in text.split("\nExamples:\n")[1].strip().splitlines()]
+        assert examples, (tool, name)
+        for example in examples:
+            assert example.split()[:3] == ["sail-ros", tool, name], example
+            parse_example(example)
 
 
 def test_help_names_the_files_written(tmp_path, monkeypatch):
