@@ -225,8 +225,19 @@ def _scenario(args):
     labels = {"profile": "--from/--to/--duration", "initial": "--boom/--tip"}
     try:
         return scenario_from_dict(document, labels), text
-    except ValueError as error:  # the options' values, named as the file would name them
-        raise ValueError(f"the reference deployment of the options: {error}") from None
+    except ValueError as error:  # a field of the document is an option here: name it so
+        options = {
+            "scenario.profile.start": "--from",
+            "scenario.profile.end": "--to",
+            "scenario.profile.duration": "--duration",
+            "scenario.duration": "--duration" if args.t_end is None else "--t-end",
+            f"scenario.initial.mode_state.{boom}": "--tip",
+        }
+        message = str(error)
+        for field, option in options.items():
+            if message.startswith(field + " "):
+                raise ValueError(option + message[len(field) :]) from None
+        raise ValueError(f"the reference deployment of the options: {message}") from None
 
 
 def _policy_line(policy: Policy, low: float, high: float, free_hub: bool = False) -> str:
