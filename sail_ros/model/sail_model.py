@@ -436,9 +436,15 @@ class SailModel:
         try:
             deflection[e] = scipy.linalg.cho_solve(scipy.linalg.cho_factor(K), Q)
         except np.linalg.LinAlgError:
+            why = (
+                f"membrane_prestress = {self.params.membrane_prestress:g} Pa: the film "
+                "has no out-of-plane stiffness"
+                if self.params.membrane_prestress <= 0.0
+                else "an axial load at or above buckling"
+            )
             raise ValueError(
-                "the stiffness is not positive definite at these lengths (an axial "
-                "load at or above buckling): no static deflection"
+                f"the stiffness is not positive definite at these lengths ({why}): no "
+                "static deflection"
             ) from None
         return deflection
 

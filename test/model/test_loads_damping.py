@@ -308,7 +308,16 @@ def test_load_and_damping_errors_name_the_argument(call, message):
         call(model)
 
 
-def test_static_deflection_refuses_a_buckled_sail():
-    params = SailParameters(boom_axial_load=100.0)  # far above pi^2 EI / (4 L^2)
-    with pytest.raises(ValueError, match="not positive definite"):
-        SailModel(params).static_deflection(20.0, tip_forces=1.0)
+@pytest.mark.parametrize(
+    ("change", "why"),
+    [
+        ({"boom_axial_load": 100.0}, "an axial load at or above buckling"),  # pi^2 EI/(4 L^2)
+        ({"membrane_prestress": 0.0}, "membrane_prestress = 0 Pa: the film has no out-of-plane"),
+    ],
+    ids=["buckled", "slack film"],
+)
+def test_static_deflection_refuses_a_sail_without_stiffness_and_says_why(change, why):
+    with pytest.raises(
+        ValueError, match=re.escape(f"not positive definite at these lengths ({why}")
+    ):
+        SailModel(SailParameters(**change)).static_deflection(20.0, tip_forces=1.0)
