@@ -303,16 +303,16 @@ def run_deployment(
     lengths, rates = np.empty((kept, 4)), np.empty((kept, 4))
     for i, ti in enumerate(t):
         lengths[i], rates[i] = scenario.profile(ti)[:2]
-    states = model.sample(t, lengths, rates, q, qd)
+    sampled = model.sample(t, lengths, rates, q, qd)
     if watch.tips is not None:
-        states = states._replace(tips=watch.tips[:kept])
+        sampled = sampled._replace(tips=watch.tips[:kept])
     accuracy = Accuracy(
         stepper.rtol,
         stepper.relative_error_estimate,
         stepper.steps_taken,
         stepper.steps_rejected,
     )
-    return DeploymentRun(states, wall, watch.peaks.peaks, watch.warning, alarm, accuracy)
+    return DeploymentRun(sampled, wall, watch.peaks.peaks, watch.warning, alarm, accuracy)
 
 
 def hold_reactions(model: SailModel, profile, t) -> np.ndarray:
