@@ -170,8 +170,10 @@ def simulator_parameters(path) -> dict | None:
     sections = [
         body.get("ros__parameters") or {}
         for name, body in document.items()
-        if name in (node, "/**") or str(name).endswith("/" + node)
+        if isinstance(body, dict) and (name in (node, "/**") or str(name).endswith("/" + node))
     ]
+    if not all(isinstance(section, dict) for section in sections):
+        raise ValueError(f"{path}: ros__parameters of {node} must be a mapping")
     if not sections:
         raise ValueError(
             f"{path}: no parameters for {node} (sections: "

@@ -25,6 +25,7 @@ def files(tmp_path_factory):
         "/**:\n  ros__parameters:\n    sail:\n      n_boom_mode: 5\n"
     )
     (root / "sim_node.yaml").write_text("sail_simm:\n  ros__parameters:\n    max_rate: 2.0\n")
+    (root / "sim_list.yaml").write_text("sail_sim:\n  ros__parameters: [1, 2]\n")
     (root / "no_mcap").mkdir()
     (root / "text.mcap").write_text("not an mcap file\n")
     (root / "blocker").write_text("")  # a file where a folder is needed
@@ -56,6 +57,7 @@ BAD_INPUTS = [
         "'sail.n_boom_mode' (did you mean 'sail.n_boom_modes'?)",
     ),
     ("plant", ["--config", "{root}/sim_node.yaml"], "no parameters for sail_sim (sections: "),
+    ("modes", ["--config", "{root}/sim_list.yaml"], "ros__parameters of sail_sim must be"),
     ("modes", ["--set", "n_boom_modes=0"], "n_boom_modes must be an integer in [1, 30], got 0"),
     ("modes", ["--set", "membrane_thickness"], "--set expects KEY=VALUE"),
     ("modes", ["--set", "sail_side=[1,"], "--set sail_side: '[1,' is not a value"),
