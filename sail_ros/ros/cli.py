@@ -155,7 +155,7 @@ TEARDOWN_LIMIT_S = 10.0  # a node's DDS teardown takes milliseconds; this long, 
 
 
 @contextlib.contextmanager
-def bounded_teardown(limit_s: float = TEARDOWN_LIMIT_S):
+def bounded_teardown(limit_s: float | None = None):
     """Within: destroying nodes and contexts, after the program's work is done. If
     that takes longer than `limit_s` [s], the process ends (exit code 1, with every
     thread's stack on standard error).
@@ -166,16 +166,24 @@ def bounded_teardown(limit_s: float = TEARDOWN_LIMIT_S):
     core for ever, and it holds the interpreter's lock, so the watchdog is
     faulthandler's, which runs without it. It writes to the process's standard error
     where `sys.stderr` is not a file (a tool's `main` called with its output captured)."""
+    bound_teardown(limit_s)
+    try:
+        yield
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+
+
+def bound_teardown(limit_s: float | None = None) -> None:
+    """From now on, end the process (exit code 1, every thread's stack on standard error)
+    unless `faulthandler.cancel_dump_traceback_later` comes within `limit_s` [s] (default
+    `TEARDOWN_LIMIT_S`): `bounded_teardown` where the teardown has no block of its own."""
+    limit_s = TEARDOWN_LIMIT_S if limit_s is None else limit_s
     try:
         sys.stderr.fileno()
         stream = sys.stderr
     except (AttributeError, OSError, ValueError):  # io.UnsupportedOperation is an OSError
         stream = sys.__stderr__
     faulthandler.dump_traceback_later(limit_s, exit=True, file=stream)
-    try:
-        yield
-    finally:
-        faulthandler.cancel_dump_traceback_later()
 
 
 SERVE_WAIT_S = 1.0  # the longest wait of `serve_until_stopped`'s two threads [s]
@@ -250,6 +258,9 @@ def run_node(name: str, parser: argparse.ArgumentParser, argv: list[str], body) 
             return body(namespace, stop)
         except ConfigError as error:
             get_logger(name).error(str(error))
+            # the node `body` was building goes with this traceback as the block ends:
+            # its participant's teardown (Fast DDS can deadlock there) is bounded too
+            bound_teardown()
             return 2
         finally:
             with bounded_teardown():

@@ -730,13 +730,16 @@ def test_unwritable_output_and_bad_parameters_exit_with_a_clear_error(ros_env, t
             writer.write(
                 "/sail/boom_state", serialize_message(stream_message("/sail/boom_state", i)), i
             )
-    unwritable = start_tool("recorder", ["-o", str(blocker / "bag")], ros_env)
+    # four participants that leave at the same moment: each discovers no other, for Fast
+    # DDS can deadlock removing one while others leave (`ros.cli.bounded_teardown`)
+    alone = {**ros_env, "ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF"}
+    unwritable = start_tool("recorder", ["-o", str(blocker / "bag")], alone)
     gzip = start_tool(
-        "recorder", ["-o", str(tmp_path / "x"), "--ros-args", "-p", "compression:=gzip"], ros_env
+        "recorder", ["-o", str(tmp_path / "x"), "--ros-args", "-p", "compression:=gzip"], alone
     )
-    missing = start_tool("replay", [str(tmp_path / "no_such_bag")], ros_env)
+    missing = start_tool("replay", [str(tmp_path / "no_such_bag")], alone)
     damaged = start_tool(
-        "replay", [str(damaged_copy(bag, chunk=1)), "--rate", "100", "--no-clock"], ros_env
+        "replay", [str(damaged_copy(bag, chunk=1)), "--rate", "100", "--no-clock"], alone
     )
     code, _, err = finish(unwritable)
     assert code == 1 and f"cannot write '{blocker / 'bag'}': Not a directory" in err, err

@@ -48,6 +48,33 @@ def test_a_sigint_while_starting_in_the_background_finishes_the_recording(ros_en
     assert (folder / "metadata.yaml").is_file()
 
 
+def test_a_node_refused_at_start_whose_teardown_sticks_still_ends(ros_env):
+    """A node tool whose node is refused while being built (`ConfigError`): the node goes
+    with the error's traceback, before `run_node`'s own teardown; its teardown sticking
+    there (Fast DDS can deadlock removing a participant) ends the process all the same,
+    with exit code 1 and the stacks, instead of hanging."""
+    stuck = (
+        "import argparse, re\n"
+        "from sail_ros.ros import cli\n"
+        "from sail_ros.ros.parameters import ConfigError\n"
+        "cli.TEARDOWN_LIMIT_S = 0.5\n"
+        "class Node:\n"
+        "    def __del__(self):  # a teardown that never ends, holding the interpreter\n"
+        "        re.match(r'(a+)+$', 'a' * 64 + 'b')\n"
+        "def body(namespace, stop):\n"
+        "    node = Node()\n"
+        "    raise ConfigError('compression must be one of zstd, lz4, none')\n"
+        "raise SystemExit(cli.run_node('probe', argparse.ArgumentParser(), [], body))\n"
+    )
+    started = time.monotonic()
+    result = subprocess.run(
+        [sys.executable, "-c", stuck], env=ros_env, capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 1 and time.monotonic() - started < 30.0, result.stderr
+    assert "compression must be one of" in result.stderr
+    assert "Timeout (0:00:00.500000)!" in result.stderr and "__del__" in result.stderr
+
+
 def test_a_stuck_teardown_ends_the_process_even_holding_the_interpreter_lock(ros_env):
     """`bounded_teardown`'s watchdog needs no interpreter lock: a teardown stuck in code
     that holds it (here a regular expression that backtracks for ever) still ends, with
