@@ -48,6 +48,13 @@ def test_a_sigint_while_starting_in_the_background_finishes_the_recording(ros_en
     assert (folder / "metadata.yaml").is_file()
 
 
+def run_script(text: str, env: dict) -> subprocess.CompletedProcess:
+    """Python `text` run in a process of its own (its output kept, at most 60 s)."""
+    return subprocess.run(
+        [sys.executable, "-c", text], env=env, capture_output=True, text=True, timeout=60
+    )
+
+
 def test_a_node_refused_at_start_whose_teardown_sticks_still_ends(ros_env):
     """A node tool whose node is refused while being built (`ConfigError`): the node goes
     with the error's traceback, before `run_node`'s own teardown; its teardown sticking
@@ -67,9 +74,7 @@ def test_a_node_refused_at_start_whose_teardown_sticks_still_ends(ros_env):
         "raise SystemExit(cli.run_node('probe', argparse.ArgumentParser(), [], body))\n"
     )
     started = time.monotonic()
-    result = subprocess.run(
-        [sys.executable, "-c", stuck], env=ros_env, capture_output=True, text=True, timeout=60
-    )
+    result = run_script(stuck, ros_env)
     assert result.returncode == 1 and time.monotonic() - started < 30.0, result.stderr
     assert "compression must be one of" in result.stderr
     assert "Timeout (0:00:00.500000)!" in result.stderr and "__del__" in result.stderr
@@ -86,9 +91,7 @@ def test_a_stuck_teardown_ends_the_process_even_holding_the_interpreter_lock(ros
         "    re.match(r'(a+)+$', 'a' * 64 + 'b')\n"
     )
     started = time.monotonic()
-    result = subprocess.run(
-        [sys.executable, "-c", stuck], env=ros_env, capture_output=True, text=True, timeout=60
-    )
+    result = run_script(stuck, ros_env)
     assert result.returncode == 1 and time.monotonic() - started < 30.0
     assert "Timeout (0:00:00.500000)!" in result.stderr and "<string>" in result.stderr
 
@@ -99,7 +102,5 @@ def test_a_stuck_teardown_ends_the_process_even_holding_the_interpreter_lock(ros
         "    pass\n"
         "time.sleep(0.6)\n"
     )
-    result = subprocess.run(
-        [sys.executable, "-c", finished], env=ros_env, capture_output=True, text=True, timeout=60
-    )
+    result = run_script(finished, ros_env)
     assert result.returncode == 0 and result.stderr == ""
