@@ -166,14 +166,14 @@ def bounded_teardown(limit_s: float | None = None):
     core for ever, and it holds the interpreter's lock, so the watchdog is
     faulthandler's, which runs without it. It writes to the process's standard error
     where `sys.stderr` is not a file (a tool's `main` called with its output captured)."""
-    bound_teardown(limit_s)
+    arm_teardown_limit(limit_s)
     try:
         yield
     finally:
         faulthandler.cancel_dump_traceback_later()
 
 
-def bound_teardown(limit_s: float | None = None) -> None:
+def arm_teardown_limit(limit_s: float | None = None) -> None:
     """From now on, end the process (exit code 1, every thread's stack on standard error)
     unless `faulthandler.cancel_dump_traceback_later` comes within `limit_s` [s] (default
     `TEARDOWN_LIMIT_S`): `bounded_teardown` where the teardown has no block of its own."""
@@ -260,7 +260,7 @@ def run_node(name: str, parser: argparse.ArgumentParser, argv: list[str], body) 
             get_logger(name).error(str(error))
             # the node `body` was building goes with this traceback as the block ends:
             # its participant's teardown (Fast DDS can deadlock there) is bounded too
-            bound_teardown()
+            arm_teardown_limit()
             return 2
         finally:
             with bounded_teardown():
