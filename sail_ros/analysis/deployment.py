@@ -23,7 +23,7 @@ from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
 from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, hermite_motion, step_fractions
 from sail_ros.model.record import StateSample, take
-from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
+from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.policy import OutOfRangeError, Policy
 
 
@@ -145,8 +145,7 @@ class RangeWatch:
 
     def _tip_times_until(self, t: float) -> int:
         """How many of `tip_times` are at or before `t` [s] (to round-off)."""
-        slack = 1e-12 * max(1.0, abs(t))
-        return int(np.searchsorted(self.tip_times, t + slack, "right"))
+        return int(np.searchsorted(self.tip_times, t + time_slack(t), "right"))
 
     def after_step(self, stepper) -> None:
         (t0, lengths0, rates0), t1 = self._start, stepper.t
@@ -281,7 +280,7 @@ def run_deployment(
         else:  # the watch takes the tips; the state where an output falls on a step's end
             kept = watch.tips_taken
             while True:
-                if kept and abs(t_eval[kept - 1] - stepper.t) <= 1e-12 * max(1.0, stepper.t):
+                if kept and abs(t_eval[kept - 1] - stepper.t) <= time_slack(stepper.t):
                     q[kept - 1], qd[kept - 1] = stepper.q, stepper.qd
                 if kept == t_eval.size:
                     break

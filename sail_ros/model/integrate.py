@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from sail_ros.model.sampling import GridSampler
-from sail_ros.model.stepper import LinearSystem, SailStepper
+from sail_ros.model.stepper import LinearSystem, SailStepper, time_slack
 
 
 class Run(tuple):
@@ -98,10 +98,11 @@ def sample(stepper: SailStepper, t_eval: np.ndarray, t_end: float, q, qd, rates=
     done = 0
     while done < t_eval.size:
         t = t_eval[done]
-        while t - stepper.t > 1e-12 * max(1.0, abs(t)):
+        while t - stepper.t > time_slack(t):
             stepper.advance_step(t_end if free else t)
-        slack = 1e-12 * max(1.0, abs(stepper.t))
-        reached = done + int(np.searchsorted(t_eval[done:], stepper.t + slack, "right"))
+        reached = done + int(
+            np.searchsorted(t_eval[done:], stepper.t + time_slack(stepper.t), "right")
+        )
         q[done:reached], qd[done:reached] = stepper.states_at(t_eval[done:reached], rates)
         yield done, reached
         done = reached

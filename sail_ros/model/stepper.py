@@ -134,6 +134,12 @@ class IntegrationError(RuntimeError):
     """The state became non-finite; `reset` starts again."""
 
 
+def time_slack(t):
+    """Within this [s] of each other, two times near `t` [s] (a float or an array) are
+    one: the round-off of a time reached by summing steps."""
+    return 1e-12 * np.maximum(1.0, np.abs(t))
+
+
 # A stretch of time whose motion starts or ends within this fraction of it from its ends
 # counts as at rest (the booms move for a microsecond at zero rate): whether a motion that
 # starts at a step's end makes that step exact then does not hang on round-off in the
@@ -423,7 +429,7 @@ class SailStepper:
         `t_end` and at the inputs' `switch_times`."""
         if not math.isfinite(t_end):
             raise ValueError(f"t_end must be finite, got {t_end!r}")
-        while t_end - self._t > 1e-12 * max(1.0, abs(t_end)):
+        while t_end - self._t > time_slack(t_end):
             self.advance_step(t_end)
 
     def advance_step(self, t_end: float) -> None:
@@ -662,7 +668,7 @@ class SailStepper:
             )
         times = np.asarray(times, dtype=float)
         q, qd = np.empty((times.size, self._q.size)), np.empty((times.size, self._q.size))
-        end = np.abs(times - self._t) <= 1e-12 * np.maximum(1.0, np.abs(times))
+        end = np.abs(times - self._t) <= time_slack(times)
         q[end], qd[end] = self._q, self.qd
         inside = times[~end]
         if inside.size == 0:
