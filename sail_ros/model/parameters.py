@@ -158,14 +158,13 @@ class SailParameters:
 
         A ROS 2 params file (`<node>: ros__parameters: sail: {...}`) works too.
         """
-        try:
-            with open(path) as stream:
-                document = yaml_values.load(stream) or {}
-        except OSError as error:
-            raise ValueError(f"cannot read {str(path)!r}: {error.strerror}") from None
-        except yaml.YAMLError as error:
-            raise ValueError(f"{path}: not valid YAML: {yaml_values.describe(error)}") from None
-        return cls.from_dict(_find_sail_section(document, Path(path)))
+        return cls.from_document(yaml_values.load_file(path, "sail parameters"), path)
+
+    @classmethod
+    def from_document(cls, document, path) -> SailParameters:
+        """As `from_yaml`, from the file's document already read (`path` names it in
+        errors); an empty document gives the defaults."""
+        return cls.from_dict(_find_sail_section(document or {}, Path(path)))
 
     def to_yaml(self, path) -> None:
         with open(path, "w") as stream:

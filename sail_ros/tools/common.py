@@ -115,9 +115,12 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
                 f"--set: unknown parameter {name!r}{hint}; sail parameters: "
                 f"{', '.join(sorted(sail_names))}; limits: {', '.join(Policy.field_names())}"
             )
-    given = simulator_parameters(args.config) if args.config else None
+    document = yaml_values.load_file(args.config, "config") if args.config else None
+    given = simulator_parameters(document, args.config) if args.config else None
     if given is None:  # a sail parameters file (or none)
-        file_sail = SailParameters.from_yaml(args.config).to_dict() if args.config else {}
+        file_sail = (
+            SailParameters.from_document(document, args.config).to_dict() if args.config else {}
+        )
         file_policy = {}
     else:  # the simulator's params file: what the simulator would take of it
         file_sail = {k.removeprefix(topics.SAIL_PREFIX): v for k, v in given.items()
@@ -150,18 +153,18 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
 NODE_BUILT_INS = ("use_sim_time", "start_type_description_service")
 
 
-def simulator_parameters(path) -> dict | None:
-    """The parameters a ROS 2 params file (`<node>: ros__parameters: ...`) gives the
-    simulator (its sections for `sail_sim`, in any namespace, and for every node, `/**`),
-    by the names the node declares (`sail.n_boom_modes`), nested mappings flattened as
-    ROS does; None for a file that is not a params file.
+def simulator_parameters(document, path) -> dict | None:
+    """The parameters a ROS 2 params file (`<node>: ros__parameters: ...`; its YAML
+    `document`, read from `path`, which errors name) gives the simulator (its sections
+    for `sail_sim`, in any namespace, and for every node, `/**`), by the names the node
+    declares (`sail.n_boom_modes`), nested mappings flattened as ROS does; None for a
+    document that is not a params file.
 
     Raises:
         ValueError: the file names a parameter the simulator does not have (which the
             simulator refuses, `ros.parameters.reject_unknown`), or holds no section it
             would read, naming them.
     """
-    document = yaml_values.load_file(path, "config")
     if not isinstance(document, dict) or not any(
         isinstance(body, dict) and "ros__parameters" in body for body in document.values()
     ):
