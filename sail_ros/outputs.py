@@ -42,7 +42,11 @@ def staged(path, what: str = ""):
     `what` names the output in errors (an option, e.g. "--mcap")."""
     path = Path(os.path.abspath(path))  # "." has a name and a parent
     make_folder(path.parent, what)
-    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
+    except OSError as error:  # named as the user gave it, not as the staging folder
+        prefix = f"{what} " if what else ""
+        raise ValueError(f"cannot write {prefix}'{path}': {error.strerror or error}") from None
     try:
         yield staging / path.name
         built = staging / path.name

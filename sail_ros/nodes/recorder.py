@@ -492,7 +492,8 @@ def _record(namespace, stop) -> int:
         recorder = Recorder(overrides(namespace, SPECS))
     except BagWriteError as error:
         get_logger(NODE_NAME).error(f"cannot start recording: {error}")
-        return 1
+        # an output folder already holding files is a bad argument; the rest, the machine
+        return 2 if isinstance(error.error, FileExistsError) else 1
     try:
         return recorder.run(stop)
     finally:

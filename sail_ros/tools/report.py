@@ -69,6 +69,7 @@ from sail_ros.plots.histories import (
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
     add_sail_options,
+    configuration,
     describe_parameters,
     print_hub_peak_table,
     print_peak_table,
@@ -154,6 +155,9 @@ def _floats(texts) -> np.ndarray:
 def _report(args) -> int:
     if not args.log.exists():
         raise ValueError(f"log {str(args.log)!r} does not exist")
+    # --config and --set are checked whether or not the log's own parameters leave them
+    # unused: a mistyped name or a missing file is an error, not silently nothing
+    configuration(args)
     log = read_log(args.log, args.namespace)
     out = args.out or Path(f"{args.log.stem if args.log.is_file() else args.log.name}_report")
     with staged(out, "--out") as folder:

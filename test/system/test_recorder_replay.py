@@ -730,10 +730,14 @@ def test_unwritable_output_and_bad_parameters_exit_with_a_clear_error(ros_env, t
             writer.write(
                 "/sail/boom_state", serialize_message(stream_message("/sail/boom_state", i)), i
             )
-    # four participants that leave at the same moment: each discovers no other, for Fast
+    # five participants that leave at the same moment: each discovers no other, for Fast
     # DDS can deadlock removing one while others leave (`ros.cli.bounded_teardown`)
     alone = {**ros_env, "ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF"}
     unwritable = start_tool("recorder", ["-o", str(blocker / "bag")], alone)
+    occupied = tmp_path / "occupied"  # a folder that holds files: a bad argument
+    occupied.mkdir()
+    (occupied / "notes.txt").write_text("mine")
+    taken = start_tool("recorder", ["-o", str(occupied)], alone)
     gzip = start_tool(
         "recorder", ["-o", str(tmp_path / "x"), "--ros-args", "-p", "compression:=gzip"], alone
     )
@@ -743,6 +747,9 @@ def test_unwritable_output_and_bad_parameters_exit_with_a_clear_error(ros_env, t
     )
     code, _, err = finish(unwritable)
     assert code == 1 and f"cannot write '{blocker / 'bag'}': Not a directory" in err, err
+    code, _, err = finish(taken)
+    assert code == 2 and f"cannot write '{occupied}': folder exists and is not empty" in err, err
+    assert [p.name for p in occupied.iterdir()] == ["notes.txt"]
     code, _, err = finish(gzip)
     assert code == 2 and "compression must be one of zstd, lz4, none, got 'gzip'" in err, err
     code, _, err = finish(missing)

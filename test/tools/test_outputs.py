@@ -5,6 +5,7 @@ earlier output of the same name as it was."""
 import contextlib
 import errno
 import os
+import re
 
 import pytest
 from harness import run_tool
@@ -90,6 +91,22 @@ def test_a_file_where_a_folder_is_needed_is_named(tmp_path):
     (tmp_path / "blocker").write_text("")
     with pytest.raises(ValueError, match="cannot write --npz .*blocker' is a file, not a folder"):
         staged(tmp_path / "blocker" / "p.npz", "--npz").__enter__()
+
+
+def test_a_folder_that_takes_no_files_is_named_as_given(tmp_path, monkeypatch):
+    """Where the staging folder cannot be made, the error names the output the user asked
+    for, not the hidden staging folder."""
+
+    def refused(**_):
+        raise PermissionError(errno.EACCES, "Permission denied")
+
+    monkeypatch.setattr(outputs.tempfile, "mkdtemp", refused)
+    expected = f"cannot write --npz '{tmp_path / 'x.npz'}': Permission denied"
+    with (
+        pytest.raises(ValueError, match=f"^{re.escape(expected)}$"),
+        staged(tmp_path / "x.npz", "--npz"),
+    ):
+        pass
 
 
 def test_deploy_log_cut_by_a_full_disk_leaves_the_old_log(tmp_path, monkeypatch):

@@ -77,6 +77,9 @@ BAD_INPUTS = [
     ("report", ["{root}/nothing_here"], "'{root}/nothing_here' does not exist"),
     ("report", ["{root}/no_mcap"], "folder '{root}/no_mcap' has no .mcap file"),
     ("report", ["{root}/text.mcap"], "is not an MCAP file"),
+    # checked whatever the log holds: before it is read
+    ("report", ["{root}/text.mcap", "--set", "max_rat=3"], "unknown parameter 'max_rat' (did"),
+    ("report", ["{root}/text.mcap", "--config", "{root}/missing.yaml"], "cannot read config"),
     ("report", ["{root}/crc.mcap", "--out", "{root}/crc_report"], "crc.mcap' is damaged"),
     ("send", ["move", "--booms", "a", "--point", "-1", "12"], "the time must be > 0 s"),
     ("send", ["--timeout", "0", "reset"], "--timeout must be > 0 s, got 0"),
