@@ -197,6 +197,7 @@ class RangeWatch:
             warning, error = policy.range_state(row[:4], lengths_inside()[i], hub)
             if error:
                 self.stopped_at = t
+                self.peaks.cut(t)
                 raise OutOfRangeError(f"integration stopped at t = {t:.6g} s: {error}")
             if warning and not self.warning:
                 self.warning = f"at t = {t:.6g} s: {warning}"

@@ -205,14 +205,29 @@ class OutputPeaks:
         else:
             y, yd = stepper.interpolant(np.concatenate([fractions, also]), self.rows)
             y, yd, extra = y[:count], yd[:count], (y[count:], yd[count:])
+        if self._pending_samples >= self.FLUSH_SAMPLES:
+            self._flush()  # the steps before: the last one stays pending (`cut`)
         self._pending.append(
             (t0 + fractions * h, y, yd, fractions, h, lengths0, rates0, lengths1, rates1)
         )
         self._pending_samples += count
         self._start = (t1, lengths1, rates1)
-        if self._pending_samples >= self.FLUSH_SAMPLES:
-            self._flush()
         return extra
+
+    def cut(self, t: float) -> None:
+        """Forget the last step's samples after `t` [s]: a run stopped inside that step
+        (an alarm) has no peaks after its stop."""
+        if not self._pending:
+            return
+        times, y, yd, fractions, *motion = self._pending[-1]
+        kept = times <= t
+        self._pending_samples -= int(np.count_nonzero(~kept))
+        if kept.all():
+            return
+        if kept.any():
+            self._pending[-1] = (times[kept], y[kept], yd[kept], fractions[kept], *motion)
+        else:
+            self._pending.pop()
 
     def _flush(self) -> None:
         if not self._pending:

@@ -302,6 +302,24 @@ def test_a_run_without_states_has_the_same_tips_peaks_and_end(case):
         assert ends[-1] and np.array_equal(lean.qd[-1], full.qd[-1])
 
 
+def test_a_run_stopped_by_its_alarm_has_no_peak_after_the_stop():
+    """The alarm falls inside a step: the peaks are searched up to it, not over the rest
+    of that step (boom a's root moment peaked 13 ms after the stop here)."""
+    from sail_ros.analysis.deployment import run_deployment
+    from sail_ros.analysis.scenario import scenario_from_dict
+
+    profile = {"type": "cycloidal", "start": 15.0, "end": 10.0, "duration": 15.0}
+    document = {"scenario": {"duration": 15.0, "profile": profile,
+                             "initial": {"mode_state": {"a": 4.0}}}}  # fmt: skip
+    scenario = scenario_from_dict(document)
+    model = SailModel(SailParameters())
+    run = run_deployment(model, scenario, np.arange(0.0, 15.05, 0.1), states=False)
+    stop = float(run.alarm.split("stopped at t = ")[1].split(" s")[0])
+    assert 9.0 < stop < 9.3, run.alarm
+    for peak in (run.peaks.tip_deflection, run.peaks.root_moment):
+        assert np.all(peak.time_s <= stop), (peak.time_s, stop)
+
+
 def test_reference_options_conflict_with_a_scenario(capsys):
     path = CONFIG / "scenario_reference.yaml"
     assert deploy.main(["--scenario", str(path), "--from", "5", "--tip", "0.2"]) == 2
