@@ -37,3 +37,13 @@ def test_quoted_defaults_are_the_defaults():
             assert yaml.safe_load(value) == DEFAULTS[name], name
             checked += 1
     assert checked >= 3  # tip_warn_fraction, tip_error_fraction, max_model_step
+
+
+def test_the_recorders_page_lists_every_topic_it_records_by_default():
+    topics = yaml.safe_load((ROOT / "config" / "recorder.yaml").read_text())
+    (section,) = topics.values()
+    page = (ROOT / "msg_docs" / "recorder.md").read_text()
+    listed = set(re.findall(r"^\| `(/[^`]+)` \|", page, flags=re.MULTILINE))
+    defaults = {name if name.startswith("/") else "/" + name
+                for name in section["ros__parameters"]["topics"]}  # fmt: skip
+    assert defaults == listed
