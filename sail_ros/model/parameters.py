@@ -8,6 +8,7 @@ seed's validation setting of no boom axial load.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from pathlib import Path
 
@@ -147,7 +148,7 @@ class SailParameters:
         unknown = sorted(set(values) - set(cls.field_names()))
         if unknown:
             raise ValueError(
-                f"unknown sail parameter(s) {', '.join(map(repr, unknown))}; "
+                f"unknown sail parameter(s) {', '.join(map(_with_nearest, unknown))}; "
                 f"known: {', '.join(cls.field_names())}"
             )
         return cls(**values)
@@ -169,6 +170,12 @@ class SailParameters:
     def to_yaml(self, path) -> None:
         with open(path, "w") as stream:
             yaml.safe_dump({"sail": self.to_dict()}, stream, sort_keys=False)
+
+
+def _with_nearest(name: str) -> str:
+    """`'name'`, and the field it was most likely meant to be, if one is close."""
+    close = difflib.get_close_matches(name, SailParameters.field_names(), n=1, cutoff=0.6)
+    return repr(name) + (f" (did you mean {close[0]!r}?)" if close else "")
 
 
 def _find_sail_section(document, path: Path) -> dict:

@@ -473,7 +473,8 @@ def _output_size(args, duration: float, n: int, extra: int) -> None:
 
 def _deploy(args) -> int:
     scenario, description = _scenario(args)
-    config = configuration(args, scenario.sail, "scenario sail section")
+    where = f"{args.scenario}: sail section" if args.scenario else "scenario sail section"
+    config = configuration(args, scenario.sail, where)
     params, policy = config.sail, config.policy
     duration = scenario.duration
     snapshots = args.snapshots or list(scenario.snapshots)

@@ -26,6 +26,10 @@ def files(tmp_path_factory):
     )
     (root / "sim_node.yaml").write_text("sail_simm:\n  ros__parameters:\n    max_rate: 2.0\n")
     (root / "sim_list.yaml").write_text("sail_sim:\n  ros__parameters: [1, 2]\n")
+    (root / "sail_typo.yaml").write_text(
+        "scenario:\n  duration: 1.0\n  profile: {type: static, lengths: 10.0}\n"
+        "sail:\n  membrane_prestres: 100\n"
+    )
     (root / "no_mcap").mkdir()
     (root / "text.mcap").write_text("not an mcap file\n")
     (root / "blocker").write_text("")  # a file where a folder is needed
@@ -57,6 +61,12 @@ BAD_INPUTS = [
         "'sail.n_boom_mode' (did you mean 'sail.n_boom_modes'?)",
     ),
     ("plant", ["--config", "{root}/sim_node.yaml"], "no parameters for sail_sim (sections: "),
+    (
+        "deploy",
+        ["--scenario", "{root}/sail_typo.yaml"],
+        "{root}/sail_typo.yaml: sail section: unknown sail parameter(s) 'membrane_prestres' "
+        "(did you mean 'membrane_prestress'?)",
+    ),
     ("modes", ["--config", "{root}/sim_list.yaml"], "ros__parameters of sail_sim must be"),
     ("modes", ["--set", "n_boom_modes=0"], "n_boom_modes must be an integer in [1, 30], got 0"),
     ("modes", ["--set", "membrane_thickness"], "--set expects KEY=VALUE"),
