@@ -134,10 +134,10 @@ class IntegrationError(RuntimeError):
     """The state became non-finite; `reset` starts again."""
 
 
-def time_slack(t):
-    """Within this [s] of each other, two times near `t` [s] (a float or an array) are
-    one: the round-off of a time reached by summing steps."""
-    return 1e-12 * np.maximum(1.0, np.abs(t))
+def time_slack(t: float) -> float:
+    """Within this [s] of each other, two times near `t` [s] are one: the round-off of
+    a time reached by summing steps (plain floats: it is asked every step)."""
+    return 1e-12 * max(1.0, abs(t))
 
 
 # A stretch of time whose motion starts or ends within this fraction of it from its ends
@@ -668,7 +668,7 @@ class SailStepper:
             )
         times = np.asarray(times, dtype=float)
         q, qd = np.empty((times.size, self._q.size)), np.empty((times.size, self._q.size))
-        end = np.abs(times - self._t) <= time_slack(times)
+        end = np.abs(times - self._t) <= time_slack(self._t)
         q[end], qd[end] = self._q, self.qd
         inside = times[~end]
         if inside.size == 0:

@@ -55,7 +55,7 @@ from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.messages import status as key
-from sail_ros.model import SailModel, record, yaml_values
+from sail_ros.model import SailModel, SailParameters, record, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
 from sail_ros.outputs import staged
 from sail_ros.plots.histories import (
@@ -75,7 +75,6 @@ from sail_ros.tools.common import (
     print_peak_table,
     print_written,
     run,
-    sail_parameters,
     set_values,
 )
 
@@ -155,14 +154,14 @@ def _floats(texts) -> np.ndarray:
 def _report(args) -> int:
     if not args.log.exists():
         raise ValueError(f"log {str(args.log)!r} does not exist")
-    # --config and --set are checked whether or not the log's own parameters leave them
-    # unused: a mistyped name or a missing file is an error, not silently nothing
-    configuration(args)
+    # --config and --set are read (and checked) whether or not the log's own parameters
+    # leave them unused: a mistyped name or a missing file is an error, not nothing
+    given = configuration(args).sail
     log = read_log(args.log, args.namespace)
     out = args.out or Path(f"{args.log.stem if args.log.is_file() else args.log.name}_report")
     with staged(out, "--out") as folder:
         folder.mkdir()
-        stopped = _write_report(args, log, folder)
+        stopped = _write_report(args, log, folder, given)
         written = sorted(path.relative_to(folder) for path in folder.rglob("*") if path.is_file())
     print_written(out / path for path in written)
     if stopped:
@@ -171,8 +170,9 @@ def _report(args) -> int:
     return 0
 
 
-def _write_report(args, log, out: Path) -> str:
-    """Write the report's files into `out`; the alarm of a rerun that stopped, or ""."""
+def _write_report(args, log, out: Path, given: SailParameters) -> str:
+    """Write the report's files into `out`; the alarm of a rerun that stopped, or "".
+    `given`: the sail of --config/--set, for a log without recorded parameters."""
     time_label = (
         "simulation time t [s]" if log.simulation_time else "time since the first sample [s]"
     )
@@ -229,8 +229,8 @@ def _write_report(args, log, out: Path) -> str:
         _hub(log, out / HUB_FIGURE, time_label, args.log.name)
     _write_states(log, out / "states.csv")
     _parameter_changes(args, log, out / "parameter_changes.csv", time_label)
-    stopped = _peaks(args, log, out)
-    _energies(args, log, out, time_label)
+    stopped = _peaks(args, log, out, given)
+    _energies(log, out, time_label, given)
     _real_time_factor(log, out, time_label, args.log.name)
     return stopped
 
@@ -297,11 +297,11 @@ PEAK_COLUMNS = [
 CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
 
 
-def _peaks(args, log, out: Path) -> str:
+def _peaks(args, log, out: Path, given: SailParameters) -> str:
     """Each boom's peaks: from the log's samples, and for a deploy log from reruns of its
     scenario (the same mode counts, then twice as many); one row each in peaks.csv.
     Returns the alarm of a rerun that left the linear range ("" if none did)."""
-    params = _recorded_parameters(log) or sail_parameters(args)
+    params = _recorded_parameters(log) or given
     model = SailModel(params)
     if log.modal is not None and log.modal.names != model.coordinate_names:
         model = None  # another sail than --config/--set say: the energies say so
@@ -495,7 +495,7 @@ def _write_states(log, path: Path) -> Path:
     return _write_csv(path, header, columns)
 
 
-def _energies(args, log, out: Path, time_label: str) -> list[Path]:
+def _energies(log, out: Path, time_label: str, given: SailParameters) -> list[Path]:
     if log.modal is None:
         print("  no /sail/modal_state: energies not available")
         return []
@@ -504,7 +504,7 @@ def _energies(args, log, out: Path, time_label: str) -> list[Path]:
         return []
     params = log.sail_parameters()
     if params is None:
-        params = sail_parameters(args)
+        params = given
         print(
             "  no recorded sail parameters (sail_sim_parameters): energies use "
             "--config/--set (built-in defaults if neither is given)"
