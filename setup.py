@@ -12,7 +12,7 @@ setup(
     name=package_name,
     version="0.1.0",
     packages=find_packages(exclude=["test"]),
-    package_data={"sail_ros.ros": ["fastdds_discovery.xml"]},  # read by Fast DDS, by path
+    package_data={"sail_ros.ros": ["fastdds_discovery.xml", "fastdds_client.xml"]},  # by path
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
@@ -22,7 +22,7 @@ setup(
         ("share/" + package_name + "/docs", ["docs/model.md"]),
     ],
     install_requires=["setuptools"],
-    zip_safe=False,  # fastdds_discovery.xml is read from its path
+    zip_safe=False,  # the fastdds_*.xml files are read from their paths
     maintainer="sail_ros maintainers",
     maintainer_email="maintainers@sail-ros.dev",
     description="Real-time deployment dynamics of a four-quadrant solar sail.",

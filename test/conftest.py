@@ -183,8 +183,11 @@ def ros_env(tmp_path_factory) -> dict[str, str]:
     private home and log folder, unbuffered output; a process stopped by SIGABRT prints
     every thread's Python stack (faulthandler), so a hang names where it hangs."""
     home = tmp_path_factory.mktemp("home")
+    environ = dict(os.environ)
+    # each process picks its own Fast DDS profile, as it does outside the tests
+    environ.pop("FASTRTPS_DEFAULT_PROFILES_FILE", None)
     return dict(
-        os.environ,
+        environ,
         HOME=str(home),
         ROS_LOG_DIR=str(home / "log"),
         PYTHONUNBUFFERED="1",

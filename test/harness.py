@@ -37,7 +37,7 @@ from sail_ros.cli import TOOLS
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
 from sail_ros.ros.commanding import command_publisher
-from sail_ros.ros.discovery import announce_often
+from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often
 from sail_ros.tools.domains import FIRST_DOMAIN, DomainLease, bound_udp_ports, domain_in_use
 
 ROOT = Path(__file__).resolve().parents[1]  # the repository
@@ -84,7 +84,9 @@ os.environ["SAIL_ROS_TEST_DOMAIN_ID"] = str(DOMAIN_ID)
 os.environ["SAIL_ROS_TEST_DOMAIN_RUNNER"] = _RUNNER
 os.environ["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-announce_often()  # the test process's own participants announce as the tools' do
+# the test process's own participants (the tools' mains called in it, operators) are
+# clients; the processes a test starts choose their own profile (`conftest.ros_env`)
+announce_often(profile=CLIENT_PROFILE)
 os.environ.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
 _SCRATCH = Path(tempfile.mkdtemp(prefix="sail_ros_test_"))
 os.environ.setdefault("HOME", str(_SCRATCH))
@@ -129,6 +131,15 @@ class Tool:
 
     def log(self) -> str:
         return self.log_path.read_text()
+
+    def wait_for_lines(self, lines, timeout: float = 20.0) -> None:
+        """Until the log holds each of `lines`, and a little more (DDS matches the
+        subscriptions a recorder announces within milliseconds)."""
+        deadline = time.monotonic() + timeout
+        while not all(line in self.log() for line in lines):
+            assert self.process.poll() is None and time.monotonic() < deadline, self.log()
+            time.sleep(0.05)
+        time.sleep(0.2)
 
 
 def ros_value(value) -> str:

@@ -24,6 +24,10 @@ SUPERSEDED = "superseded"  # a newer command replaced it before it started
 # value of an accepted load command's answer: the four values held from then on
 # ("[0.002, 0.0, 0.0, 0.0]", Pa or N), so a log tells every load from the answers alone
 LOADS_HELD = "loads_held"
+# value of every answer: how many subscriptions of the command's topic the simulator's
+# graph showed when it answered (its own two, a recorder's, ...); a sender keeps its
+# publisher until as many have the command (`SimClient.close`)
+SUBSCRIBERS = "subscribers"
 _OUTCOME_LEVELS = {
     ACCEPTED: DiagnosticStatus.OK,
     REJECTED: DiagnosticStatus.ERROR,

@@ -2,7 +2,10 @@
 
 Subscribes (raw, no deserialisation) to the configured topics as soon as a
 publisher of each appears in the graph, learning its type and QoS from the
-publishers, and hands the CDR bytes to a `BagWriter` running in its own
+publishers; to the simulator's command topics at once, twice each as the
+simulator listens (a command from `sail-ros send` is published by a process
+that exits once it is answered, often before the graph's next poll), a sample
+arriving on both written once. It hands the CDR bytes to a `BagWriter` in its own
 thread (`sail_ros.bag.recording.Recording`, the one owner of the files, the
 splits and the parameters stored). Log time is the DDS reception time and
 publish time the DDS source time [ns since the Unix epoch]. The parameters of
@@ -32,6 +35,7 @@ import traceback
 
 from rcl_interfaces.msg import ParameterEvent
 from rcl_interfaces.srv import GetParameters, ListParameters
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.exceptions import NameValidationException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.expand_topic_name import expand_topic_name
@@ -46,6 +50,7 @@ from sail_ros.bag import (
     DefinitionNotFoundError,
     message_definition,
     qos,
+    type_hash,
 )
 from sail_ros.bag.recording import Recording
 from sail_ros.messages.parameters import parameter_update, yaml_texts
@@ -58,12 +63,16 @@ from sail_ros.ros.parameters import (
     node_options,
     overrides,
 )
-from sail_ros.ros.taking import take_waiting
+from sail_ros.ros.taking import Repeats, take_waiting
 from sail_ros.topics import (
+    COMMAND_TOPICS,
+    HUB_WRENCH_CMD,
+    LATCHED_COMMAND_QOS,
     PARAMETER_CHANGES_METADATA,
     PARAMETER_EVENTS,
     PARAMETERS_METADATA,
     RECORDED_TOPICS,
+    TOPICS,
 )
 
 NODE_NAME = "sail_recorder"
@@ -92,8 +101,8 @@ SPECS = [
     ParamSpec(
         "topics",
         list(RECORDED_TOPICS),
-        "topics to record; each is subscribed once a "
-        "publisher of it appears (ignored when all_topics is true)",
+        "topics to record; each is subscribed once a publisher of it appears, the "
+        "simulator's command topics at once (ignored when all_topics is true)",
     ),
     ParamSpec(
         "all_topics",
@@ -184,7 +193,10 @@ class Recorder(Node):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
         self.config = declare(self, SPECS)
         self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
-        self._recording: dict[str, object] = {}
+        self._recording: dict[str, list] = {}  # topic -> its subscriptions
+        self._announced: set[str] = set()  # topics the bag has a channel for
+        self._commands: dict[str, object] = {}  # command topics subscribed at start
+        self._repeats = Repeats()  # a command taken by both its subscriptions
         self._ignored: set[str] = set()
         self._received = 0  # messages taken from DDS, for draining at shutdown
         self._started = time.monotonic()
@@ -223,6 +235,7 @@ class Recorder(Node):
             parameters_wait_s=PARAMETER_WAIT_WARNING_S,
         )
         try:
+            self._subscribe_commands()
             self._poll_timer = self.create_timer(GRAPH_PERIOD_S, self._poll)
             if full_name is not None:
                 self.create_subscription(
@@ -277,8 +290,9 @@ class Recorder(Node):
                 "recording stopped by an unexpected error:\n" + traceback.format_exc().rstrip()
             )
         finally:
-            for subscription in self._recording.values():
-                self.destroy_subscription(subscription)
+            for subscriptions in self._recording.values():
+                for subscription in subscriptions:
+                    self.destroy_subscription(subscription)
             self.bag.close()
             executor.remove_node(self)
         return self._report(error)
@@ -347,8 +361,38 @@ class Recorder(Node):
         if self._parameter_node:
             self._poll_parameters()
 
+    def _subscribe_commands(self) -> None:
+        """Subscribe to the simulator's command topics to be recorded now, not once a
+        publisher appears, and twice each, transient local and volatile, as the
+        simulator does (`topics.COMMAND_QOS`): a command sent by a short-lived publisher
+        then reaches the bag whichever way discovery goes. The bag's channel is made
+        when the graph shows a publisher, or with the first message (`_announce`)."""
+        quiet = SubscriptionEventCallbacks(use_default_callbacks=False)  # as the simulator's
+        for name in (*COMMAND_TOPICS, HUB_WRENCH_CMD):
+            topic = self._resolve(name)
+            if not (topic in self._wanted or self.config["all_topics"]):
+                continue
+            kind = self._commands[topic] = TOPICS[name]
+            self._recording[topic] = [
+                self.create_subscription(
+                    kind.message_type,
+                    topic,
+                    functools.partial(self._on_message, topic),
+                    qos.subscription_for([offer], self.config["qos_depth"]),
+                    event_callbacks=quiet,
+                    raw=True,
+                )
+                for offer in (LATCHED_COMMAND_QOS, kind.qos)
+            ]
+            self.get_logger().info(
+                f"recording {topic} ({kind.type_name}, reliable, transient_local and volatile)"
+            )
+
     def _subscribe_new_topics(self) -> None:
         for topic, _ in self.get_topic_names_and_types():
+            if topic in self._commands and topic not in self._announced:
+                self._announce(topic, at_message=False)
+                continue
             if topic in self._recording or topic in self._ignored:
                 continue
             if not (topic in self._wanted or (self.config["all_topics"] and not is_hidden(topic))):
@@ -385,21 +429,44 @@ class Recorder(Node):
                 f"{topic}: publishers offer different reliability/durability; "
                 "subscribing with what all of them serve"
             )
-        type_hash = str(publishers[0].topic_type_hash)
-        self.bag.add_topic(
-            topic,
-            type_name,
-            [qos.entry_of(p) for p in offered],
-            type_hash if type_hash.startswith("RIHS01_") else None,
-        )
+        self._add_to_bag(topic, type_name, publishers)
         request = qos.subscription_for(offered, self.config["qos_depth"])
-        self._recording[topic] = self.create_subscription(
-            msg_class, topic, functools.partial(self._on_message, topic), request, raw=True
-        )
+        self._recording[topic] = [
+            self.create_subscription(
+                msg_class, topic, functools.partial(self._on_message, topic), request, raw=True
+            )
+        ]
         logger.info(
             f"recording {topic} ({type_name}, {request.reliability.name.lower()}, "
             f"{request.durability.name.lower()})"
         )
+
+    def _add_to_bag(self, topic: str, type_name: str, publishers) -> None:
+        """Give the bag a channel of `topic`, with the QoS its `publishers` offer."""
+        type_hash = str(publishers[0].topic_type_hash)
+        self.bag.add_topic(
+            topic,
+            type_name,
+            [qos.entry_of(p.qos_profile) for p in publishers],
+            type_hash if type_hash.startswith("RIHS01_") else None,
+        )
+        self._announced.add(topic)
+
+    def _announce(self, topic: str, at_message: bool) -> None:
+        """The channel of a command topic subscribed at start (`_subscribe_commands`),
+        with its publishers' QoS once the graph shows them; if its first message came
+        from a publisher already gone (`at_message`), with the QoS `sail-ros send`
+        offers."""
+        type_name = self._commands[topic].type_name
+        publishers = [
+            p for p in self.get_publishers_info_by_topic(topic) if p.topic_type == type_name
+        ]
+        if publishers:
+            self._add_to_bag(topic, type_name, publishers)
+        elif at_message:
+            entries = [qos.recorded_entry(LATCHED_COMMAND_QOS)]
+            self.bag.add_topic(topic, type_name, entries, type_hash(type_name))
+            self._announced.add(topic)
 
     def _on_message(self, topic: str, data: bytes, info: dict) -> None:
         """One message of `topic` from the executor, then whatever else already waits on
@@ -407,11 +474,17 @@ class Recorder(Node):
         are paid once per batch, not per message, and a recorder that fell behind
         catches up instead of letting DDS overwrite what it has not taken."""
         self._record(topic, data, info)
-        for name, subscription in self._recording.items():
-            for taken in take_waiting(subscription, TAKE_BATCH):
-                self._record(name, *taken)
+        for name, subscriptions in self._recording.items():
+            for subscription in subscriptions:
+                for taken in take_waiting(subscription, TAKE_BATCH):
+                    self._record(name, *taken)
 
     def _record(self, topic: str, data: bytes, info: dict) -> None:
+        if topic in self._commands:
+            if self._repeats.seen(topic, info):
+                return  # a command both its subscriptions took
+            if topic not in self._announced:
+                self._announce(topic, at_message=True)
         log_time = info.get("received_timestamp") or time.time_ns()
         publish_time = info.get("source_timestamp") or log_time
         sequence = (info.get("publication_sequence_number") or 0) & 0xFFFFFFFF

@@ -320,8 +320,15 @@ class SimNode(Node):
             self._outputs[topics.CLOCK].publish(state_msg.clock(stamp_ns))
 
     def answers(self, answers: list[commands_msg.CommandAnswer]) -> None:
+        # who listens on each command topic: a sender waits for as many (`SUBSCRIBERS`)
+        named = {a.topic for a in answers}
+        counts = {topic: str(self.count_subscribers(topic)) for topic in named}
+        counted = [
+            a._replace(values={**a.values, commands_msg.SUBSCRIBERS: counts[a.topic]})
+            for a in answers
+        ]
         self._outputs[topics.COMMAND_STATUS].publish(
-            commands_msg.command_status(self.run.stamp_ns(), answers)
+            commands_msg.command_status(self.run.stamp_ns(), counted)
         )
 
     def log(self, severity: str, text: str) -> None:

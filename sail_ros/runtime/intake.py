@@ -28,6 +28,7 @@ import threading
 from typing import NamedTuple
 
 from sail_ros import topics
+from sail_ros.ros.taking import Repeats
 
 DUPLICATE, STALE = "duplicate", "stale"
 
@@ -51,9 +52,7 @@ class CommandIntake:
 
     def __init__(self, started_ns: int, memory: int = 256):
         self.started_ns = int(started_ns)
-        self._seen: collections.OrderedDict[tuple, None] = collections.OrderedDict()
-        self._memory = memory
-        self._lock = threading.Lock()
+        self._repeats = Repeats(memory)
 
     def admit(self, topic: str, info: dict) -> str | None:
         """None to act on the command, else why not: DUPLICATE (it already came on
@@ -64,15 +63,9 @@ class CommandIntake:
             info: rclpy's message info of the sample (`source_timestamp`,
                 `publication_sequence_number`).
         """
+        if self._repeats.seen(topic, info):
+            return DUPLICATE
         source = int(info.get("source_timestamp") or 0)
-        key = (topic, source, int(info.get("publication_sequence_number") or 0))
-        with self._lock:
-            if source and key in self._seen:
-                return DUPLICATE
-            if source:
-                self._seen[key] = None
-                if len(self._seen) > self._memory:
-                    self._seen.popitem(last=False)
         if source and source < self.started_ns:
             return STALE
         return None

@@ -21,6 +21,7 @@ import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -30,13 +31,16 @@ from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, parse_command_line
-from sail_ros.ros.discovery import announce_often
+from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often
 from sail_ros.tools.common import stdout_closed
 from sail_ros.tools.domains import LAST_DOMAIN
 
 # Once the answers the diagnostics counted arrived, the watcher takes more until none
 # came for this long [s]: the rest of the history arrives within milliseconds.
 ANSWER_HISTORY_S = 0.3
+# At close, a command publisher is kept until every subscription of its topic has
+# acknowledged its commands (a recorder's, besides the simulator's), at most this long [s].
+DELIVERY_WAIT_S = 2.0
 
 
 class NoAnswerError(RuntimeError):
@@ -63,6 +67,7 @@ class SimClient(Node):
         )
         self._command_publishers: dict[str, object] = {}
         self._sent: dict[str, int] = {}  # messages published per command topic
+        self._readers: dict[str, int] = {}  # subscriptions the simulator counted per topic
         self.latest: dict[str, object] = {}
         self.received = 0  # state messages taken
         if watch:
@@ -133,9 +138,30 @@ class SimClient(Node):
                 heard, quiet_until = len(self.answers), time.monotonic() + limit
 
     def close(self) -> None:
+        self._deliver()
         self.executor_.shutdown()
         with bounded_teardown():
             self.destroy_node()
+
+    def _deliver(self) -> None:
+        """Keep each command publisher until as many subscriptions as the simulator
+        counted on its topic when it answered (`commands_msg.SUBSCRIBERS`; a recorder's
+        among them), and as this client's graph shows, have matched it and acknowledged
+        its commands, at most DELIVERY_WAIT_S: the answer says only that the simulator
+        has the command, and a subscription this client has not yet discovered gets it
+        (transient local) when it matches; destroyed sooner, the publisher would take
+        the command with it."""
+        deadline = time.monotonic() + DELIVERY_WAIT_S
+        for name, publisher in self._command_publishers.items():
+            topic = self.resolve_topic_name(name)
+            while (
+                publisher.get_subscription_count()
+                < max(self._readers.get(name, 0), self.count_subscribers(topic))
+                and time.monotonic() < deadline
+            ):
+                self.executor_.spin_once(timeout_sec=0.01)
+            left = max(0.0, deadline - time.monotonic())
+            publisher.wait_for_all_acked(Duration(nanoseconds=int(left * 1e9)))
 
     # -- commands ---------------------------------------------------------------------------
 
@@ -178,6 +204,7 @@ class SimClient(Node):
             return bool(found)
 
         self.spin_until(answered, timeout, f"answer from {self.sim_name} on {resolved}")
+        self._readers[name] = int(found[0].values.get(commands_msg.SUBSCRIBERS, 0))
         return found[0]
 
     def call(self, service: str, request, timeout: float):
@@ -254,7 +281,7 @@ def init_context(ros_argv: list[str], domain_id: int | None):
     (the tool decides how Ctrl-C ends it)."""
     from rclpy.signals import SignalHandlerOptions
 
-    announce_often()
+    announce_often(profile=CLIENT_PROFILE)
     context = rclpy.Context()
     options = {} if domain_id is None else {"domain_id": domain_id}
     rclpy.init(

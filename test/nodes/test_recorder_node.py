@@ -16,6 +16,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, BagWriter
@@ -102,6 +103,46 @@ def test_recorder_records_in_process(ros_context, peer, tmp_path):
     ]
     assert [m.header.stamp.sec for m in recorded] == list(range(30))
     assert [list(m.position) for m in recorded] == [list(m.position) for m in sent]
+
+
+def test_commands_of_short_lived_publishers_are_recorded_once(ros_context, peer, tmp_path):
+    """The recorder listens on the command topics from its start, twice (transient local
+    and volatile, as the simulator does): the commands of a transient-local publisher
+    that is gone as soon as its readers have them (`sail-ros send`) and of a volatile
+    one are all in the bag, each once, though the first came on both subscriptions."""
+    node, executor = peer
+    topic = topics.absolute(topics.DEPLOY_CMD)
+    overrides = [
+        Parameter("output", value=str(tmp_path / "bag")),
+        Parameter("topics", value=[topic]),
+        Parameter("parameter_node", value=""),
+    ]
+    recorder = Recorder(overrides, context=ros_context)
+    stop, result = Stop(), []
+    runner = threading.Thread(target=lambda: result.append(recorder.run(stop)))
+    runner.start()
+    try:
+        # subscribed before any publisher exists
+        spin_until(executor, lambda: node.count_subscribers(topic) == 2, 10.0, "subscriptions")
+        latched = node.create_publisher(Float64, topic, topics.LATCHED_COMMAND_QOS)
+        spin_until(executor, lambda: latched.get_subscription_count() == 2, 10.0, "matches")
+        for value in (11.0, 12.0, 13.0):
+            latched.publish(Float64(data=value))
+        assert latched.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
+        node.destroy_publisher(latched)
+        volatile = node.create_publisher(Float64, topic, topics.COMMAND_QOS)
+        spin_until(executor, lambda: volatile.get_subscription_count() == 1, 10.0, "a match")
+        for value in (14.0, 15.0):
+            volatile.publish(Float64(data=value))
+        assert volatile.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
+    finally:
+        stop.event.set()
+        runner.join(10.0)
+    recorder.destroy_node()
+    assert result == [0]
+    bag = BagReader(tmp_path / "bag")
+    values = [deserialize_message(m.data, Float64).data for m in bag.messages([topic])]
+    assert values == [11.0, 12.0, 13.0, 14.0, 15.0]
 
 
 def test_take_waiting_takes_what_waits_in_order_with_its_dds_times(ros_context, peer):

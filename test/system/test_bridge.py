@@ -87,16 +87,6 @@ def served_url(tool, timeout: float = 20.0) -> str:
     pytest.fail(f"the bridge did not serve within {timeout} s:\n{tool.log()}")
 
 
-def wait_for_lines(tool, lines, timeout: float = 20.0) -> None:
-    """Until the log of `tool` holds each of `lines`, and a little more (DDS matches the
-    subscriptions it announces within milliseconds)."""
-    deadline = time.monotonic() + timeout
-    while not all(line in tool.log() for line in lines):
-        assert tool.process.poll() is None and time.monotonic() < deadline, tool.log()
-        time.sleep(0.05)
-    time.sleep(0.2)
-
-
 def run_client(node: Path, url: str, plan: dict, out: Path, timeout: float = 60.0):
     """Start bridge_client.mjs with `plan`; returns the process (its result: `out`)."""
     plan_path = out.with_suffix(".plan.json")
@@ -142,7 +132,7 @@ def test_foxglove_client_sees_the_log_and_commands_the_sail(processes, js_reader
     recorder = processes("recorder", "-o", str(bag))
     served = processes("bridge", "--port", "0", "--diagnostics-period-s", "0.5")
     url = served_url(served)
-    wait_for_lines(recorder, [f"recording {topic} " for topic in SIM_TOPICS])
+    recorder.wait_for_lines([f"recording {topic} " for topic in SIM_TOPICS])
     out = tmp_path / "client.json"
     plan = {
         "topics": SIM_TOPICS,

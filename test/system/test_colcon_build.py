@@ -84,7 +84,8 @@ def test_install_space_holds_the_executables_and_config(install):
     assert (prefix / "share" / "sail_ros" / "package.xml").is_file()
     assert (prefix / "share" / "sail_ros" / "docs" / "model.md").is_file()
     package = prefix / "lib" / PYTHON / "site-packages" / "sail_ros"
-    assert (package / "ros" / "fastdds_discovery.xml").is_file()  # read by Fast DDS, by path
+    for profile in ("fastdds_discovery.xml", "fastdds_client.xml"):  # read by Fast DDS, by path
+        assert (package / "ros" / profile).is_file()
     assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "sail_ros").is_file()
 
 

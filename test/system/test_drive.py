@@ -82,6 +82,7 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
         "sim", parameters={"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0], **FAST_STATUS}
     )
     recorder = processes("recorder", "-o", str(tmp_path / "bag"))
+    recorder.wait_for_lines(["recording /sail/deploy_cmd ", "recording /sail/boom_length_cmd "])
     first = watch(ros_env)  # waits for the simulator
     assert first["boom_length_m"] == {"a": 10.0, "b": 10.0, "c": 10.0, "d": 10.0}
     assert 0.0 < abs(first["tip_deflection_m"]["a"]) <= 0.1 + 1e-9  # it swings from 0.1 m
@@ -119,6 +120,10 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
         for answer in commands_msg.command_answers(deserialize_message(m.data, DiagnosticArray))
     ]
     assert [a.outcome for a in answers] == ["accepted", "rejected", "accepted"]
+    # and every command, though each sender exits as soon as it is answered
+    deploys = [deserialize_message(m.data, Float64) for m in bag.messages(["/sail/deploy_cmd"])]
+    assert [m.data for m in deploys] == [12.0, 500.0]
+    assert len(list(bag.messages(["/sail/boom_length_cmd"]))) == 1
     report = in_process("report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"))
     assert report.returncode == 0, report.stderr
 

@@ -12,13 +12,26 @@ pytestmark = pytest.mark.model
 NS = {"dds": "http://www.eprosima.com"}
 
 
-def test_the_profile_announces_every_half_second_by_default():
-    root = ET.parse(discovery.PROFILE).getroot()
+def seconds(period) -> float:
+    return int(period.find("dds:sec", NS).text) + 1e-9 * int(period.find("dds:nanosec", NS).text)
+
+
+@pytest.mark.parametrize("path", [discovery.PROFILE, discovery.CLIENT_PROFILE])
+def test_the_profiles_announce_every_half_second_by_default(path):
+    root = ET.parse(path).getroot()
     (profile,) = root.findall("dds:profiles/dds:participant", NS)
     assert profile.get("is_default_profile") == "true"
     period = profile.find("dds:rtps/dds:builtin/dds:discovery_config/dds:leaseAnnouncement", NS)
-    seconds = int(period.find("dds:sec", NS).text) + 1e-9 * int(period.find("dds:nanosec", NS).text)
-    assert seconds == discovery.ANNOUNCEMENT_PERIOD_S
+    assert seconds(period) == discovery.ANNOUNCEMENT_PERIOD_S
+
+
+def test_only_the_clients_writers_ask_for_acknowledgements_every_tenth_of_a_second():
+    (writer,) = (
+        ET.parse(discovery.CLIENT_PROFILE).getroot().findall("dds:profiles/dds:data_writer", NS)
+    )
+    assert writer.get("is_default_profile") == "true"
+    assert seconds(writer.find("dds:times/dds:heartbeatPeriod", NS)) == 0.1
+    assert not ET.parse(discovery.PROFILE).getroot().findall("dds:profiles/dds:data_writer", NS)
 
 
 def test_a_profile_file_of_the_users_is_left_alone():
