@@ -12,6 +12,7 @@ import contextlib
 import difflib
 import faulthandler
 import importlib
+import re
 import select
 import signal
 import socket
@@ -39,13 +40,11 @@ def suggestion(name: str, known) -> str:
     return f" (did you mean {close!r}?)" if close else ""
 
 
-def check_params_files(ros_argv: list[str], node_name: str) -> None:
-    """Every `--params-file` must hold a section for `node_name` (or a wildcard): a
-    misspelt section (`sail_simm:`) would otherwise be skipped without a word.
+def _params_files(ros_argv: list[str]):
+    """`(path, document)` of every `--params-file` in `ros_argv`, read and checked.
 
     Raises:
-        ConfigError: a file cannot be read, is not a params file, or has no section
-            for the node (the message names the sections and the closest one).
+        ConfigError: a file cannot be read, or is not a params file (one line naming it).
     """
     files = [ros_argv[i + 1] for i, item in enumerate(ros_argv[:-1]) if item == "--params-file"]
     for path in files:
@@ -62,6 +61,18 @@ def check_params_files(ros_argv: list[str], node_name: str) -> None:
             raise ConfigError(
                 f"--params-file {path}: expected '<node>: ros__parameters: ...' sections"
             )
+        yield path, document
+
+
+def check_params_files(ros_argv: list[str], node_name: str) -> None:
+    """Every `--params-file` must hold a section for `node_name` (or a wildcard): a
+    misspelt section (`sail_simm:`) would otherwise be skipped without a word.
+
+    Raises:
+        ConfigError: a file cannot be read, is not a params file, or has no section
+            for the node (the message names the sections and the closest one).
+    """
+    for path, document in _params_files(ros_argv):
         sections = list(document)
         if not any(_section_applies(section, node_name) for section in sections):
             close = difflib.get_close_matches(node_name, sections, n=1, cutoff=0.6)
@@ -85,10 +96,21 @@ def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[st
     """
     ros_argv = [prog, *argv]
     try:
+        for _ in _params_files(ros_argv):  # rcl would say only that it could not parse one
+            pass
         own_args = remove_ros_args(ros_argv)[1:]
-    except (_rclpy.RCLInvalidROSArgsError, _rclpy.UnknownROSArgsError) as error:
+    except ConfigError as error:
+        parser.error(str(error))
+    except _rclpy.UnknownROSArgsError as error:  # e.g. a tool option after --ros-args
         parser.error(f"invalid ROS arguments: {error} (options of the tool go before --ros-args)")
+    except _rclpy.RCLInvalidROSArgsError as error:
+        # rcl's text less the places in its own sources (", at /.../arguments.c:352")
+        text = _RCL_SOURCE_PLACE.sub("", str(error)).removeprefix("Failed to parse ROS arguments: ")
+        parser.error(f"invalid ROS arguments: {text}")
     return parse_arguments(parser, own_args), ros_argv
+
+
+_RCL_SOURCE_PLACE = re.compile(r", at /\S+:\d+")
 
 
 class StopSignals:

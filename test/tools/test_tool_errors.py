@@ -99,6 +99,14 @@ BAD_INPUTS = [
     ("plant", ["--lengths", "1", "2"], "--lengths takes 1 or 4 values, got 2"),
     ("plant", ["--set", "stiffness_damping=-.5"], "stiffness_damping must be in [0, 1e+06] s"),
     ("plant", ["--npz", "{root}/blocker/p.npz"], "{root}/blocker"),
+    # ROS arguments: a params file rcl could only say it could not parse
+    (
+        "sim",
+        ["--ros-args", "--params-file", "{root}/missing.yaml"],
+        "--params-file {root}/missing.yaml: No such file or directory",
+    ),
+    ("recorder", ["--ros-args", "--params-file", "{root}/broken.yaml"], "broken.yaml: "),
+    ("watch", ["--ros-args", "--params-file", "{root}/misspelt.yaml"], "expected '<node>: ros"),
 ]
 
 
@@ -139,3 +147,13 @@ def test_mode_counts_that_would_not_fit_are_refused_before_allocating():
     code, _, err = run_tool("modes", ["--set", "n_boom_modes=4000"])
     assert code == 2 and "Traceback" not in err
     assert err == "error: n_boom_modes must be an integer in [1, 30], got 4000\n"
+
+
+def test_ros_arguments_rcl_refuses_are_named_without_its_internals():
+    """The message of rcl without the places in its sources, and the hint about the order
+    of options only where a tool's option came after --ros-args."""
+    code, _, err = run_tool("sim", ["--ros-args", "-p", "x"])
+    assert code == 2 and "Couldn't parse parameter override rule: '-p x'" in err, err
+    assert "/src/" not in err and "go before --ros-args" not in err, err
+    code, _, err = run_tool("watch", ["--ros-args", "--rate", "2"])
+    assert code == 2 and "(options of the tool go before --ros-args)" in err, err
