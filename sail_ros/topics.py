@@ -286,6 +286,11 @@ def stamp(stamp_ns: int) -> Time:
     return Time(sec=sec, nanosec=nanosec)
 
 
+def stamp_ns_of(time: Time) -> int:
+    """[ns since the Unix epoch] of a `builtin_interfaces/Time` (`stamp`'s inverse)."""
+    return int(time.sec) * 1_000_000_000 + int(time.nanosec)
+
+
 def stamp_ns(epoch_ns: int, t: float) -> int:
     """The stamp [ns] of simulation time `t` [s] on a run that started at `epoch_ns`."""
     return int(epoch_ns) + round(t * 1e9)

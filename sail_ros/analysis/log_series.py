@@ -124,10 +124,6 @@ class LogSeries:
         return topics.sail_parameters_from_record(self.parameters)
 
 
-def _stamp_ns(header) -> int:
-    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
-
-
 def _joint_series(messages) -> JointSeries | None:
     if not messages:
         return None
@@ -141,7 +137,7 @@ def _joint_series(messages) -> JointSeries | None:
         return np.array(values, dtype=float).reshape(len(kept), width)
 
     return JointSeries(
-        np.array([_stamp_ns(m.header) for m in kept], dtype=np.int64),
+        np.array([topics.stamp_ns_of(m.header.stamp) for m in kept], dtype=np.int64),
         names,
         field("position"),
         field("velocity"),
@@ -198,7 +194,7 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
             name = state_topics[message.topic]
             joints[name].append(deserialize_message(message.data, JointState))
     for name in topics.STATE_TOPICS:  # an incomplete file is read in file order
-        joints[name].sort(key=lambda m: _stamp_ns(m.header))
+        joints[name].sort(key=lambda m: topics.stamp_ns_of(m.header.stamp))
     series = {name: _joint_series(joints[name]) for name in topics.STATE_TOPICS}
     series = {name: s for name, s in series.items() if s is not None}
     present = list(series.values())
@@ -229,8 +225,8 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
 def _hub_series(messages) -> tuple[np.ndarray, np.ndarray] | None:
     if not messages:
         return None
-    messages.sort(key=lambda m: _stamp_ns(m.header))
-    stamps = np.array([_stamp_ns(m.header) for m in messages], dtype=np.int64)
+    messages.sort(key=lambda m: topics.stamp_ns_of(m.header.stamp))
+    stamps = np.array([topics.stamp_ns_of(m.header.stamp) for m in messages], dtype=np.int64)
     return stamps, np.array([hub_msg.hub_from_odometry(m) for m in messages])
 
 
@@ -250,7 +246,7 @@ def _diagnostics(arrays: list[DiagnosticArray], sim_node: str):
     for array in arrays:
         pairs = diagnostics_msg.diagnostic_values(array, sim_node)
         if pairs:
-            stamps.append(_stamp_ns(array.header))
+            stamps.append(topics.stamp_ns_of(array.header.stamp))
             values.append(pairs)
     if not values:
         return None

@@ -101,14 +101,13 @@ def _state_times(reader: BagReader, log: LogSeries, namespace: str) -> tuple:
     """Log times [ns] and their times on the log's axis [s] of the sail's state messages."""
     topic = topics.absolute(topics.BOOM_STATE, "/" + namespace.strip("/"))
     pairs = sorted(
-        (message.log_time_ns, _stamp_ns(deserialize_message(message.data, JointState)))
+        (
+            message.log_time_ns,
+            topics.stamp_ns_of(deserialize_message(message.data, JointState).header.stamp),
+        )
         for message in reader.messages(topics=[topic])
     )
     if not pairs:
         return np.array([0]), np.array([np.nan])
     log_times, stamps = np.array(pairs, dtype=np.int64).T
     return log_times, log.seconds(stamps)
-
-
-def _stamp_ns(message: JointState) -> int:
-    return message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec

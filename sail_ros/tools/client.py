@@ -247,6 +247,7 @@ class SimClient(Node):
         for status in array.status:
             if status.name == topics.integrator_status_name(self.sim_name):
                 self.latest["diagnostics"] = status
+                self.latest["diagnostics_stamp_ns"] = topics.stamp_ns_of(array.header.stamp)
                 self.latest["diagnostics_values"] = {p.key: p.value for p in status.values}
 
 

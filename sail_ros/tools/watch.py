@@ -55,12 +55,16 @@ def snapshot(client: SimClient) -> dict:
     status = client.latest["diagnostics"]
     values = {pair.key: pair.value for pair in status.values}
     answer = client.latest.get("answer")
+    t = float(values.get(key.SIM_TIME, "nan"))
+    state = client.latest.get(topics.BOOM_STATE)
+    if state is not None:  # the state's time: the diagnostics' moved on by the stamps
+        t += 1e-9 * (topics.stamp_ns_of(state.header.stamp) - client.latest["diagnostics_stamp_ns"])
     return {
         "simulator": client.sim_name,
         "level": ("OK", "WARN", "ERROR", "STALE")[min(int.from_bytes(status.level), 3)],
         "message": status.message,
         key.STATE: values.get(key.STATE, ""),
-        key.SIM_TIME: float(values.get(key.SIM_TIME, "nan")),
+        key.SIM_TIME: round(t, 9),
         key.REAL_TIME_FACTOR: float(values.get(key.REAL_TIME_FACTOR, "nan")),
         key.ENERGY: float(values.get(key.ENERGY, "nan")),
         # the record's per-boom fields and a free hub's, as the record names them

@@ -9,13 +9,17 @@ import io
 import shlex
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import pytest
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from harness import run_tool
 
-from sail_ros import cli
+from sail_ros import cli, topics
+from sail_ros.messages import state as state_msg
+from sail_ros.messages import status as key
 from sail_ros.ros.cli import parse_command_line
-from sail_ros.tools import deploy, montecarlo, report, send
+from sail_ros.tools import deploy, montecarlo, report, send, watch
 
 pytestmark = pytest.mark.model
 
@@ -216,3 +220,20 @@ def test_a_hub_wrench_command_names_its_three_components_the_others_zero():
     wrench = message.wrench
     assert (wrench.force.z, wrench.torque.x, wrench.torque.y) == (0.2, 0.0, -0.05)
     assert (wrench.force.x, wrench.force.y, wrench.torque.z) == (0.0, 0.0, 0.0)
+
+
+def test_watch_shows_the_time_of_the_state_it_shows():
+    """The diagnostics come once a second, the state every step: `watch` gives the newest
+    state's simulation time (the diagnostics' moved on by the stamps), not the older
+    diagnostics' own."""
+    epoch = 1_700_000_000_000_000_000
+    status = DiagnosticStatus(values=[KeyValue(key=key.SIM_TIME, value="2.0")])
+    latest = {
+        "diagnostics": status,
+        "diagnostics_stamp_ns": topics.stamp_ns(epoch, 2.0),
+        topics.BOOM_STATE: state_msg.boom_state(
+            topics.stamp_ns(epoch, 2.73), [10.5] * 4, [0.1] * 4
+        ),
+    }
+    view = watch.snapshot(SimpleNamespace(latest=latest, sim_name="/sail_sim"))
+    assert view[key.SIM_TIME] == 2.73 and view["boom_length_m"]["a"] == 10.5
