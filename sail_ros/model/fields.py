@@ -79,10 +79,19 @@ def range_text(spec: Spec) -> str:
     if low is None and high is None:
         return ""
     if high is None:
-        return f"{'>' if spec.above_minimum else '>='} {low:g}{unit}"
+        return f"{'>' if spec.above_minimum else '>='} {_number(low)}{unit}"
     if low is None:
-        return f"<= {high:g}{unit}"
-    return f"{'(' if spec.above_minimum else '['}{low:g}, {high:g}]{unit}"
+        return f"<= {_number(high)}{unit}"
+    return f"{'(' if spec.above_minimum else '['}{_number(low)}, {_number(high)}]{unit}"
+
+
+def _number(value: float) -> str:
+    """`value` in few digits (`1e+06`), or all of them where few would change it
+    (`1073741824`, not `1.07374e+09`)."""
+    short = f"{value:g}"
+    if float(short) == value:
+        return short
+    return str(int(value)) if float(value).is_integer() else repr(float(value))
 
 
 def check_value(name: str, value, default, spec: Spec):

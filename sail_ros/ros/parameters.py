@@ -148,10 +148,16 @@ class ParamSpec:
                 ]
         return descriptor
 
+    def limits(self) -> str:
+        """What the value may be, as text ("" for anything of its type): the range, list
+        sizes or choices the node enforces."""
+        return self.constraints() or range_text(self.spec)
+
     def help_line(self) -> str:
-        """One line for `--help`: name, default, read-only, description."""
+        """One line for `--help`: name, default, read-only, what it may be, description."""
         flags = ", read-only" if self.read_only else ""
-        return f"  {self.name} (default {self.default!r}{flags}): {self.description}"
+        limits = f"; {self.limits()}" if self.limits() else ""
+        return f"  {self.name} (default {self.default!r}{flags}{limits}): {self.description}"
 
     def check(self, value):
         """`value` as the parameter's type, or ConfigError naming the parameter, the value
@@ -236,7 +242,8 @@ def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse
         "an option given here wins.",
     )
     for spec in specs:
-        help_text = f"{spec.description} (default: {spec.default!r})"
+        limits = f"{spec.limits()}; " if spec.limits() and not spec.choices else ""
+        help_text = f"{spec.description} ({limits}default: {spec.default!r})"
         if spec.element_type is bool:
             parser.add_argument(
                 *spec.options,

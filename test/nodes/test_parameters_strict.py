@@ -6,7 +6,7 @@ import sys
 
 import pytest
 import yaml
-from harness import CONFIG, spin_until
+from harness import CONFIG, run_tool, spin_until
 from rcl_interfaces.msg import Parameter as ParameterMessage
 from rcl_interfaces.msg import ParameterEvent, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
@@ -112,3 +112,15 @@ def test_a_nodes_params_file_holds_its_defaults(node):
     values = document[node.NODE_NAME]["ros__parameters"]
     defaults = {spec.name: spec.default for spec in node.SPECS if spec.default != []}
     assert values == defaults
+
+
+def test_help_gives_the_ranges_the_nodes_enforce():
+    """`--help` says what each parameter may be, as the node then enforces it (the
+    integers in full)."""
+    code, out, _ = run_tool("sim", ["--help"])
+    assert code == 0
+    assert "sail.n_boom_modes (default 4, read-only; [1, 30]): " in out
+    assert "state_rate_hz (default 50.0; [0.01, 1000]): " in out
+    assert "initial_lengths (default [10.0]; 1 or 4 values (booms a, b, c, d), each " in out
+    code, out, _ = run_tool("recorder", ["--help"])
+    assert code == 0 and "([1024, 1073741824]; default: 1048576)" in " ".join(out.split())
