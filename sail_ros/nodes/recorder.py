@@ -50,7 +50,6 @@ from sail_ros.bag import (
     DefinitionNotFoundError,
     message_definition,
     qos,
-    type_hash,
 )
 from sail_ros.bag.recording import Recording
 from sail_ros.messages.parameters import parameter_update, yaml_texts
@@ -465,7 +464,7 @@ class Recorder(Node):
             self._add_to_bag(topic, type_name, publishers)
         elif at_message:
             entries = [qos.recorded_entry(LATCHED_COMMAND_QOS)]
-            self.bag.add_topic(topic, type_name, entries, type_hash(type_name))
+            self.bag.add_topic(topic, type_name, entries, None)  # the installed type's hash
             self._announced.add(topic)
 
     def _on_message(self, topic: str, data: bytes, info: dict) -> None:

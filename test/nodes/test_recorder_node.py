@@ -4,6 +4,7 @@ The node under test and its peer (a publisher or a subscriber) live in two
 contexts of this process, so they talk over DDS as separate processes would.
 """
 
+import contextlib
 import threading
 import time
 
@@ -19,7 +20,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from sail_ros import topics
-from sail_ros.bag import BagReader, BagWriter
+from sail_ros.bag import BagReader, BagWriter, type_hash
 from sail_ros.nodes.recorder import Recorder
 from sail_ros.nodes.replay import Replay
 from sail_ros.ros.parameters import ConfigError
@@ -105,6 +106,28 @@ def test_recorder_records_in_process(ros_context, peer, tmp_path):
     assert [list(m.position) for m in recorded] == [list(m.position) for m in sent]
 
 
+@contextlib.contextmanager
+def recording_commands(context, tmp_path, topic):
+    """A recorder of command topic `topic` into tmp_path/bag, running in a thread while
+    the block runs; stopped after it, which it must end with exit code 0."""
+    overrides = [
+        Parameter("output", value=str(tmp_path / "bag")),
+        Parameter("topics", value=[topic]),
+        Parameter("parameter_node", value=""),
+    ]
+    recorder = Recorder(overrides, context=context)
+    stop, result = Stop(), []
+    runner = threading.Thread(target=lambda: result.append(recorder.run(stop)))
+    runner.start()
+    try:
+        yield recorder
+    finally:
+        stop.event.set()
+        runner.join(10.0)
+        recorder.destroy_node()
+    assert result == [0]
+
+
 def test_commands_of_short_lived_publishers_are_recorded_once(ros_context, peer, tmp_path):
     """The recorder listens on the command topics from its start, twice (transient local
     and volatile, as the simulator does): the commands of a transient-local publisher
@@ -112,16 +135,7 @@ def test_commands_of_short_lived_publishers_are_recorded_once(ros_context, peer,
     one are all in the bag, each once, though the first came on both subscriptions."""
     node, executor = peer
     topic = topics.absolute(topics.DEPLOY_CMD)
-    overrides = [
-        Parameter("output", value=str(tmp_path / "bag")),
-        Parameter("topics", value=[topic]),
-        Parameter("parameter_node", value=""),
-    ]
-    recorder = Recorder(overrides, context=ros_context)
-    stop, result = Stop(), []
-    runner = threading.Thread(target=lambda: result.append(recorder.run(stop)))
-    runner.start()
-    try:
+    with recording_commands(ros_context, tmp_path, topic):
         # subscribed before any publisher exists
         spin_until(executor, lambda: node.count_subscribers(topic) == 2, 10.0, "subscriptions")
         latched = node.create_publisher(Float64, topic, topics.LATCHED_COMMAND_QOS)
@@ -135,14 +149,33 @@ def test_commands_of_short_lived_publishers_are_recorded_once(ros_context, peer,
         for value in (14.0, 15.0):
             volatile.publish(Float64(data=value))
         assert volatile.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
-    finally:
-        stop.event.set()
-        runner.join(10.0)
-    recorder.destroy_node()
-    assert result == [0]
     bag = BagReader(tmp_path / "bag")
     values = [deserialize_message(m.data, Float64).data for m in bag.messages([topic])]
     assert values == [11.0, 12.0, 13.0, 14.0, 15.0]
+
+
+def test_a_command_whose_publisher_the_graph_never_showed_gets_a_full_channel(
+    ros_context, peer, tmp_path
+):
+    """A command that arrives before the recorder's graph shows its publisher, which is
+    then gone: the channel has the type's hash and the QoS `sail-ros send` offers, so
+    readers and a replay handle it as any other."""
+    node, executor = peer
+    topic = topics.absolute(topics.DEPLOY_CMD)
+    with recording_commands(ros_context, tmp_path, topic) as recorder:
+        recorder.get_publishers_info_by_topic = lambda name: []  # the graph lags behind
+        latched = node.create_publisher(Float64, topic, topics.LATCHED_COMMAND_QOS)
+        spin_until(executor, lambda: latched.get_subscription_count() == 2, 10.0, "matches")
+        latched.publish(Float64(data=12.0))
+        assert latched.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
+    bag = BagReader(tmp_path / "bag")
+    channel = bag.topics()[topic]
+    assert channel.type_hash == type_hash("std_msgs/msg/Float64")
+    assert channel.type_hash.startswith("RIHS01_")
+    assert [(q["reliability"], q["durability"]) for q in channel.offered_qos_profiles] == [
+        ("reliable", "transient_local")
+    ]
+    assert [deserialize_message(m.data, Float64).data for m in bag.messages([topic])] == [12.0]
 
 
 def test_take_waiting_takes_what_waits_in_order_with_its_dds_times(ros_context, peer):
