@@ -72,26 +72,21 @@ def kind_of(default) -> type:
     return list if isinstance(default, list | tuple) else type(default)
 
 
-def range_text(spec: Spec) -> str:
-    """`(0, 1e+04] m`, `>= 0 1/s`, or "" without bounds."""
+def range_text(spec: Spec, integer: bool = False) -> str:
+    """`(0, 1e+04] m`, `>= 0 1/s`, or "" without bounds; an `integer`'s bounds in full."""
     unit = f" {spec.unit}" if spec.unit not in ("", "-") else ""
     low, high = spec.minimum, spec.maximum
     if low is None and high is None:
         return ""
+
+    def number(value: float) -> str:
+        return str(int(value)) if integer else f"{value:g}"
+
     if high is None:
-        return f"{'>' if spec.above_minimum else '>='} {_number(low)}{unit}"
+        return f"{'>' if spec.above_minimum else '>='} {number(low)}{unit}"
     if low is None:
-        return f"<= {_number(high)}{unit}"
-    return f"{'(' if spec.above_minimum else '['}{_number(low)}, {_number(high)}]{unit}"
-
-
-def _number(value: float) -> str:
-    """`value` in few digits (`1e+06`), or all of them where few would change it
-    (`1073741824`, not `1.07374e+09`)."""
-    short = f"{value:g}"
-    if float(short) == value:
-        return short
-    return str(int(value)) if float(value).is_integer() else repr(float(value))
+        return f"<= {number(high)}{unit}"
+    return f"{'(' if spec.above_minimum else '['}{number(low)}, {number(high)}]{unit}"
 
 
 def check_value(name: str, value, default, spec: Spec):
@@ -113,7 +108,9 @@ def check_value(name: str, value, default, spec: Spec):
         return value
     if kind is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ValueError(f"{name} must be an integer {_range_phrase(spec)}, got {value!r}")
+            raise ValueError(
+                f"{name} must be an integer {_range_phrase(spec, integer=True)}, got {value!r}"
+            )
         _check_range(name, value, spec, integer=True)
         return value
     return _check_number(name, value, spec)
@@ -156,11 +153,11 @@ def _check_range(name: str, value, spec: Spec, integer: bool = False) -> None:
     above = high is not None and value > high
     if below or above:
         what = "an integer " if integer else ""
-        raise ValueError(f"{name} must be {what}{_range_phrase(spec)}, got {value!r}")
+        raise ValueError(f"{name} must be {what}{_range_phrase(spec, integer)}, got {value!r}")
 
 
-def _range_phrase(spec: Spec) -> str:
-    text = range_text(spec)
+def _range_phrase(spec: Spec, integer: bool = False) -> str:
+    text = range_text(spec, integer)
     return text if text[:1] in "<>" else f"in {text}" if text else "of any value"
 
 

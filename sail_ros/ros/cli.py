@@ -41,7 +41,9 @@ def suggestion(name: str, known) -> str:
 
 
 def _params_files(ros_argv: list[str]):
-    """`(path, document)` of every `--params-file` in `ros_argv`, read and checked.
+    """`(path, sections)` of every `--params-file` in `ros_argv`, read and checked: the
+    file's node sections, nested namespaces joined as rcl joins them (`/sat2:
+    sail_sim: ros__parameters:` is the section `/sat2/sail_sim`).
 
     Raises:
         ConfigError: a file cannot be read, or is not a params file (one line naming it).
@@ -55,13 +57,29 @@ def _params_files(ros_argv: list[str]):
             raise ConfigError(f"--params-file {path}: {error.strerror}") from None
         except yaml.YAMLError as error:
             raise ConfigError(f"--params-file {path}: {yaml_values.describe(error)}") from None
-        if not isinstance(document, dict) or not all(
-            isinstance(body, dict) and "ros__parameters" in body for body in document.values()
-        ):
+        sections = _node_sections(document)
+        if not sections:
             raise ConfigError(
                 f"--params-file {path}: expected '<node>: ros__parameters: ...' sections"
             )
-        yield path, document
+        yield path, sections
+
+
+def _node_sections(document, prefix: str = "") -> list[str]:
+    """The node sections of a params file's `document` (names joined through nested
+    namespaces), or [] if some branch does not end in `ros__parameters`."""
+    if not isinstance(document, dict) or not document:
+        return []
+    sections = []
+    for name, body in document.items():
+        if not isinstance(body, dict):
+            return []
+        joined = f"{prefix}/{name}" if prefix else str(name)
+        found = [joined] if "ros__parameters" in body else _node_sections(body, joined)
+        if not found:
+            return []
+        sections.extend(found)
+    return sections
 
 
 def check_params_files(ros_argv: list[str], node_name: str) -> None:
@@ -72,8 +90,7 @@ def check_params_files(ros_argv: list[str], node_name: str) -> None:
         ConfigError: a file cannot be read, is not a params file, or has no section
             for the node (the message names the sections and the closest one).
     """
-    for path, document in _params_files(ros_argv):
-        sections = list(document)
+    for path, sections in _params_files(ros_argv):
         if not any(_section_applies(section, node_name) for section in sections):
             close = difflib.get_close_matches(node_name, sections, n=1, cutoff=0.6)
             hint = f"; did you mean {node_name!r} for {close[0]!r}?" if close else ""

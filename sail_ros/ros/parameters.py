@@ -122,7 +122,8 @@ class ParamSpec:
         if self.sizes:
             limits = range_text(self.spec)
             within = f", each {limits}" if limits else ""
-            return f"{' or '.join(map(str, self.sizes))} values (booms a, b, c, d){within}"
+            booms = " (booms a, b, c, d)" if 4 in self.sizes else ""
+            return f"{' or '.join(map(str, self.sizes))} values{booms}{within}"
         if self.choices:
             return "one of: " + ", ".join(self.choices)
         return ""
@@ -151,7 +152,7 @@ class ParamSpec:
     def limits(self) -> str:
         """What the value may be, as text ("" for anything of its type): the range, list
         sizes or choices the node enforces."""
-        return self.constraints() or range_text(self.spec)
+        return self.constraints() or range_text(self.spec, self.element_type is int)
 
     def help_line(self) -> str:
         """One line for `--help`: name, default, read-only, what it may be, description."""

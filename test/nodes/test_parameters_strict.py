@@ -122,5 +122,8 @@ def test_help_gives_the_ranges_the_nodes_enforce():
     assert "sail.n_boom_modes (default 4, read-only; [1, 30]): " in out
     assert "state_rate_hz (default 50.0; [0.01, 1000]): " in out
     assert "initial_lengths (default [10.0]; 1 or 4 values (booms a, b, c, d), each " in out
+    assert "initial_hub_velocity (default [0.0, 0.0, 0.0]; 3 values, each [" in out
     code, out, _ = run_tool("recorder", ["--help"])
-    assert code == 0 and "([1024, 1073741824]; default: 1048576)" in " ".join(out.split())
+    out = " ".join(out.split())
+    assert code == 0 and "([1024, 1073741824]; default: 1048576)" in out
+    assert "([10, 10000000]; default: 10000)" in out

@@ -8,6 +8,8 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 
 from sail_ros.bag import BagReader, BagWriter, DamagedBagError
+from sail_ros.model.fields import ConfigError
+from sail_ros.ros.cli import check_params_files
 
 pytestmark = pytest.mark.model
 
@@ -157,3 +159,17 @@ def test_ros_arguments_rcl_refuses_are_named_without_its_internals():
     assert "/src/" not in err and "go before --ros-args" not in err, err
     code, _, err = run_tool("watch", ["--ros-args", "--rate", "2"])
     assert code == 2 and "(options of the tool go before --ros-args)" in err, err
+
+
+def test_a_params_file_with_nested_namespaces_is_a_params_file(tmp_path):
+    """A file `/sat2: sail_sim: ros__parameters:` is the section `/sat2/sail_sim` to rcl: so
+    do the tools' checks; a misspelt node under it is named with its namespace."""
+    nested = tmp_path / "nested.yaml"
+    nested.write_text("/sat2:\n  sail_sim:\n    ros__parameters:\n      max_rate: 2.0\n")
+    check_params_files(["sim", "--ros-args", "--params-file", str(nested)], "sail_sim")
+    nested.write_text("/sat2:\n  sail_simm:\n    ros__parameters:\n      max_rate: 2.0\n")
+    with pytest.raises(ConfigError, match="has no section for node 'sail_sim' .*'/sat2/sail_simm'"):
+        check_params_files(["sim", "--ros-args", "--params-file", str(nested)], "sail_sim")
+    nested.write_text("/sat2:\n  sail_sim:\n    max_rate: 2.0\n")
+    with pytest.raises(ConfigError, match="expected '<node>: ros__parameters: ...' sections"):
+        check_params_files(["sim", "--ros-args", "--params-file", str(nested)], "sail_sim")
