@@ -169,6 +169,9 @@ class Topic:
     qos: QoSProfile
 
 
+# the simulator's node that takes the commands (`nodes.sim`): a sender waits for it
+SIM_COMMANDS_NODE = SIM_NODE + "_commands"
+
 TOPICS = {
     topic.name: topic
     for topic in (

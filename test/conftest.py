@@ -34,6 +34,8 @@ import pytest
 import rclpy
 from harness import DOMAIN_ID, JS, NODE_MAJOR, Operator, Tool, ros_value
 
+from sail_ros.ros.discovery import CLIENT_PROFILE, PROFILE
+
 TIERS = ("model", "node", "multiprocess", "lint")
 FOLDER_TIERS = {
     "model": ("model",),
@@ -184,8 +186,10 @@ def ros_env(tmp_path_factory) -> dict[str, str]:
     every thread's Python stack (faulthandler), so a hang names where it hangs."""
     home = tmp_path_factory.mktemp("home")
     environ = dict(os.environ)
-    # each process picks its own Fast DDS profile, as it does outside the tests
-    environ.pop("FASTRTPS_DEFAULT_PROFILES_FILE", None)
+    # each process picks its own Fast DDS profile, as it does outside the tests (a
+    # profile file of the user's stays)
+    if environ.get("FASTRTPS_DEFAULT_PROFILES_FILE") in (str(PROFILE), str(CLIENT_PROFILE)):
+        del environ["FASTRTPS_DEFAULT_PROFILES_FILE"]
     return dict(
         environ,
         HOME=str(home),

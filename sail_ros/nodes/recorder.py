@@ -195,7 +195,9 @@ class Recorder(Node):
         self._recording: dict[str, list] = {}  # topic -> its subscriptions
         self._announced: set[str] = set()  # topics the bag has a channel for
         self._commands: dict[str, object] = {}  # command topics subscribed at start
-        self._repeats = Repeats()  # a command taken by both its subscriptions
+        # a command taken by both its subscriptions, which are drained one after the other
+        self._repeats = Repeats(2 * max(self.config["qos_depth"], TAKE_BATCH))
+        self._foreign: set[str] = set()  # command topics with a publisher of another type
         self._ignored: set[str] = set()
         self._received = 0  # messages taken from DDS, for draining at shutdown
         self._started = time.monotonic()
@@ -389,8 +391,9 @@ class Recorder(Node):
 
     def _subscribe_new_topics(self) -> None:
         for topic, _ in self.get_topic_names_and_types():
-            if topic in self._commands and topic not in self._announced:
-                self._announce(topic, at_message=False)
+            if topic in self._commands:  # subscribed at start; its channel, or a warning
+                if topic not in self._announced or topic not in self._foreign:
+                    self._announce(topic, at_message=False)
                 continue
             if topic in self._recording or topic in self._ignored:
                 continue
@@ -455,17 +458,29 @@ class Recorder(Node):
         """The channel of a command topic subscribed at start (`_subscribe_commands`),
         with its publishers' QoS once the graph shows them; if its first message came
         from a publisher already gone (`at_message`), with the QoS `sail-ros send`
-        offers."""
+        offers. A publisher of another type is named once: it is not recorded."""
         type_name = self._commands[topic].type_name
-        publishers = [
-            p for p in self.get_publishers_info_by_topic(topic) if p.topic_type == type_name
-        ]
+        found = self.get_publishers_info_by_topic(topic)
+        publishers = [p for p in found if p.topic_type == type_name]
+        others = sorted({p.topic_type for p in found} - {type_name})
+        if others and topic not in self._foreign:
+            self._foreign.add(topic)
+            self.get_logger().warning(
+                f"not recording {topic} from publishers of {', '.join(others)}: the "
+                f"simulator's command is {type_name}"
+            )
+        if topic in self._announced:
+            return
         if publishers:
             self._add_to_bag(topic, type_name, publishers)
         elif at_message:
             entries = [qos.recorded_entry(LATCHED_COMMAND_QOS)]
             self.bag.add_topic(topic, type_name, entries, None)  # the installed type's hash
             self._announced.add(topic)
+            self.get_logger().info(
+                f"{topic}: its first publisher left before the graph showed it; its QoS is "
+                "taken as sail-ros send's (reliable, transient_local)"
+            )
 
     def _on_message(self, topic: str, data: bytes, info: dict) -> None:
         """One message of `topic` from the executor, then whatever else already waits on

@@ -49,6 +49,7 @@ from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
+from sail_ros.ros.discovery import subscriptions_of
 from sail_ros.ros.parameters import ConfigError, ParamSpec, declare, node_options
 from sail_ros.ros.taking import take_waiting
 from sail_ros.runtime.config import PARAMETERS, config_from_values
@@ -137,12 +138,13 @@ class SimNode(Node):
         # command topic is taken twice (topics.COMMAND_QOS), and a transient-local
         # subscription that does not match a volatile publisher is as meant, not news.
         self._commands = Node(
-            f"{NODE_NAME}_commands",
+            topics.SIM_COMMANDS_NODE,
             context=self.context,
             namespace=self.get_namespace(),
             start_parameter_services=False,
         )
         quiet = SubscriptionEventCallbacks(use_default_callbacks=False)
+        self._listeners: dict[str, int] = {}  # command topic -> its subscriptions
         self._command_subscriptions = [
             (
                 name,
@@ -263,6 +265,10 @@ class SimNode(Node):
                     for pair in take_waiting(subscription, topics.COMMAND_INTAKE_DEPTH)
                 )
             taken.sort(key=lambda command: command[2].get("received_timestamp") or 0)
+            for topic in {command[0] for command in taken}:  # answered with their counts
+                resolved = self._commands.resolve_topic_name(topic)
+                type_name = topics.TOPICS[topic].type_name
+                self._listeners[resolved] = subscriptions_of(self._commands, resolved, type_name)
             wake, rest = self._submit_while_room(taken)
         while rest:
             # The queue is full (a burst larger than it, or the sender stalled and then
@@ -320,11 +326,12 @@ class SimNode(Node):
             self._outputs[topics.CLOCK].publish(state_msg.clock(stamp_ns))
 
     def answers(self, answers: list[commands_msg.CommandAnswer]) -> None:
-        # who listens on each command topic: a sender waits for as many (`SUBSCRIBERS`)
-        named = {a.topic for a in answers}
-        counts = {topic: str(self.count_subscribers(topic)) for topic in named}
+        # who listens on each command topic, counted as the commands came (`_receive`, not
+        # on this thread): a sender waits for as many (`SUBSCRIBERS`)
         counted = [
-            a._replace(values={**a.values, commands_msg.SUBSCRIBERS: counts[a.topic]})
+            a._replace(
+                values={**a.values, commands_msg.SUBSCRIBERS: str(self._listeners.get(a.topic, 0))}
+            )
             for a in answers
         ]
         self._outputs[topics.COMMAND_STATUS].publish(

@@ -15,8 +15,9 @@ before it exits, until every reader of its command has it (a recorder's too) at
 the cost of a tenth of a second rather than three.
 
 A profile file of the user's (FASTRTPS_DEFAULT_PROFILES_FILE or
-FASTDDS_DEFAULT_PROFILES_FILE set) wins: it is left as it is. Other middlewares
-ignore the setting.
+FASTDDS_DEFAULT_PROFILES_FILE set) wins: it is left as it is (and `send` may then
+wait up to its 2 s bound for acknowledgements). Other middlewares ignore the
+setting.
 """
 
 from __future__ import annotations
@@ -38,3 +39,11 @@ def announce_often(environ=os.environ, profile: Path = PROFILE) -> bool:
         return False
     environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(profile)
     return True
+
+
+def subscriptions_of(node, topic: str, type_name: str) -> int:
+    """How many subscriptions of `topic` [a resolved name] with type `type_name` the
+    graph of `node` shows: those a publisher of that type can match (a reader of
+    another type on the same name never does)."""
+    infos = node.get_subscriptions_info_by_topic(topic)
+    return sum(1 for info in infos if info.topic_type == type_name)

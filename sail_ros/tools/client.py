@@ -14,6 +14,7 @@ with this publisher's sequence number.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
@@ -31,7 +32,7 @@ from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, parse_command_line
-from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often
+from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often, subscriptions_of
 from sail_ros.tools.common import stdout_closed
 from sail_ros.tools.domains import LAST_DOMAIN
 
@@ -137,8 +138,12 @@ class SimClient(Node):
             if len(self.answers) != heard:
                 heard, quiet_until = len(self.answers), time.monotonic() + limit
 
-    def close(self) -> None:
-        self._deliver()
+    def close(self, deliver: bool = True) -> None:
+        """Let the commands sent reach their readers (`_deliver`; not after Ctrl-C, and
+        a Ctrl-C ends the wait), then leave the graph."""
+        if deliver:
+            with contextlib.suppress(KeyboardInterrupt):
+                self._deliver()
         self.executor_.shutdown()
         with bounded_teardown():
             self.destroy_node()
@@ -153,10 +158,10 @@ class SimClient(Node):
         the command with it."""
         deadline = time.monotonic() + DELIVERY_WAIT_S
         for name, publisher in self._command_publishers.items():
-            topic = self.resolve_topic_name(name)
+            topic, type_name = self.resolve_topic_name(name), topics.TOPICS[name].type_name
             while (
                 publisher.get_subscription_count()
-                < max(self._readers.get(name, 0), self.count_subscribers(topic))
+                < max(self._readers.get(name, 0), subscriptions_of(self, topic, type_name))
                 and time.monotonic() < deadline
             ):
                 self.executor_.spin_once(timeout_sec=0.01)
@@ -181,6 +186,7 @@ class SimClient(Node):
         self.spin_until(
             lambda: (
                 publisher.get_subscription_count() >= 1
+                and self._simulator_listens(resolved)
                 and self.status_subscription.get_publisher_count() >= 1
             ),
             timeout,
@@ -206,6 +212,15 @@ class SimClient(Node):
         self.spin_until(answered, timeout, f"answer from {self.sim_name} on {resolved}")
         self._readers[name] = int(found[0].values.get(commands_msg.SUBSCRIBERS, 0))
         return found[0]
+
+    def _simulator_listens(self, topic: str) -> bool:
+        """Whether the graph shows the simulator's own subscription of `topic` (a
+        recorder's is not one: a command only it took would go unanswered)."""
+        return any(
+            info.node_name == topics.SIM_COMMANDS_NODE
+            and info.node_namespace == self.get_namespace()
+            for info in self.get_subscriptions_info_by_topic(topic)
+        )
 
     def call(self, service: str, request, timeout: float):
         """Call a service of the simulator (`sail/pause`, `sail/reset`); its response.
@@ -313,18 +328,20 @@ def run_client(prog: str, parser, argv, name: str, body, check=None, watch: bool
         return 2
     context = init_context(ros_argv, args.domain_id)
     client = SimClient(context, name, watch=watch)
+    interrupted = False
     try:
         return body(args, client)
     except NoAnswerError as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
+        interrupted = True
         return 130
     except BrokenPipeError:
         if stdout_closed():  # `sail-ros watch --json | head`: end as Unix tools do
             return 128 + signal.SIGPIPE
         raise
     finally:
-        client.close()
+        client.close(deliver=not interrupted)
         with bounded_teardown():
             context.try_shutdown()

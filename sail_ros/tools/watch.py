@@ -50,6 +50,11 @@ def build_parser() -> ToolParser:
     return parser
 
 
+# Diagnostics come at least once a second of wall time: a state this much simulation
+# time (per unit of time scale) after them belongs to another run
+STAMPS_APART_S = 10.0
+
+
 def snapshot(client: SimClient) -> dict:
     """What the client last heard, as plain data (SI units)."""
     status = client.latest["diagnostics"]
@@ -58,7 +63,14 @@ def snapshot(client: SimClient) -> dict:
     t = float(values.get(key.SIM_TIME, "nan"))
     state = client.latest.get(topics.BOOM_STATE)
     if state is not None:  # the state's time: the diagnostics' moved on by the stamps
-        t += 1e-9 * (topics.stamp_ns_of(state.header.stamp) - client.latest["diagnostics_stamp_ns"])
+        ahead = 1e-9 * (
+            topics.stamp_ns_of(state.header.stamp) - client.latest["diagnostics_stamp_ns"]
+        )
+        scale = float(values.get(key.TIME_SCALE, "1"))
+        # one run's stamps share an epoch; a restarted simulator's state before its first
+        # diagnostics does not: then the diagnostics' own time
+        if 0.0 <= ahead <= (STAMPS_APART_S * max(1.0, scale) if scale > 0 else math.inf):
+            t += ahead
     return {
         "simulator": client.sim_name,
         "level": ("OK", "WARN", "ERROR", "STALE")[min(int.from_bytes(status.level), 3)],

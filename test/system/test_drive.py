@@ -104,6 +104,11 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
     assert view["last_answer"].startswith("accepted: trajectory")
     assert view["boom_length_m"]["b"] > 10.0  # the deployment moves them
 
+    # the recorder listens on every command topic, this clamped simulator not on the hub's:
+    # a recorder alone is no simulator, and nothing is sent (no command left unanswered)
+    alone = in_process("send", "--timeout", "2", "hub-wrench", "--torque-x", "0.1")
+    assert alone.returncode == 1 and "simulator listening on /sail/hub_wrench_cmd" in alone.stderr
+
     assert in_process("send", "pause").stdout.startswith("paused at t = ")
     reset = in_process("send", "reset")
     assert reset.returncode == 0 and "reset to the initial state" in reset.stdout
@@ -124,6 +129,7 @@ def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
     deploys = [deserialize_message(m.data, Float64) for m in bag.messages(["/sail/deploy_cmd"])]
     assert [m.data for m in deploys] == [12.0, 500.0]
     assert len(list(bag.messages(["/sail/boom_length_cmd"]))) == 1
+    assert not list(bag.messages(["/sail/hub_wrench_cmd"]))
     report = in_process("report", str(tmp_path / "bag"), "--out", str(tmp_path / "report"))
     assert report.returncode == 0, report.stderr
 

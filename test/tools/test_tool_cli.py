@@ -237,3 +237,7 @@ def test_watch_shows_the_time_of_the_state_it_shows():
     }
     view = watch.snapshot(SimpleNamespace(latest=latest, sim_name="/sail_sim"))
     assert view[key.SIM_TIME] == 2.73 and view["boom_length_m"]["a"] == 10.5
+    # a state of another run (a restarted simulator, before its first diagnostics)
+    latest[topics.BOOM_STATE].header.stamp = topics.stamp(epoch - 5 * 10**9)
+    view = watch.snapshot(SimpleNamespace(latest=latest, sim_name="/sail_sim"))
+    assert view[key.SIM_TIME] == 2.0
