@@ -17,7 +17,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, String
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, BagWriter, type_hash
@@ -176,6 +176,27 @@ def test_a_command_whose_publisher_the_graph_never_showed_gets_a_full_channel(
         ("reliable", "transient_local")
     ]
     assert [deserialize_message(m.data, Float64).data for m in bag.messages([topic])] == [12.0]
+
+
+def test_a_publisher_of_another_type_on_a_command_topic_is_named_not_recorded(
+    ros_context, peer, tmp_path, capfd
+):
+    """The recorder's subscriptions are of the simulator's command type: a publisher of
+    another type on the same name is named once in its log, and nothing is recorded."""
+    node, executor = peer
+    topic = topics.absolute(topics.DEPLOY_CMD)
+    with recording_commands(ros_context, tmp_path, topic) as recorder:
+        foreign = node.create_publisher(String, topic, topics.COMMAND_QOS)
+        spin_until(executor, lambda: recorder.count_publishers(topic) == 1, 10.0, "its view")
+        foreign.publish(String(data="deploy"))
+        logged, deadline = "", time.monotonic() + 10.0
+        while "not recording" not in logged:  # the next graph poll
+            assert time.monotonic() < deadline, "no warning"
+            time.sleep(0.05)
+            logged += capfd.readouterr().err
+    warning = f"not recording {topic} from publishers of std_msgs/msg/String: the simulator"
+    assert warning in logged and logged.count("not recording") == 1
+    assert topic not in BagReader(tmp_path / "bag").topics()
 
 
 def test_take_waiting_takes_what_waits_in_order_with_its_dds_times(ros_context, peer):
