@@ -198,6 +198,7 @@ class Recorder(Node):
         # a command taken by both its subscriptions, which are drained one after the other
         self._repeats = Repeats(2 * max(self.config["qos_depth"], TAKE_BATCH))
         self._foreign: set[str] = set()  # command topics with a publisher of another type
+        self._publishers_seen: dict[str, int] = {}  # command topic -> publishers last polled
         self._ignored: set[str] = set()
         self._received = 0  # messages taken from DDS, for draining at shutdown
         self._started = time.monotonic()
@@ -391,8 +392,10 @@ class Recorder(Node):
 
     def _subscribe_new_topics(self) -> None:
         for topic, _ in self.get_topic_names_and_types():
-            if topic in self._commands:  # subscribed at start; its channel, or a warning
-                if topic not in self._announced or topic not in self._foreign:
+            if topic in self._commands:  # subscribed at start: its channel, or a warning,
+                count = self.count_publishers(topic)  # once its publishers change
+                if count != self._publishers_seen.get(topic):
+                    self._publishers_seen[topic] = count
                     self._announce(topic, at_message=False)
                 continue
             if topic in self._recording or topic in self._ignored:
