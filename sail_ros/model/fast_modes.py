@@ -166,6 +166,10 @@ class FreeVibration:
         return q + (e - q @ MV) @ V.T, qd + (v - qd @ MV) @ V.T
 
 
+# the largest exponent `oscillation` takes (e^700 < the largest double, 1.8e308)
+TURN_BACK_EXPONENT = 700.0
+
+
 def oscillation(seconds, omega_d: np.ndarray, decay: np.ndarray) -> np.ndarray:
     """(m, 2k): `e^(-d t / 2) cos(omega_d t)` of k modes, then `e^(-d t / 2) sin(omega_d
     t)`, at `t` = each of `seconds` (m,) [s], for damped frequencies `omega_d` [rad/s] and
@@ -178,7 +182,9 @@ def oscillation(seconds, omega_d: np.ndarray, decay: np.ndarray) -> np.ndarray:
     np.cos(phase, out=turns[:, :k])
     np.sin(phase, out=turns[:, k:])
     if decay is not None:
-        turns *= np.tile(np.exp(-0.5 * t * decay), 2)
+        # turned back (t < 0) a strongly damped mode grows: past e^TURN_BACK_EXPONENT its
+        # amplitude at the end has underflowed to 0, which must stay 0, not 0 * inf
+        turns *= np.tile(np.exp(np.minimum(-0.5 * t * decay, TURN_BACK_EXPONENT)), 2)
     return turns
 
 
