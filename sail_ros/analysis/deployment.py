@@ -21,7 +21,7 @@ from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
-from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, hermite_motion, step_fractions
+from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, hermite_motion
 from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.policy import OutOfRangeError, Policy
@@ -114,12 +114,11 @@ def output_times(duration: float, rate_hz: float, extra=()) -> np.ndarray:
 
 class RangeWatch:
     """Sees every step of a run: the true peaks (`peaks.OutputPeaks`), and the tip
-    deflections (and a free hub's tilt) against the policy's linear range inside the
-    step, every `RANGE_SPACING_S` as the simulator checks its samples
+    deflections (and a free hub's tilt) against the policy's linear range at the peaks'
+    samples inside the step (`peaks.MAX_SPACING_S` apart or closer, the simulator's
+    default integration step), as the simulator checks its samples
     (`Policy.range_state`): the first warning is kept, an error stops the run
     (`OutOfRangeError`, the simulator's alarm text with the time; `stopped_at`)."""
-
-    RANGE_SPACING_S = 0.01  # the simulator's default integration step
 
     def __init__(self, model: SailModel, policy: Policy, tip_times=None):
         self.model, self.policy = model, policy
@@ -152,18 +151,17 @@ class RangeWatch:
         lengths1, rates1, _ = stepper.boom_motion()
         self._start = (t1, lengths1, rates1)
         h = t1 - t0
-        count = max(1, math.ceil(h / self.RANGE_SPACING_S - 1e-9))
-        fractions = step_fractions(count)
-        also, tips = fractions, slice(0, 0)
+        also, tips = None, slice(0, 0)
         if self.tip_times is not None:
             tips = slice(self.tips_taken, self._tip_times_until(t1))
-            outputs = np.clip((self.tip_times[tips] - t0) / h, 0.0, 1.0)
-            also = np.concatenate([fractions, outputs])
-        values, _ = self.peaks.after_step(stepper, also=also)  # one pass for all
+            also = np.clip((self.tip_times[tips] - t0) / h, 0.0, 1.0)
+        # the peaks' samples (at most `MAX_SPACING_S` apart) are the ones checked
+        fractions, values, at_tips = self.peaks.after_step(stepper, also=also)
         if tips.stop > tips.start:
-            self.tips[tips] = values[count:, OutputPeaks.TIP_ROWS]
+            self.tips[tips] = at_tips[:, OutputPeaks.TIP_ROWS]
             self.tips_taken = tips.stop
-        values = values[:count, self._columns]
+        count = fractions.size
+        values = values[:, self._columns]
         policy = self.policy
         tips = np.abs(values[:, :4])
         inside = None  # the lengths inside the step (the motion's cubic), made when needed

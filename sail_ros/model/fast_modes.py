@@ -107,13 +107,15 @@ def _eigh(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lam, V
 
 
-def followed(modes: FrozenModes, h: float, resolved: float, relative_rate: float) -> int:
-    """How many of the highest modes a step of `h` [s] follows: those above
-    `FOLLOW_ABOVE_RESOLVED` times `resolved` [rad/s], `FOLLOW_PHASE / h` and
-    `FOLLOW_ADIABATIC` times `relative_rate` (the largest `|Ld| / L` [1/s])."""
-    floor = max(
-        FOLLOW_ABOVE_RESOLVED * resolved, FOLLOW_PHASE / h, FOLLOW_ADIABATIC * relative_rate
-    )
+def follow_floor(h: float, resolved: float, relative_rate: float) -> float:
+    """The frequency [rad/s] above which a step of `h` [s] follows a mode: `FOLLOW_ABOVE_
+    RESOLVED` times `resolved` [rad/s], `FOLLOW_PHASE / h` and `FOLLOW_ADIABATIC` times
+    `relative_rate` (the largest `|Ld| / L` [1/s]), whichever is highest."""
+    return max(FOLLOW_ABOVE_RESOLVED * resolved, FOLLOW_PHASE / h, FOLLOW_ADIABATIC * relative_rate)
+
+
+def followed(modes: FrozenModes, floor: float) -> int:
+    """How many of the highest `modes` lie above `floor` [rad/s] (`follow_floor`)."""
     return int(np.count_nonzero(modes.omega > floor))
 
 

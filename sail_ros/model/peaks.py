@@ -8,12 +8,16 @@ moments of the reference deployment's small booms were off by up to 9.5 %).
 `OutputPeaks` watches a `SailStepper` (its `on_step`): after every step it
 samples the tip deflections and root moments inside that step on the step's own
 interpolant (`SailStepper.interpolant`: exact at rest, the step's continuous
-extension while the booms move), every `PEAK_PHASE` rad of the highest
-frequency that interpolant holds (and at least every `MAX_SPACING_S`), and
-keeps the largest |value| of each output with its time. Between two samples the output is the cubic
-Hermite through their values and rates (`PeakSearch`), whose error for a mode
-sampled every 0.5 rad is below 2e-4 of that mode's amplitude (a 1 kHz sampling
-misses up to 1 - cos(omega / 2 kHz) of it: 1 % of a 47 Hz mode).
+extension while the booms move), and keeps the largest |value| of each output
+with its time. Between two samples the output is the cubic Hermite through their
+values and rates (`PeakSearch`), whose error for a sine sampled every `phi` rad
+is `phi^4 / 384` of its amplitude (a 1 kHz sampling misses up to 1 - cos(omega /
+2 kHz) of it: 1 % of a 47 Hz mode). The samples are close enough that this error
+stays within `PEAK_ERROR` of each output's largest value (or of the followed
+modes' vibration in it, if larger): every `PEAK_PHASE` rad of the highest
+frequency of the step's slow part, closer where the followed modes
+(`fast_modes`) weigh enough in an output for their frequencies to matter
+(`OutputPeaks.spacing`), and at least every `MAX_SPACING_S`.
 """
 
 from __future__ import annotations
@@ -24,7 +28,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-PEAK_PHASE = 0.5  # rad of the highest mode between two samples of a step
+PEAK_PHASE = 0.5  # rad of the slow part's highest frequency between two samples of a step
+# the cubic Hermite's error over a sine sampled every PEAK_PHASE rad, of its amplitude
+PEAK_ERROR = PEAK_PHASE**4 / 384.0
 MAX_SPACING_S = 0.01  # s: at least 100 Hz, however slow the modes
 
 
@@ -43,6 +49,16 @@ class Peaks(NamedTuple):
     tip_deflection: Peak
     root_moment: Peak
     hub: Peak | None = None
+
+
+class StepSamples(NamedTuple):
+    """What `OutputPeaks.after_step` sampled of a step: the fractions of the step (m,), the
+    `rows` values there (m, r; root moment rows not yet over L^2), and the values at the
+    fractions asked `also` (k, r), or None."""
+
+    fractions: np.ndarray
+    values: np.ndarray
+    also: np.ndarray | None
 
 
 class PeakSearch:
@@ -138,8 +154,8 @@ class OutputPeaks:
 
     Args:
         model: the `SailModel` the stepper integrates.
-        peak_phase: rad of the interpolant's highest frequency between two samples
-            (`SailStepper.interpolant_frequency`).
+        peak_phase: rad of the interpolant's slow part's highest frequency between two
+            samples (`SailStepper.interpolant_spectrum`; `spacing`).
         max_spacing: longest time between two samples [s].
     """
 
@@ -162,6 +178,7 @@ class OutputPeaks:
         self._start = None  # (t, lengths, rates) at the start of the next step
         self._pending: list[tuple] = []  # steps sampled, not yet searched
         self._pending_samples = 0
+        self._scale = np.zeros(len(self.rows))  # the largest |row| sampled so far
         self.samples = 0
 
     def start(self, stepper) -> None:
@@ -184,27 +201,27 @@ class OutputPeaks:
         )
         self._pending_samples += 1
         self._start = (stepper.t, lengths, rates)
+        self._scale = np.maximum(self._scale, np.abs(y))
 
-    def after_step(self, stepper, also=None):
-        """Sample the step just taken (`SailStepper.on_step`) on its own interpolant.
+    def after_step(self, stepper, also=None) -> StepSamples:
+        """Sample the step just taken (`SailStepper.on_step`) on its own interpolant, at
+        most `max_spacing` apart; returns the samples (`StepSamples`).
 
         `also`: more fractions of the step (k,) to sample in the same pass (one
-        interpolant call costs what its few samples do not); their `rows` values and
-        rates per second ((k, r) each, root moment rows not yet over L^2) are returned,
-        else None."""
+        interpolant call costs what its few samples do not)."""
         t0, lengths0, rates0 = self._start
         t1 = stepper.t
         lengths1, rates1, _ = stepper.boom_motion()
         h = t1 - t0
-        spacing = min(self.max_spacing, self.peak_phase / stepper.interpolant_frequency())
-        count = max(1, math.ceil(h / spacing - 1e-9))
+        count = max(1, math.ceil(h / self.spacing(stepper) - 1e-9))
         fractions = step_fractions(count)
         extra = None
         if also is None:
             y, yd = stepper.interpolant(fractions, self.rows)
         else:
             y, yd = stepper.interpolant(np.concatenate([fractions, also]), self.rows)
-            y, yd, extra = y[:count], yd[:count], (y[count:], yd[count:])
+            y, yd, extra = y[:count], yd[:count], y[count:]
+        self._scale = np.maximum(self._scale, np.abs(y).max(axis=0))
         if self._pending_samples >= self.FLUSH_SAMPLES:
             self._flush()  # the steps before: the last one stays pending (`cut`)
         self._pending.append(
@@ -212,7 +229,25 @@ class OutputPeaks:
         )
         self._pending_samples += count
         self._start = (t1, lengths1, rates1)
-        return extra
+        return StepSamples(fractions, y, extra)
+
+    def spacing(self, stepper) -> float:
+        """The time [s] between two samples of the last step: `peak_phase` rad of its slow
+        part's highest frequency, and for its followed modes (`interpolant_spectrum`: mode
+        j of frequency `omega_j`, amplitude `A_rj` in row r) the longest `d` with `sum_j
+        A_rj (omega_j d)^4 <= peak_phase^4 max(S_r, sum_j A_rj)`, `S_r` the largest |row
+        r| sampled so far: the cubic Hermite's error, `(omega d)^4 / 384` of a sine's
+        amplitude, stays within the slow part's bound `peak_phase^4 / 384` (`PEAK_ERROR`)
+        of the row's largest value or of its followed vibration. Never shorter than
+        `peak_phase` rad of the highest followed mode, nor longer than `max_spacing`."""
+        slow, omega, amplitude = stepper.interpolant_spectrum(self.rows)
+        spacing = self.max_spacing if slow <= 0 else min(self.max_spacing, self.peak_phase / slow)
+        weight = amplitude @ omega**4  # (r,)
+        bound = weight > 0
+        if bound.any():
+            scale = np.maximum(self._scale, amplitude.sum(axis=1))[bound]
+            spacing = min(spacing, self.peak_phase * float(np.min(scale / weight[bound])) ** 0.25)
+        return spacing
 
     def cut(self, t: float) -> None:
         """Forget the last step's samples after `t` [s]: a run stopped inside that step

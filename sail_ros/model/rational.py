@@ -121,6 +121,17 @@ class Extension:
         self._coordinates = None
         self._coefficients_of = ((), None)  # (rows, `_coefficients`): none yet
 
+    def followed(self, rows) -> tuple[np.ndarray, np.ndarray]:
+        """The followed modes' damped frequencies [rad/s] (k,) and the largest amplitude of
+        each in each output row of `rows` (r, n) over the step (r, k): `|rows V_j| |a_j|`
+        of the start's and the end's free vibration (empty without followed modes)."""
+        if not self.vibration:
+            return np.zeros(0), np.zeros((len(rows), 0))
+        count = self.V.shape[2]
+        magnitude = np.hypot(self.on_e[:, :count], self.on_e[:, count:])  # (parts, k): |a|
+        amplitude = np.abs(rows @ self.V) * magnitude[:, None, :]  # (parts, r, k)
+        return self.omega_d.max(axis=0), amplitude.max(axis=0)
+
     def coordinates(self) -> np.ndarray:
         """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
         fraction combine into the coordinates (the rational step's start, `2 Re y_q,k`,

@@ -59,6 +59,7 @@ from sail_ros.model.fast_modes import (
     FreeVibration,
     FrozenModes,
     follow,
+    follow_floor,
     followed,
     forcing_of,
     slow_part,
@@ -145,6 +146,9 @@ def time_slack(t: float) -> float:
 # starts at a step's end makes that step exact then does not hang on round-off in the
 # motion's times (a command logged to the nanosecond replays the same steps).
 STATIC_MARGIN = 1e-4
+# The moving system's frequencies lie within this factor of its frozen modes' (the motion's
+# gyroscopic and `N` terms shift them by `|Ld| beta / (L omega)`, below 1e-2: `fast_modes`)
+CARRIED_MARGIN = 1.1
 # times whose boom motion the stepper keeps (`_motion`)
 MOTION_CACHE = 32
 # rad: omega_r * h of one rational step. The (4,4) Padé lags a mode by ~4e-8 (omega h)^9
@@ -203,6 +207,8 @@ class Trial(NamedTuple):
     vibration: tuple  # (FreeVibration at the start, at the end) or ()
     middle: object = None  # the whole step's matrices (`STEP_MATRICES`), at its middle
     outputs: np.ndarray | None = None  # the end's largest outputs (`_outputs`)
+    # [rad/s] the highest frozen mode the rational steps carry at the start (not followed)
+    carried_frequency: float = math.inf
 
 
 class SailStepper:
@@ -554,7 +560,8 @@ class SailStepper:
             qd2, qd1 = potrs(factor, np.array([p2 - G1 @ q2, p1 - G1 @ q1]).T)[0].T
         vibration = ()
         modes0 = self._modes(t0)
-        count = followed(modes0, 0.5 * h, self._resolved(lengths0), self._relative_rate(t0, h))
+        floor = follow_floor(0.5 * h, self._resolved(lengths0), self._relative_rate(t0, h))
+        count = followed(modes0, floor)
         if count:
             modes1 = self._modes(t1, modes0, count)
             u = None if self.inputs is None else self._input(t0 + 0.5 * h)
@@ -585,7 +592,11 @@ class SailStepper:
             error = float(np.max(estimate / scale))
         if not math.isfinite(error):
             error = math.inf
-        return Trial(h, q2, p2, qd2, error, estimate, (first, second), vibration, mats[2], outputs)
+        # the modes not followed lie below the floor (a set carried on holds the highest only)
+        carried = float(modes0.omega[-count - 1]) if count < modes0.omega.size else floor
+        return Trial(
+            h, q2, p2, qd2, error, estimate, (first, second), vibration, mats[2], outputs, carried
+        )
 
     def _forcing(self, t):
         """`(C, K_eq - K)` of Eq. 2 at `t`: how the motion couples the modes."""
@@ -887,20 +898,26 @@ class SailStepper:
             self._static_cache[key] = propagator
         return rest_step(propagator, self._q, self._p, h, force)
 
-    def interpolant_frequency(self) -> float:
-        """The highest angular frequency [rad/s] in the last step's curve (`interpolant`):
-        a step at rest holds its highest mode, `sqrt(max lambda)`; a moving step, each of
-        its rational steps' extensions (a polynomial of degree 2 k = 8 in the fraction,
-        which turns at most that often, counted as `2 pi k` over the rational step) and
-        its followed modes (`fast_modes`), turning at their own frequencies."""
+    def interpolant_spectrum(self, rows) -> tuple[float, np.ndarray, np.ndarray]:
+        """What oscillates in the last step's curve (`interpolant`) for output rows `rows`
+        (r, n): `(slow, omega, amplitude)`. `slow` [rad/s] bounds the frequencies of all
+        but the followed modes: at rest the highest mode's, `sqrt(max lambda)`; moving,
+        the highest frozen mode the rational steps carry (`CARRIED_MARGIN` over it, and
+        the rise of a boom's frequencies as `1 / L^2` where the step shortens it), at
+        most the turning of their extensions (a polynomial of degree 2 k = 8 in the
+        fraction, turning at most that often: `2 pi k` over a rational step). `omega`
+        (k,) [rad/s] and `amplitude` (r, k): the followed modes' frequencies, each with
+        its largest amplitude in each row over the step (none at rest)."""
         t0, _, _, trial = self._last
         if isinstance(trial, Rest):
-            return float(np.sqrt(max(float(trial.lam[-1]), 0.0)))
+            slow = float(np.sqrt(max(float(trial.lam[-1]), 0.0)))
+            return slow, np.zeros(0), np.zeros((len(rows), 0))
         h = self._t - t0
-        frequency = 2.0 * math.pi * PADE_POLES.size * len(trial.extensions) / h
-        for vibration in trial.vibration:
-            frequency = max(frequency, float(vibration.modes.omega[-1]))
-        return frequency
+        turning = 2.0 * math.pi * PADE_POLES.size * len(trial.extensions) / h
+        shortening = np.max(self._motion(t0)[0] / self._motion(self._t)[0])
+        carried = trial.carried_frequency * CARRIED_MARGIN * max(1.0, float(shortening)) ** 2
+        omega, amplitude = self._extension().followed(rows)
+        return min(turning, carried), omega, amplitude
 
     def interpolant(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
         """`rows q(t)` and its rate `rows qd(t)` [per s] (each (m, r)) at `fractions` (m
