@@ -157,7 +157,9 @@ class SailParameters:
     def from_yaml(cls, path) -> SailParameters:
         """Read a YAML file holding the fields, either at top level or under `sail:`.
 
-        A ROS 2 params file (`<node>: ros__parameters: sail: {...}`) works too.
+        A ROS 2 params file works too: the `sail.` parameters of its sections, in any
+        namespace (`<node>: ros__parameters: sail: {...}` or `sail.n_boom_modes: 4`; a
+        file without any gives the defaults).
         """
         return cls.from_document(yaml_values.load_file(path, "sail parameters"), path)
 
@@ -183,9 +185,16 @@ def _find_sail_section(document, path: Path) -> dict:
         raise ValueError(f"{path}: expected a mapping at top level, got {document!r}")
     if "sail" in document:
         return document["sail"]
-    for value in document.values():  # ROS 2 params file: <node>: ros__parameters:
-        if isinstance(value, dict) and "ros__parameters" in value:
-            section = value["ros__parameters"].get("sail")
-            if section is not None:
-                return section
-    return document
+    sections = yaml_values.node_sections(document)
+    if sections is None:
+        return document
+    # a ROS 2 params file: the `sail.` parameters of its sections, in the file's order
+    # (nested, `sail: {n_boom_modes: 4}`, or by name, `sail.n_boom_modes: 4`); none, the
+    # defaults
+    found = {}
+    for body in sections.values():
+        if isinstance(body, dict):
+            for name, value in yaml_values.flattened(body).items():
+                if name.startswith("sail."):
+                    found[name.removeprefix("sail.")] = value
+    return found

@@ -48,3 +48,45 @@ def describe(error: yaml.YAMLError) -> str:
     if mark is None:
         return what
     return f"{what} (line {mark.line + 1}, column {mark.column + 1})"
+
+
+def node_sections(document, prefix: str = "") -> dict | None:
+    """The node sections of a ROS 2 params file's `document` (`<node>: ros__parameters:
+    ...`), each name's `ros__parameters` value, names joined through nested namespaces
+    as rcl joins them (`/sat2: sail_sim: ros__parameters:` is `/sat2/sail_sim`); None
+    when `document` is not a params file (a branch that does not end in
+    `ros__parameters`, or nothing)."""
+    if not isinstance(document, dict) or not document:
+        return None
+    sections = {}
+    for name, body in document.items():
+        if not isinstance(body, dict):
+            return None
+        joined = f"{prefix}/{name}" if prefix else str(name)
+        if "ros__parameters" in body:
+            sections[joined] = body["ros__parameters"]
+            continue
+        nested = node_sections(body, joined)
+        if nested is None:
+            return None
+        sections.update(nested)
+    return sections
+
+
+def section_applies(section: str, node_name: str) -> bool:
+    """Whether a params file's section (`node_sections`) is read by the node `node_name`
+    in any namespace: its last name is the node's or a wildcard (`/**`, `*`)."""
+    return section.rstrip("/").rsplit("/", 1)[-1] in (node_name, "**", "*")
+
+
+def flattened(mapping: dict, prefix: str = "") -> dict:
+    """A section's parameters as ROS names them: `{"sail": {"n_boom_modes": 4}}` is
+    `{"sail.n_boom_modes": 4}`."""
+    flat = {}
+    for key, value in mapping.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            flat.update(flattened(value, name + "."))
+        else:
+            flat[name] = value
+    return flat

@@ -57,29 +57,12 @@ def _params_files(ros_argv: list[str]):
             raise ConfigError(f"--params-file {path}: {error.strerror}") from None
         except yaml.YAMLError as error:
             raise ConfigError(f"--params-file {path}: {yaml_values.describe(error)}") from None
-        sections = _node_sections(document)
+        sections = list(yaml_values.node_sections(document) or ())
         if not sections:
             raise ConfigError(
                 f"--params-file {path}: expected '<node>: ros__parameters: ...' sections"
             )
         yield path, sections
-
-
-def _node_sections(document, prefix: str = "") -> list[str]:
-    """The node sections of a params file's `document` (names joined through nested
-    namespaces), or [] if some branch does not end in `ros__parameters`."""
-    if not isinstance(document, dict) or not document:
-        return []
-    sections = []
-    for name, body in document.items():
-        if not isinstance(body, dict):
-            return []
-        joined = f"{prefix}/{name}" if prefix else str(name)
-        found = [joined] if "ros__parameters" in body else _node_sections(body, joined)
-        if not found:
-            return []
-        sections.extend(found)
-    return sections
 
 
 def check_params_files(ros_argv: list[str], node_name: str) -> None:
@@ -91,18 +74,13 @@ def check_params_files(ros_argv: list[str], node_name: str) -> None:
             for the node (the message names the sections and the closest one).
     """
     for path, sections in _params_files(ros_argv):
-        if not any(_section_applies(section, node_name) for section in sections):
+        if not any(yaml_values.section_applies(section, node_name) for section in sections):
             close = difflib.get_close_matches(node_name, sections, n=1, cutoff=0.6)
             hint = f"; did you mean {node_name!r} for {close[0]!r}?" if close else ""
             raise ConfigError(
                 f"--params-file {path} has no section for node {node_name!r} (it has "
                 f"{', '.join(map(repr, sections))}{hint})"
             )
-
-
-def _section_applies(section: str, node_name: str) -> bool:
-    last = section.rstrip("/").rsplit("/", 1)[-1]
-    return last in (node_name, "**", "*")
 
 
 def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[str]):

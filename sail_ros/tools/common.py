@@ -165,26 +165,25 @@ def simulator_parameters(document, path) -> dict | None:
             simulator refuses, `ros.parameters.reject_unknown`), or holds no section it
             would read, naming them.
     """
-    if not isinstance(document, dict) or not any(
-        isinstance(body, dict) and "ros__parameters" in body for body in document.values()
-    ):
+    found = yaml_values.node_sections(document)
+    if found is None:
         return None
     node = topics.SIM_NODE
     sections = [
-        body.get("ros__parameters") or {}
-        for name, body in document.items()
-        if isinstance(body, dict) and (name in (node, "/**") or str(name).endswith("/" + node))
+        {} if body is None else body
+        for name, body in found.items()
+        if yaml_values.section_applies(name, node)
     ]
     if not all(isinstance(section, dict) for section in sections):
         raise ValueError(f"{path}: ros__parameters of {node} must be a mapping")
     if not sections:
         raise ValueError(
             f"{path}: no parameters for {node} (sections: "
-            f"{', '.join(map(str, document))}); the simulator would take none of them"
+            f"{', '.join(found)}); the simulator would take none of them"
         )
     given = {}
     for section in sections:
-        given.update(_flattened(section))
+        given.update(yaml_values.flattened(section))
     known = set(PARAMETERS) | set(NODE_BUILT_INS)
     unknown = sorted(name for name in given if name not in known)
     if unknown:
@@ -194,18 +193,6 @@ def simulator_parameters(document, path) -> dict | None:
             named.append(f"{name!r}" + (f" (did you mean {close!r}?)" if close else ""))
         raise ValueError(f"{path}: unknown parameter(s) of {node}: {', '.join(named)}")
     return given
-
-
-def _flattened(mapping: dict, prefix: str = "") -> dict:
-    """`{"sail": {"n_boom_modes": 4}}` as ROS reads it: `{"sail.n_boom_modes": 4}`."""
-    flat = {}
-    for key, value in mapping.items():
-        name = f"{prefix}{key}"
-        if isinstance(value, dict):
-            flat.update(_flattened(value, name + "."))
-        else:
-            flat[name] = value
-    return flat
 
 
 def sail_parameters(args: argparse.Namespace) -> SailParameters:

@@ -66,6 +66,11 @@ def test_yaml_round_trip_and_unknown_keys(tmp_path):
         yaml.safe_dump({"sail_sim": {"ros__parameters": {"sail": {"n_membrane_modes": 3}}}})
     )
     assert SailParameters.from_yaml(path).n_membrane_modes == 3
+    # by parameter name, in a namespace, or none at all (the simulator's limits alone)
+    path.write_text("/sat2:\n  sail_sim:\n    ros__parameters:\n      sail.n_boom_modes: 6\n")
+    assert SailParameters.from_yaml(path).n_boom_modes == 6
+    path.write_text("sail_sim:\n  ros__parameters:\n    max_rate: 2.0\n")
+    assert SailParameters.from_yaml(path) == SailParameters()
 
 
 def test_run_time_arguments_are_checked():

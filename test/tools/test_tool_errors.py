@@ -1,5 +1,6 @@
 """Every tool answers a user's mistake with exit code 2 and one line naming it, no traceback."""
 
+import argparse
 import struct
 
 import pytest
@@ -10,6 +11,7 @@ from sensor_msgs.msg import JointState
 from sail_ros.bag import BagReader, BagWriter, DamagedBagError
 from sail_ros.model.fields import ConfigError
 from sail_ros.ros.cli import check_params_files
+from sail_ros.tools.common import configuration
 
 pytestmark = pytest.mark.model
 
@@ -173,3 +175,11 @@ def test_a_params_file_with_nested_namespaces_is_a_params_file(tmp_path):
     nested.write_text("/sat2:\n  sail_sim:\n    max_rate: 2.0\n")
     with pytest.raises(ConfigError, match="expected '<node>: ros__parameters: ...' sections"):
         check_params_files(["sim", "--ros-args", "--params-file", str(nested)], "sail_sim")
+    # the tools' --config reads such a file as the simulator does (was: "unknown sail
+    # parameter(s) '/sat2'")
+    nested.write_text(
+        "/sat2:\n  sail_sim:\n    ros__parameters:\n      max_rate: 2.0\n"
+        "      sail.n_boom_modes: 7\n"
+    )
+    config = configuration(argparse.Namespace(config=str(nested), set=[]))
+    assert config.sail.n_boom_modes == 7 and config.policy.max_rate == 2.0
