@@ -22,7 +22,7 @@ import scipy.linalg
 
 from sail_ros.model.assembly import CANONICAL_DAMPING, GYROSCOPIC, MASS, STIFFNESS_CANONICAL
 from sail_ros.model.blocks import DenseMatrices
-from sail_ros.model.fast_modes import oscillation
+from sail_ros.model.fast_modes import TURN_BACK_EXPONENT, oscillation
 
 # the matrices one moving step needs, in this order (`moving_step`)
 STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
@@ -124,11 +124,16 @@ class Extension:
     def followed(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """The followed modes' damped frequencies [rad/s] (k,) and the largest amplitude of
         each in each output row of `rows` (r, n) over the step (r, k): `|rows V_j| |a_j|`
-        of the start's and the end's free vibration (empty without followed modes)."""
+        of the start's free vibration, and of the end's turned back over the second half
+        (grown by `e^(d h / 4)` where damped; `oscillation`); empty without followed
+        modes."""
         if not self.vibration:
             return np.zeros(0), np.zeros((len(rows), 0))
         count = self.V.shape[2]
         magnitude = np.hypot(self.on_e[:, :count], self.on_e[:, count:])  # (parts, k): |a|
+        if self.decay is not None:  # the first half decays from the start: at most |a|
+            back = np.minimum(0.5 * self.decay[1:] * (self.h / self.parts), TURN_BACK_EXPONENT)
+            magnitude[1:] *= np.exp(back)
         amplitude = np.abs(rows @ self.V) * magnitude[:, None, :]  # (parts, r, k)
         return self.omega_d.max(axis=0), amplitude.max(axis=0)
 
