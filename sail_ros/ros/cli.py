@@ -40,7 +40,7 @@ def suggestion(name: str, known) -> str:
     return f" (did you mean {close!r}?)" if close else ""
 
 
-def _params_files(ros_argv: list[str]):
+def read_params_files(ros_argv: list[str]) -> list[tuple[str, list[str]]]:
     """`(path, sections)` of every `--params-file` in `ros_argv`, read and checked: the
     file's node sections, nested namespaces joined as rcl joins them (`/sat2:
     sail_sim: ros__parameters:` is the section `/sat2/sail_sim`).
@@ -49,6 +49,7 @@ def _params_files(ros_argv: list[str]):
         ConfigError: a file cannot be read, or is not a params file (one line naming it).
     """
     files = [ros_argv[i + 1] for i, item in enumerate(ros_argv[:-1]) if item == "--params-file"]
+    read = []
     for path in files:
         try:
             with open(path) as stream:
@@ -62,18 +63,20 @@ def _params_files(ros_argv: list[str]):
             raise ConfigError(
                 f"--params-file {path}: expected '<node>: ros__parameters: ...' sections"
             )
-        yield path, sections
+        read.append((path, sections))
+    return read
 
 
-def check_params_files(ros_argv: list[str], node_name: str) -> None:
-    """Every `--params-file` must hold a section for `node_name` (or a wildcard): a
-    misspelt section (`sail_simm:`) would otherwise be skipped without a word.
+def check_params_files(files: list[tuple[str, list[str]]], node_name: str) -> None:
+    """Every params file (`read_params_files`) must hold a section for `node_name` (or a
+    wildcard): a misspelt section (`sail_simm:`) would otherwise be skipped without a
+    word.
 
     Raises:
-        ConfigError: a file cannot be read, is not a params file, or has no section
-            for the node (the message names the sections and the closest one).
+        ConfigError: a file has no section for the node (the message names the
+            sections and the closest one).
     """
-    for path, sections in _params_files(ros_argv):
+    for path, sections in files:
         if not any(yaml_values.section_applies(section, node_name) for section in sections):
             close = difflib.get_close_matches(node_name, sections, n=1, cutoff=0.6)
             hint = f"; did you mean {node_name!r} for {close[0]!r}?" if close else ""
@@ -83,16 +86,21 @@ def check_params_files(ros_argv: list[str], node_name: str) -> None:
             )
 
 
-def parse_command_line(parser: argparse.ArgumentParser, prog: str, argv: list[str]):
-    """Parse the non-ROS part of `argv`; returns (namespace, args for rclpy.init).
+def parse_command_line(
+    parser: argparse.ArgumentParser, prog: str, argv: list[str], node_name: str | None = None
+):
+    """Parse the non-ROS part of `argv`; returns (namespace, args for rclpy.init). The
+    `--params-file`s are read first (rcl would say only that it could not parse one)
+    and, for a node (`node_name`), must each hold a section for it.
 
     Raises:
         SystemExit: --help, or a bad option (argparse prints the message).
     """
     ros_argv = [prog, *argv]
     try:
-        for _ in _params_files(ros_argv):  # rcl would say only that it could not parse one
-            pass
+        files = read_params_files(ros_argv)
+        if node_name is not None:
+            check_params_files(files, node_name)
         own_args = remove_ros_args(ros_argv)[1:]
     except ConfigError as error:
         parser.error(str(error))
@@ -260,14 +268,9 @@ def run_node(name: str, parser: argparse.ArgumentParser, argv: list[str], body) 
     `ConfigError` (a parameter the node cannot use) is logged and gives exit 2.
     """
     try:
-        namespace, ros_argv = parse_command_line(parser, name, argv)
+        namespace, ros_argv = parse_command_line(parser, name, argv, node_name=name)
     except SystemExit as exit_:
         return exit_.code if isinstance(exit_.code, int) else 2
-    try:
-        check_params_files(ros_argv, name)
-    except ConfigError as error:
-        get_logger(name).error(str(error))
-        return 2
     with StopSignals() as stop:
         announce_often()
         rclpy.init(args=ros_argv, signal_handler_options=SignalHandlerOptions.NO)

@@ -10,7 +10,7 @@ from sensor_msgs.msg import JointState
 
 from sail_ros.bag import BagReader, BagWriter, DamagedBagError
 from sail_ros.model.fields import ConfigError
-from sail_ros.ros.cli import check_params_files
+from sail_ros.ros.cli import check_params_files, read_params_files
 from sail_ros.tools.common import configuration
 
 pytestmark = pytest.mark.model
@@ -167,14 +167,19 @@ def test_a_params_file_with_nested_namespaces_is_a_params_file(tmp_path):
     """A file `/sat2: sail_sim: ros__parameters:` is the section `/sat2/sail_sim` to rcl: so
     do the tools' checks; a misspelt node under it is named with its namespace."""
     nested = tmp_path / "nested.yaml"
+
+    def check():
+        ros_argv = ["sim", "--ros-args", "--params-file", str(nested)]
+        check_params_files(read_params_files(ros_argv), "sail_sim")
+
     nested.write_text("/sat2:\n  sail_sim:\n    ros__parameters:\n      max_rate: 2.0\n")
-    check_params_files(["sim", "--ros-args", "--params-file", str(nested)], "sail_sim")
+    check()
     nested.write_text("/sat2:\n  sail_simm:\n    ros__parameters:\n      max_rate: 2.0\n")
     with pytest.raises(ConfigError, match="has no section for node 'sail_sim' .*'/sat2/sail_simm'"):
-        check_params_files(["sim", "--ros-args", "--params-file", str(nested)], "sail_sim")
+        check()
     nested.write_text("/sat2:\n  sail_sim:\n    max_rate: 2.0\n")
     with pytest.raises(ConfigError, match="expected '<node>: ros__parameters: ...' sections"):
-        check_params_files(["sim", "--ros-args", "--params-file", str(nested)], "sail_sim")
+        check()
     # the tools' --config reads such a file as the simulator does (was: "unknown sail
     # parameter(s) '/sat2'")
     nested.write_text(
