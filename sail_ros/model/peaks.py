@@ -13,11 +13,12 @@ with its time. Between two samples the output is the cubic Hermite through their
 values and rates (`PeakSearch`), whose error for a sine sampled every `phi` rad
 is `phi^4 / 384` of its amplitude (a 1 kHz sampling misses up to 1 - cos(omega /
 2 kHz) of it: 1 % of a 47 Hz mode). The samples are close enough that this error
-stays within `PEAK_ERROR` of each output's largest value (or of the followed
-modes' vibration in it, if larger): every `PEAK_PHASE` rad of the highest
-frequency of the step's slow part, closer where the followed modes
-(`fast_modes`) weigh enough in an output for their frequencies to matter
-(`OutputPeaks.spacing`), and at least every `MAX_SPACING_S`.
+stays within `PEAK_ERROR` of the amplitude of the step's slow part and, for its
+followed modes (`fast_modes`), of each output's largest value: every
+`PEAK_PHASE` rad of the slow part's highest frequency, closer where the followed
+modes weigh enough in an output for their frequencies to matter
+(`OutputPeaks.spacing`), at least every `MAX_SPACING_S`, and on both sides of
+the middle of a step, where the followed modes' static response jumps.
 """
 
 from __future__ import annotations
@@ -178,7 +179,8 @@ class OutputPeaks:
         self._start = None  # (t, lengths, rates) at the start of the next step
         self._pending: list[tuple] = []  # steps sampled, not yet searched
         self._pending_samples = 0
-        self._scale = np.zeros(len(self.rows))  # the largest |row| sampled so far
+        # the largest |output| sampled so far (root moments in N m, from below)
+        self.scale = np.zeros(len(self.rows))
         self.samples = 0
 
     def start(self, stepper) -> None:
@@ -201,11 +203,13 @@ class OutputPeaks:
         )
         self._pending_samples += 1
         self._start = (stepper.t, lengths, rates)
-        self._scale = np.maximum(self._scale, np.abs(y))
+        self._grow_scale(np.abs(y), lengths)
 
     def after_step(self, stepper, also=None) -> StepSamples:
         """Sample the step just taken (`SailStepper.on_step`) on its own interpolant, at
-        most `max_spacing` apart; returns the samples (`StepSamples`).
+        most `max_spacing` apart, and on both sides of where it may jump
+        (`SailStepper.interpolant_jumps`: no cubic spans a jump); returns the samples
+        (`StepSamples`).
 
         `also`: more fractions of the step (k,) to sample in the same pass (one
         interpolant call costs what its few samples do not)."""
@@ -213,15 +217,17 @@ class OutputPeaks:
         t1 = stepper.t
         lengths1, rates1, _ = stepper.boom_motion()
         h = t1 - t0
-        count = max(1, math.ceil(h / self.spacing(stepper) - 1e-9))
-        fractions = step_fractions(count)
+        spacing = self.spacing(stepper, lengths0, lengths1)
+        count = max(1, math.ceil(h / spacing - 1e-9))
+        fractions = step_fractions(count, stepper.interpolant_jumps())
+        count = fractions.size
         extra = None
         if also is None:
             y, yd = stepper.interpolant(fractions, self.rows)
         else:
             y, yd = stepper.interpolant(np.concatenate([fractions, also]), self.rows)
             y, yd, extra = y[:count], yd[:count], y[count:]
-        self._scale = np.maximum(self._scale, np.abs(y).max(axis=0))
+        self._grow_scale(np.abs(y).max(axis=0), np.maximum(lengths0, lengths1))
         if self._pending_samples >= self.FLUSH_SAMPLES:
             self._flush()  # the steps before: the last one stays pending (`cut`)
         self._pending.append(
@@ -231,22 +237,37 @@ class OutputPeaks:
         self._start = (t1, lengths1, rates1)
         return StepSamples(fractions, y, extra)
 
-    def spacing(self, stepper) -> float:
-        """The time [s] between two samples of the last step: `peak_phase` rad of its slow
-        part's highest frequency, and for its followed modes (`interpolant_spectrum`: mode
-        j of frequency `omega_j`, amplitude `A_rj` in row r) the longest `d` with `sum_j
-        A_rj (omega_j d)^4 <= peak_phase^4 max(S_r, sum_j A_rj)`, `S_r` the largest |row
-        r| sampled so far: the cubic Hermite's error, `(omega d)^4 / 384` of a sine's
-        amplitude, stays within the slow part's bound `peak_phase^4 / 384` (`PEAK_ERROR`)
-        of the row's largest value or of its followed vibration. Never shorter than
-        `peak_phase` rad of the highest followed mode, nor longer than `max_spacing`."""
+    def _grow_scale(self, largest, lengths) -> None:
+        """`scale` from the largest |rows| (r,) of samples where no boom is longer than
+        `lengths` [m]: the root moments' over `L^2` (at most their value in N m)."""
+        largest = largest.copy()
+        largest[4:8] /= lengths**2
+        self.scale = np.maximum(self.scale, largest)
+
+    def spacing(self, stepper, lengths0, lengths1) -> float:
+        """The time [s] between two samples of the last step, from boom lengths `lengths0`
+        to `lengths1` [m]: `peak_phase` rad of its slow part's highest frequency, and for
+        its followed modes (`interpolant_spectrum`: mode j of frequency `omega_j`,
+        amplitude `A_rj` in output r, root moments in N m) the longest `d` with `sum_j
+        A_rj (omega_j d)^4 <= peak_phase^4 S_r`, `S_r` the largest |output r| sampled so
+        far (`scale`; `sum_j A_rj` before any): the cubic Hermite's error, `(omega
+        d)^4 / 384` of a sine's amplitude, then stays within `PEAK_ERROR` of the output's
+        largest value for the followed modes, as for the slow part of its own amplitude.
+        At most `max_spacing`, and at least a quarter of `peak_phase` rad of the highest
+        followed mode (an output still beside its followed modes' vibration is then held
+        to `PEAK_ERROR / 256` of that vibration)."""
         slow, omega, amplitude = stepper.interpolant_spectrum(self.rows)
         spacing = self.max_spacing if slow <= 0 else min(self.max_spacing, self.peak_phase / slow)
-        weight = amplitude @ omega**4  # (r,)
-        bound = weight > 0
-        if bound.any():
-            scale = np.maximum(self._scale, amplitude.sum(axis=1))[bound]
-            spacing = min(spacing, self.peak_phase * float(np.min(scale / weight[bound])) ** 0.25)
+        if omega.size:
+            amplitude = amplitude.copy()
+            amplitude[4:8] /= np.minimum(lengths0, lengths1)[:, None] ** 2  # N m, at most
+            weight = amplitude @ omega**4  # (r,)
+            bound = weight > 0
+            if bound.any():
+                scale = np.where(self.scale > 0, self.scale, amplitude.sum(axis=1))[bound]
+                ratio = float(np.min(scale / weight[bound]))
+                densest = 0.25 * self.peak_phase / float(omega.max())
+                spacing = min(spacing, max(densest, self.peak_phase * ratio**0.25))
         return spacing
 
     def cut(self, t: float) -> None:
@@ -305,10 +326,14 @@ def with_tilt(y, yd, first: int = 9):
     return np.column_stack([y, tilt]), np.column_stack([yd, rate])
 
 
-@functools.lru_cache(maxsize=64)
-def step_fractions(count: int) -> np.ndarray:
-    """1/count, 2/count, ..., 1 (read-only: shared by every step of that count)."""
+@functools.lru_cache(maxsize=128)
+def step_fractions(count: int, jumps: tuple = ()) -> np.ndarray:
+    """1/count, 2/count, ..., 1, and each of `jumps` with the fraction just before it
+    (both sides of a jump), in order (read-only: shared by every step alike)."""
     fractions = np.arange(1, count + 1) / count
+    if jumps:
+        sides = [np.nextafter(f, 0.0) for f in jumps] + list(jumps)
+        fractions = np.union1d(fractions, sides)
     fractions.flags.writeable = False
     return fractions
 

@@ -120,22 +120,38 @@ class Extension:
             self.on_e, self.on_v = (np.array(terms) for terms in zip(*turning, strict=True))
         self._coordinates = None
         self._coefficients_of = ((), None)  # (rows, `_coefficients`): none yet
+        self._shapes_of = ((), None)  # (rows, `_shapes`)
 
     def followed(self, rows) -> tuple[np.ndarray, np.ndarray]:
-        """The followed modes' damped frequencies [rad/s] (k,) and the largest amplitude of
-        each in each output row of `rows` (r, n) over the step (r, k): `|rows V_j| |a_j|`
-        of the start's free vibration, and of the end's turned back over the second half
-        (grown by `e^(d h / 4)` where damped; `oscillation`); empty without followed
-        modes."""
+        """The followed modes' frequencies [rad/s] (k,) and the largest amplitude of each
+        in each output row of `rows` (r, n) over the step (r, k): `|rows V_j| |a_j|` of
+        the start's free vibration, and of the end's turned back over the second half
+        (grown by `e^(d h / 4)` where damped; `oscillation`); a damped mode's frequency is
+        `hypot(omega_d, d / 2)`, which its fourth derivative goes with. Empty without
+        followed modes."""
         if not self.vibration:
             return np.zeros(0), np.zeros((len(rows), 0))
         count = self.V.shape[2]
         magnitude = np.hypot(self.on_e[:, :count], self.on_e[:, count:])  # (parts, k): |a|
+        omega = self.omega_d
         if self.decay is not None:  # the first half decays from the start: at most |a|
             back = np.minimum(0.5 * self.decay[1:] * (self.h / self.parts), TURN_BACK_EXPONENT)
             magnitude[1:] *= np.exp(back)
-        amplitude = np.abs(rows @ self.V) * magnitude[:, None, :]  # (parts, r, k)
-        return self.omega_d.max(axis=0), amplitude.max(axis=0)
+            omega = np.hypot(omega, 0.5 * self.decay)
+        amplitude = np.abs(self._shapes(rows)) * magnitude[:, None, :]  # (parts, r, k)
+        return omega.max(axis=0), amplitude.max(axis=0)
+
+    def _shapes(self, rows) -> np.ndarray:
+        """`rows V` (parts, r, k): the followed modes' shapes in the output rows `rows`
+        (r, n), kept for the last rows asked (`followed` and `_coefficients` both ask)."""
+        if self._shapes_of[0] is not rows:
+            self._shapes_of = (rows, rows @ self.V)
+        return self._shapes_of[1]
+
+    def jumps(self) -> tuple[float, ...]:
+        """Fractions of the step where the curve may jump: its middle, where the followed
+        modes' static response passes from the start's to the end's (none without)."""
+        return (0.5,) if self.vibration and self.parts == 2 else ()
 
     def coordinates(self) -> np.ndarray:
         """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
@@ -223,7 +239,7 @@ class Extension:
         X[:, :orders, :r] = _POWER_WEIGHTS @ coordinates
         X[:, :orders, r:] = _POWER_SLOPES @ coordinates * (parts / self.h)
         if count:
-            shapes = np.swapaxes(self.V if rows is None else rows @ self.V, 1, 2)  # (parts, c, r)
+            shapes = np.swapaxes(self.V if rows is None else self._shapes(rows), 1, 2)
             doubled = np.concatenate([shapes, shapes], axis=1)  # cosine, then sine rows
             X[:, orders:, :r] = self.on_e[:, :, None] * doubled
             X[:, orders:, r:] = self.on_v[:, :, None] * doubled

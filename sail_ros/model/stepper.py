@@ -592,8 +592,12 @@ class SailStepper:
             error = float(np.max(estimate / scale))
         if not math.isfinite(error):
             error = math.inf
-        # the modes not followed lie below the floor (a set carried on holds the highest only)
-        carried = float(modes0.omega[-count - 1]) if count < modes0.omega.size else floor
+        # the highest mode not followed: the next below those followed, or, when a set
+        # carried on (the highest modes only) is followed whole, below its lowest
+        if count < modes0.omega.size:
+            carried = float(modes0.omega[-count - 1])
+        else:
+            carried = float(modes0.omega[0]) if modes0.omega.size < self.system.n else 0.0
         return Trial(
             h, q2, p2, qd2, error, estimate, (first, second), vibration, mats[2], outputs, carried
         )
@@ -904,10 +908,11 @@ class SailStepper:
         but the followed modes: at rest the highest mode's, `sqrt(max lambda)`; moving,
         the highest frozen mode the rational steps carry (`CARRIED_MARGIN` over it, and
         the rise of a boom's frequencies as `1 / L^2` where the step shortens it), at
-        most the turning of their extensions (a polynomial of degree 2 k = 8 in the
-        fraction, turning at most that often: `2 pi k` over a rational step). `omega`
-        (k,) [rad/s] and `amplitude` (r, k): the followed modes' frequencies, each with
-        its largest amplitude in each row over the step (none at rest)."""
+        most the turning of their extensions (polynomials of degree 2 k = 4 in each
+        rational step's fraction, k the Padé pole pairs, turning at most that often:
+        `2 pi k` over a rational step). `omega` (k,) [rad/s] and `amplitude` (r, k): the
+        followed modes' frequencies, each with its largest amplitude in each row over the
+        step (`Extension.followed`; none at rest)."""
         t0, _, _, trial = self._last
         if isinstance(trial, Rest):
             slow = float(np.sqrt(max(float(trial.lam[-1]), 0.0)))
@@ -918,6 +923,12 @@ class SailStepper:
         carried = trial.carried_frequency * CARRIED_MARGIN * max(1.0, float(shortening)) ** 2
         omega, amplitude = self._extension().followed(rows)
         return min(turning, carried), omega, amplitude
+
+    def interpolant_jumps(self) -> tuple[float, ...]:
+        """Fractions of the last step where its curve may jump (`Extension.jumps`): a
+        sampling of it takes each side (`peaks`)."""
+        trial = self._last[3]
+        return () if isinstance(trial, Rest) else self._extension().jumps()
 
     def interpolant(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
         """`rows q(t)` and its rate `rows qd(t)` [per s] (each (m, r)) at `fractions` (m

@@ -316,8 +316,8 @@ def test_a_run_stopped_by_its_alarm_has_no_peak_after_the_stop():
     run = run_deployment(model, scenario, np.arange(0.0, 15.05, 0.1), states=False)
     stop = float(run.alarm.split("stopped at t = ")[1].split(" s")[0])
     assert 9.0 < stop < 9.3, run.alarm
-    for peak in (run.peaks.tip_deflection, run.peaks.root_moment):  # (6 digits printed)
-        assert np.all(peak.time_s <= stop * (1 + 5e-6)), (peak.time_s, stop)
+    for peak in (run.peaks.tip_deflection, run.peaks.root_moment):  # (printed to 10 us)
+        assert np.all(peak.time_s <= stop + 5e-6), (peak.time_s, stop)
 
 
 def test_reference_options_conflict_with_a_scenario(capsys):
