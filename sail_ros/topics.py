@@ -34,6 +34,7 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from sail_ros.model import SailParameters, yaml_values
+from sail_ros.model.parameters import SIMULATOR_NODE
 
 # -- names ------------------------------------------------------------------------------------
 # Relative, so a node's namespace (`--ros-args -r __ns:=/sat2`) moves them all;
@@ -55,7 +56,7 @@ HUB_WRENCH_CMD = "sail/hub_wrench_cmd"  # a free hub only
 COMMAND_STATUS = "sail/command_status"
 RESET_SERVICE = "sail/reset"
 PAUSE_SERVICE = "sail/pause"
-SIM_NODE = "sail_sim"
+SIM_NODE = SIMULATOR_NODE  # the node whose params-file section holds the sail
 
 
 def sail_namespaces(recorded_topics) -> list[str]:

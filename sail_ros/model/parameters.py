@@ -20,6 +20,9 @@ from sail_ros.model.fields import check_fields, setting, spec_of
 MAX_BOOM_MODES = 30  # beyond, the cantilever functions' evaluation and the integrals cost more
 MAX_MEMBRANE_MODES = 100  # than the model is worth
 
+# the node whose parameters in a ROS 2 params file give the sail (the simulator's)
+SIMULATOR_NODE = "sail_sim"
+
 
 @dataclasses.dataclass(frozen=True)
 class SailParameters:
@@ -154,20 +157,20 @@ class SailParameters:
         return cls(**values)
 
     @classmethod
-    def from_yaml(cls, path) -> SailParameters:
+    def from_yaml(cls, path, node: str = SIMULATOR_NODE) -> SailParameters:
         """Read a YAML file holding the fields, either at top level or under `sail:`.
 
-        A ROS 2 params file works too: the `sail.` parameters of its sections, in any
-        namespace (`<node>: ros__parameters: sail: {...}` or `sail.n_boom_modes: 4`; a
-        file without any gives the defaults).
+        A ROS 2 params file works too: the `sail.` parameters it gives the node `node`
+        (the simulator's, in any namespace: `<node>: ros__parameters: sail: {...}` or
+        `sail.n_boom_modes: 4`; none, the defaults).
         """
-        return cls.from_document(yaml_values.load_file(path, "sail parameters"), path)
+        return cls.from_document(yaml_values.load_file(path, "sail parameters"), path, node)
 
     @classmethod
-    def from_document(cls, document, path) -> SailParameters:
+    def from_document(cls, document, path, node: str = SIMULATOR_NODE) -> SailParameters:
         """As `from_yaml`, from the file's document already read (`path` names it in
         errors); an empty document gives the defaults."""
-        return cls.from_dict(_find_sail_section(document or {}, Path(path)))
+        return cls.from_dict(_find_sail_section(document or {}, Path(path), node))
 
     def to_yaml(self, path) -> None:
         with open(path, "w") as stream:
@@ -180,21 +183,16 @@ def _with_nearest(name: str) -> str:
     return repr(name) + (f" (did you mean {close[0]!r}?)" if close else "")
 
 
-def _find_sail_section(document, path: Path) -> dict:
+def _find_sail_section(document, path: Path, node: str) -> dict:
     if not isinstance(document, dict):
         raise ValueError(f"{path}: expected a mapping at top level, got {document!r}")
     if "sail" in document:
         return document["sail"]
-    sections = yaml_values.node_sections(document)
-    if sections is None:
+    given = yaml_values.node_parameters(document, node, path)
+    if given is None:
         return document
-    # a ROS 2 params file: the `sail.` parameters of its sections, in the file's order
-    # (nested, `sail: {n_boom_modes: 4}`, or by name, `sail.n_boom_modes: 4`); none, the
-    # defaults
-    found = {}
-    for body in sections.values():
-        if isinstance(body, dict):
-            for name, value in yaml_values.flattened(body).items():
-                if name.startswith("sail."):
-                    found[name.removeprefix("sail.")] = value
-    return found
+    # a ROS 2 params file: the node's `sail.` parameters, nested (`sail: {n_boom_modes:
+    # 4}`) or by name (`sail.n_boom_modes: 4`); none, the defaults
+    if "sail" in given:
+        raise ValueError(f"{path}: sail of {node} must be a mapping, got {given['sail']!r}")
+    return {name.removeprefix("sail."): v for name, v in given.items() if name.startswith("sail.")}

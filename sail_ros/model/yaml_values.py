@@ -79,6 +79,34 @@ def section_applies(section: str, node_name: str) -> bool:
     return section.rstrip("/").rsplit("/", 1)[-1] in (node_name, "**", "*")
 
 
+def node_parameters(document, node: str, where) -> dict | None:
+    """The parameters a ROS 2 params file's `document` gives the node `node` (its
+    sections that apply, `section_applies`, in the file's order, the last value of a
+    name kept, as rcl does), by their ROS names (`flattened`); None when `document` is
+    not a params file.
+
+    Raises:
+        ValueError: (naming `where`, the file) a section's `ros__parameters` is not a
+            mapping (rcl refuses the file), or no section applies to `node`.
+    """
+    sections = node_sections(document)
+    if sections is None:
+        return None
+    for name, body in sections.items():
+        if not isinstance(body, dict):
+            raise ValueError(f"{where}: ros__parameters of {name} must be a mapping, got {body!r}")
+    applying = [body for name, body in sections.items() if section_applies(name, node)]
+    if not applying:
+        raise ValueError(
+            f"{where}: no parameters for {node} (sections: {', '.join(sections)}); "
+            f"{node} would take none of them"
+        )
+    given = {}
+    for body in applying:
+        given.update(flattened(body))
+    return given
+
+
 def flattened(mapping: dict, prefix: str = "") -> dict:
     """A section's parameters as ROS names them: `{"sail": {"n_boom_modes": 4}}` is
     `{"sail.n_boom_modes": 4}`."""

@@ -58,12 +58,18 @@ def read_params_files(ros_argv: list[str]) -> list[tuple[str, list[str]]]:
             raise ConfigError(f"--params-file {path}: {error.strerror}") from None
         except yaml.YAMLError as error:
             raise ConfigError(f"--params-file {path}: {yaml_values.describe(error)}") from None
-        sections = list(yaml_values.node_sections(document) or ())
+        sections = yaml_values.node_sections(document) or {}
         if not sections:
             raise ConfigError(
                 f"--params-file {path}: expected '<node>: ros__parameters: ...' sections"
             )
-        read.append((path, sections))
+        for name, body in sections.items():
+            if not isinstance(body, dict):  # rcl's text names neither
+                raise ConfigError(
+                    f"--params-file {path}: ros__parameters of {name} must be a mapping, "
+                    f"got {body!r}"
+                )
+        read.append((path, list(sections)))
     return read
 
 

@@ -165,25 +165,10 @@ def simulator_parameters(document, path) -> dict | None:
             simulator refuses, `ros.parameters.reject_unknown`), or holds no section it
             would read, naming them.
     """
-    found = yaml_values.node_sections(document)
-    if found is None:
+    given = yaml_values.node_parameters(document, topics.SIM_NODE, path)
+    if given is None:
         return None
     node = topics.SIM_NODE
-    sections = [
-        {} if body is None else body
-        for name, body in found.items()
-        if yaml_values.section_applies(name, node)
-    ]
-    if not all(isinstance(section, dict) for section in sections):
-        raise ValueError(f"{path}: ros__parameters of {node} must be a mapping")
-    if not sections:
-        raise ValueError(
-            f"{path}: no parameters for {node} (sections: "
-            f"{', '.join(found)}); the simulator would take none of them"
-        )
-    given = {}
-    for section in sections:
-        given.update(yaml_values.flattened(section))
     known = set(PARAMETERS) | set(NODE_BUILT_INS)
     unknown = sorted(name for name in given if name not in known)
     if unknown:

@@ -71,6 +71,15 @@ def test_yaml_round_trip_and_unknown_keys(tmp_path):
     assert SailParameters.from_yaml(path).n_boom_modes == 6
     path.write_text("sail_sim:\n  ros__parameters:\n    max_rate: 2.0\n")
     assert SailParameters.from_yaml(path) == SailParameters()
+    # the simulator's sections alone, as the simulator and the tools read the file
+    path.write_text(
+        "sail_recorder:\n  ros__parameters:\n    sail.n_boom_modes: 9\n"
+        "sail_sim:\n  ros__parameters:\n    max_rate: 2.0\n"
+    )
+    assert SailParameters.from_yaml(path).n_boom_modes == 4
+    path.write_text("sail_sim:\n  ros__parameters:\n    sail: 4\n")
+    with pytest.raises(ValueError, match="sail of sail_sim must be a mapping, got 4"):
+        SailParameters.from_yaml(path)
 
 
 def test_run_time_arguments_are_checked():

@@ -180,6 +180,12 @@ def test_a_params_file_with_nested_namespaces_is_a_params_file(tmp_path):
     nested.write_text("/sat2:\n  sail_sim:\n    max_rate: 2.0\n")
     with pytest.raises(ConfigError, match="expected '<node>: ros__parameters: ...' sections"):
         check()
+    # an empty section, which rcl refuses ("Cannot have a value before ros__parameters")
+    nested.write_text("/sat2:\n  sail_sim:\n    ros__parameters:\n")
+    with pytest.raises(ConfigError, match="ros__parameters of /sat2/sail_sim must be a mapping"):
+        check()
+    with pytest.raises(ValueError, match="ros__parameters of /sat2/sail_sim must be a mapping"):
+        configuration(argparse.Namespace(config=str(nested), set=[]))
     # the tools' --config reads such a file as the simulator does (was: "unknown sail
     # parameter(s) '/sat2'")
     nested.write_text(
