@@ -7,7 +7,8 @@ is the one owner of the files and of what is stored in them:
 - a message: a split is decided and done in the call that writes the message
   that is due, as rosbag2's SequentialWriter::write does (should_split_bagfile,
   then split_bagfile); a file ends only once it holds the parameters (unless
-  none are expected, or `parameters_wait_s` passed without them), and each new
+  none are expected, or `parameters_wait_s` passed without them since the first
+  message), and each new
   file starts with the values of that moment;
 - the parameters: the first fetch is stored at once (metadata record
   `parameters_record`, name -> value as one line of YAML); every later event
@@ -148,8 +149,10 @@ class Recording:
         parameter_node: the node whose parameters are stored (its full name); None: none.
         parameters_record, changes_record, dropped_record: metadata record names
             of the values, of each event's changes, and of the drop counts.
-        parameters_wait_s: how long a file that is due to end waits for the first
-            parameters [s].
+        parameters_wait_s: how long after the first message a file that is due to end
+            waits for the first parameters [s] (counted from the first message, not the
+            start: a recorder started long before the node and its publishers still
+            waits for them).
         clock: monotonic time [s] (injected by tests).
     """
 
@@ -179,7 +182,7 @@ class Recording:
         self._wait_s = parameters_wait_s
         self._clock = clock
         # the writer thread's alone (read by others only after `close`)
-        self._started = clock()
+        self._first_message: float | None = None  # clock() at the first message
         self._parameters = ParameterValues()
         self._file_has_parameters = False
         self.change_count = 0
@@ -262,6 +265,8 @@ class Recording:
 
     def _write(self, topic, data, log_time_ns, publish_time_ns, sequence) -> None:
         writer = self.writer
+        if self._first_message is None:
+            self._first_message = self._clock()
         if writer.split_due(log_time_ns) and self._file_may_end():
             writer.split()
             self._file_has_parameters = False
@@ -273,7 +278,7 @@ class Recording:
         return (
             self._node is None
             or self._file_has_parameters
-            or self._clock() - self._started > self._wait_s
+            or self._clock() - self._first_message > self._wait_s
         )
 
     def _on_parameters(self, values: dict[str, str], log_time_ns: int) -> None:

@@ -113,6 +113,30 @@ def test_a_due_split_waits_for_the_parameters_at_most_parameters_wait_s(tmp_path
     assert waited.parameters is None and records(tmp_path / "waited", "sail_sim_parameters") == []
 
 
+def test_the_wait_for_the_parameters_counts_from_the_first_message(tmp_path):
+    """A recorder started long before the node and its publishers (here 100 s) still keeps
+    its first file open for the parameters that come just after the first messages
+    (counted from the recorder's start, the first file ended without them)."""
+    now = [0.0]
+    bag = Recording(
+        BagWriter(tmp_path / "late", fsync=False, max_file_duration_s=0.1),
+        max_messages=10_000,
+        parameter_node=NODE,
+        parameters_wait_s=5.0,
+        clock=lambda: now[0],
+        **RECORDS,
+    )
+    bag.add_topic("/clock", "rosgraph_msgs/msg/Clock")
+    now[0] = 100.0
+    write(bag, 0, 30)  # 0.3 s of messages, due to split twice
+    bag.parameters_fetched({"sail.sail_side": "100.0"}, T0 + 30 * STEP_NS)
+    write(bag, 30, 30)
+    bag.close()
+    files = BagReader(tmp_path / "late").files
+    assert [BagReader(f).topics()["/clock"].message_count for f in files] == [30, 10, 10, 10]
+    assert all(records(f, "sail_sim_parameters") for f in files)
+
+
 def test_parameter_values_follow_events_and_fetches():
     values = ParameterValues()
     early = ParameterUpdate(1, 1, declared={"a": "1", "b": "2"})

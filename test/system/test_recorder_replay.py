@@ -379,9 +379,9 @@ def test_sigint_finishes_the_bag_with_every_received_message(recording):
     assert len(reader.files) >= 3  # 1.2 s of streams (after the latched message)
     after = reader.files.index(changed_in) + 1
     for index, file in enumerate(reader.files):
-        (parameters,) = [
-            data for name, data in BagReader(file).metadata() if name == "sail_sim_parameters"
-        ]
+        found = [data for name, data in BagReader(file).metadata() if name == "sail_sim_parameters"]
+        assert len(found) == 1, (file.name, err)  # the recorder's log says when they came
+        (parameters,) = found
         values = {name: yaml.safe_load(parameters[name]) for name in SIM_PARAMETERS}
         assert values == {**SIM_PARAMETERS, "sail_side": CHANGED_SIDE if index >= after else 100.0}
 
