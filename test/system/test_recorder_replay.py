@@ -10,6 +10,7 @@ published. Run as a script, this file is that publisher:
 import argparse
 import functools
 import os
+import select
 import signal
 import struct
 import subprocess
@@ -121,6 +122,7 @@ def publish_main(argv) -> int:
         or not fetched[0]
     ):
         executor.spin_once(timeout_sec=0.01)
+    print("ready", flush=True)  # its own subscribers matched (`go` waits for this line)
     sys.stdin.readline()
     period, due = 1.0 / args.rate, time.monotonic()
     for i in range(args.count):
@@ -169,6 +171,7 @@ class Listener(Node):
         self.spinner.add_node(self)
         self.received: dict[str, list] = {}
         self.published: dict[str, list[float]] = {}  # DDS source timestamps [s]
+        self._taken = 0  # messages taken so far
         for topic, cls in STREAMS.items():
             self.listen(topic, cls, QoSProfile(depth=1000))
         self.listen(LATCHED_TOPIC, Float64, LATCHED_QOS)
@@ -195,6 +198,18 @@ class Listener(Node):
         not when the executor got round to it."""
         self.received[topic].append((info["received_timestamp"] / 1e9, data))
         self.published[topic].append(info["source_timestamp"] / 1e9)
+        self._taken += 1
+
+    def spin_some(self, timeout: float = 0.02) -> None:
+        """Take every message that has arrived, waiting up to `timeout` [s] for the first:
+        one callback per turn would fall behind two 100 Hz streams while a turn also reads
+        a bag from disk, and a reader's history (depth 1000) then drops the oldest."""
+        self.spinner.spin_once(timeout_sec=timeout)
+        while True:
+            taken = self._taken
+            self.spinner.spin_once(timeout_sec=0.0)
+            if self._taken == taken:
+                return
 
     def clear(self):
         for messages in (*self.received.values(), *self.published.values()):
@@ -204,7 +219,7 @@ class Listener(Node):
         deadline = time.monotonic() + timeout
         while not condition():
             assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
-            self.spinner.spin_once(timeout_sec=0.02)
+            self.spin_some()
 
     def publisher_counts(self, prefix="") -> dict[str, int]:
         return {t: len(self.get_publishers_info_by_topic(prefix + t)) for t in STREAMS}
@@ -267,10 +282,22 @@ def finish(process: subprocess.Popen, timeout: float = 20.0) -> tuple[int, str, 
 
 
 def go(listener: Listener, publisher: subprocess.Popen, prefix="") -> None:
-    """Let the publisher start once this process sees it (both ends matched)."""
+    """Let the publisher start once both ends matched: this process sees it, and it has
+    its subscribers (its "ready" line). Seeing it here is not enough: a publisher that
+    had not yet matched this listener could start on another subscriber (a recorder
+    started next), and this listener would miss its first messages."""
     listener.spin_until(
         lambda: min(listener.publisher_counts(prefix).values()) >= 1, 20.0, "the publisher"
     )
+    lines = []
+
+    def answered() -> bool:
+        if select.select([publisher.stdout], [], [], 0.0)[0]:
+            lines.append(publisher.stdout.readline())
+        return bool(lines)
+
+    listener.spin_until(answered, 30.0, "the publisher's subscribers")
+    assert lines == ["ready\n"], lines
     publisher.stdin.write("go\n")
     publisher.stdin.flush()
 
@@ -317,7 +344,7 @@ def recording(ros_env, listener_node, tmp_path_factory):
         deadline = time.monotonic() + 30.0
         while not complete():
             assert time.monotonic() < deadline, f"30 s and not 120 messages per stream: {counts}"
-            listener_node.spinner.spin_once(timeout_sec=0.02)
+            listener_node.spin_some()
         received = {t: [data for _, data in m] for t, m in listener_node.received.items()}
         recorder.send_signal(signal.SIGINT)
         code, _, err = finish(recorder)
@@ -657,7 +684,7 @@ def chunk_within(listener: Listener, folder: Path, timeout: float, topic=None) -
     while not recorded(folder, topic):
         if time.monotonic() > deadline:
             return False
-        listener.spinner.spin_once(timeout_sec=0.02)
+        listener.spin_some()
     return True
 
 
