@@ -11,7 +11,7 @@ from rcl_interfaces.msg import ParameterEvent
 from rclpy.parameter import parameter_value_to_python
 
 from sail_ros.bag.recording import ParameterUpdate
-from sail_ros.topics import yaml_value
+from sail_ros.topics import stamp_ns_of, yaml_value
 
 
 def yaml_texts(names, values) -> dict[str, str]:
@@ -32,7 +32,7 @@ def parameter_update(event: ParameterEvent, log_time_ns: int) -> ParameterUpdate
         return yaml_texts([p.name for p in parameters], [p.value for p in parameters])
 
     return ParameterUpdate(
-        time_ns=event.stamp.sec * 1_000_000_000 + event.stamp.nanosec,
+        time_ns=stamp_ns_of(event.stamp),
         log_time_ns=log_time_ns,
         declared=texts(event.new_parameters),
         changed=texts(event.changed_parameters),

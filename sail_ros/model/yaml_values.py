@@ -79,6 +79,20 @@ def section_applies(section: str, node_name: str) -> bool:
     return section.rstrip("/").rsplit("/", 1)[-1] in (node_name, "**", "*")
 
 
+def checked_sections(document, where) -> dict | None:
+    """`node_sections` of `document`, each a mapping as rcl requires.
+
+    Raises:
+        ValueError: (naming `where`, the file) a section's `ros__parameters` is not a
+            mapping (empty, a list, a value), which rcl refuses without naming it.
+    """
+    sections = node_sections(document)
+    for name, body in (sections or {}).items():
+        if not isinstance(body, dict):
+            raise ValueError(f"{where}: ros__parameters of {name} must be a mapping, got {body!r}")
+    return sections
+
+
 def node_parameters(document, node: str, where) -> dict | None:
     """The parameters a ROS 2 params file's `document` gives the node `node` (its
     sections that apply, `section_applies`, in the file's order, the last value of a
@@ -89,12 +103,9 @@ def node_parameters(document, node: str, where) -> dict | None:
         ValueError: (naming `where`, the file) a section's `ros__parameters` is not a
             mapping (rcl refuses the file), or no section applies to `node`.
     """
-    sections = node_sections(document)
+    sections = checked_sections(document, where)
     if sections is None:
         return None
-    for name, body in sections.items():
-        if not isinstance(body, dict):
-            raise ValueError(f"{where}: ros__parameters of {name} must be a mapping, got {body!r}")
     applying = [body for name, body in sections.items() if section_applies(name, node)]
     if not applying:
         raise ValueError(

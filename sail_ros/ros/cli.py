@@ -58,17 +58,14 @@ def read_params_files(ros_argv: list[str]) -> list[tuple[str, list[str]]]:
             raise ConfigError(f"--params-file {path}: {error.strerror}") from None
         except yaml.YAMLError as error:
             raise ConfigError(f"--params-file {path}: {yaml_values.describe(error)}") from None
-        sections = yaml_values.node_sections(document) or {}
+        try:
+            sections = yaml_values.checked_sections(document, f"--params-file {path}")
+        except ValueError as error:
+            raise ConfigError(str(error)) from None
         if not sections:
             raise ConfigError(
                 f"--params-file {path}: expected '<node>: ros__parameters: ...' sections"
             )
-        for name, body in sections.items():
-            if not isinstance(body, dict):  # rcl's text names neither
-                raise ConfigError(
-                    f"--params-file {path}: ros__parameters of {name} must be a mapping, "
-                    f"got {body!r}"
-                )
         read.append((path, list(sections)))
     return read
 

@@ -157,7 +157,8 @@ class ParamSpec:
     def help_line(self) -> str:
         """One line for `--help`: name, default, read-only, what it may be, description."""
         flags = ", read-only" if self.read_only else ""
-        limits = f"; {self.limits()}" if self.limits() else ""
+        limits = self.limits()
+        limits = f"; {limits}" if limits else ""
         return f"  {self.name} (default {self.default!r}{flags}{limits}): {self.description}"
 
     def check(self, value):
@@ -243,7 +244,8 @@ def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse
         "an option given here wins.",
     )
     for spec in specs:
-        limits = f"{spec.limits()}; " if spec.limits() and not spec.choices else ""
+        limits = spec.limits()
+        limits = f"{limits}; " if limits and not spec.choices else ""
         help_text = f"{spec.description} ({limits}default: {spec.default!r})"
         if spec.element_type is bool:
             parser.add_argument(
