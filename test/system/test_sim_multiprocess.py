@@ -375,10 +375,13 @@ def test_demo_runs_the_reference_deployment(ros_env, tmp_path):
     ]
     # every measurement over a window of at least the minimum (0.0: none yet). A status
     # repeats the last measurement: a new one is where the window changes (counted so,
-    # not as distinct values: steady ticks give two measurements the same window)
+    # not as distinct values: steady ticks give two measurements the same window). About
+    # 3.3 s of running wall time: a window closes at the first 10 Hz status 0.5 s or more
+    # after it opened, the last one stays open at the stop, and a late status lengthens
+    # one: 4 or 5 measurements, 3 at the least
     windows = [float(status[key.REAL_TIME_FACTOR_WINDOW]) for status in statuses]
     measured = [b for a, b in zip([0.0, *windows], windows, strict=False) if b > 0.0 and b != a]
-    assert len(measured) >= 5 and min(measured) >= RTF_MIN_WINDOW_S, windows
+    assert len(measured) >= 3 and min(measured) >= RTF_MIN_WINDOW_S, windows
     # the count the README quotes of the main job (scripts/main.sh runs this demo)
     stored = re.search(r"simulator parameters stored: \d+ \(", result.stdout)
     assert stored and stored.group(0) in (ROOT / "README.md").read_text(), stored
