@@ -665,6 +665,9 @@ class _Plan(NamedTuple):
     border_scatter: np.ndarray  # the hub terms' and constants' places in the border
 
 
+SCATTER_CACHE = 4  # stacked scatter indices kept (`SystemAssembler._stacked_scatter`)
+
+
 class SystemAssembler:
     """Builds the matrices of Eq. 2 from the boom motion.
 
@@ -706,6 +709,7 @@ class SystemAssembler:
             [q.first for q in QUADRANTS] + [q.second for q in QUADRANTS]
         )
         self._plans: dict[tuple[str, ...], _Plan] = {}
+        self._scatters: dict[tuple, np.ndarray] = {}  # `_stacked_scatter`
         self.blocks = BlockLayout(layout)
         self._hub: _HubCoupling | None = None  # the hub terms, lifted with the quadrants'
         self._hub_inertia = None
@@ -861,7 +865,7 @@ class SystemAssembler:
         values = np.concatenate(parts, axis=-1)
         size = k * self.n * self.n
         count = math.prod(lead)
-        scatter = plan.scatter if not lead else (plan.scatter + size * np.arange(count)[:, None])
+        scatter = plan.scatter if not lead else self._stacked_scatter(outputs, plan, count)
         out = np.bincount(scatter.ravel(), weights=values.ravel(), minlength=count * size)
         out = out.reshape(*lead, k, self.n, self.n)
         if plan.damped:
@@ -871,6 +875,20 @@ class SystemAssembler:
                 for index in plan.damped:
                     matrices[index, :n_e, :n_e] -= self.constants.mass_damping * correction
         return out[..., : len(outputs), :, :]
+
+    def _stacked_scatter(self, outputs, plan: _Plan, count: int) -> np.ndarray:
+        """`plan.scatter` for `count` motions at once, each into its own matrices; the
+        last `SCATTER_CACHE` kept (a moving step asks for the same three middles each
+        time)."""
+        key = (outputs, count)
+        found = self._scatters.get(key)
+        if found is None:
+            if len(self._scatters) >= SCATTER_CACHE:
+                self._scatters.pop(next(iter(self._scatters)))
+            size = len(plan.outputs) * self.n * self.n
+            found = (plan.scatter + size * np.arange(count)[:, None]).ravel()
+            self._scatters[key] = found
+        return found
 
 
 def _mean_axes_correction(M: np.ndarray, n_elastic: int) -> np.ndarray:

@@ -578,7 +578,7 @@ class SailModel:
         boom-bending frequency (the membrane only adds mass to a boom); with a free
         hub 4.39 times that (`FREE_HUB_FREQUENCY_FACTOR`: a light hub pins a boom's
         root, model.md §13.7)."""
-        return self._cantilever_constant / float(np.min(lengths)) ** 2
+        return self._cantilever_constant / float(np.asarray(lengths, dtype=float).min()) ** 2
 
     # time integration ----------------------------------------------------------
     def stepper(self, profile, q0=None, qd0=None, t0: float = 0.0, **options) -> SailStepper:
