@@ -5,6 +5,7 @@ stability sweep on the external cluster."""
 
 import csv
 import json
+import os
 import socket
 import subprocess
 import sys
@@ -159,23 +160,31 @@ def test_the_same_study_gives_the_same_csv_on_any_cluster(
     assert (tmp_path / "one" / "samples.parquet").is_file()
 
 
-def worker_settings():
+def worker_settings(dask_worker):
     import os
 
     import dask
 
     profiler = dask.config.get("distributed.worker.profile.enabled")
-    return os.environ.get("MALLOC_TRIM_THRESHOLD_"), profiler
+    periods_ms = {  # the worker's own periodic callbacks, as it runs them
+        name: dask_worker.periodic_callbacks[name].callback_time
+        for name in ("tick", "monitor", "memory_monitor")
+    }
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_"), profiler, periods_ms
 
 
-def test_local_workers_keep_glibc_malloc_defaults_and_no_profiler(monkeypatch):
-    """Dask's nanny would start them with MALLOC_TRIM_THRESHOLD_=65536 and its profiler,
-    under which a sample costs more CPU (sail_ros.tools.cluster): the local cluster's
-    workers get neither, and this process keeps its environment."""
+def test_local_workers_keep_glibc_malloc_defaults_no_profiler_and_seldom_ticks(monkeypatch):
+    """Dask's nanny would start them with MALLOC_TRIM_THRESHOLD_=65536, its profiler and
+    event-loop callbacks every 20 ms (the tick), 500 ms (the system monitor) and 100 ms
+    (the memory monitor), under which a sample costs more CPU (sail_ros.tools.cluster):
+    the local cluster's workers get neither of the first two and the callbacks every 1,
+    5 and 1 s, and this process keeps its environment."""
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     with dask_client(workers=1) as client:
-        assert list(client.run(worker_settings).values()) == [(None, False)]
-    assert worker_settings()[0] is None
+        ((trim, profiler, periods_ms),) = client.run(worker_settings).values()
+    assert (trim, profiler) == (None, False)
+    assert periods_ms == {"tick": 1000, "monitor": 5000, "memory_monitor": 1000}, periods_ms
+    assert "MALLOC_TRIM_THRESHOLD_" not in os.environ
 
 
 def test_worst_samples_rerun_to_the_same_numbers(study_file, tmp_path, capsys, external_cluster):
