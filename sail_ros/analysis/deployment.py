@@ -144,7 +144,7 @@ class RangeWatch:
 
     def _tip_times_until(self, t: float) -> int:
         """How many of `tip_times` are at or before `t` [s] (to round-off)."""
-        return int(np.searchsorted(self.tip_times, t + time_slack(t), "right"))
+        return int(self.tip_times.searchsorted(t + time_slack(t), "right"))
 
     def after_step(self, stepper) -> None:
         (t0, lengths0, rates0), t1 = self._start, stepper.t
@@ -154,7 +154,7 @@ class RangeWatch:
         also, tips = None, slice(0, 0)
         if self.tip_times is not None:
             tips = slice(self.tips_taken, self._tip_times_until(t1))
-            also = np.clip((self.tip_times[tips] - t0) / h, 0.0, 1.0)
+            also = np.minimum(np.maximum((self.tip_times[tips] - t0) / h, 0.0), 1.0)
         # the peaks' samples (at most `MAX_SPACING_S` apart) are the ones checked
         fractions, values, at_tips = self.peaks.after_step(stepper, also=also)
         if tips.stop > tips.start:
@@ -178,9 +178,9 @@ class RangeWatch:
         shortest = np.minimum(lengths0, lengths1)
         shortest -= HERMITE_BOUND * h * (np.abs(rates0) + np.abs(rates1))
         # (a nan or inf tip is not within)
-        within = np.all(shortest > 0) and np.all(
+        within = (shortest > 0).all() and (
             tips.max(axis=0) <= policy.tip_warn_fraction * shortest
-        )
+        ).all()
         if within and not self.model.free_hub:
             return  # every tip finite and in range at every sample: nothing more to see
         near = np.zeros(count, dtype=bool)

@@ -265,7 +265,7 @@ class OutputPeaks:
             bound = weight > 0
             if bound.any():
                 scale = np.where(self.scale > 0, self.scale, amplitude.sum(axis=1))[bound]
-                ratio = float(np.min(scale / weight[bound]))
+                ratio = float((scale / weight[bound]).min())
                 densest = 0.25 * self.peak_phase / float(omega.max())
                 spacing = min(spacing, max(densest, self.peak_phase * ratio**0.25))
         return spacing

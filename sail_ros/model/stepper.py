@@ -508,7 +508,7 @@ class SailStepper:
     def _commit(self, h, q, p, trial) -> None:
         """Take the step's end `(q, p)` as the state (`trial`: the moving step's `Trial`
         or the `Rest` step's data), then `on_step`."""
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(p))):
+        if not (np.isfinite(q).all() and np.isfinite(p).all()):
             raise IntegrationError(f"state became non-finite at t = {self._t + h:.6g} s")
         self._last = (self._t, self._q, self.qd, trial)
         self._q, self._p = q, p
@@ -589,7 +589,7 @@ class SailStepper:
         outputs = _largest(rows, q2, qd2)
         with np.errstate(over="ignore", invalid="ignore"):
             scale = self._floors + self.rtol * np.maximum(self._peaks, outputs)
-            error = float(np.max(estimate / scale))
+            error = float((estimate / scale).max())
         if not math.isfinite(error):
             error = math.inf
         # the highest mode not followed: the next below those followed, or, when a set
@@ -924,7 +924,7 @@ class SailStepper:
             return slow, np.zeros(0), np.zeros((len(rows), 0))
         h = self._t - t0
         turning = 2.0 * math.pi * PADE_POLES.size * len(trial.extensions) / h
-        shortening = np.max(self._motion(t0)[0] / self._motion(self._t)[0])
+        shortening = (self._motion(t0)[0] / self._motion(self._t)[0]).max()
         carried = trial.carried_frequency * CARRIED_MARGIN * max(1.0, float(shortening)) ** 2
         omega, amplitude = self._extension().followed(rows)
         return min(turning, carried), omega, amplitude
