@@ -401,9 +401,8 @@ class BoomMotion:
         if len(self._distinct) == 1:
             return self._distinct[0](t)
         if self._per_boom:
-            rows = [p.boom_at(k, t) for k, p in enumerate(self.profiles)]
-            lengths, rates, accelerations = np.array(list(zip(*rows, strict=True)))
-            return lengths, rates, accelerations
+            columns = np.array([p.boom_at(k, t) for k, p in enumerate(self.profiles)]).T
+            return columns[0], columns[1], columns[2]
         values = np.array([p(t) for p in self._distinct], dtype=float)
         lengths, rates, accelerations = values[self._owner, :, _BOOMS].T.copy()
         return lengths, rates, accelerations
