@@ -105,8 +105,8 @@ def test_the_default_tolerance_meets_the_bar_on_drawn_deployments(draw):
 
 def test_a_load_step_below_the_follow_floor_does_not_shrink_the_steps_away():
     """A tip force switched on at 0.89 s rings modes just below the follow floor. When the
-    floor let the estimate's whole step carry modes it turns by up to 4 rad (0.01 rad of
-    Pade lag against the halves' 2e-5), the estimate overstated the halves' error: refused
+    floor let the estimate's whole step carry modes it turns by up to 4 rad (6.3e-3 rad of
+    Pade lag against the halves' 3.6e-5), the estimate overstated the halves' error: refused
     steps raised the floor, more modes were carried, and the run took 162 steps, 142 of
     them near 3.5 ms from 2.0 s on; with the whole step carrying at most 2 rad, 25 meet
     the bar."""
