@@ -156,13 +156,23 @@ class RangeWatch:
             tips = slice(self.tips_taken, self._tip_times_until(t1))
             also = np.minimum(np.maximum((self.tip_times[tips] - t0) / h, 0.0), 1.0)
         # the peaks' samples (at most `MAX_SPACING_S` apart) are the ones checked
-        fractions, values, at_tips = self.peaks.after_step(stepper, also=also)
+        fractions, values, at_tips, largest = self.peaks.after_step(stepper, also=also)
         if tips.stop > tips.start:
             self.tips[tips] = at_tips[:, OutputPeaks.TIP_ROWS]
             self.tips_taken = tips.stop
+        policy = self.policy
+        # needed only if a tip may be near its range: no boom is shorter inside the step
+        # than min(L0, L1) - 4/27 h (|Ld0| + |Ld1|)
+        shortest = np.minimum(lengths0, lengths1)
+        shortest -= HERMITE_BOUND * h * (np.abs(rates0) + np.abs(rates1))
+        # (a nan or inf tip is not within)
+        within = (shortest > 0).all() and (
+            largest[OutputPeaks.TIP_ROWS] <= policy.tip_warn_fraction * shortest
+        ).all()
+        if within and not self.model.free_hub:
+            return  # every tip finite and in range at every sample: nothing more to see
         count = fractions.size
         values = values[:, self._columns]
-        policy = self.policy
         tips = np.abs(values[:, :4])
         inside = None  # the lengths inside the step (the motion's cubic), made when needed
 
@@ -173,16 +183,6 @@ class RangeWatch:
                 inside = hermite_motion(fractions, np.full(count, h), *ends)[0]
             return inside
 
-        # needed only if a tip may be near its range: no boom is shorter inside the step
-        # than min(L0, L1) - 4/27 h (|Ld0| + |Ld1|)
-        shortest = np.minimum(lengths0, lengths1)
-        shortest -= HERMITE_BOUND * h * (np.abs(rates0) + np.abs(rates1))
-        # (a nan or inf tip is not within)
-        within = (shortest > 0).all() and (
-            tips.max(axis=0) <= policy.tip_warn_fraction * shortest
-        ).all()
-        if within and not self.model.free_hub:
-            return  # every tip finite and in range at every sample: nothing more to see
         near = np.zeros(count, dtype=bool)
         if not within:
             near = np.max(tips / lengths_inside(), axis=1) > policy.tip_warn_fraction

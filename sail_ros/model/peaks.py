@@ -54,12 +54,14 @@ class Peaks(NamedTuple):
 
 class StepSamples(NamedTuple):
     """What `OutputPeaks.after_step` sampled of a step: the fractions of the step (m,), the
-    `rows` values there (m, r; root moment rows not yet over L^2), and the values at the
-    fractions asked `also` (k, r), or None."""
+    `rows` values there (m, r; root moment rows not yet over L^2), the values at the
+    fractions asked `also` (k, r), or None, and the largest |value| of each row over the
+    samples (r,; nan where one is)."""
 
     fractions: np.ndarray
     values: np.ndarray
     also: np.ndarray | None
+    largest: np.ndarray
 
 
 class PeakSearch:
@@ -227,7 +229,8 @@ class OutputPeaks:
         else:
             y, yd = stepper.interpolant(np.concatenate([fractions, also]), self.rows)
             y, yd, extra = y[:count], yd[:count], y[count:]
-        self._grow_scale(np.abs(y).max(axis=0), np.maximum(lengths0, lengths1))
+        largest = np.abs(y).max(axis=0)
+        self._grow_scale(largest, np.maximum(lengths0, lengths1))
         if self._pending_samples >= self.FLUSH_SAMPLES:
             self._flush()  # the steps before: the last one stays pending (`cut`)
         self._pending.append(
@@ -235,7 +238,7 @@ class OutputPeaks:
         )
         self._pending_samples += count
         self._start = (t1, lengths1, rates1)
-        return StepSamples(fractions, y, extra)
+        return StepSamples(fractions, y, extra, largest)
 
     def _grow_scale(self, largest, lengths) -> None:
         """`scale` from the largest |rows| (r,) of samples where no boom is longer than
