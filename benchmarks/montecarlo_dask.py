@@ -2,14 +2,14 @@
 
 Prints, on this machine: the wall time of the study on a local cluster of 1 and
 of 2 worker processes (one thread each) and the speed-up, with the cases batched
-(`execution.batch_size`) and one case per task; the time of one sample called
-directly; a sample's cost split into building its model, integrating, its outputs
-and the rest (transport: the worker-seconds per sample beyond the sample's own);
-Dask's overhead per case (an empty case through the cluster); whether the rows are
-the same from 1 and 2 workers; the CPU time the hypervisor took from the machine's
-cores during each measurement (steal: on a shared virtual machine the same run takes
-longer while it is high); and the cluster size (workers like these) that a
-100 000-sample study needs to finish in ten minutes.
+(`execution.batch_sizes`: down to one case per task at the end) and one case per
+task; the time of one sample called directly; a sample's cost split into building
+its model, integrating, its outputs and the rest (transport: the worker-seconds per
+sample beyond the sample's own); Dask's overhead per case (an empty case through the
+cluster); whether the rows are the same from 1 and 2 workers; the CPU time the
+hypervisor took from the machine's cores during each measurement (steal: on a shared
+virtual machine the same run takes longer while it is high); and the cluster size
+(workers like these) that a 100 000-sample study needs to finish in ten minutes.
 
     python benchmarks/montecarlo_dask.py [--samples 1000]
 """
@@ -58,7 +58,7 @@ def main() -> None:
 
     import numpy as np
 
-    from sail_ros.analysis.execution import batch_size, run_cases
+    from sail_ros.analysis.execution import batch_sizes, run_cases
     from sail_ros.analysis.montecarlo import run_sample, study_from_dict
     from sail_ros.model import SailParameters
     from sail_ros.tools.cluster import dask_client
@@ -96,7 +96,7 @@ def main() -> None:
     same = public(rows[1, None]) == public(rows[2, None]) == public(rows[2, 1])
     split = np.mean([r["_seconds"] for r in rows[2, None]], axis=0)
     per_worker_sample = 2 * walls[2, None] / args.samples
-    batched = batch_size(args.samples, 2)
+    batched = batch_sizes(args.samples, 2)
     print(f"samples                      {args.samples} (reference deployment, n_B, n_M = 4, 6)")
     print(f"one sample, called directly  {1e3 * direct:.1f} ms  (20 samples; steal "
           f"{stolen_direct:.2f} s)")  # fmt: skip
@@ -104,7 +104,8 @@ def main() -> None:
           f"({1e3 * walls[1, None] / args.samples:.1f} ms/sample; "
           f"steal {stolen[1, None]:.1f} s)")  # fmt: skip
     print(f"2 workers                    {walls[2, None]:.1f} s  (speed-up "
-          f"{walls[1, None] / walls[2, None]:.2f}x; {batched} samples per task; "
+          f"{walls[1, None] / walls[2, None]:.2f}x; {len(batched)} tasks of "
+          f"{max(batched)} samples down to {min(batched)}; "
           f"steal {stolen[2, None]:.1f} s)")  # fmt: skip
     print(f"2 workers, 1 sample per task {walls[2, 1]:.1f} s  (steal {stolen[2, 1]:.1f} s)")
     print(f"a sample on 2 workers [ms]   build {1e3 * split[0]:.1f}, integrate "

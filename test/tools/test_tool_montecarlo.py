@@ -10,6 +10,7 @@ import yaml
 from harness import run_tool
 
 from sail_ros.analysis.deployment import hold_reactions
+from sail_ros.analysis.execution import batch_size, batch_sizes
 from sail_ros.analysis.montecarlo import (
     HUB_OUTPUTS,
     run_sample,
@@ -104,3 +105,13 @@ def test_a_switch_is_no_dispersion():
              "low": 0.0, "high": 1.0}}}}  # fmt: skip
     with pytest.raises(ValueError, match="unknown key 'free_hub'"):
         study_from_dict(study)
+
+
+@pytest.mark.parametrize(("cases", "workers"), [(1000, 2), (200, 4), (37, 3), (5, 8), (1, 2)])
+def test_batches_shrink_to_single_cases_at_the_end_of_a_study(cases, workers):
+    sizes = batch_sizes(cases, workers)
+    assert sum(sizes) == cases and min(sizes) >= 1
+    assert sizes == sorted(sizes, reverse=True)  # never a longer batch after a shorter
+    assert sizes[0] == batch_size(cases, workers)
+    # the last task of each worker is a single case: no worker is left with a long batch
+    assert sizes[-workers:] == [1] * min(workers, cases)
