@@ -130,6 +130,25 @@ def _first_order(M, C, K) -> np.ndarray:
     return A
 
 
+def _modal_eigenvalues(M, C, K) -> np.ndarray | None:
+    """The eigenvalues of `M qdd + C qd + K q = 0` from the modes of `(K, M)` when they
+    decouple it (at rest, with Rayleigh damping: `V^T C V` diagonal to round-off), each
+    mode's two roots of `lambda^2 + d lambda + omega^2 = 0`; None otherwise (`K` not
+    symmetric to round-off, or `C` coupling the modes). A symmetric eigenproblem of size n costs a
+    fraction of the general one of size 2 n, and an undamped mode's roots are exactly
+    imaginary."""
+    if np.abs(K - K.T).max() > 1e-12 * np.abs(K).max():
+        return None
+    lam, V = scipy.linalg.eigh(0.5 * (K + K.T), M)
+    modal = V.T @ C @ V
+    d = np.diag(modal).copy()
+    np.fill_diagonal(modal, 0.0)
+    if np.abs(modal).max() > 1e-12 * max(np.abs(d).max(), np.sqrt(np.abs(lam).max())):
+        return None
+    root = np.sqrt((0.25 * d * d - lam).astype(complex))
+    return np.concatenate([-0.5 * d + root, -0.5 * d - root])
+
+
 class SailModel:
     """Modal model of the four-boom, four-quadrant sail.
 
@@ -340,6 +359,7 @@ class SailModel:
         rigid ones leave zero, the six smallest in modulus.
         """
         rates = per_boom(rates, "rates")
+        eig = None
         if self.free_hub and not rates.any():
             M, C, K = self.matrices(lengths)
             e, h = slice(0, self.n_elastic), self.hub_slice
@@ -347,7 +367,9 @@ class SailModel:
             eig = np.concatenate(
                 [np.zeros(6), np.linalg.eigvals(_first_order(reduced, C[e, e], K[e, e]))]
             )
-        else:
+        elif not rates.any():
+            eig = _modal_eigenvalues(*self.matrices(lengths))
+        if eig is None:
             eig = np.linalg.eigvals(self.state_matrix(lengths, rates, 0.0))
         return eig[np.lexsort((eig.real, eig.imag))]
 

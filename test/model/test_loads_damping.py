@@ -16,6 +16,7 @@ from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticPr
 from sail_ros.model.basis import cantilever_roots, triangle_modes
 from sail_ros.model.loads import INPUT_NAMES, OUTPUT_NAMES
 from sail_ros.model.profiles import BoomMotion
+from sail_ros.model.sail_model import _modal_eigenvalues
 
 pytestmark = pytest.mark.model
 
@@ -351,3 +352,30 @@ def test_static_deflection_refuses_a_sail_without_stiffness_and_says_why(change,
         ValueError, match=re.escape(f"not positive definite at these lengths ({why}")
     ):
         SailModel(SailParameters(**change)).static_deflection(20.0, tip_forces=1.0)
+
+
+@pytest.mark.parametrize("params", [SailParameters(), DAMPED])
+def test_at_rest_the_modal_eigenvalues_are_the_general_eigensolvers(params):
+    model = SailModel(params)
+    lengths = [10.0, 12.5, 15.0, 11.0]
+    general = np.linalg.eigvals(model.state_matrix(lengths))
+    general = general[np.lexsort((general.real, general.imag))]
+    eigenvalues = model.eigenvalues(lengths)
+    assert np.allclose(eigenvalues, general, rtol=1e-12, atol=1e-12 * np.abs(general).max())
+    if params.mass_damping == params.stiffness_damping == 0.0:
+        assert np.all(eigenvalues.real == 0.0)  # undamped: on the imaginary axis exactly
+
+
+def test_modes_that_the_damping_couples_go_to_the_general_eigensolver():
+    rng = np.random.default_rng(3)
+    X = rng.standard_normal((6, 6))
+    M, K = X @ X.T + 6 * np.eye(6), np.diag(np.arange(1.0, 7.0))
+    C = 0.1 * M + 0.01 * K
+    proportional = _modal_eigenvalues(M, C, K)
+    general = np.linalg.eigvals(np.block([[-np.linalg.solve(M, C), -np.linalg.solve(M, K)],
+                                          [np.eye(6), np.zeros((6, 6))]]))  # fmt: skip
+    assert np.allclose(np.sort_complex(proportional), np.sort_complex(general), rtol=1e-12)
+    C[0, 1] = C[1, 0] = 0.05  # no longer diagonal in the modes
+    assert _modal_eigenvalues(M, C, K) is None
+    K[0, 1] = 1e-3  # not symmetric
+    assert _modal_eigenvalues(M, 0.1 * M, K) is None
