@@ -155,17 +155,6 @@ class FreeVibration:
         e = self.a.real
         return e + self.s, -wd * self.a.imag - 0.5 * decay * e
 
-    def turning(self) -> tuple[np.ndarray, np.ndarray]:
-        """`(on_e, on_v)` (2 count each): with `a(t) = a e^((i omega_d - d / 2) t)`, each
-        mode's `e = Re a(t)` and `v = -omega_d Im a(t) - d e / 2` at `t` are the sums of
-        its cosine and its sine column of `oscillation(t) * on_e` (of `* on_v`)."""
-        count = self.count
-        wd, d = self.modes.omega_d[-count:], self.modes.d[-count:]
-        ar, ai = self.a.real, self.a.imag
-        return np.concatenate([ar, -ai]), np.concatenate(
-            [-wd * ai - 0.5 * d * ar, 0.5 * d * ai - wd * ar]
-        )
-
     def replace_in(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """`q`, `qd` ((n,) or (m, n)) with these modes' part replaced by this vibration
         (and the static part)."""
@@ -173,6 +162,16 @@ class FreeVibration:
         e, v = self.coordinates()
         MV = self.modes.MV[:, -self.count :]
         return q + (e - q @ MV) @ V.T, qd + (v - qd @ MV) @ V.T
+
+
+def turning(a: np.ndarray, omega_d: np.ndarray, decay: np.ndarray | None):
+    """`(on_e, on_v)` (..., 2 k each) of free vibrations `a` (..., k) of modes with damped
+    frequencies `omega_d` [rad/s] and decay rates `decay` [1/s] (None: undamped): with
+    `a(t) = a e^((i omega_d - d / 2) t)`, each mode's `e = Re a(t)` and `v = -omega_d Im
+    a(t) - d e / 2` at `t` are the sums of its cosine and its sine column of
+    `oscillation(t) * on_e` (of `* on_v`)."""
+    b = omega_d * a if decay is None else (omega_d + 0.5j * decay) * a
+    return np.concatenate([a.real, -a.imag], axis=-1), -np.concatenate([b.imag, b.real], axis=-1)
 
 
 # the largest exponent `oscillation` takes (e^700 < the largest double, 1.8e308)

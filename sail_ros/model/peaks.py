@@ -291,11 +291,15 @@ class OutputPeaks:
     def _flush(self) -> None:
         if not self._pending:
             return
-        t, y, yd, fractions, *motion = zip(*self._pending, strict=True)
+        t, y, yd, fractions, h, *ends = zip(*self._pending, strict=True)
         counts = [f.size for f in fractions]
         t, y, yd, fractions = (np.concatenate(part) for part in (t, y, yd, fractions))
-        h, *ends = (np.repeat(np.array(part), counts, axis=0) for part in motion)
-        lengths, rates = hermite_motion(fractions, h, *ends)
+        # each step's cubic, then one copy per sample (steps hold some 90 samples)
+        h = np.array(h)[:, None]
+        cubic = motion_cubic(h, *(np.array(part) for part in ends))
+        lengths, rates = cubic_motion(
+            fractions, np.repeat(h, counts, axis=0), np.repeat(cubic, counts, axis=1)
+        )
         moments = y[:, 4:8] / lengths**2
         y[:, 4:8] = moments
         yd[:, 4:8] = yd[:, 4:8] / lengths**2 - 2.0 * rates * moments / lengths
@@ -347,8 +351,27 @@ def hermite_motion(fractions, h, lengths0, rates0, lengths1, rates1):
     would cost a call per sample; over one step the cubic is exact to ~h^4 of the
     motion's fourth derivative)."""
     h = np.asarray(h, dtype=float).reshape(-1, 1)
-    s = np.asarray(fractions, dtype=float)[:, None]
-    lengths, slope = hermite(s, lengths0, rates0 * h, lengths1, rates1 * h)
+    cubic = motion_cubic(h, lengths0, rates0, lengths1, rates1)
+    return cubic_motion(np.asarray(fractions, dtype=float), h, cubic)
+
+
+def motion_cubic(h, lengths0, rates0, lengths1, rates1) -> np.ndarray:
+    """(4, ..., 4): the power coefficients `c_j` (of `s^j`, s the fraction of a step of
+    `h` [s], (..., 1)) of the cubic Hermite through the boom lengths [m] and rates [m/s]
+    (..., 4) at the step's ends."""
+    d0, d1 = rates0 * h, rates1 * h
+    rise = lengths1 - lengths0
+    cubic = (lengths0, d0, 3.0 * rise - 2.0 * d0 - d1, d0 + d1 - 2.0 * rise)
+    return np.stack(np.broadcast_arrays(*cubic))
+
+
+def cubic_motion(fractions, h, cubic) -> tuple[np.ndarray, np.ndarray]:
+    """Boom lengths [m] and rates [m/s] (m, 4) at `fractions` (m,) of steps of `h` [s]
+    ((m, 1) or scalar) from their `motion_cubic` (4, m, 4), by Horner's rule."""
+    s = fractions[:, None]
+    c0, c1, c2, c3 = cubic
+    lengths = ((c3 * s + c2) * s + c1) * s + c0
+    slope = (3.0 * c3 * s + 2.0 * c2) * s + c1
     return lengths, slope / h
 
 

@@ -15,6 +15,7 @@ solve: `Extension` holds them, with the followed modes (`fast_modes`) put in tur
 
 from __future__ import annotations
 
+import functools
 from math import factorial
 
 import numpy as np
@@ -22,7 +23,7 @@ import scipy.linalg
 
 from sail_ros.model.assembly import CANONICAL_DAMPING, GYROSCOPIC, MASS, STIFFNESS_CANONICAL
 from sail_ros.model.blocks import DenseMatrices
-from sail_ros.model.fast_modes import TURN_BACK_EXPONENT, oscillation
+from sail_ros.model.fast_modes import TURN_BACK_EXPONENT, oscillation, turning
 
 # the matrices one moving step needs, in this order (`moving_step`)
 STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
@@ -108,61 +109,72 @@ class Extension:
         self.parts = len(extensions)
         self.h = h
         self.vibration = vibration
-        if self.vibration:
-            count = self.vibration[0].count
-            self.V = np.array([near.modes.V[:, -count:] for near in self.vibration])
-            self.MV = np.array([near.modes.MV[:, -count:] for near in self.vibration])
-            self.omega_d = np.array([near.modes.omega_d[-count:] for near in self.vibration])
-            decay = np.array([near.modes.d[-count:] for near in self.vibration])
+        self.count = vibration[0].count if vibration else 0
+        if vibration:
+            count = self.count
+            modes = [near.modes for near in vibration]
+            self.omega_d = np.array([near.omega_d[-count:] for near in modes])
+            decay = np.array([near.d[-count:] for near in modes])
             self.decay = decay if decay.any() else None
-            self.static = np.array([near.s for near in self.vibration])
-            turning = [near.turning() for near in self.vibration]
-            self.on_e, self.on_v = (np.array(terms) for terms in zip(*turning, strict=True))
+            self.static = np.array([near.s for near in vibration])
+            a = np.array([near.a for near in vibration])
+            self.on_e, self.on_v = turning(a, self.omega_d, self.decay)
         self._coordinates = None
         self._coefficients_of = ((), None)  # (rows, `_coefficients`): none yet
-        self._shapes_of = ((), None)  # (rows, `_shapes`)
+
+    @functools.cached_property
+    def V(self) -> np.ndarray:  # noqa: N802 (the matrix names of `FrozenModes`)
+        """(parts, n, count): the followed modes' shapes at each part's end of the step."""
+        return np.array([near.modes.V[:, -self.count :] for near in self.vibration])
+
+    @functools.cached_property
+    def MV(self) -> np.ndarray:  # noqa: N802
+        """(parts, n, count): `M V` of the followed modes, as `V`."""
+        return np.array([near.modes.MV[:, -self.count :] for near in self.vibration])
 
     def followed(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """The followed modes' frequencies [rad/s] (k,) and the largest amplitude of each
         in each output row of `rows` (r, n) over the step (r, k): `|rows V_j| |a_j|` of
         the start's free vibration, and of the end's turned back over the second half
-        (grown by `e^(d h / 4)` where damped; `oscillation`); a damped mode's frequency is
-        `hypot(omega_d, d / 2)`, which its fourth derivative goes with. Empty without
-        followed modes."""
+        (grown by `e^(d h / 4)` where damped; `oscillation`), read off the curve's
+        coefficients of the turns (`_coefficients`: `Re a rows V_j` on the cosine,
+        `-Im a rows V_j` on the sine); a damped mode's frequency is `hypot(omega_d,
+        d / 2)`, which its fourth derivative goes with. Empty without followed modes."""
         if not self.vibration:
             return np.zeros(0), np.zeros((len(rows), 0))
-        count = self.V.shape[2]
-        magnitude = np.hypot(self.on_e[:, :count], self.on_e[:, count:])  # (parts, k): |a|
+        count, orders = self.count, _EXTENSION_ORDERS.size
+        X = self._coefficients(rows)
+        r = X.shape[2] // 2
+        turns = X[:, orders:, :r]  # (parts, 2 count, r): cosines, then sines
+        amplitude = np.hypot(turns[:, :count], turns[:, count:])  # (parts, k, r)
         omega = self.omega_d
         if self.decay is not None:  # the first half decays from the start: at most |a|
             back = np.minimum(0.5 * self.decay[1:] * (self.h / self.parts), TURN_BACK_EXPONENT)
-            magnitude[1:] *= np.exp(back)
+            amplitude[1:] *= np.exp(back)[:, :, None]
             omega = np.hypot(omega, 0.5 * self.decay)
-        amplitude = np.abs(self._shapes(rows)) * magnitude[:, None, :]  # (parts, r, k)
-        return omega.max(axis=0), amplitude.max(axis=0)
-
-    def _shapes(self, rows) -> np.ndarray:
-        """`rows V` (parts, r, k): the followed modes' shapes in the output rows `rows`
-        (r, n), kept for the last rows asked (`followed` and `_coefficients` both ask)."""
-        if self._shapes_of[0] is not rows:
-            self._shapes_of = (rows, rows @ self.V)
-        return self._shapes_of[1]
+        return omega.max(axis=0), amplitude.max(axis=0).T
 
     def jumps(self) -> tuple[float, ...]:
         """Fractions of the step where the curve may jump: its middle, where the followed
         modes' static response passes from the start's to the end's (none without)."""
         return (0.5,) if self.vibration and self.parts == 2 else ()
 
+    def _raw_coordinates(self) -> np.ndarray:
+        """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
+        fraction combine into the coordinates (the rational step's start, `2 Re y_q,k`,
+        `-2 Im y_q,k`), the followed modes' part included."""
+        rows = np.empty((self.parts, _EXTENSION_ORDERS.size, self.extensions[0][0].size))
+        for part, (start, y_q, *_) in zip(rows, self.extensions, strict=True):
+            part[0], part[1::2], part[2::2] = start, y_q.real, y_q.imag
+        rows[:, 1:] *= _SIGNS
+        return rows
+
     def coordinates(self) -> np.ndarray:
         """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
         fraction combine into the coordinates (the rational step's start, `2 Re y_q,k`,
         `-2 Im y_q,k`), less the followed modes' part."""
         if self._coordinates is None:
-            start = np.array([extension[0] for extension in self.extensions])
-            y_q = np.array([extension[1] for extension in self.extensions])
-            rows = np.empty((self.parts, _EXTENSION_ORDERS.size, start.shape[1]))
-            rows[:, 0], rows[:, 1::2], rows[:, 2::2] = start, 2.0 * y_q.real, -2.0 * y_q.imag
-            self._coordinates = self.kept(rows)
+            self._coordinates = self.kept(self._raw_coordinates())
         return self._coordinates
 
     def kept(self, x: np.ndarray, part: int | None = None) -> np.ndarray:
@@ -176,12 +188,12 @@ class Extension:
     def free(self, part: int, local, velocities: bool = True):
         """The followed modes' coordinates and velocities (each (m, n)) at fractions
         `local` (m,) of the rational step `part`: its free vibration turned on by `(local
-        - part) h / parts` (`fast_modes.oscillation`, `FreeVibration.turning`); without
+        - part) h / parts` (`fast_modes.oscillation`, `fast_modes.turning`); without
         `velocities`, the coordinates alone."""
         seconds = (local - part) * (self.h / self.parts)
         decay = None if self.decay is None else self.decay[part]
         turns = oscillation(seconds, self.omega_d[part], decay)
-        count = self.V.shape[2]
+        count = self.count
         shapes = self.V[part].T
         e = turns * self.on_e[part]
         e = e[:, :count] + e[:, count:] + self.static[part]
@@ -202,7 +214,7 @@ class Extension:
         part = np.minimum((fractions * parts).astype(int), parts - 1)
         local = fractions * parts - part
         orders = _EXTENSION_ORDERS.size
-        count = self.V.shape[2] if self.vibration else 0
+        count = self.count
         features = np.empty((m, orders + 2 * count))
         features[:, 0] = 1.0
         for j in range(1, orders):
@@ -232,17 +244,28 @@ class Extension:
         for the last rows asked."""
         if self._coefficients_of[0] is rows:
             return self._coefficients_of[1]
-        coordinates = self.coordinates() if rows is None else self.coordinates() @ rows.T
+        count = self.count
+        if rows is None:
+            coordinates, shapes = self.coordinates(), self.V
+        elif count:
+            # kept in the outputs: rows (x - V MV^T x) = rows x - (rows V) (MV^T x)
+            raw = self._raw_coordinates()
+            shapes = rows @ self.V
+            coordinates = raw @ rows.T - (raw @ self.MV) @ np.swapaxes(shapes, 1, 2)
+        else:
+            coordinates = self.coordinates() @ rows.T
         parts, orders, r = coordinates.shape
-        count = self.V.shape[2] if self.vibration else 0
         X = np.empty((parts, orders + 2 * count, 2 * r))
-        X[:, :orders, :r] = _POWER_WEIGHTS @ coordinates
-        X[:, :orders, r:] = _POWER_SLOPES @ coordinates * (parts / self.h)
+        powers = _POWER_SERIES @ coordinates  # (parts, 2 orders, r): weights, then slopes
+        X[:, :orders, :r] = powers[:, :orders]
+        np.multiply(powers[:, orders:], parts / self.h, out=X[:, :orders, r:])
         if count:
-            shapes = np.swapaxes(self.V if rows is None else self._shapes(rows), 1, 2)
-            doubled = np.concatenate([shapes, shapes], axis=1)  # cosine, then sine rows
-            X[:, orders:, :r] = self.on_e[:, :, None] * doubled
-            X[:, orders:, r:] = self.on_v[:, :, None] * doubled
+            shapes = np.swapaxes(shapes, 1, 2)  # (parts, count, r)
+            X[:, orders : orders + count, :r] = shapes
+            X[:, orders + count :, :r] = shapes
+            X[:, orders:, r:] = X[:, orders:, :r]
+            X[:, orders:, :r] *= self.on_e[:, :, None]
+            X[:, orders:, r:] *= self.on_v[:, :, None]
             X[:, 0, :r] += (self.static[:, None, :] @ shapes)[:, 0]
         self._coefficients_of = (rows, X)
         return X
@@ -260,6 +283,9 @@ def _power_series() -> tuple[np.ndarray, np.ndarray]:
 
 
 _POWER_WEIGHTS, _POWER_SLOPES = _power_series()
+_POWER_SERIES = np.vstack([_POWER_WEIGHTS, _POWER_SLOPES])
+# the factors of `Extension.coordinates`' rows after the start: 2 Re y_q,k, -2 Im y_q,k
+_SIGNS = np.array([2.0, -2.0] * PADE_POLES.size)[:, None]
 
 
 def moving_step(q0, p0, mats, h, force):
