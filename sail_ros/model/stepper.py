@@ -25,11 +25,11 @@ of `h` is two midpoint steps of `h / 2`, and one of `h` from the same start
 estimates their error (a third of the difference; the rule is of order 2). The
 modes a midpoint step does not resolve are followed in their frozen modes
 instead (`fast_modes`: phase `int omega dt`, adiabatic amplitude, overlaps of
-the shapes). `max_step` and `PHASE_PER_STEP` rad of the resolved frequency
+the shapes). `max_step` and `WHOLE_STEP_PHASE` rad of the resolved frequency
 (`omega_r`, by default the system's own bound at the current lengths: for the
-sail the first cantilever frequency of the shortest bare boom) per midpoint
-step bound the step from above; `rtol=None` takes fixed steps under those
-bounds alone. The sum of the accepted steps' estimates is the achieved error
+sail the first cantilever frequency of the shortest bare boom) per step bound
+the step from above; `rtol=None` takes fixed steps under `max_step` and
+`PHASE_PER_STEP` rad per step alone. The sum of the accepted steps' estimates is the achieved error
 estimate (`error_estimate`).
 
 The stepper sees the structure only through `LinearSystem`: the matrices at
@@ -155,11 +155,20 @@ MOTION_CACHE = 32
 # rad per step: 2e-5 at 2 rad. A bound beneath the tolerance's choice (the modes above
 # are followed, `fast_modes`); `sail_ros.nodes.sim_params` sizes sub-steps with it.
 PHASE_PER_STEP = 2.0
-# The longest step [s], an upper bound for the tolerance's choice. A step of the
-# error-controlled stepper is two rational steps, each within PHASE_PER_STEP of the
-# resolved frequency, which bounds it to 0.46 s at 10 m; this bounds it where the booms
-# are longer (at 15 m the frequency rule allows 1 s). On the benchmark deployment 0.5 s
-# takes 55 steps where 0.2 s took 77, tips and root moments within 0.15 % of peak.
+# rad: omega_r * h of the error-controlled stepper's step of h, the estimate's whole
+# rational step (its halves turn 1.5 rad each). There the Padé lags 5.9e-4 rad, which
+# the estimate (a third of the halves' difference from the whole) reads as 2e-4 of the
+# resolved mode's amplitude. At 4 rad (two rational steps of PHASE_PER_STEP) it lagged
+# 6.3e-3, read as 2.1e-3: above the default tolerance wherever that mode rang, so steps
+# at the bound were refused (the live sampler on a slow deployment at (20, 20): 59 of
+# 121; 2 of the 54 attempts of a Monte Carlo sample) and a drawn undamped deployment left
+# 0.24 % of peak on its root moments.
+WHOLE_STEP_PHASE = 3.0
+# The longest step [s], an upper bound for the tolerance's choice. The error-controlled
+# step is within WHOLE_STEP_PHASE of the resolved frequency, which bounds it to 0.35 s
+# at 10 m; this bounds it where the booms are longer (at 15 m the frequency rule allows
+# 0.78 s). On the benchmark deployment 0.5 s takes 55 steps where 0.2 s took 77, tips
+# and root moments within 0.15 % of peak.
 DEFAULT_MAX_STEP = 0.5
 # Local error allowed per step on each output, relative to its peak so far (tips,
 # tip rates, root moments, their rates): chosen by measurement so that whole runs
@@ -222,8 +231,9 @@ class SailStepper:
         qd0: initial velocities [m/s] (default 0).
         t0: initial time [s].
         max_step: largest step [s] (an upper bound; the tolerance chooses below it).
-        resolved_frequency: highest angular frequency [rad/s] a rational step must
-            resolve (`PHASE_PER_STEP` rad per step); None follows
+        resolved_frequency: highest angular frequency [rad/s] a step must resolve
+            (`PHASE_PER_STEP` rad per fixed step, `WHOLE_STEP_PHASE` per error-controlled
+            one); None follows
             `system.resolved_frequency` at the current lengths.
         inputs: callable `t -> u` (the system's inputs, e.g. `loads.INPUT_NAMES`),
             or None for none. May be replaced between steps. If it has
@@ -811,11 +821,11 @@ class SailStepper:
 
     def bound(self) -> float:
         """The longest step [s] whatever the error: `max_step` and `PHASE_PER_STEP` rad of
-        `resolved_frequency` per rational step (default: `system.resolved_frequency` at
-        the current lengths; a step of the error-controlled stepper is two of them)."""
+        `resolved_frequency` per fixed step, `WHOLE_STEP_PHASE` per error-controlled one
+        (default: `system.resolved_frequency` at the current lengths)."""
         lengths, _, _ = self._motion(self._t)
-        rational_steps = 1 if self.rtol is None else 2
-        return min(self.max_step, rational_steps * PHASE_PER_STEP / self._resolved(lengths))
+        phase = PHASE_PER_STEP if self.rtol is None else WHOLE_STEP_PHASE
+        return min(self.max_step, phase / self._resolved(lengths))
 
     @property
     def proposal(self) -> float:
