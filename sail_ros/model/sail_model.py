@@ -134,9 +134,9 @@ def _modal_eigenvalues(M, C, K) -> np.ndarray | None:
     """The eigenvalues of `M qdd + C qd + K q = 0` from the modes of `(K, M)` when they
     decouple it (at rest, with Rayleigh damping: `V^T C V` diagonal to round-off), each
     mode's two roots of `lambda^2 + d lambda + omega^2 = 0`; None otherwise (`K` not
-    symmetric to round-off, or `C` coupling the modes). A symmetric eigenproblem of size n costs a
-    fraction of the general one of size 2 n, and an undamped mode's roots are exactly
-    imaginary."""
+    symmetric to round-off, or `C` coupling the modes). A symmetric eigenproblem of
+    size n costs a fraction of the general one of size 2 n, and an undamped mode's
+    roots are exactly imaginary."""
     if np.abs(K - K.T).max() > 1e-12 * np.abs(K).max():
         return None
     lam, V = scipy.linalg.eigh(0.5 * (K + K.T), M)
