@@ -21,7 +21,7 @@ from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
-from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, hermite_motion
+from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, SampledSteps, hermite_motion
 from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.policy import OutOfRangeError, Policy
@@ -118,87 +118,111 @@ class RangeWatch:
     samples inside the step (`peaks.MAX_SPACING_S` apart or closer, the simulator's
     default integration step), as the simulator checks its samples
     (`Policy.range_state`): the first warning is kept, an error stops the run
-    (`OutOfRangeError`, the simulator's alarm text with the time; `stopped_at`)."""
+    (`OutOfRangeError`, the simulator's alarm text with the time; `stopped_at`).
+
+    The peaks sample their steps in batches (`OutputPeaks.batch_steps`), so the check
+    comes up to a batch after the step: a run stops with the error of its first step
+    out of range, the stepper some steps further (`finish` checks the steps left)."""
 
     def __init__(self, model: SailModel, policy: Policy, tip_times=None):
         self.model, self.policy = model, policy
-        self.peaks = OutputPeaks(model)
+        self.peaks = OutputPeaks(model, check=self._check)
         self.warning = ""
+        self.error = ""
         self.stopped_at = math.inf
-        self._start = 0.0
+        self._t0 = 0.0
         # the tips and a free hub's z_h, theta_x, theta_y among the peaks' rows
         self._columns = OutputPeaks.TIP_ROWS + (OutputPeaks.HUB_ROWS if model.free_hub else [])
         # with `tip_times` [s] (increasing): the tip deflections [m] there, (k, 4), taken
-        # in the same pass over each step; `tips_taken` of them so far
+        # in the peaks' pass over each step; `tips_reached` of them are at or before the
+        # stepper's time, `tips_taken` taken
         self.tip_times = None if tip_times is None else np.asarray(tip_times, dtype=float)
         self.tips = None if tip_times is None else np.full((self.tip_times.size, 4), np.nan)
-        self.tips_taken = 0
+        self.tips_reached = self.tips_taken = 0
 
     def start(self, stepper) -> None:
         self.peaks.start(stepper)
-        self._start = (stepper.t, *stepper.boom_motion()[:2])
+        self._t0 = stepper.t
         if self.tip_times is not None:
             taken = self._tip_times_until(stepper.t)
             self.tips[:taken] = self.model.tip_deflections(stepper.q)
-            self.tips_taken = taken
+            self.tips_reached = self.tips_taken = taken
 
     def _tip_times_until(self, t: float) -> int:
         """How many of `tip_times` are at or before `t` [s] (to round-off)."""
         return int(self.tip_times.searchsorted(t + time_slack(t), "right"))
 
     def after_step(self, stepper) -> None:
-        (t0, lengths0, rates0), t1 = self._start, stepper.t
-        lengths1, rates1, _ = stepper.boom_motion()
-        self._start = (t1, lengths1, rates1)
-        h = t1 - t0
-        also, tips = None, slice(0, 0)
+        t0, t1 = self._t0, stepper.t
+        self._t0 = t1
+        also = None
         if self.tip_times is not None:
-            tips = slice(self.tips_taken, self._tip_times_until(t1))
-            also = np.minimum(np.maximum((self.tip_times[tips] - t0) / h, 0.0), 1.0)
-        # the peaks' samples (at most `MAX_SPACING_S` apart) are the ones checked
-        fractions, values, at_tips, largest = self.peaks.after_step(stepper, also=also)
-        if tips.stop > tips.start:
-            self.tips[tips] = at_tips[:, OutputPeaks.TIP_ROWS]
-            self.tips_taken = tips.stop
-        policy = self.policy
-        # needed only if a tip may be near its range: no boom is shorter inside the step
+            reached = self._tip_times_until(t1)
+            times = self.tip_times[self.tips_reached : reached]
+            also = np.minimum(np.maximum((times - t0) / (t1 - t0), 0.0), 1.0)
+            self.tips_reached = reached
+        self.peaks.after_step(stepper, also=also)
+        self._raise()
+
+    def finish(self) -> None:
+        """Check the steps not yet checked (the run's end, or a non-finite state)."""
+        self.peaks.flush()
+        self._raise()
+
+    def _raise(self) -> None:
+        if self.error:
+            raise OutOfRangeError(self.error)
+
+    def _check(self, sampled: SampledSteps) -> float | None:
+        """`OutputPeaks.check`: the tips at `tip_times` taken; the samples of each step
+        against the range, in time order; the time of the first error, or None."""
+        if self.tips is not None:
+            at_tips = sampled.values[~sampled.searched][:, OutputPeaks.TIP_ROWS]
+            self.tips[self.tips_taken : self.tips_taken + len(at_tips)] = at_tips
+            self.tips_taken += len(at_tips)
+        # needed only where a tip may be near its range: no boom is shorter inside a step
         # than min(L0, L1) - 4/27 h (|Ld0| + |Ld1|)
-        shortest = np.minimum(lengths0, lengths1)
-        shortest -= HERMITE_BOUND * h * (np.abs(rates0) + np.abs(rates1))
+        shortest = np.minimum(sampled.lengths0, sampled.lengths1)
+        shortest -= (
+            HERMITE_BOUND * sampled.h[:, None] * (np.abs(sampled.rates0) + np.abs(sampled.rates1))
+        )
         # (a nan or inf tip is not within)
-        within = (shortest > 0).all() and (
-            largest[OutputPeaks.TIP_ROWS] <= policy.tip_warn_fraction * shortest
-        ).all()
-        if within and not self.model.free_hub:
-            return  # every tip finite and in range at every sample: nothing more to see
-        count = fractions.size
-        values = values[:, self._columns]
-        tips = np.abs(values[:, :4])
-        inside = None  # the lengths inside the step (the motion's cubic), made when needed
+        within = (shortest > 0).all(axis=1) & (
+            sampled.largest[:, OutputPeaks.TIP_ROWS] <= self.policy.tip_warn_fraction * shortest
+        ).all(axis=1)
+        if within.all() and not self.model.free_hub:
+            return None  # every tip finite and in range at every sample: nothing more to see
+        for step in np.flatnonzero(~within | self.model.free_hub):
+            stop = self._check_step(sampled, step, bool(within[step]))
+            if stop is not None:
+                return stop
+        return None
 
-        def lengths_inside() -> np.ndarray:
-            nonlocal inside
-            if inside is None:
-                ends = (lengths0, rates0, lengths1, rates1)
-                inside = hermite_motion(fractions, np.full(count, h), *ends)[0]
-            return inside
-
-        near = np.zeros(count, dtype=bool)
+    def _check_step(self, sampled: SampledSteps, step: int, within: bool) -> float | None:
+        """One step's own samples against the range (`_check`)."""
+        mine = (sampled.step == step) & sampled.searched
+        fractions, values = sampled.fractions[mine], sampled.values[mine][:, self._columns]
+        h = sampled.h[step]
+        ends = (sampled.lengths0[step], sampled.rates0[step], sampled.lengths1[step],
+                sampled.rates1[step])  # fmt: skip
+        lengths = hermite_motion(fractions, np.full(fractions.size, h), *ends)[0]
+        near = np.zeros(fractions.size, dtype=bool)
         if not within:
-            near = np.max(tips / lengths_inside(), axis=1) > policy.tip_warn_fraction
+            near = np.max(np.abs(values[:, :4]) / lengths, axis=1) > self.policy.tip_warn_fraction
         if self.model.free_hub:
-            near |= np.hypot(values[:, 5], values[:, 6]) > policy.tilt_warn_rad
+            near |= np.hypot(values[:, 5], values[:, 6]) > self.policy.tilt_warn_rad
         finite = np.isfinite(values).all(axis=1)
         for i in np.flatnonzero(near | ~finite):
-            t, row = t0 + fractions[i] * h, values[i]
+            t, row = sampled.t0[step] + fractions[i] * h, values[i]
             hub = np.append(row[4:], [0.0] * 3) if self.model.free_hub else None
-            warning, error = policy.range_state(row[:4], lengths_inside()[i], hub)
+            warning, error = self.policy.range_state(row[:4], lengths[i], hub)
             if error:
                 self.stopped_at = t
-                self.peaks.cut(t)
-                raise OutOfRangeError(f"integration stopped at t = {t:.6g} s: {error}")
+                self.error = f"integration stopped at t = {t:.6g} s: {error}"
+                return t
             if warning and not self.warning:
                 self.warning = f"at t = {t:.6g} s: {warning}"
+        return None
 
 
 def run_deployment(
@@ -271,29 +295,35 @@ def run_deployment(
     kept, alarm = 0, ""
     started = time.perf_counter()
     try:
-        if states:
-            for _, reached in sample(stepper, t_eval, scenario.duration, q, qd, rates):
-                kept = reached  # the outputs written so far
-                if progress is not None:
-                    progress(stepper.t)
-        else:  # the watch takes the tips; the state where an output falls on a step's end
-            kept = watch.tips_taken
-            while True:
-                if kept and abs(t_eval[kept - 1] - stepper.t) <= time_slack(stepper.t):
-                    q[kept - 1], qd[kept - 1] = stepper.q, stepper.qd
-                if kept == t_eval.size:
-                    break
-                stepper.advance_step(scenario.duration)
-                kept = watch.tips_taken
-                if progress is not None:
-                    progress(stepper.t)
+        try:
+            if states:
+                for _, reached in sample(stepper, t_eval, scenario.duration, q, qd, rates):
+                    kept = reached  # the outputs written so far
+                    if progress is not None:
+                        progress(stepper.t)
+            else:  # the watch takes the tips; the state where an output falls on a step's end
+                kept = watch.tips_reached
+                while True:
+                    if kept and abs(t_eval[kept - 1] - stepper.t) <= time_slack(stepper.t):
+                        q[kept - 1], qd[kept - 1] = stepper.q, stepper.qd
+                    if kept == t_eval.size:
+                        break
+                    stepper.advance_step(scenario.duration)
+                    kept = watch.tips_reached
+                    if progress is not None:
+                        progress(stepper.t)
+        except IntegrationError:
+            watch.finish()  # the steps before it: a range error among them came first
+            raise
+        watch.finish()
     except (OutOfRangeError, IntegrationError) as error:
         alarm = str(error)
-        # the outputs inside the step that left the range, before it did (none after a
-        # state that became non-finite: that step was not taken)
-        before = kept + int(np.searchsorted(t_eval[kept:], watch.stopped_at, "left"))
-        if math.isfinite(watch.stopped_at) and before > kept:
-            if states:
+        # the outputs before the first step that left the range, and inside it before
+        # it did (the stepper may be some steps on; none after a state that became
+        # non-finite: that step was not taken)
+        if math.isfinite(watch.stopped_at):
+            before = int(np.searchsorted(t_eval, watch.stopped_at, "left"))
+            if states and before > kept:  # inside the last step
                 q[kept:before], qd[kept:before] = stepper.states_at(t_eval[kept:before], rates)
             kept = before
     wall = time.perf_counter() - started

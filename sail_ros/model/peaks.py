@@ -5,11 +5,11 @@ boom's root moment weighs its mode i by `beta_i^2`, so the higher boom modes,
 tens to thousands of hertz, show in it (read from 200 Hz samples, the peak
 moments of the reference deployment's small booms were off by up to 9.5 %).
 
-`OutputPeaks` watches a `SailStepper` (its `on_step`): after every step it
-samples the tip deflections and root moments inside that step on the step's own
-interpolant (`SailStepper.interpolant`: exact at rest, the step's continuous
-extension while the booms move), and keeps the largest |value| of each output
-with its time. Between two samples the output is the cubic Hermite through their
+`OutputPeaks` watches a `SailStepper` (its `on_step`): it samples the tip
+deflections and root moments inside every step on the step's own curve
+(`SailStepper.last_curve`: exact at rest, the step's continuous extension while the
+booms move), `BATCH_STEPS` steps at a time, and keeps the largest |value| of each
+output with its time. Between two samples the output is the cubic Hermite through their
 values and rates (`PeakSearch`), whose error for a sine sampled every `phi` rad
 is `phi^4 / 384` of its amplitude (a 1 kHz sampling misses up to 1 - cos(omega /
 2 kHz) of it: 1 % of a 47 Hz mode). The samples are close enough that this error
@@ -17,7 +17,7 @@ stays within `PEAK_ERROR` of the amplitude of the step's slow part and, for its
 followed modes (`fast_modes`), of each output's largest value: every
 `PEAK_PHASE` rad of the slow part's highest frequency, closer where the followed
 modes weigh enough in an output for their frequencies to matter
-(`OutputPeaks.spacing`), at least every `MAX_SPACING_S`, and on both sides of
+(`OutputPeaks.spacings`), at least every `MAX_SPACING_S`, and on both sides of
 the middle of a step, where the followed modes' static response jumps.
 """
 
@@ -29,10 +29,14 @@ from typing import NamedTuple
 
 import numpy as np
 
+from sail_ros.model.exact_step import Rest, rest_states
+from sail_ros.model.rational import Curves
+
 PEAK_PHASE = 0.5  # rad of the slow part's highest frequency between two samples of a step
 # the cubic Hermite's error over a sine sampled every PEAK_PHASE rad, of its amplitude
 PEAK_ERROR = PEAK_PHASE**4 / 384.0
 MAX_SPACING_S = 0.01  # s: at least 100 Hz, however slow the modes
+BATCH_STEPS = 16  # steps sampled together (`OutputPeaks`)
 
 
 class Peak(NamedTuple):
@@ -52,16 +56,55 @@ class Peaks(NamedTuple):
     hub: Peak | None = None
 
 
-class StepSamples(NamedTuple):
-    """What `OutputPeaks.after_step` sampled of a step: the fractions of the step (m,), the
-    `rows` values there (m, r; root moment rows not yet over L^2), the values at the
-    fractions asked `also` (k, r), or None, and the largest |value| of each row over the
-    samples (r,; nan where one is)."""
+class SampledSteps(NamedTuple):
+    """What `OutputPeaks` sampled of a batch of steps (S steps, m samples in all, in time
+    order: each step's own samples, then the fractions asked `also`).
 
+    Attributes:
+        t0, h: each step's start and length [s] (S,).
+        lengths0, rates0, lengths1, rates1: the boom lengths [m] and rates [m/s] at each
+            step's ends (S, 4).
+        step: the step of each sample (m,).
+        fractions: each sample's fraction of its step (m,).
+        values: the `OutputPeaks.rows` values there (m, r; root moment rows not yet
+            over L^2).
+        rates: their rates [per s] (m, r).
+        searched: whether a sample is the step's own (True) or asked `also` (m,).
+        largest: the largest |value| of each row over each step's own samples (S, r;
+            nan where one is).
+    """
+
+    t0: np.ndarray
+    h: np.ndarray
+    lengths0: np.ndarray
+    rates0: np.ndarray
+    lengths1: np.ndarray
+    rates1: np.ndarray
+    step: np.ndarray
     fractions: np.ndarray
     values: np.ndarray
-    also: np.ndarray | None
+    rates: np.ndarray
+    searched: np.ndarray
     largest: np.ndarray
+
+    def times(self) -> np.ndarray:
+        """The samples' times [s] (m,)."""
+        return self.t0[self.step] + self.fractions * self.h[self.step]
+
+
+class _Queued(NamedTuple):
+    """A step taken, not yet sampled: its start [s], lengths [m] and rates [m/s] at its
+    ends, its curve (`SailStepper.last_curve`), the fractions asked `also` and the
+    coordinates at its end."""
+
+    t0: float
+    lengths0: np.ndarray
+    rates0: np.ndarray
+    lengths1: np.ndarray
+    rates1: np.ndarray
+    curve: object
+    also: np.ndarray
+    q1: np.ndarray
 
 
 class PeakSearch:
@@ -152,25 +195,39 @@ class OutputPeaks:
     |tip deflection| and |root moment| of each boom over every step, with times, and a
     free hub's heave, tilts and tilt magnitude.
 
-    Samples are gathered over several steps and searched together (`FLUSH_SAMPLES`):
-    numpy's cost per call, not the arithmetic, is what a step's few samples cost.
+    Steps are kept as they are taken and sampled in batches of 1, 2, 4, ... up to
+    `batch_steps`, and when the peaks are read (`flush`): numpy's cost per call, more
+    than the arithmetic, is what a step's hundred samples cost (`rational.Curves`). A
+    step's spacing (`spacings`) takes the outputs' largest values from below inside a
+    batch (`_scales`), so its samples are never the farther apart.
 
     Args:
         model: the `SailModel` the stepper integrates.
         peak_phase: rad of the interpolant's slow part's highest frequency between two
-            samples (`SailStepper.interpolant_spectrum`; `spacing`).
+            samples (`spacing`).
         max_spacing: longest time between two samples [s].
+        batch_steps: steps sampled together (default `BATCH_STEPS`).
+        check: callable `check(SampledSteps)` before a batch's samples are searched,
+            returning a time [s] after which none is (a run stopped there), or None.
     """
 
-    FLUSH_SAMPLES = 4096
     # what `rows` holds, by index: tips a..d, root moments a..d, a free hub's z_h,
     # theta_x, theta_y
     TIP_ROWS, HUB_ROWS = [0, 1, 2, 3], [8, 9, 10]
 
-    def __init__(self, model, peak_phase: float = PEAK_PHASE, max_spacing: float = MAX_SPACING_S):
+    def __init__(
+        self,
+        model,
+        peak_phase: float = PEAK_PHASE,
+        max_spacing: float = MAX_SPACING_S,
+        batch_steps: int | None = None,
+        check=None,
+    ):
         self.model = model
         self.peak_phase = float(peak_phase)
         self.max_spacing = float(max_spacing)
+        self.batch_steps = BATCH_STEPS if batch_steps is None else int(batch_steps)
+        self.check = check
         # (8, n): tips, then EI psi''(0) on each boom; a free hub's z_h, theta_x, theta_y
         self.rows = model.length_free_rows
         self.free_hub = bool(model.free_hub)
@@ -179,140 +236,177 @@ class OutputPeaks:
         # tips a..d, root moments a..d, then z_h, theta_x, theta_y and the tilt
         self._search = PeakSearch(12 if self.free_hub else 8)
         self._start = None  # (t, lengths, rates) at the start of the next step
-        self._pending: list[tuple] = []  # steps sampled, not yet searched
-        self._pending_samples = 0
+        self._queue: list[_Queued] = []  # steps taken, not yet sampled
+        self._stopped = math.inf  # the time [s] `check` stopped the samples at
         # the largest |output| sampled so far (root moments in N m, from below)
         self.scale = np.zeros(len(self.rows))
         self.samples = 0
+        # steps in the next batch: 1, 2, 4, ... up to `batch_steps`, so that the first
+        # steps, while `scale` grows from the start's outputs, see it grow
+        self._batch = 1
 
     def start(self, stepper) -> None:
         """Take the stepper's state now as the first sample (before its first step)."""
         lengths, rates, _ = stepper.boom_motion()
         y, yd = stepper.q @ self.rows.T, stepper.qd @ self.rows.T
-        # a "step" of one sample at its end: the motion's cubic gives lengths, rates there
-        self._pending.append(
-            (
-                np.array([stepper.t]),
-                y[None],
-                yd[None],
-                step_fractions(1),
-                1.0,
-                lengths,
-                rates,
-                lengths,
-                rates,
-            )
-        )
-        self._pending_samples += 1
         self._start = (stepper.t, lengths, rates)
-        self._grow_scale(np.abs(y), lengths)
+        self._grow_scale(np.abs(y)[None], lengths[None])
+        self._search_samples(np.array([stepper.t]), y[None], yd[None], lengths[None],
+                             rates[None])  # fmt: skip
 
-    def after_step(self, stepper, also=None) -> StepSamples:
-        """Sample the step just taken (`SailStepper.on_step`) on its own interpolant, at
-        most `max_spacing` apart, and on both sides of where it may jump
-        (`SailStepper.interpolant_jumps`: no cubic spans a jump); returns the samples
-        (`StepSamples`).
-
-        `also`: more fractions of the step (k,) to sample in the same pass (one
-        interpolant call costs what its few samples do not)."""
+    def after_step(self, stepper, also=None) -> None:
+        """Keep the step just taken (`SailStepper.on_step`), with more fractions of it to
+        sample `also` (k,); sample the steps kept when `batch_steps` are, or when this
+        one is of another kind (at rest, or of other rational steps)."""
         t0, lengths0, rates0 = self._start
-        t1 = stepper.t
         lengths1, rates1, _ = stepper.boom_motion()
-        h = t1 - t0
-        spacing = self.spacing(stepper, lengths0, lengths1)
-        count = max(1, math.ceil(h / spacing - 1e-9))
-        fractions = step_fractions(count, stepper.interpolant_jumps())
-        count = fractions.size
-        extra = None
-        if also is None:
-            y, yd = stepper.interpolant(fractions, self.rows)
-        else:
-            y, yd = stepper.interpolant(np.concatenate([fractions, also]), self.rows)
-            y, yd, extra = y[:count], yd[:count], y[count:]
-        largest = np.abs(y).max(axis=0)
-        self._grow_scale(largest, np.maximum(lengths0, lengths1))
-        if self._pending_samples >= self.FLUSH_SAMPLES:
-            self._flush()  # the steps before: the last one stays pending (`cut`)
-        self._pending.append(
-            (t0 + fractions * h, y, yd, fractions, h, lengths0, rates0, lengths1, rates1)
+        curve = stepper.last_curve()
+        if self._queue and _kind(self._queue[0].curve) != _kind(curve):
+            self.flush()
+        also = np.zeros(0) if also is None else np.asarray(also, dtype=float)
+        queued = _Queued(t0, lengths0, rates0, lengths1, rates1, curve, also, stepper.q)
+        self._queue.append(queued)
+        self._start = (stepper.t, lengths1, rates1)
+        if len(self._queue) >= self._batch:
+            self._batch = min(2 * self._batch, self.batch_steps)
+            self.flush()
+
+    def flush(self) -> None:
+        """Sample the steps kept (their own samples and those asked `also`), hand them to
+        `check`, and search the samples up to the time it returns."""
+        queue, self._queue = self._queue, []
+        if not queue or math.isfinite(self._stopped):
+            return
+        sampled = self._sample(queue)
+        stop = None if self.check is None else self.check(sampled)
+        times = sampled.times()
+        keep = sampled.searched
+        if stop is not None:
+            self._stopped = float(stop)
+            keep = keep & (times <= stop)
+        step = sampled.step[keep]
+        # the boom lengths and rates at each sample: its step's motion cubic
+        h = sampled.h[:, None]
+        ends = (sampled.lengths0, sampled.rates0, sampled.lengths1, sampled.rates1)
+        lengths, rates = cubic_motion(sampled.fractions[keep], h[step],
+                                      motion_cubic(h, *ends)[:, step])  # fmt: skip
+        y, yd = sampled.values[keep], sampled.rates[keep]
+        self._search_samples(times[keep], y, yd, lengths, rates)
+
+    def _sample(self, queue: list[_Queued]) -> SampledSteps:
+        """The samples of the steps `queue` (`SampledSteps`)."""
+        t0 = np.array([step.t0 for step in queue])
+        lengths0, rates0, lengths1, rates1 = (
+            np.array([step[i] for step in queue]) for i in range(1, 5)
         )
-        self._pending_samples += count
-        self._start = (t1, lengths1, rates1)
-        return StepSamples(fractions, y, extra, largest)
+        curves = [step.curve for step in queue]
+        if isinstance(curves[0], Rest):
+            h = np.array([rest.h for rest in curves])
+            slow = np.array([math.sqrt(max(float(rest.lam[-1]), 0.0)) for rest in curves])
+            spacing = self.spacings(slow)
+            jumps = [()] * len(queue)
+        else:
+            batch = Curves(curves)
+            h, slow = batch.h, np.array([curve.slow for curve in curves])
+            omega, amplitude = batch.followed(self.rows)
+            scale = self._scales(queue, np.maximum(lengths0, lengths1))
+            shortest = np.minimum(lengths0, lengths1)
+            spacing = self.spacings(slow, omega, amplitude, shortest, scale)
+            jumps = [curve.jumps() for curve in curves]
+        counts = np.maximum(1, np.ceil(h / spacing - 1e-9)).astype(int)
+        own = [step_fractions(int(count), jump) for count, jump in zip(counts, jumps, strict=True)]
+        fractions = np.concatenate([part for f, step in zip(own, queue, strict=True)
+                                    for part in (f, step.also)])  # fmt: skip
+        sizes = np.array([[f.size, step.also.size] for f, step in zip(own, queue, strict=True)])
+        step = np.repeat(np.arange(len(queue)), sizes.sum(axis=1))
+        searched = np.repeat(np.tile([True, False], len(queue)), sizes.ravel())
+        if isinstance(curves[0], Rest):
+            y, yd = self._rest_values(curves, step, fractions)
+        else:
+            y, yd = batch.curve(step, fractions, self.rows)
+        # the largest |value| over each step's own samples
+        starts = np.concatenate([[0], np.cumsum(sizes[:-1, 0])])
+        largest = np.maximum.reduceat(np.abs(y[searched]), starts, axis=0)
+        self._grow_scale(largest, np.maximum(lengths0, lengths1))
+        return SampledSteps(t0, h, lengths0, rates0, lengths1, rates1, step, fractions, y, yd,
+                            searched, largest)  # fmt: skip
+
+    def _rest_values(self, rests, step, fractions):
+        """`rows q`, `rows qd` at `fractions` of the steps at rest `rests[step]`."""
+        y, yd = np.empty((step.size, len(self.rows))), np.empty((step.size, len(self.rows)))
+        for i, rest in enumerate(rests):
+            inside = step == i
+            q, qd = rest_states(rest, fractions[inside])
+            y[inside], yd[inside] = q @ self.rows.T, qd @ self.rows.T
+        return y, yd
 
     def _grow_scale(self, largest, lengths) -> None:
-        """`scale` from the largest |rows| (r,) of samples where no boom is longer than
-        `lengths` [m]: the root moments' over `L^2` (at most their value in N m)."""
+        """`scale` from the largest |rows| (S, r) of samples of S steps where no boom is
+        longer than `lengths` (S, 4) [m]: the root moments' over `L^2` (at most their
+        value in N m)."""
         largest = largest.copy()
-        largest[4:8] /= lengths**2
-        self.scale = np.maximum(self.scale, largest)
+        largest[:, 4:8] /= lengths**2
+        self.scale = np.maximum(self.scale, largest.max(axis=0))
 
-    def spacing(self, stepper, lengths0, lengths1) -> float:
-        """The time [s] between two samples of the last step, from boom lengths `lengths0`
-        to `lengths1` [m]: `peak_phase` rad of its slow part's highest frequency, and for
-        its followed modes (`interpolant_spectrum`: mode j of frequency `omega_j`,
-        amplitude `A_rj` in output r, root moments in N m) the longest `d` with `sum_j
-        A_rj (omega_j d)^4 <= peak_phase^4 S_r`, `S_r` the largest |output r| sampled so
-        far (`scale`; `sum_j A_rj` before any): the cubic Hermite's error, `(omega
-        d)^4 / 384` of a sine's amplitude, then stays within `PEAK_ERROR` of the output's
-        largest value for the followed modes, as for the slow part of its own amplitude.
-        At most `max_spacing`, and at least a quarter of `peak_phase` rad of the highest
-        followed mode (an output still beside its followed modes' vibration is then held
-        to `PEAK_ERROR / 256` of that vibration)."""
-        slow, omega, amplitude = stepper.interpolant_spectrum(self.rows)
-        spacing = self.max_spacing if slow <= 0 else min(self.max_spacing, self.peak_phase / slow)
-        if omega.size:
-            amplitude = amplitude.copy()
-            amplitude[4:8] /= np.minimum(lengths0, lengths1)[:, None] ** 2  # N m, at most
-            weight = amplitude @ omega**4  # (r,)
-            bound = weight > 0
-            if bound.any():
-                scale = np.where(self.scale > 0, self.scale, amplitude.sum(axis=1))[bound]
-                ratio = float((scale / weight[bound]).min())
-                densest = 0.25 * self.peak_phase / float(omega.max())
-                spacing = min(spacing, max(densest, self.peak_phase * ratio**0.25))
-        return spacing
+    def _scales(self, queue: list[_Queued], lengths) -> np.ndarray:
+        """(S, r): `scale` as each of the steps `queue` starts, from below: before the
+        first, grown by the outputs at the ends of those before it (the samples' largest
+        values are known only once sampled; boom lengths `lengths` (S, 4) [m], as
+        `_grow_scale`)."""
+        ends = np.abs(np.array([step.q1 for step in queue]) @ self.rows.T)
+        ends[:, 4:8] /= lengths**2
+        before = np.maximum.accumulate(np.vstack([self.scale, ends[:-1]]), axis=0)
+        return before
 
-    def cut(self, t: float) -> None:
-        """Forget the last step's samples after `t` [s]: a run stopped inside that step
-        (an alarm) has no peaks after its stop."""
-        if not self._pending:
-            return
-        times, y, yd, fractions, *motion = self._pending[-1]
-        kept = times <= t
-        self._pending_samples -= int(np.count_nonzero(~kept))
-        if kept.all():
-            return
-        if kept.any():
-            self._pending[-1] = (times[kept], y[kept], yd[kept], fractions[kept], *motion)
-        else:
-            self._pending.pop()
+    def spacings(self, slow, omega=None, amplitude=None, shortest=None, scale=None) -> np.ndarray:
+        """The time [s] between two samples of each of S steps (S,): `peak_phase` rad of
+        its slow part's highest frequency `slow` [rad/s] (S,), and for its followed modes
+        (mode j of frequency `omega_j` (S, k) [rad/s], amplitude `A_rj` (S, r, k) in output
+        r, root moments in N m at the shortest boom lengths `shortest` (S, 4) [m]; null
+        modes 0 and 0) the longest `d` with `sum_j A_rj (omega_j d)^4 <= peak_phase^4 S_r`,
+        `S_r` the largest |output r| so far (`scale` (S, r), each step's: `_scales`; `sum_j
+        A_rj` where 0): the cubic Hermite's error, `(omega d)^4 / 384` of a sine's
+        amplitude, then stays within `PEAK_ERROR` of the output's largest value for the
+        followed modes, as for the slow part of its own amplitude. At most
+        `max_spacing`, and at least a quarter of `peak_phase` rad of the highest followed
+        mode (an output still beside its followed modes' vibration is then held to
+        `PEAK_ERROR / 256` of that vibration). `S_r` only grows, so a spacing from a
+        smaller one (a batch's, from the outputs at the steps' ends before each) is never
+        the longer."""
+        with np.errstate(divide="ignore"):
+            spacing = np.minimum(self.max_spacing, self.peak_phase / slow)
+        spacing[~(slow > 0)] = self.max_spacing
+        if omega is None or not omega.size:
+            return spacing
+        amplitude = amplitude.copy()
+        amplitude[:, 4:8] /= shortest[:, :, None] ** 2  # N m, at most
+        weight = np.einsum("srk,sk->sr", amplitude, omega**4)
+        bound = weight > 0
+        scale = np.where(scale > 0, scale, amplitude.sum(axis=2))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(bound, scale / weight, np.inf).min(axis=1)
+            densest = 0.25 * self.peak_phase / omega.max(axis=1)
+        followed = bound.any(axis=1)
+        held = np.maximum(densest, self.peak_phase * ratio**0.25)
+        return np.where(followed, np.minimum(spacing, held), spacing)
 
-    def _flush(self) -> None:
-        if not self._pending:
-            return
-        t, y, yd, fractions, h, *ends = zip(*self._pending, strict=True)
-        counts = [f.size for f in fractions]
-        t, y, yd, fractions = (np.concatenate(part) for part in (t, y, yd, fractions))
-        # each step's cubic, then one copy per sample (steps hold some 90 samples)
-        h = np.array(h)[:, None]
-        cubic = motion_cubic(h, *(np.array(part) for part in ends))
-        lengths, rates = cubic_motion(
-            fractions, np.repeat(h, counts, axis=0), np.repeat(cubic, counts, axis=1)
-        )
+    def _search_samples(self, t, y, yd, lengths, rates) -> None:
+        """Search samples at times `t` [s] (m,) of the rows `y` and their rates `yd` (m,
+        r), the root moments' over `L^2` at the boom lengths `lengths` [m] and rates
+        `rates` [m/s] (m, 4) (turned into N m here)."""
         moments = y[:, 4:8] / lengths**2
+        y, yd = y.copy(), yd.copy()
         y[:, 4:8] = moments
         yd[:, 4:8] = yd[:, 4:8] / lengths**2 - 2.0 * rates * moments / lengths
         if self.free_hub:
             y, yd = with_tilt(y, yd)
         self._search.add(t, y, yd)
         self.samples += t.size
-        self._pending, self._pending_samples = [], 0
 
     @property
     def peaks(self) -> Peaks:
         """The peaks so far: of the tip deflections [m] and root moments [N m]."""
-        self._flush()
+        self.flush()
         value, time = self._search.value, self._search.time
         hub = Peak(value[8:].copy(), time[8:].copy()) if self.free_hub else None
         return Peaks(
@@ -320,6 +414,11 @@ class OutputPeaks:
             Peak(value[4:8].copy(), time[4:8].copy()),
             hub,
         )
+
+
+def _kind(curve) -> tuple:
+    """What steps sampled together share: at rest, or moving with as many rational steps."""
+    return ("rest",) if isinstance(curve, Rest) else ("moving", curve.parts)
 
 
 def with_tilt(y, yd, first: int = 9):

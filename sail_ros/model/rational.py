@@ -16,6 +16,7 @@ solve: `Extension` holds them, with the followed modes (`fast_modes`) put in tur
 from __future__ import annotations
 
 import functools
+import math
 from math import factorial
 
 import numpy as np
@@ -102,113 +103,195 @@ class Extension:
     `moving_step` returns its `extension`, and their followed modes (`fast_modes`: the
     first half's free vibration at the step's start, the second's at its end,
     `vibration`), whose part the extension's samples leave (`kept`) and take turned
-    instead (`free`; `curve` for the peaks)."""
+    instead (`free`); `curve` and `followed` for the peaks (`Curves`, of this step
+    alone). `slow` [rad/s]: what bounds the frequencies of all but the followed modes
+    in its samples (`SailStepper.last_curve`), or nan where not given."""
 
-    def __init__(self, extensions: tuple, vibration: tuple, h: float):
+    def __init__(self, extensions: tuple, vibration: tuple, h: float, slow: float = math.nan):
         self.extensions = extensions
         self.parts = len(extensions)
         self.h = h
         self.vibration = vibration
+        self.slow = slow
         self.count = vibration[0].count if vibration else 0
-        if vibration:
-            count = self.count
-            modes = [near.modes for near in vibration]
-            self.omega_d = np.array([near.omega_d[-count:] for near in modes])
-            decay = np.array([near.d[-count:] for near in modes])
-            self.decay = decay if decay.any() else None
-            self.static = np.array([near.s for near in vibration])
-            a = np.array([near.a for near in vibration])
-            self.on_e, self.on_v = turning(a, self.omega_d, self.decay)
-        self._coordinates = None
-        self._coefficients_of = ((), None)  # (rows, `_coefficients`): none yet
+
+    @functools.cached_property
+    def curves(self) -> Curves:
+        """This step alone as `Curves`."""
+        return Curves((self,))
+
+    @property
+    def omega_d(self) -> np.ndarray:
+        """(parts, count): the followed modes' damped frequencies [rad/s] at each part's
+        end of the step."""
+        return self.curves.omega_d[0]
 
     @functools.cached_property
     def V(self) -> np.ndarray:  # noqa: N802 (the matrix names of `FrozenModes`)
         """(parts, n, count): the followed modes' shapes at each part's end of the step."""
-        return np.array([near.modes.V[:, -self.count :] for near in self.vibration])
+        return self.curves.V[0]
 
     @functools.cached_property
     def MV(self) -> np.ndarray:  # noqa: N802
         """(parts, n, count): `M V` of the followed modes, as `V`."""
-        return np.array([near.modes.MV[:, -self.count :] for near in self.vibration])
+        return self.curves.MV[0]
 
     def followed(self, rows) -> tuple[np.ndarray, np.ndarray]:
-        """The followed modes' frequencies [rad/s] (k,) and the largest amplitude of each
-        in each output row of `rows` (r, n) over the step (r, k): `|rows V_j| |a_j|` of
-        the start's free vibration, and of the end's turned back over the second half
-        (grown by `e^(d h / 4)` where damped; `oscillation`), read off the curve's
-        coefficients of the turns (`_coefficients`: `Re a rows V_j` on the cosine,
-        `-Im a rows V_j` on the sine); a damped mode's frequency is `hypot(omega_d,
-        d / 2)`, which its fourth derivative goes with. Empty without followed modes."""
-        if not self.vibration:
-            return np.zeros(0), np.zeros((len(rows), 0))
-        count, orders = self.count, _EXTENSION_ORDERS.size
-        X = self._coefficients(rows)
-        r = X.shape[2] // 2
-        turns = X[:, orders:, :r]  # (parts, 2 count, r): cosines, then sines
-        amplitude = np.hypot(turns[:, :count], turns[:, count:])  # (parts, k, r)
-        omega = self.omega_d
-        if self.decay is not None:  # the first half decays from the start: at most |a|
-            back = np.minimum(0.5 * self.decay[1:] * (self.h / self.parts), TURN_BACK_EXPONENT)
-            amplitude[1:] *= np.exp(back)[:, :, None]
-            omega = np.hypot(omega, 0.5 * self.decay)
-        return omega.max(axis=0), amplitude.max(axis=0).T
+        """`Curves.followed` of this step: (k,) and (r, k)."""
+        omega, amplitude = self.curves.followed(rows)
+        return omega[0], amplitude[0]
+
+    def curve(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
+        """`Curves.curve` of this step at `fractions` (m,) of it."""
+        fractions = np.asarray(fractions, dtype=float)
+        return self.curves.curve(np.zeros(fractions.size, dtype=int), fractions, rows)
 
     def jumps(self) -> tuple[float, ...]:
         """Fractions of the step where the curve may jump: its middle, where the followed
         modes' static response passes from the start's to the end's (none without)."""
         return (0.5,) if self.vibration and self.parts == 2 else ()
 
-    def _raw_coordinates(self) -> np.ndarray:
-        """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
-        fraction combine into the coordinates (the rational step's start, `2 Re y_q,k`,
-        `-2 Im y_q,k`), the followed modes' part included."""
-        rows = np.empty((self.parts, _EXTENSION_ORDERS.size, self.extensions[0][0].size))
-        for part, (start, y_q, *_) in zip(rows, self.extensions, strict=True):
-            part[0], part[1::2], part[2::2] = start, y_q.real, y_q.imag
-        rows[:, 1:] *= _SIGNS
-        return rows
-
-    def coordinates(self) -> np.ndarray:
-        """(parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
-        fraction combine into the coordinates (the rational step's start, `2 Re y_q,k`,
-        `-2 Im y_q,k`), less the followed modes' part."""
-        if self._coordinates is None:
-            self._coordinates = self.kept(self._raw_coordinates())
-        return self._coordinates
-
-    def kept(self, x: np.ndarray, part: int | None = None) -> np.ndarray:
-        """`x` (parts, m, n): each part's rows of coordinates or velocities less their part
-        in its followed modes; with `part`, `x` (m, n) of that part alone."""
+    def kept(self, x: np.ndarray, part: int) -> np.ndarray:
+        """`x` (m, n): the rational step `part`'s coordinates or velocities less their part
+        in its followed modes."""
         if not self.vibration:
             return x
-        V, MV = (self.V, self.MV) if part is None else (self.V[part], self.MV[part])
-        return x - (x @ MV) @ np.swapaxes(V, -1, -2)
+        return x - (x @ self.MV[part]) @ self.V[part].T
 
     def free(self, part: int, local, velocities: bool = True):
         """The followed modes' coordinates and velocities (each (m, n)) at fractions
         `local` (m,) of the rational step `part`: its free vibration turned on by `(local
         - part) h / parts` (`fast_modes.oscillation`, `fast_modes.turning`); without
         `velocities`, the coordinates alone."""
+        curves = self.curves
         seconds = (local - part) * (self.h / self.parts)
-        decay = None if self.decay is None else self.decay[part]
-        turns = oscillation(seconds, self.omega_d[part], decay)
+        decay = None if curves.decay is None else curves.decay[0, part]
+        turns = oscillation(seconds, curves.omega_d[0, part], decay)
         count = self.count
         shapes = self.V[part].T
-        e = turns * self.on_e[part]
-        e = e[:, :count] + e[:, count:] + self.static[part]
+        e = turns * curves.on_e[0, part]
+        e = e[:, :count] + e[:, count:] + curves.static[0, part]
         if not velocities:
             return e @ shapes
-        v = turns * self.on_v[part]
+        v = turns * curves.on_v[0, part]
         return e @ shapes, (v[:, :count] + v[:, count:]) @ shapes
 
-    def curve(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
+
+class Curves:
+    """The continuous extensions (`Extension`) of moving steps of as many rational steps
+    (`parts`) each, stacked: the peaks sample many steps in a few calls, where one step's
+    few samples cost what numpy's calls do, not their arithmetic. A step's followed
+    modes are padded to the most any has (`count`) with null ones (no shape, frequency 0,
+    amplitude 0), which add nothing to its curve.
+
+    Attributes (S steps): `h` (S,) [s]; `counts` (S,) each step's followed modes; `V`,
+    `MV` (S, parts, n, count) their shapes and `M V` at each part's end; `omega_d`,
+    `decay`, `static` (S, parts, count) (`decay` None: all undamped); `on_e`, `on_v`
+    (S, parts, 2 count) (`fast_modes.turning`).
+    """
+
+    def __init__(self, steps):
+        steps = tuple(steps)
+        first = steps[0]
+        self.parts, n = first.parts, first.extensions[0][0].size
+        if any(step.parts != self.parts for step in steps):
+            raise ValueError("Curves: steps of different numbers of rational steps")
+        self.steps = steps
+        self.h = np.array([step.h for step in steps])
+        self.counts = np.array([step.count for step in steps])
+        count = self.count = int(self.counts.max())
+        shape = (len(steps), self.parts)
+        self.V, self.MV = np.zeros((*shape, n, count)), np.zeros((*shape, n, count))
+        omega_d, decay = np.zeros((*shape, count)), np.zeros((*shape, count))
+        self.static, a = np.zeros((*shape, count)), np.zeros((*shape, count), dtype=complex)
+        for i, step in enumerate(steps):
+            k = step.count
+            for part, near in enumerate(step.vibration):
+                modes, pad = near.modes, count - k  # the null modes first
+                self.V[i, part, :, pad:] = modes.V[:, -k:]
+                self.MV[i, part, :, pad:] = modes.MV[:, -k:]
+                omega_d[i, part, pad:] = modes.omega_d[-k:]
+                decay[i, part, pad:] = modes.d[-k:]
+                self.static[i, part, pad:], a[i, part, pad:] = near.s, near.a
+        self.omega_d = omega_d
+        self.decay = decay if decay.any() else None
+        self.on_e, self.on_v = turning(a, omega_d, self.decay)
+        self._coefficients_of = ((), None)  # (rows, `coefficients`): none yet
+
+    @functools.cached_property
+    def raw(self) -> np.ndarray:
+        """(S, parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
+        fraction combine into the coordinates (each rational step's start, `2 Re y_q,k`,
+        `-2 Im y_q,k`), the followed modes' part included."""
+        starts = np.array([[part[0] for part in step.extensions] for step in self.steps])
+        y_q = np.array([[part[1] for part in step.extensions] for step in self.steps])
+        raw = np.empty((*starts.shape[:2], _EXTENSION_ORDERS.size, starts.shape[2]))
+        raw[:, :, 0], raw[:, :, 1::2], raw[:, :, 2::2] = starts, y_q.real, y_q.imag
+        raw[:, :, 1:] *= _SIGNS
+        return raw
+
+    def coefficients(self, rows) -> np.ndarray:
+        """(S, parts, 5 + 2 count, 2 r): what each rational step's features (`curve`) give
+        the outputs `rows` (r, n; None: the coordinates) and their slopes: the
+        extension's coordinates less their followed modes' part (`rows (x - V MV^T x) =
+        rows x - (rows V) (MV^T x)`) through the weights' power series
+        (`_POWER_WEIGHTS`; `_POWER_SLOPES`, per second), the static part on `x^0`, the
+        followed modes' shapes weighted by `on_e` (`on_v`) on their turns
+        (`Extension.free`); kept for the last rows asked."""
+        if self._coefficients_of[0] is rows:
+            return self._coefficients_of[1]
+        count, raw = self.count, self.raw
+        if rows is None:
+            shapes, coordinates = self.V, raw
+        else:
+            shapes, coordinates = rows @ self.V, raw @ rows.T
+        if count:
+            coordinates = coordinates - (raw @ self.MV) @ np.swapaxes(shapes, -1, -2)
+        steps, parts, orders, r = coordinates.shape
+        X = np.empty((steps, parts, orders + 2 * count, 2 * r))
+        powers = _POWER_SERIES @ coordinates  # (S, parts, 2 orders, r): weights, then slopes
+        X[..., :orders, :r] = powers[..., :orders, :]
+        per_second = (parts / self.h)[:, None, None, None]
+        np.multiply(powers[..., orders:, :], per_second, out=X[..., :orders, r:])
+        if count:
+            shapes = np.swapaxes(shapes, -1, -2)  # (S, parts, count, r)
+            X[..., orders : orders + count, :r] = shapes
+            X[..., orders + count :, :r] = shapes
+            X[..., orders:, r:] = X[..., orders:, :r]
+            X[..., orders:, :r] *= self.on_e[..., None]
+            X[..., orders:, r:] *= self.on_v[..., None]
+            X[..., 0, :r] += (self.static[..., None, :] @ shapes)[..., 0, :]
+        self._coefficients_of = (rows, X)
+        return X
+
+    def followed(self, rows) -> tuple[np.ndarray, np.ndarray]:
+        """The followed modes' frequencies [rad/s] (S, count) and the largest amplitude of
+        each in each output row of `rows` (r, n) over its step (S, r, count): `|rows V_j|
+        |a_j|` of the start's free vibration, and of the end's turned back over the second
+        half (grown by `e^(d h / 4)` where damped; `oscillation`), read off the curve's
+        coefficients of the turns (`coefficients`: `Re a rows V_j` on the cosine, `-Im a
+        rows V_j` on the sine); a damped mode's frequency is `hypot(omega_d, d / 2)`,
+        which its fourth derivative goes with. Null modes: 0 and 0."""
+        count, orders = self.count, _EXTENSION_ORDERS.size
+        X = self.coefficients(rows)
+        r = X.shape[-1] // 2
+        turns = X[..., orders:, :r]  # (S, parts, 2 count, r): cosines, then sines
+        amplitude = np.hypot(turns[..., :count, :], turns[..., count:, :])
+        omega = self.omega_d
+        if self.decay is not None:  # the first half decays from the start: at most |a|
+            seconds = (self.h / self.parts)[:, None, None]
+            back = np.minimum(0.5 * self.decay[:, 1:] * seconds, TURN_BACK_EXPONENT)
+            amplitude[:, 1:] *= np.exp(back)[..., None]
+            omega = np.hypot(omega, 0.5 * self.decay)
+        return omega.max(axis=1), np.swapaxes(amplitude.max(axis=1), -1, -2)
+
+    def curve(self, step, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
         """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
-        `dq/dt` themselves) at `fractions` (m,) of the step (`between`, rates "slope"):
-        each sample's features in its own rational step (the powers `x^j` of its fraction
-        `x` of that step, the followed modes' turns) times that step's coefficients
-        (`_coefficients`), one product per rational step. The same curve as `between`'s
-        positions, summed otherwise (round-off apart)."""
+        `dq/dt` themselves) at `fractions` (m,) of the steps `step` (m,) (`between`, rates
+        "slope"): each sample's features in its own rational step (the powers `x^j` of its
+        fraction `x` of that step, the followed modes' turns) times that step's
+        coefficients (`coefficients`). The same curve as `between`'s positions, summed
+        otherwise (round-off apart)."""
         fractions = np.asarray(fractions, dtype=float)
         parts, m = self.parts, fractions.size
         part = np.minimum((fractions * parts).astype(int), parts - 1)
@@ -221,54 +304,35 @@ class Extension:
             np.multiply(features[:, j - 1], local, out=features[:, j])
         if count:
             # from the first half's start, back from the second half's end (`free`)
-            seconds = (local - part) * (self.h / parts)
-            decay = None if self.decay is None else self.decay[part]
-            features[:, orders:] = oscillation(seconds, self.omega_d[part], decay)
-        X = self._coefficients(rows)
-        if parts == 1:
-            out = features @ X[0]
-        else:
-            out = np.empty((m, X.shape[2]))
-            for k in range(parts):
-                inside = part == k
-                out[inside] = features[inside] @ X[k]
+            seconds = (local - part) * (self.h[step] / parts)
+            decay = None if self.decay is None else self.decay[step, part]
+            features[:, orders:] = oscillation(seconds, self.omega_d[step, part], decay)
+        X = self.coefficients(rows)
+        out = _grouped_products(features, step * parts + part, X.reshape(-1, *X.shape[2:]))
         r = out.shape[1] // 2
         return out[:, :r], out[:, r:]
 
-    def _coefficients(self, rows) -> np.ndarray:
-        """(parts, 5 + 2 count, 2 r): what each rational step's features (`curve`) give
-        the outputs `rows` (r, n; None: the coordinates) and their slopes: the
-        extension's kept coordinates (`coordinates`) through the weights' power series
-        (`_POWER_WEIGHTS`; `_POWER_SLOPES`, per second), the static part on `x^0`, the
-        followed modes' shapes weighted by `on_e` (`on_v`) on their turns (`free`); kept
-        for the last rows asked."""
-        if self._coefficients_of[0] is rows:
-            return self._coefficients_of[1]
-        count = self.count
-        if rows is None:
-            coordinates, shapes = self.coordinates(), self.V
-        elif count:
-            # kept in the outputs: rows (x - V MV^T x) = rows x - (rows V) (MV^T x)
-            raw = self._raw_coordinates()
-            shapes = rows @ self.V
-            coordinates = raw @ rows.T - (raw @ self.MV) @ np.swapaxes(shapes, 1, 2)
-        else:
-            coordinates = self.coordinates() @ rows.T
-        parts, orders, r = coordinates.shape
-        X = np.empty((parts, orders + 2 * count, 2 * r))
-        powers = _POWER_SERIES @ coordinates  # (parts, 2 orders, r): weights, then slopes
-        X[:, :orders, :r] = powers[:, :orders]
-        np.multiply(powers[:, orders:], parts / self.h, out=X[:, :orders, r:])
-        if count:
-            shapes = np.swapaxes(shapes, 1, 2)  # (parts, count, r)
-            X[:, orders : orders + count, :r] = shapes
-            X[:, orders + count :, :r] = shapes
-            X[:, orders:, r:] = X[:, orders:, :r]
-            X[:, orders:, :r] *= self.on_e[:, :, None]
-            X[:, orders:, r:] *= self.on_v[:, :, None]
-            X[:, 0, :r] += (self.static[:, None, :] @ shapes)[:, 0]
-        self._coefficients_of = (rows, X)
-        return X
+
+def _grouped_products(features, group, matrices) -> np.ndarray:
+    """Each row of `features` (m, F) times its own matrix `matrices[group]` ((g, F, c),
+    `group` (m,)): (m, c), one product per run of rows of one group (in group order)."""
+    if len(matrices) == 1:
+        return features @ matrices[0]
+    order = None
+    if np.any(group[1:] < group[:-1]):
+        order = np.argsort(group, kind="stable")
+        group, features = group[order], features[order]
+    ends = np.append(np.flatnonzero(group[1:] != group[:-1]) + 1, group.size)
+    out = np.empty((group.size, matrices.shape[2]))
+    start = 0
+    for end in ends.tolist():
+        np.matmul(features[start:end], matrices[group[start]], out=out[start:end])
+        start = end
+    if order is None:
+        return out
+    unsorted = np.empty_like(out)
+    unsorted[order] = out
+    return unsorted
 
 
 def _power_series() -> tuple[np.ndarray, np.ndarray]:

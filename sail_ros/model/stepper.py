@@ -244,7 +244,8 @@ class SailStepper:
         atol: absolute floors per output kind (`OUTPUT_KINDS`: m, m/s, N m, N m/s),
             a mapping overriding `DEFAULT_ATOL`.
         on_step: callable `on_step(stepper)` after every accepted step, or None; it may
-            ask `interpolant` for the outputs inside the step just taken (`peaks`).
+            ask `interpolant` for the outputs inside the step just taken, or keep its
+            curve (`last_curve`) to sample later (`peaks`).
     """
 
     def __init__(
@@ -760,7 +761,12 @@ class SailStepper:
         """The last step's continuous extension, kept for that step."""
         t0, _, _, trial = self._last
         if self._extension_of[0] is not trial:
-            self._extension_of = (trial, Extension(trial.extensions, trial.vibration, self._t - t0))
+            h = self._t - t0
+            turning = 2.0 * math.pi * PADE_POLES.size * len(trial.extensions) / h
+            shortening = float((self._motion(t0)[0] / self._motion(self._t)[0]).max())
+            carried = trial.carried_frequency * CARRIED_MARGIN * max(1.0, shortening) ** 2
+            extension = Extension(trial.extensions, trial.vibration, h, min(turning, carried))
+            self._extension_of = (trial, extension)
         return self._extension_of[1]
 
     def _extended(self, fractions, qd0, qd1, rates):
@@ -917,33 +923,17 @@ class SailStepper:
             self._static_cache[key] = propagator
         return rest_step(propagator, self._q, self._p, h, force)
 
-    def interpolant_spectrum(self, rows) -> tuple[float, np.ndarray, np.ndarray]:
-        """What oscillates in the last step's curve (`interpolant`) for output rows `rows`
-        (r, n): `(slow, omega, amplitude)`. `slow` [rad/s] bounds the frequencies of all
-        but the followed modes: at rest the highest mode's, `sqrt(max lambda)`; moving,
-        the highest frozen mode the rational steps carry (`CARRIED_MARGIN` over it, and
-        the rise of a boom's frequencies as `1 / L^2` where the step shortens it), at
-        most the turning of their extensions (polynomials of degree 2 k = 4 in each
-        rational step's fraction, k the Padé pole pairs, turning at most that often:
-        `2 pi k` over a rational step). `omega` (k,) [rad/s] and `amplitude` (r, k): the
-        followed modes' frequencies, each with its largest amplitude in each row over the
-        step (`Extension.followed`; none at rest)."""
-        t0, _, _, trial = self._last
-        if isinstance(trial, Rest):
-            slow = float(np.sqrt(max(float(trial.lam[-1]), 0.0)))
-            return slow, np.zeros(0), np.zeros((len(rows), 0))
-        h = self._t - t0
-        turning = 2.0 * math.pi * PADE_POLES.size * len(trial.extensions) / h
-        shortening = (self._motion(t0)[0] / self._motion(self._t)[0]).max()
-        carried = trial.carried_frequency * CARRIED_MARGIN * max(1.0, float(shortening)) ** 2
-        omega, amplitude = self._extension().followed(rows)
-        return min(turning, carried), omega, amplitude
-
-    def interpolant_jumps(self) -> tuple[float, ...]:
-        """Fractions of the last step where its curve may jump (`Extension.jumps`): a
-        sampling of it takes each side (`peaks`)."""
+    def last_curve(self) -> Extension | Rest:
+        """The last step's curve, what `interpolant` samples: at rest its `Rest` data
+        (exact; its highest frequency `sqrt(max lam)`); moving its `Extension`, whose
+        `slow` [rad/s] bounds the frequencies of all but the followed modes: the highest
+        frozen mode the rational steps carry (`CARRIED_MARGIN` over it, and the rise of a
+        boom's frequencies as `1 / L^2` where the step shortens it), at most the turning
+        of their extensions (polynomials of degree 2 k = 4 in each rational step's
+        fraction, k the Padé pole pairs, turning at most that often: `2 pi k` over a
+        rational step)."""
         trial = self._last[3]
-        return () if isinstance(trial, Rest) else self._extension().jumps()
+        return trial if isinstance(trial, Rest) else self._extension()
 
     def interpolant(self, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
         """`rows q(t)` and its rate `rows qd(t)` [per s] (each (m, r)) at `fractions` (m

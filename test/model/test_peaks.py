@@ -8,6 +8,7 @@ import scipy.linalg
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.peaks import PEAK_ERROR, OutputPeaks, PeakSearch
+from sail_ros.model.rational import Curves
 
 pytestmark = pytest.mark.model
 
@@ -181,7 +182,7 @@ class Dense:
 )
 def test_samples_close_enough_for_the_followed_modes_they_weigh(profile, boom):
     """The followed modes set the samples' spacing by what they weigh in each output
-    (`OutputPeaks.spacing`): over the first 4 s, every peak within `PEAK_ERROR` of a 50
+    (`OutputPeaks.spacings`): over the first 4 s, every peak within `PEAK_ERROR` of a 50
     kHz sampling of the same run, retracting too (the booms' frequencies rise as they
     shorten), with fewer samples than 0.5 rad of the highest followed mode would take."""
     model = SailModel(SailParameters())
@@ -195,7 +196,7 @@ def test_samples_close_enough_for_the_followed_modes_they_weigh(profile, boom):
                 observer.start(stepper)
 
         def after_step(self, stepper):
-            _, omega, _ = stepper.interpolant_spectrum(ours.rows)
+            omega, _ = stepper.last_curve().followed(ours.rows)  # the booms move throughout
             h = stepper.t - dense.t0
             highest.append(np.ceil(h * max(omega.max(initial=0.0) / 0.5, 100.0)))
             for observer in (ours, dense):
@@ -206,3 +207,44 @@ def test_samples_close_enough_for_the_followed_modes_they_weigh(profile, boom):
     values = np.concatenate([found.tip_deflection.value, found.root_moment.value])
     assert values == pytest.approx(dense.largest, rel=PEAK_ERROR)
     assert ours.samples < sum(highest)
+
+
+def test_a_batch_of_steps_gives_each_step_its_own_curve():
+    """`rational.Curves` stacks steps that follow different numbers of modes (12, 9 and 8
+    here, damped: retracting from 15 m), padded with null modes: each step's samples and
+    followed modes are those of its own `Extension`, to round-off, in any order."""
+    params = SailParameters(mass_damping=0.02, stiffness_damping=2e-4)
+    model = SailModel(params)
+    steps = []
+
+    class Steps:
+        def start(self, stepper):
+            pass
+
+        def after_step(self, stepper):
+            steps.append(stepper.last_curve())
+
+    model.simulate(CycloidalProfile(15.0, 10.0, 6.0), 3.0, model.mode_state("a", 0.1),
+                   observer=Steps())  # fmt: skip
+    counts = [step.count for step in steps]
+    assert len(set(counts)) >= 3 and min(counts) > 0
+    batch = Curves(steps)
+    assert batch.decay is not None and batch.count == max(counts)
+    rows = OutputPeaks(model).rows
+    rng = np.random.default_rng(3)
+    fractions = [np.sort(np.append(rng.random(7), [np.nextafter(0.5, 0.0), 0.5, 1.0]))
+                 for _ in steps]  # fmt: skip
+    index = np.repeat(np.arange(len(steps)), [f.size for f in fractions])
+    order = rng.permutation(index.size)  # the samples in any order
+    y, yd = batch.curve(index[order], np.concatenate(fractions)[order], rows)
+    omega, amplitude = batch.followed(rows)
+    for i, step in enumerate(steps):
+        mine = index[order] == i
+        own_y, own_yd = step.curve(np.concatenate(fractions)[order][mine], rows)
+        np.testing.assert_allclose(y[mine], own_y, rtol=0, atol=1e-12 * np.abs(own_y).max())
+        np.testing.assert_allclose(yd[mine], own_yd, rtol=0, atol=1e-12 * np.abs(own_yd).max())
+        own_omega, own_amplitude = step.followed(rows)
+        pad = batch.count - step.count  # the null modes come first
+        assert np.array_equal(omega[i, pad:], own_omega) and not omega[i, :pad].any()
+        np.testing.assert_allclose(amplitude[i, :, pad:], own_amplitude, rtol=1e-12)
+        assert not amplitude[i, :, :pad].any()

@@ -15,6 +15,7 @@ from sail_ros.analysis.scenario import load_scenario, reference_scenario
 from sail_ros.bag import BagReader
 from sail_ros.messages import hub as hub_msg
 from sail_ros.model import SailModel, SailParameters
+from sail_ros.model.peaks import MAX_SPACING_S, PEAK_ERROR
 from sail_ros.nodes.recorder import PARAMETERS_METADATA
 from sail_ros.policy import Policy
 from sail_ros.runtime.config import PARAMETERS, config_from_values
@@ -318,6 +319,52 @@ def test_a_run_stopped_by_its_alarm_has_no_peak_after_the_stop():
     assert 9.0 < stop < 9.3, run.alarm
     for peak in (run.peaks.tip_deflection, run.peaks.root_moment):  # (printed to 10 us)
         assert np.all(peak.time_s <= stop + 5e-6), (peak.time_s, stop)
+
+
+def test_a_batched_range_check_stops_where_a_check_after_every_step_does(monkeypatch):
+    """The peaks sample up to 16 steps at a time (`peaks.BATCH_STEPS`), so the range
+    check comes up to 16 steps late: the run still stops at its first sample out of
+    range, with the same alarm and outputs as a check after every step, the stepper
+    further on. A batch spaces its samples by the largest values before it, so the
+    samples, and the times of the warning and the stop, may differ by a sample spacing;
+    the peaks by their error."""
+    import sail_ros.model.peaks as peaks_module
+    from sail_ros.analysis.deployment import run_deployment
+    from sail_ros.analysis.scenario import scenario_from_dict
+
+    profile = {"type": "cycloidal", "start": 15.0, "end": 10.0, "duration": 15.0}
+    document = {"scenario": {"duration": 15.0, "profile": profile,
+                             "initial": {"mode_state": {"a": 4.0}}}}  # fmt: skip
+    scenario = scenario_from_dict(document)
+    model = SailModel(SailParameters())
+    t_eval = np.arange(0.0, 15.05, 0.1)
+    runs, batched_steps = {}, peaks_module.BATCH_STEPS
+    for batch in (batched_steps, 1):
+        monkeypatch.setattr(peaks_module, "BATCH_STEPS", batch)
+        for states in (False, True):
+            runs[batch, states] = run_deployment(model, scenario, t_eval, states=states)
+    for states in (False, True):
+        batched, single = runs[batched_steps, states], runs[1, states]
+        times = {}
+        for text in ("alarm", "warning"):
+            found, expected = getattr(batched, text), getattr(single, text)
+            time_s = [float(re.search(r"t = ([0-9.]+) s", m).group(1)) for m in (found, expected)]
+            assert abs(time_s[0] - time_s[1]) <= MAX_SPACING_S, (found, expected)
+            times[text] = min(time_s)
+            subject = [re.search(r" s: (.+?) is ", m).group(1) for m in (found, expected)]
+            assert subject[0] == subject[1]  # the output and boom
+        assert "stopped at t = 9." in single.alarm and "tip deflection of boom a" in single.alarm
+        assert batched.t.size == single.t.size and np.array_equal(batched.t, single.t)
+        scale = np.abs(single.tips).max()
+        np.testing.assert_allclose(batched.tips, single.tips, rtol=0, atol=1e-12 * scale)
+        assert batched.accuracy.steps > single.accuracy.steps
+        # a peak at the stop (the tip leaving the range) is where each run stopped
+        stop = times["alarm"] - MAX_SPACING_S
+        for kind in ("tip_deflection", "root_moment"):
+            found, expected = getattr(batched.peaks, kind), getattr(single.peaks, kind)
+            before = expected.time_s < stop
+            assert before.sum() >= 3 and np.all(found.time_s[~before] >= stop)
+            np.testing.assert_allclose(found.value[before], expected.value[before], rtol=PEAK_ERROR)
 
 
 def test_reference_options_conflict_with_a_scenario(capsys):
