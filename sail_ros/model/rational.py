@@ -196,7 +196,9 @@ class Curves:
         self.parts, n = first.parts, first.extensions[0][0].size
         if any(step.parts != self.parts for step in steps):
             raise ValueError("Curves: steps of different numbers of rational steps")
-        self.steps = steps
+        # the rational steps' own results, not the steps (an `Extension` holds its
+        # `Curves`: no reference cycle keeps a step's matrices alive after it)
+        self._extensions = [step.extensions for step in steps]
         self.h = np.array([step.h for step in steps])
         self.counts = np.array([step.count for step in steps])
         count = self.count = int(self.counts.max())
@@ -223,8 +225,8 @@ class Curves:
         """(S, parts, 5, n): the rows that the weights `(c, Re w_1, Im w_1, ...)` of a
         fraction combine into the coordinates (each rational step's start, `2 Re y_q,k`,
         `-2 Im y_q,k`), the followed modes' part included."""
-        starts = np.array([[part[0] for part in step.extensions] for step in self.steps])
-        y_q = np.array([[part[1] for part in step.extensions] for step in self.steps])
+        starts = np.array([[part[0] for part in step] for step in self._extensions])
+        y_q = np.array([[part[1] for part in step] for step in self._extensions])
         raw = np.empty((*starts.shape[:2], _EXTENSION_ORDERS.size, starts.shape[2]))
         raw[:, :, 0], raw[:, :, 1::2], raw[:, :, 2::2] = starts, y_q.real, y_q.imag
         raw[:, :, 1:] *= _SIGNS
