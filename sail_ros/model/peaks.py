@@ -58,7 +58,7 @@ class Peaks(NamedTuple):
 
 class SampledSteps(NamedTuple):
     """What `OutputPeaks` sampled of a batch of steps (S steps, m samples in all, in time
-    order: each step's own samples, then the fractions asked `also`).
+    order: each step's own samples and the fractions asked `also`).
 
     Attributes:
         t0, h: each step's start and length [s] (S,).
@@ -315,15 +315,19 @@ class OutputPeaks:
             jumps = [curve.jumps() for curve in curves]
         counts = np.maximum(1, np.ceil(h / spacing - 1e-9)).astype(int)
         own = [step_fractions(int(count), jump) for count, jump in zip(counts, jumps, strict=True)]
-        fractions = np.concatenate([part for f, step in zip(own, queue, strict=True)
-                                    for part in (f, step.also)])  # fmt: skip
-        sizes = np.array([[f.size, step.also.size] for f, step in zip(own, queue, strict=True)])
+        fractions = np.concatenate([part for f, queued in zip(own, queue, strict=True)
+                                    for part in (f, queued.also)])  # fmt: skip
+        sizes = np.array([[f.size, queued.also.size]
+                          for f, queued in zip(own, queue, strict=True)])  # fmt: skip
         step = np.repeat(np.arange(len(queue)), sizes.sum(axis=1))
         searched = np.repeat(np.tile([True, False], len(queue)), sizes.ravel())
+        if sizes[:, 1].any():  # each step's samples in time order
+            order = np.argsort(step + 0.5 * fractions, kind="stable")
+            step, fractions, searched = step[order], fractions[order], searched[order]
         if isinstance(curves[0], Rest):
             y, yd = self._rest_values(curves, step, fractions)
         else:
-            y, yd = batch.curve(step, fractions, self.rows)
+            y, yd = batch.curve(step, fractions, self.rows, grid=counts)
         # the largest |value| over each step's own samples
         starts = np.concatenate([[0], np.cumsum(sizes[:-1, 0])])
         largest = np.maximum.reduceat(np.abs(y[searched]), starts, axis=0)

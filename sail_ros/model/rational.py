@@ -287,13 +287,14 @@ class Curves:
             omega = np.hypot(omega, 0.5 * self.decay)
         return omega.max(axis=1), np.swapaxes(amplitude.max(axis=1), -1, -2)
 
-    def curve(self, step, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
+    def curve(self, step, fractions, rows, grid=None) -> tuple[np.ndarray, np.ndarray]:
         """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
         `dq/dt` themselves) at `fractions` (m,) of the steps `step` (m,) (`between`, rates
         "slope"): each sample's features in its own rational step (the powers `x^j` of its
         fraction `x` of that step, the followed modes' turns) times that step's
         coefficients (`coefficients`). The same curve as `between`'s positions, summed
-        otherwise (round-off apart)."""
+        otherwise (round-off apart). `grid`: each step's number of equal intervals (S,),
+        most samples being at their ends (`_turns`)."""
         fractions = np.asarray(fractions, dtype=float)
         parts, m = self.parts, fractions.size
         part = np.minimum((fractions * parts).astype(int), parts - 1)
@@ -307,12 +308,40 @@ class Curves:
         if count:
             # from the first half's start, back from the second half's end (`free`)
             seconds = (local - part) * (self.h[step] / parts)
-            decay = None if self.decay is None else self.decay[step, part]
-            features[:, orders:] = oscillation(seconds, self.omega_d[step, part], decay)
+            if grid is not None and self.decay is None and parts == 2:
+                features[:, orders:] = self._turns(step, part, seconds, fractions, grid)
+            else:
+                decay = None if self.decay is None else self.decay[step, part]
+                features[:, orders:] = oscillation(seconds, self.omega_d[step, part], decay)
         X = self.coefficients(rows)
         out = _grouped_products(features, step * parts + part, X.reshape(-1, *X.shape[2:]))
         r = out.shape[1] // 2
         return out[:, :r], out[:, r:]
+
+    def _turns(self, step, part, seconds, fractions, grid) -> np.ndarray:
+        """`oscillation` of undamped followed modes at `seconds` (m,) (`curve`) of samples
+        at `fractions` (m,) of their steps, each step of `grid` (S,) equal intervals: a
+        sample at an interval's end, `e` of them from its half's end (forward in the
+        first half, back in the second), takes the `e`-th power of its modes' turn over
+        one interval (a running product: round-off growing as `e`, 1e-14 at 100); the
+        others (the middle's sides, times asked) their cosines and sines."""
+        intervals = grid[step]
+        position = fractions * intervals
+        nearest = np.rint(position)
+        power = np.where(part == 0, nearest, intervals - nearest).astype(int)
+        count = self.count
+        turn = np.exp(1j * (self.omega_d * (self.h / grid)[:, None, None]).reshape(-1, count))
+        powers = np.empty((len(turn), int(power.max(initial=0)) + 1, count), dtype=complex)
+        powers[:, 0], powers[:, 1:] = 1.0, turn[:, None, :]
+        np.cumprod(powers, axis=1, out=powers)
+        z = powers[step * 2 + part, power]
+        turns = np.empty((fractions.size, 2 * count))
+        turns[:, :count] = z.real
+        np.multiply(z.imag, (1 - 2 * part)[:, None], out=turns[:, count:])  # back: -sin
+        off = np.flatnonzero(np.abs(position - nearest) > 1e-9 * intervals)
+        if off.size:
+            turns[off] = oscillation(seconds[off], self.omega_d[step[off], part[off]], None)
+        return turns
 
 
 def _grouped_products(features, group, matrices) -> np.ndarray:

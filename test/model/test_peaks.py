@@ -211,9 +211,14 @@ def test_samples_close_enough_for_the_followed_modes_they_weigh(profile, boom):
 
 def test_a_batch_of_steps_gives_each_step_its_own_curve():
     """`rational.Curves` stacks steps that follow different numbers of modes (12, 9 and 8
-    here, damped: retracting from 15 m), padded with null modes: each step's samples and
-    followed modes are those of its own `Extension`, to round-off, in any order."""
-    params = SailParameters(mass_damping=0.02, stiffness_damping=2e-4)
+    here, retracting from 15 m), padded with null modes: each step's samples and followed
+    modes are those of its own `Extension`, to round-off, in any order; damped, and
+    undamped on a grid of equal intervals (their turns as running products)."""
+    check_batch_of_steps(SailParameters(mass_damping=0.02, stiffness_damping=2e-4))
+    check_batch_of_steps(SailParameters(), grid=True)
+
+
+def check_batch_of_steps(params, grid=False):
     model = SailModel(params)
     steps = []
 
@@ -229,14 +234,18 @@ def test_a_batch_of_steps_gives_each_step_its_own_curve():
     counts = [step.count for step in steps]
     assert len(set(counts)) >= 3 and min(counts) > 0
     batch = Curves(steps)
-    assert batch.decay is not None and batch.count == max(counts)
+    assert (batch.decay is not None) == (params.stiffness_damping > 0)
+    assert batch.count == max(counts)
     rows = OutputPeaks(model).rows
     rng = np.random.default_rng(3)
-    fractions = [np.sort(np.append(rng.random(7), [np.nextafter(0.5, 0.0), 0.5, 1.0]))
-                 for _ in steps]  # fmt: skip
+    intervals = rng.integers(5, 60, size=len(steps))  # odd ones: 0.5 is off the grid
+    fractions = [np.sort(np.concatenate([rng.random(7), [np.nextafter(0.5, 0.0), 0.5],
+                                         np.arange(1, c + 1) / c]))
+                 for c in intervals]  # fmt: skip
     index = np.repeat(np.arange(len(steps)), [f.size for f in fractions])
     order = rng.permutation(index.size)  # the samples in any order
-    y, yd = batch.curve(index[order], np.concatenate(fractions)[order], rows)
+    y, yd = batch.curve(index[order], np.concatenate(fractions)[order], rows,
+                        grid=intervals if grid else None)  # fmt: skip
     omega, amplitude = batch.followed(rows)
     for i, step in enumerate(steps):
         mine = index[order] == i
