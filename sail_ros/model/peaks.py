@@ -156,38 +156,34 @@ class PeakSearch:
         self.time = np.where(better, when, self.time)
 
 
-def hermite_extrema(t, y, yd) -> tuple[np.ndarray, np.ndarray]:
-    """Times and values (each (2 (m - 1), c)) of the interior stationary points of the
-    cubic Hermite through consecutive samples `(t, y, yd)` ((m,), (m, c), (m, c));
-    intervals without one repeat their start (value and time), which changes no max."""
-    return _extrema(t[:-1], t[1:], y[:-1], y[1:], yd[:-1], yd[1:])
-
-
 # |p(s)| <= max(|y0|, |y1|) + HERMITE_BOUND (|d0| + |d1|) on [0, 1] for the cubic Hermite
 # (its basis: h00 + h01 = 1, both in [0, 1]; |h10|, |h11| <= 4/27)
 HERMITE_BOUND = 4.0 / 27.0
 
 
 def _extrema(t0, t1, y0, y1, yd0, yd1) -> tuple[np.ndarray, np.ndarray]:
-    """`hermite_extrema` of the intervals from `(t0, y0, yd0)` to `(t1, y1, yd1)` ((k,),
-    (k, c) each)."""
+    """Times and values (each (2 k, c)) of the interior stationary points of the cubic
+    Hermite from `(t0, y0, yd0)` to `(t1, y1, yd1)` ((k,), (k, c) each): the roots of its
+    derivative, both signs stacked; an interval without one repeats its start (value
+    and time), which changes no maximum."""
     h = (t1 - t0)[:, None]
     d0, d1 = yd0 * h, yd1 * h  # rates per unit of the interval's parameter s
-    # p(s) on s in [0, 1]; p'(s) = a s^2 + b s + c
-    a = 6.0 * (y0 - y1) + 3.0 * (d0 + d1)
-    b = 6.0 * (y1 - y0) - 4.0 * d0 - 2.0 * d1
-    c = d0
-    times, values = [], []
+    # p(s) = y0 + s (d0 + s (c2 + s c3)) on s in [0, 1]; p'(s) = a s^2 + b s + d0
+    rise = y1 - y0
+    c2, c3 = 3.0 * rise - 2.0 * d0 - d1, d0 + d1 - 2.0 * rise
+    a, b = 3.0 * c3, 2.0 * c2
     with np.errstate(invalid="ignore", divide="ignore"):
-        root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
-        quadratic = np.abs(a) > 1e-12 * (np.abs(b) + np.abs(c))
-        for sign in (1.0, -1.0):
-            s = np.where(quadratic, (-b + sign * root) / (2.0 * a), -c / b)
-            inside = (b * b - 4.0 * a * c >= 0.0) & (s > 0.0) & (s < 1.0)
-            s = np.where(inside, s, 0.0)
-            times.append(t0[:, None] + s * h)
-            values.append(hermite(s, y0, d0, y1, d1)[0])
-    return np.vstack(times), np.vstack(values)
+        discriminant = b * b - 4.0 * a * d0
+        root = np.sqrt(np.maximum(discriminant, 0.0)) * _SIGNS_OF_ROOTS
+        quadratic = np.abs(a) > 1e-12 * (np.abs(b) + np.abs(d0))
+        s = np.where(quadratic, (root - b) / (2.0 * a), -d0 / b)  # (2, k, c)
+        s = np.where((discriminant >= 0.0) & (s > 0.0) & (s < 1.0), s, 0.0)
+    values = y0 + s * (d0 + s * (c2 + s * c3))
+    count = y0.shape[1]
+    return (t0[:, None] + s * h).reshape(-1, count), values.reshape(-1, count)
+
+
+_SIGNS_OF_ROOTS = np.array([1.0, -1.0])[:, None, None]
 
 
 class OutputPeaks:
@@ -476,14 +472,3 @@ def cubic_motion(fractions, h, cubic) -> tuple[np.ndarray, np.ndarray]:
     lengths = ((c3 * s + c2) * s + c1) * s + c0
     slope = (3.0 * c3 * s + 2.0 * c2) * s + c1
     return lengths, slope / h
-
-
-def hermite(s, y0, d0, y1, d1):
-    """The cubic through `y0`, `y1` with slopes `d0`, `d1` (per unit of `s`) at s = 0, 1,
-    and its slope, at `s`."""
-    s2, s3 = s * s, s * s * s
-    value = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * d0
-    value += (3 * s2 - 2 * s3) * y1 + (s3 - s2) * d1
-    slope = (6 * s2 - 6 * s) * y0 + (3 * s2 - 4 * s + 1) * d0
-    slope += (6 * s - 6 * s2) * y1 + (3 * s2 - 2 * s) * d1
-    return value, slope
