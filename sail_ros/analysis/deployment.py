@@ -22,6 +22,7 @@ from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
 from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, SampledSteps, hermite_motion
+from sail_ros.model.profiles import motion_over
 from sail_ros.model.record import StateSample, take
 from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.policy import OutOfRangeError, Policy
@@ -328,9 +329,7 @@ def run_deployment(
             kept = before
     wall = time.perf_counter() - started
     t, q, qd = t_eval[:kept], q[:kept], qd[:kept]
-    lengths, rates = np.empty((kept, 4)), np.empty((kept, 4))
-    for i, ti in enumerate(t):
-        lengths[i], rates[i] = scenario.profile(ti)[:2]
+    lengths, rates, _ = motion_over(scenario.profile, t)
     sampled = model.sample(t, lengths, rates, q, qd)
     if watch.tips is not None:
         sampled = sampled._replace(tips=watch.tips[:kept])

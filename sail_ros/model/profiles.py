@@ -32,6 +32,21 @@ class Profile(Protocol):
         """True if no boom moves between `t0` and `t1` [s] (optional for a profile)."""
 
 
+def motion_over(profile, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`profile`'s `(lengths [m], rates [m/s], accelerations [m/s^2])` at each of `times`
+    [s] (m,), each (m, 4): in one pass where the profile can (its `over`), else one call
+    per time."""
+    over = getattr(profile, "over", None)
+    found = None if over is None else over(times)
+    if found is not None:
+        return found
+    columns = [np.empty((len(times), 4)) for _ in range(3)]
+    for i, t in enumerate(times):
+        for column, values in zip(columns, profile(float(t)), strict=True):
+            column[i] = values
+    return tuple(columns)
+
+
 class StaticProfile:
     """Booms held at fixed lengths [m]."""
 
@@ -107,6 +122,21 @@ class CycloidalProfile:
             return self.end, self._zero, self._zero
         lengths, rates, accelerations = np.array([self.boom_at(k, t) for k in _BOOMS_K]).T
         return lengths, rates, accelerations
+
+    def over(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`(lengths [m], rates [m/s], accelerations [m/s^2])` at each of `times` [s] (m,),
+        each (m, 4), in one pass (`motion_over`)."""
+        tau = np.clip((np.asarray(times, dtype=float)[:, None] - self.t0) / self.duration, 0.0, 1.0)
+        travel, angle = self.end - self.start, 2.0 * math.pi * tau
+        moving = (tau > 0.0) & (tau < 1.0)
+        lengths = np.where(
+            tau >= 1.0, self.end, self.start + travel * (tau - np.sin(angle) / (2.0 * math.pi))
+        )
+        rates = np.where(moving, travel / self.duration * (1.0 - np.cos(angle)), 0.0)
+        accelerations = np.where(
+            moving, travel * (2.0 * math.pi / self.duration**2) * np.sin(angle), 0.0
+        )
+        return np.where(tau <= 0.0, self.start, lengths), rates, accelerations
 
     def boom_at(self, k: int, t: float) -> tuple[float, float, float]:
         """Boom `k`'s `(length [m], rate [m/s], acceleration [m/s^2])` at `t` [s] as plain
@@ -409,6 +439,17 @@ class BoomMotion:
 
     def is_static(self, t0, t1) -> bool:
         return all(p.is_static(t0, t1) for p in self._distinct)
+
+    def over(self, times):
+        """As `CycloidalProfile.over`, each boom from its own profile; None unless every
+        profile has `over`."""
+        if not all(hasattr(p, "over") for p in self._distinct):
+            return None
+        found = {id(p): p.over(times) for p in self._distinct}
+        return tuple(
+            np.column_stack([found[id(p)][part][:, k] for k, p in enumerate(self.profiles)])
+            for part in range(3)
+        )
 
     def extremes(self):
         """As `StaticProfile.extremes`, each boom from its own profile."""

@@ -163,3 +163,22 @@ def test_static_profile():
     lengths, rates, accelerations = StaticProfile([10, 11, 12, 13])(5.0)
     np.testing.assert_array_equal(lengths, [10, 11, 12, 13])
     assert not rates.any() and not accelerations.any()
+
+
+def test_a_motion_over_many_times_is_the_profile_at_each():
+    """`profiles.motion_over`: a cycloidal profile, booms of several profiles, and a
+    profile without `over` (one call per time) give what the profile gives at each time,
+    to the bit, before, during and after the motion."""
+    from sail_ros.model.profiles import BoomMotion, motion_over
+
+    times = np.concatenate([np.linspace(-1.0, 17.0, 181), [1.0, 6.0, 16.0]])
+    cycloidal = CycloidalProfile([10.0, 11.0, 12.0, 13.0], 15.0, 5.0, t0=1.0)
+    slower = CycloidalProfile(10.0, 14.0, 15.0, t0=1.0)
+    profiles = [cycloidal, BoomMotion([cycloidal, slower, cycloidal, slower]),
+                BoomMotion([cycloidal, StaticProfile(12.0), slower, slower])]  # fmt: skip
+    assert hasattr(profiles[2], "over") and profiles[2].over(times) is None  # a static boom
+    for profile in profiles:
+        found = motion_over(profile, times)
+        for part, values in enumerate(found):
+            expected = np.array([profile(float(t))[part] for t in times])
+            assert values.shape == (times.size, 4) and np.array_equal(values, expected)
