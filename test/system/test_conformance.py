@@ -630,7 +630,10 @@ def test_every_reader_gives_every_message_with_the_same_names_and_values(decoded
 
 
 def test_log_series_reads_the_values_every_reader_reads(decoded, logs):
-    """`log_series` (what `sail-ros report` uses) against each strict reader."""
+    """`log_series` (what `sail-ros report` uses) against each strict reader; a topic no
+    reader finds in a log is no series (the killed recorder's chunks, written before its
+    subscription to a topic had matched, can hold none of that topic's messages: seen
+    once for the tip deflections)."""
     series_of = {
         topics.BOOM_STATE: "boom",
         topics.TIP_DEFLECTION: "tips",
@@ -651,6 +654,9 @@ def test_log_series_reads_the_values_every_reader_reads(decoded, logs):
                     m["header"]["stamp"]["sec"] * 10**9 + m["header"]["stamp"]["nanosec"]
                     for m in messages
                 ]
+                if read is None:
+                    assert not stamps, where
+                    continue
                 assert read.stamp_ns.tolist() == stamps, where
                 assert all(m["name"] == read.names for m in messages), where
                 for field in ("position", "velocity", "effort"):
