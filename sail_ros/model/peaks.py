@@ -36,7 +36,10 @@ PEAK_PHASE = 0.5  # rad of the slow part's highest frequency between two samples
 # the cubic Hermite's error over a sine sampled every PEAK_PHASE rad, of its amplitude
 PEAK_ERROR = PEAK_PHASE**4 / 384.0
 MAX_SPACING_S = 0.01  # s: at least 100 Hz, however slow the modes
-BATCH_STEPS = 16  # steps sampled together (`OutputPeaks`)
+BATCH_STEPS = 16  # steps sampled together (`OutputPeaks`) ...
+# ... and no more than this many coordinates times steps: past it the stacked arrays
+# outgrow the caches (at n = 160, 16 steps at a time cost what one did, 4 a fifth less)
+BATCH_COORDINATES = 640
 
 
 class Peak(NamedTuple):
@@ -192,7 +195,8 @@ class OutputPeaks:
     free hub's heave, tilts and tilt magnitude.
 
     Steps are kept as they are taken and sampled in batches of 1, 2, 4, ... up to
-    `batch_steps`, and when the peaks are read (`flush`): numpy's cost per call, more
+    `batch_steps` (`BATCH_STEPS`, `BATCH_COORDINATES`), and when the peaks are read
+    (`flush`): numpy's cost per call, more
     than the arithmetic, is what a step's hundred samples cost (`rational.Curves`). A
     step's spacing (`spacings`) takes the outputs' largest values from below inside a
     batch (`_scales`), so its samples are never the farther apart.
@@ -202,7 +206,8 @@ class OutputPeaks:
         peak_phase: rad of the interpolant's slow part's highest frequency between two
             samples (`spacing`).
         max_spacing: longest time between two samples [s].
-        batch_steps: steps sampled together (default `BATCH_STEPS`).
+        batch_steps: steps sampled together (default `BATCH_STEPS`, fewer for large
+            models: `BATCH_COORDINATES`).
         check: callable `check(SampledSteps)` before a batch's samples are searched,
             returning a time [s] after which none is (a run stopped there), or None.
     """
@@ -222,7 +227,9 @@ class OutputPeaks:
         self.model = model
         self.peak_phase = float(peak_phase)
         self.max_spacing = float(max_spacing)
-        self.batch_steps = BATCH_STEPS if batch_steps is None else int(batch_steps)
+        if batch_steps is None:
+            batch_steps = min(BATCH_STEPS, max(1, BATCH_COORDINATES // model.n))
+        self.batch_steps = int(batch_steps)
         self.check = check
         # (8, n): tips, then EI psi''(0) on each boom; a free hub's z_h, theta_x, theta_y
         self.rows = model.length_free_rows
