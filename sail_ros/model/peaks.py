@@ -8,8 +8,8 @@ moments of the reference deployment's small booms were off by up to 9.5 %).
 `OutputPeaks` watches a `SailStepper` (its `on_step`): it samples the tip
 deflections and root moments inside every step on the step's own curve
 (`SailStepper.last_curve`: exact at rest, the step's continuous extension while the
-booms move), `BATCH_STEPS` steps at a time, and keeps the largest |value| of each
-output with its time. Between two samples the output is the cubic Hermite through their
+booms move), up to `BATCH_STEPS` steps at a time, and keeps the largest |value| of
+each output with its time. Between two samples the output is the cubic Hermite through their
 values and rates (`PeakSearch`), whose error for a sine sampled every `phi` rad
 is `phi^4 / 384` of its amplitude (a 1 kHz sampling misses up to 1 - cos(omega /
 2 kHz) of it: 1 % of a 47 Hz mode). The samples are close enough that this error
@@ -196,15 +196,15 @@ class OutputPeaks:
 
     Steps are kept as they are taken and sampled in batches of 1, 2, 4, ... up to
     `batch_steps` (`BATCH_STEPS`, `BATCH_COORDINATES`), and when the peaks are read
-    (`flush`): numpy's cost per call, more
-    than the arithmetic, is what a step's hundred samples cost (`rational.Curves`). A
-    step's spacing (`spacings`) takes the outputs' largest values from below inside a
-    batch (`_scales`), so its samples are never the farther apart.
+    (`flush`): numpy's cost per call, more than the arithmetic, is what a step's hundred
+    samples cost (`rational.Curves`). A step's spacing (`spacings`) takes the outputs'
+    largest values from below inside a batch (`_scales`), so its samples are never the
+    farther apart.
 
     Args:
         model: the `SailModel` the stepper integrates.
         peak_phase: rad of the interpolant's slow part's highest frequency between two
-            samples (`spacing`).
+            samples (`spacings`).
         max_spacing: longest time between two samples [s].
         batch_steps: steps sampled together (default `BATCH_STEPS`, fewer for large
             models: `BATCH_COORDINATES`).
@@ -362,8 +362,7 @@ class OutputPeaks:
         `_grow_scale`)."""
         ends = np.abs(np.array([step.q1 for step in queue]) @ self.rows.T)
         ends[:, 4:8] /= lengths**2
-        before = np.maximum.accumulate(np.vstack([self.scale, ends[:-1]]), axis=0)
-        return before
+        return np.maximum.accumulate(np.vstack([self.scale, ends[:-1]]), axis=0)
 
     def spacings(self, slow, omega=None, amplitude=None, shortest=None, scale=None) -> np.ndarray:
         """The time [s] between two samples of each of S steps (S,): `peak_phase` rad of
