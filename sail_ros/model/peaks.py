@@ -302,6 +302,7 @@ class OutputPeaks:
         lengths0, rates0, lengths1, rates1 = (
             np.array([step[i] for step in queue]) for i in range(1, 5)
         )
+        longest = np.maximum(lengths0, lengths1)
         curves = [step.curve for step in queue]
         if isinstance(curves[0], Rest):
             h = np.array([rest.h for rest in curves])
@@ -312,9 +313,8 @@ class OutputPeaks:
             batch = Curves(curves)
             h, slow = batch.h, np.array([curve.slow for curve in curves])
             omega, amplitude = batch.followed(self.rows)
-            scale = self._scales(queue, np.maximum(lengths0, lengths1))
-            shortest = np.minimum(lengths0, lengths1)
-            spacing = self.spacings(slow, omega, amplitude, shortest, scale)
+            scale = self._scales(queue, longest)
+            spacing = self.spacings(slow, omega, amplitude, np.minimum(lengths0, lengths1), scale)
             jumps = [curve.jumps() for curve in curves]
         counts = np.maximum(1, np.ceil(h / spacing - 1e-9)).astype(int)
         own = [step_fractions(int(count), jump) for count, jump in zip(counts, jumps, strict=True)]
@@ -334,7 +334,7 @@ class OutputPeaks:
         # the largest |value| over each step's own samples
         starts = np.concatenate([[0], np.cumsum(sizes[:-1, 0])])
         largest = np.maximum.reduceat(np.abs(y[searched]), starts, axis=0)
-        self._grow_scale(largest, np.maximum(lengths0, lengths1))
+        self._grow_scale(largest, longest)
         return SampledSteps(t0, h, lengths0, rates0, lengths1, rates1, step, fractions, y, yd,
                             searched, largest)  # fmt: skip
 

@@ -16,7 +16,6 @@ solve: `Extension` holds them, with the followed modes (`fast_modes`) put in tur
 from __future__ import annotations
 
 import functools
-import math
 from math import factorial
 
 import numpy as np
@@ -105,9 +104,9 @@ class Extension:
     `vibration`), whose part the extension's samples leave (`kept`) and take turned
     instead (`free`); `curve` and `followed` for the peaks (`Curves`, of this step
     alone). `slow` [rad/s]: what bounds the frequencies of all but the followed modes
-    in its samples (`SailStepper.last_curve`), or nan where not given."""
+    in its samples (`SailStepper.last_curve`)."""
 
-    def __init__(self, extensions: tuple, vibration: tuple, h: float, slow: float = math.nan):
+    def __init__(self, extensions: tuple, vibration: tuple, h: float, slow: float):
         self.extensions = extensions
         self.parts = len(extensions)
         self.h = h
@@ -119,12 +118,6 @@ class Extension:
     def curves(self) -> Curves:
         """This step alone as `Curves`."""
         return Curves((self,))
-
-    @property
-    def omega_d(self) -> np.ndarray:
-        """(parts, count): the followed modes' damped frequencies [rad/s] at each part's
-        end of the step."""
-        return self.curves.omega_d[0]
 
     @functools.cached_property
     def V(self) -> np.ndarray:  # noqa: N802 (the matrix names of `FrozenModes`)
@@ -184,7 +177,7 @@ class Curves:
     modes are padded to the most any has (`count`) with null ones (no shape, frequency 0,
     amplitude 0), which add nothing to its curve.
 
-    Attributes (S steps): `h` (S,) [s]; `counts` (S,) each step's followed modes; `V`,
+    Attributes (S steps): `h` (S,) [s]; `count` the most followed modes of any; `V`,
     `MV` (S, parts, n, count) their shapes and `M V` at each part's end; `omega_d`,
     `decay`, `static` (S, parts, count) (`decay` None: all undamped); `on_e`, `on_v`
     (S, parts, 2 count) (`fast_modes.turning`).
@@ -200,8 +193,7 @@ class Curves:
         # `Curves`: no reference cycle keeps a step's matrices alive after it)
         self._extensions = [step.extensions for step in steps]
         self.h = np.array([step.h for step in steps])
-        self.counts = np.array([step.count for step in steps])
-        count = self.count = int(self.counts.max())
+        count = self.count = max(step.count for step in steps)
         shape = (len(steps), self.parts)
         self.V, self.MV = np.zeros((*shape, n, count)), np.zeros((*shape, n, count))
         omega_d, decay = np.zeros((*shape, count)), np.zeros((*shape, count))
