@@ -117,11 +117,26 @@ class LogSeries:
     def sail_parameters(self) -> SailParameters | None:
         """`SailParameters` from the recorded `sail.<field>` values (None if not recorded).
 
+        An automatic membrane count (`n_membrane_modes` 0) is pinned to the one the
+        simulator ran: the membrane coordinates of `/sail/modal_state`, or, without them,
+        the count its recorded initial lengths resolve.
+
         Raises ValueError naming the parameter when a recorded value is invalid.
         """
         if not self.parameters:
             return None
-        return topics.sail_parameters_from_record(self.parameters)
+        params = topics.sail_parameters_from_record(self.parameters)
+        if params is None or params.n_membrane_modes:
+            return params
+        if self.modal is not None:
+            count = sum(name.startswith("membrane_ab_") for name in self.modal.names)
+            return params.replace(n_membrane_modes=count) if count else params
+        lengths = self.parameters.get("initial_lengths")
+        try:
+            shortest = min(yaml_values.load(lengths)) if lengths else 0.0
+        except (TypeError, ValueError, yaml.YAMLError):
+            shortest = 0.0
+        return params.resolved(shortest)
 
 
 def _joint_series(messages) -> JointSeries | None:

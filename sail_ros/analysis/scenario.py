@@ -211,6 +211,12 @@ class Scenario:
     loads: LoadSchedule | None = None
     labels: dict = dataclasses.field(default_factory=lambda: dict(FILE_LABELS))
 
+    @property
+    def shortest_length(self) -> float:
+        """The shortest any boom gets over the profile [m] (what the automatic membrane
+        mode count resolves, `SailParameters.resolved`)."""
+        return float(np.min(self.profile.extremes()[0]))
+
     def initial_state(self, model: SailModel) -> tuple[np.ndarray, np.ndarray]:
         """`(q0, qd0)` for `model` (coordinates [m], velocities [m/s])."""
         q0 = np.zeros(model.n)

@@ -89,7 +89,7 @@ class SimNode(Node):
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
         try:
-            model = SailModel(config.sail)
+            model = SailModel(config.resolved_sail)
         except ValueError as error:  # mode counts whose integrals would not fit
             raise ConfigError(f"sail.n_boom_modes, sail.n_membrane_modes: {error}") from None
         self.surface = SailSurface(model, config.shape_divisions)

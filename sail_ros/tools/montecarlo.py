@@ -34,6 +34,7 @@ from sail_ros.analysis.montecarlo import (
     load_study,
     run_sample,
     sample_scenario,
+    study_sail,
     summarize,
 )
 from sail_ros.cli import ToolParser, help_epilog
@@ -89,7 +90,7 @@ def _montecarlo(args) -> int:
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: a file, not a folder")
     config = configuration(args)
-    base_sail = config.sail.to_dict()
+    base_sail = study_sail(study, config.sail).to_dict()
     config.check(check_study, study, base_sail, config.policy)
     cases = [(study, index, base_sail, config.policy) for index in range(study.samples)]
     print(f"Study {args.study}: {study.samples} samples, seed {study.seed}")

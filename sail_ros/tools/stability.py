@@ -173,7 +173,7 @@ def _stability(args) -> int:
     if points < 2:
         raise ValueError(f"--points must be >= 2, got {points}")
     total = len(lengths) * len(args.rates) * points
-    n = 4 * (params.n_boom_modes + params.n_membrane_modes)
+    n = 4 * (params.n_boom_modes + params.resolved(min(lengths)).membrane_modes)
     # per point: prestress, max Re, max |lambda|, unstable; the loci: 2n eigenvalues
     fewer = "fewer --points, --lengths or --rates"
     Policy.check_output(total, 4 * 8, "the stability grid", fewer)

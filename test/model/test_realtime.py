@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from harness import SMALL, SMALL_SIM
 from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -60,7 +61,7 @@ class Outputs:
 
 @pytest.fixture(scope="module")
 def model():
-    return SailModel()
+    return SailModel(SMALL)
 
 
 def make_run(model, **values):
@@ -68,7 +69,7 @@ def make_run(model, **values):
     periods = []
     run = RealTimeRun(
         model,
-        config_from_values(values),
+        config_from_values({**SMALL_SIM, **values}),
         outputs,
         START_NS,
         clock=clock,
@@ -324,7 +325,7 @@ def test_commands_published_before_the_start_are_ignored_and_counted(model):
     assert len(outputs.answered) == 1  # a repeat of a sample is not a new command
 
 
-FREE = {"sail.free_hub": True, "sail.hub_mass": 20.0, "sail.hub_inertia_x": 10.0,
+FREE = {**SMALL_SIM, "sail.free_hub": True, "sail.hub_mass": 20.0, "sail.hub_inertia_x": 10.0,
         "sail.hub_inertia_y": 10.0}  # fmt: skip
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import DOMAIN_ID
+from harness import DOMAIN_ID, SMALL_SIM
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, SetParameters
 from rclpy.event_handler import PublisherEventCallbacks
@@ -54,6 +54,7 @@ def ros(monkeypatch, tmp_path):
             executor.spin_once(timeout_sec=0.01)
 
     def start(**parameters):
+        parameters = {**SMALL_SIM, **parameters}
         overrides = [Parameter(name, value=value) for name, value in parameters.items()]
         sim = SimNode(overrides, context=context)
         sim.start()

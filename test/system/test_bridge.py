@@ -26,7 +26,7 @@ from pathlib import Path
 
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import JS, spin_until
+from harness import JS, SMALL_SIM, spin_until
 from mcap.reader import make_reader
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
@@ -127,7 +127,9 @@ def stop(*tools) -> None:
 
 
 def test_foxglove_client_sees_the_log_and_commands_the_sail(processes, js_readers, tmp_path):  # noqa: F811
-    sim = processes("sim", parameters={"shape_divisions": 4, "diagnostics_rate_hz": 2.0})
+    sim = processes(
+        "sim", parameters={**SMALL_SIM, "shape_divisions": 4, "diagnostics_rate_hz": 2.0}
+    )
     bag = tmp_path / "bag"
     recorder = processes("recorder", "-o", str(bag))
     served = processes("bridge", "--port", "0", "--diagnostics-period-s", "0.5")
@@ -253,7 +255,7 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     # big shapes, often (190 kB at 25 Hz): the stalled client's socket buffers (small: it
     # stalls before it read anything, so the kernel did not grow them) and its queue fill
     # early in the stall; the reading client takes the state only
-    processes("sim", parameters={"shape_divisions": 20, "shape_rate_hz": 25.0})
+    processes("sim", parameters={**SMALL_SIM, "shape_divisions": 20, "shape_rate_hz": 25.0})
     served = processes(
         "bridge", "--port", "0", "--client-queue", "32", "--diagnostics-period-s", "0.5"
     )

@@ -16,6 +16,7 @@ import os
 import time
 
 import pytest
+from harness import SMALL_SIM
 from std_msgs.msg import Float64
 
 from sail_ros import topics
@@ -62,7 +63,7 @@ def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operato
         lambda message, info: states.append(info["source_timestamp"]),
         topics.STATE_QOS,
     )
-    processes("sim", parameters={"diagnostics_rate_hz": 4.0})
+    processes("sim", parameters={**SMALL_SIM, "diagnostics_rate_hz": 4.0})
     operator.wait_for_simulator()
     quiet = operator.wait_for_status(lambda s: True, 5.0, "a status before the quiet phase")
     quiet_first = len(states)

@@ -16,7 +16,7 @@ import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from harness import ROOT
+from harness import ROOT, SMALL, SMALL_SIM
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
@@ -34,7 +34,7 @@ from sail_ros.model.profiles import BoomMotion, SwitchedProfile
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.policy import Policy
 from sail_ros.runtime.commands import BoomState, Rules, plan_deploy, plan_trajectory
-from sail_ros.runtime.config import DEFAULTS, config_from_values
+from sail_ros.runtime.config import config_from_values
 from sail_ros.runtime.realtime import COMMAND_LINES, RTF_MIN_WINDOW_S
 from sail_ros.runtime.simulation import Simulation
 
@@ -95,7 +95,12 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
     tip0 = [0.1, 0.0, 0.0, 0.0]
     sim = processes(
         "sim",
-        parameters={"time_scale": 4.0, "initial_tip_deflection": tip0, "diagnostics_rate_hz": 10.0},
+        parameters={
+            **SMALL_SIM,
+            "time_scale": 4.0,
+            "initial_tip_deflection": tip0,
+            "diagnostics_rate_hz": 10.0,
+        },
     )
     bag = tmp_path / "bag"
     recorder = processes("recorder", "-o", str(bag))
@@ -146,7 +151,7 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
     assert rates == pytest.approx(np.array([e[1] for e in expected]), abs=1e-7)
     assert lengths[-1] == pytest.approx([13.0, 11.0, 12.0, 12.0])
 
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     t_tip, tips, tip_rates = series(operator.states[topics.TIP_DEFLECTION], epoch)
     t_grid, q, qd = model.simulate_on_grid(
         motion, t_tip[-1] + 0.5 * STEP, STEP, model.initial_coordinates(tip0), max_step=MODEL_STEP
@@ -208,7 +213,9 @@ BAD_COMMANDS = [
 def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator):
     """Real time; then pause, resume and reset through the services."""
     tip0 = [0.0, 0.02, 0.0, -0.01]
-    sim = processes("sim", parameters={"initial_tip_deflection": tip0, "diagnostics_rate_hz": 20.0})
+    sim = processes(
+        "sim", parameters={**SMALL_SIM, "initial_tip_deflection": tip0, "diagnostics_rate_hz": 20.0}
+    )
     operator.wait_for_simulator()
     for count, (command, reason) in enumerate(BAD_COMMANDS, start=1):
         publisher = operator.deploy if isinstance(command, Float64) else operator.trajectory
@@ -228,7 +235,7 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     _, lengths, rates = series(operator.states[topics.BOOM_STATE], epoch)
     assert np.all(lengths == 10.0) and np.all(rates == 0.0)
     t, q, _ = series(operator.states[topics.MODAL_STATE], epoch)
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     _, q_alone, _ = model.simulate(
         StaticProfile(10.0), t[-1], model.initial_coordinates(tip0), t_eval=t, max_step=STEP
     )
@@ -307,7 +314,7 @@ def test_divergence_is_an_error_before_anything_non_finite_until_reset(
             }
         )
     )
-    sim = processes("sim", "--ros-args", "--params-file", str(params))
+    sim = processes("sim", "--ros-args", "--params-file", str(params), parameters=SMALL_SIM)
     # diagnostics go on in the error state (the states stop), so this needs no head start
     error = operator.wait_for_status(
         lambda s: s["level"] == DiagnosticStatus.ERROR, 30.0, "the ERROR diagnostic"
@@ -394,7 +401,7 @@ def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
     switches still fall on the simulator's step ends (`SWITCH_RESOLUTION`); the tolerance's
     choices of step may then differ where an error lies at its threshold, and the tips
     stay within 1e-5 of their peak."""
-    config = config_from_values({**DEFAULTS, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
+    config = config_from_values({**SMALL_SIM, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
     model = SailModel(config.sail)
     sim = Simulation(model, config)
     while sim.t < 0.5 - 1e-9:

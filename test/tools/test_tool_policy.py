@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from harness import ROOT, run_tool
+from harness import ROOT, SMALL, SMALL_SET, run_tool
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
@@ -109,7 +109,19 @@ def test_a_run_that_leaves_the_linear_range_stops_with_the_alarm_and_keeps_its_l
     length: the run stops there with the simulator's alarm, the log holds the run up to
     the sample before, and the exit code is 1."""
     log = tmp_path / "retract.mcap"
-    argv = ["--from", "15", "--to", "10", "--tip", "4", "--rate", "10", "--mcap", str(log)]
+    argv = [
+        *SMALL_SET,
+        "--from",
+        "15",
+        "--to",
+        "10",
+        "--tip",
+        "4",
+        "--rate",
+        "10",
+        "--mcap",
+        str(log),
+    ]
     code, out, err = run_tool("deploy", argv)
     assert code == 1
     warning, alarm = err.strip().splitlines()
@@ -135,7 +147,7 @@ def test_a_run_that_leaves_the_linear_range_stops_with_the_alarm_and_keeps_its_l
 
 
 def test_output_sizes_are_refused_with_the_estimate(tmp_path):
-    code, _, err = run_tool("deploy", ["--duration", "1e7", "--to", "10"])
+    code, _, err = run_tool("deploy", [*SMALL_SET, "--duration", "1e7", "--to", "10"])
     assert code == 2
     assert err == (
         "error: the run over 1e+07 s (a table row every 1 s): 1e+07 samples would take 15.1 "
@@ -144,7 +156,7 @@ def test_output_sizes_are_refused_with_the_estimate(tmp_path):
     )
     scenario = tmp_path / "long.yaml"
     scenario.write_text("scenario: {duration: 1.0e9, profile: {type: static, lengths: 10.0}}\n")
-    code, _, err = run_tool("deploy", ["--scenario", str(scenario), "--every", "1e3"])
+    code, _, err = run_tool("deploy", [*SMALL_SET, "--scenario", str(scenario), "--every", "1e3"])
     assert code == 2 and "1e+06 samples would take 1.51 GiB" in err
 
 
@@ -194,12 +206,12 @@ def test_montecarlo_checks_the_base_scenario_and_each_draw(tmp_path):
             }
         }  # fmt: skip
     )
-    row = run_sample((quicker, 0, SailParameters().to_dict(), Policy()))
+    row = run_sample((quicker, 0, SMALL.to_dict(), Policy()))
     prefix, _, rest = row["error"].partition(" would move at ")
     assert prefix == "ValueError: scenario.profile: boom_c"
     speed, _, limit = rest.partition(" m/s, ")
     assert 2 * 5 / 15 * 1.6 <= float(speed) <= 2 * 5 / 15 * 1.7 and limit == "above max_rate 1 m/s"
-    row = run_sample((quicker, 0, SailParameters().to_dict(), Policy(max_rate=1.2)))
+    row = run_sample((quicker, 0, SMALL.to_dict(), Policy(max_rate=1.2)))
     assert row["error"] == "" and np.isfinite(row["peak_tip_m"])
 
 

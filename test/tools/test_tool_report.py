@@ -4,7 +4,7 @@ import csv
 
 import numpy as np
 import pytest
-from harness import assert_figure, assert_png
+from harness import SMALL, SMALL_SET, assert_figure, assert_png
 from rcl_interfaces.msg import ParameterEvent
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
@@ -30,7 +30,7 @@ def deploy_log(tmp_path_factory):
     """The reference deployment's first 4 s at 25 Hz, shapes at 5 Hz."""
     folder = tmp_path_factory.mktemp("deploy")
     path = folder / "run.mcap"
-    assert deploy.main(["--t-end", "4", "--rate", "25", "--mcap", str(path)]) == 0
+    assert deploy.main([*SMALL_SET, "--t-end", "4", "--rate", "25", "--mcap", str(path)]) == 0
     return path
 
 
@@ -60,7 +60,7 @@ def test_report_of_a_deploy_log(deploy_log, tmp_path, capsys, figure_checks):
     energies = _rows(out / "energies.csv")
     first = energies[0]
     # boom a bent in its first mode at rest: all energy is boom a's strain energy
-    model = SailModel()
+    model = SailModel(SMALL)
     q0 = model.mode_state("a", 0.1)
     assert float(first["total_J"]) == pytest.approx(model.energy(q0, 0 * q0, 10.0), rel=1e-9)
     assert float(first["boom_a_J"]) == pytest.approx(float(first["total_J"]), rel=1e-9)
@@ -311,7 +311,8 @@ def test_report_of_a_free_hub_log_gives_its_peaks_figure_and_states(
 
     log_path = tmp_path / "hub.mcap"
     scenario = CONFIG / "scenario_free_hub.yaml"
-    assert deploy.main(["--scenario", str(scenario), "--rate", "10", "--mcap", str(log_path)]) == 0
+    argv = [*SMALL_SET, "--scenario", str(scenario), "--rate", "10", "--mcap", str(log_path)]
+    assert deploy.main(argv) == 0
     out = tmp_path / "report"
     assert report.main([str(log_path), "--out", str(out), "--no-convergence"]) == 0
     text = capsys.readouterr().out

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import scipy.optimize
+from harness import SMALL
 
 from sail_ros.analysis.stability import (
     CRITICAL,
@@ -11,12 +12,12 @@ from sail_ros.analysis.stability import (
     is_unstable,
     prestress_sweep,
 )
-from sail_ros.model import SailModel, SailParameters
+from sail_ros.model import SailModel
 from sail_ros.tools import stability
 
 pytestmark = pytest.mark.model
 
-PARAMS = SailParameters()
+PARAMS = SMALL
 L = PARAMS.full_boom_length
 
 
