@@ -117,6 +117,7 @@ class SimNode(Node):
             for name in published
         }
         self._ticker = None
+        self._clock_ns = -1  # the last /clock published [ns]
         self.run = RealTimeRun(
             model,
             config,
@@ -321,7 +322,19 @@ class SimNode(Node):
 
     def state(self, stamp_ns: int, sample) -> None:
         for name, data in self._states.serialize(stamp_ns, sample):
+            if name == topics.CLOCK and not self._clock_moved(stamp_ns):
+                continue
             self._outputs[name].publish(data)  # CDR bytes of `messages.state.state_messages`
+
+    def _clock_moved(self, stamp_ns: int) -> bool:
+        """Whether /clock may go out at `stamp_ns` [ns]: only forward, never the same
+        time twice (a reset's own sample repeats the stamp of the state it leaves, and a
+        status repeats the latest sample's), so a `use_sim_time` node never sees its
+        clock stand still on a message; noted as published if so."""
+        if stamp_ns <= self._clock_ns:
+            return False
+        self._clock_ns = stamp_ns
+        return True
 
     def shape(self, stamp_ns: int, q, lengths) -> None:
         self._outputs[topics.SHAPE].publish(  # CDR bytes of `messages.shape.shape`
@@ -336,7 +349,8 @@ class SimNode(Node):
                 stamp_ns, level, message, values, self.get_fully_qualified_name()
             )
         )
-        if topics.CLOCK in self._outputs:  # fresh for late joiners, also while paused
+        # the time reached since the last state sample (fewer samples than grid steps)
+        if topics.CLOCK in self._outputs and self._clock_moved(stamp_ns):
             self._outputs[topics.CLOCK].publish(state_msg.clock(stamp_ns))
 
     def answers(self, answers: list[commands_msg.CommandAnswer]) -> None:

@@ -167,6 +167,25 @@ def test_as_fast_as_possible_publishes_clock(ros):
     assert clock / 1e7 == pytest.approx(np.round(clock / 1e7), abs=1e-6)
 
 
+def test_clock_never_repeats_a_stamp(ros):
+    """/clock moves forward with every message: through statuses (20 a second here, each
+    at the latest sample's time), a pause and a reset (whose own sample repeats the stamp
+    of the state it leaves), so a `use_sim_time` node never sees its clock stand still."""
+    sim, client, spin_until = ros(
+        time_scale=2.0, diagnostics_rate_hz=20.0, shape_rate_hz=0.0, state_rate_hz=20.0
+    )
+    spin_until(lambda: sim.sim.t > 0.5, 5.0, "0.5 s of simulation")
+    call(spin_until, client.pause, SetBool.Request(data=True))
+    spin_until(lambda: len(client.diagnostics) > 10, 5.0, "statuses while paused")
+    call(spin_until, client.pause, SetBool.Request(data=False))
+    spin_until(lambda: sim.sim.t > 1.0, 5.0, "1 s of simulation")
+    call(spin_until, client.reset, Trigger.Request())
+    reset_at = sim.sim.t
+    spin_until(lambda: sim.sim.t > reset_at + 0.5, 5.0, "0.5 s after the reset")
+    stamps = np.array([c.clock.sec * 10**9 + c.clock.nanosec for c in client.clocks])
+    assert len(stamps) > 30 and np.all(np.diff(stamps) > 0), np.diff(stamps).min()
+
+
 def test_pause_resume_and_reset(ros):
     sim, client, spin_until = ros(
         initial_tip_deflection=[0.0, 0.05, 0.0, 0.0], diagnostics_rate_hz=20.0
