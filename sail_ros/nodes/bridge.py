@@ -64,7 +64,7 @@ from sail_ros.bridging.clients import ClientBook, command_refusal
 from sail_ros.bridging.protocol import MESSAGE_ENCODING, Listener, ServerLog, service_schema
 from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
-from sail_ros.ros.commanding import command_publisher
+from sail_ros.ros.commanding import command_publisher, decode
 from sail_ros.ros.parameters import (
     ConfigError,
     ParamSpec,
@@ -312,11 +312,10 @@ class Bridge(Node):
             return
         spec, publisher = self._commands[topic]
         try:
-            deserialize_message(data, spec.message_type)
-        except Exception as error:  # rclpy's RMWError: the bytes are not that message
-            reason = str(error).split(",", 1)[0]
+            decode(data, spec.message_type)
+        except ValueError as error:
             self._refuse(f"client {client_id}: {len(data)} bytes on {topic} are not a "
-                         f"{spec.type_name} in CDR ({reason})")  # fmt: skip
+                         f"{spec.type_name} in CDR ({error})")  # fmt: skip
             return
         publisher.publish(data)
         self.client_book.count(key.CLIENT_COMMANDS)

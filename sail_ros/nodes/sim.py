@@ -49,10 +49,12 @@ from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
+from sail_ros.ros.commanding import decode
 from sail_ros.ros.discovery import subscriptions_of
 from sail_ros.ros.parameters import ConfigError, ParamSpec, declare, node_options
 from sail_ros.ros.taking import take_waiting
 from sail_ros.runtime.config import PARAMETERS, config_from_values
+from sail_ros.runtime.intake import Undecodable
 from sail_ros.runtime.realtime import RealTimeRun
 from sail_ros.runtime.ticker import Ticker
 
@@ -159,9 +161,10 @@ class SimNode(Node):
                 self._commands.create_subscription(
                     topics.TOPICS[name].message_type,
                     name,
-                    lambda message, info, name=name: self._receive(name, message, info),
+                    lambda data, info, name=name: self._receive(name, data, info),
                     qos,
                     event_callbacks=quiet,
+                    raw=True,  # read here: bytes that are no command are answered too
                 ),
             )
             for name in commands
@@ -259,21 +262,25 @@ class SimNode(Node):
                 f"parameter {parameter.name} set to {parameter.value!r} at t = {self.sim.t:.6f} s"
             )
 
-    def _receive(self, name: str, message, info: dict) -> None:
-        """A command from the commands' executor, then every other one already waiting,
-        submitted in the order they arrived (DDS's reception times)."""
+    def _receive(self, name: str, data: bytes, info: dict) -> None:
+        """A command's CDR bytes from the commands' executor, then every other one already
+        waiting, each read as its topic's type and submitted in the order they arrived
+        (DDS's reception times). Bytes that are no such message are submitted as
+        `Undecodable`, to be answered and counted as rejected: a typed subscription
+        would drop them without a word."""
         # With the run's lock held, as a tick: the two then never take turns at the
         # interpreter (every switch interval), which under a flood doubled a tick's wall
         # time; a tick waits for at most one burst, and a burst for at most one tick.
         self._count_listeners()  # before: the graph's lock is not the run's to wait on
         with self.run.lock:
-            taken = [(name, message, info)]
+            taken = [(name, data, info)]
             for other, subscription in self._command_subscriptions:
                 taken.extend(
                     (other, *pair)
                     for pair in take_waiting(subscription, topics.COMMAND_INTAKE_DEPTH)
                 )
             taken.sort(key=lambda command: command[2].get("received_timestamp") or 0)
+            taken = [(topic, _read(topic, data), info) for topic, data, info in taken]
             wake, rest = self._submit_while_room(taken)
         while rest:
             # The queue is full (a burst larger than it, or the sender stalled and then
@@ -393,6 +400,15 @@ class SimNode(Node):
         self._ticker.stop()
         self._commands.destroy_node()
         super().destroy_node()
+
+
+def _read(topic: str, data: bytes):
+    """The command of `topic` that CDR bytes `data` hold, or `Undecodable` saying why not."""
+    kind = topics.TOPICS[topic]
+    try:
+        return decode(data, kind.message_type)
+    except ValueError as error:
+        return Undecodable(len(data), kind.type_name, str(error))
 
 
 class CommandThread:

@@ -238,17 +238,24 @@ class RealTimeRun:
         return False
 
     def _run_commands(self) -> None:
-        """The waiting commands as one batch (`intake.split_batch`): motion commands
-        planned newest first, one a newer accepted one replaces answered superseded
-        unplanned, the accepted ones applied oldest first; then the loads in order. Their
-        answers go out together, one message."""
+        """The waiting commands as one batch (`intake.split_batch`): bytes that are no
+        command rejected, oldest first; motion commands planned newest first, one a
+        newer accepted one replaces answered superseded unplanned, the accepted ones
+        applied oldest first; then the loads in order. Their answers go out together,
+        one message."""
         batch = self.queue.take()
         if not batch:
             return
-        motions, loads = split_batch(batch)
+        unread, motions, loads = split_batch(batch)
         sim = self.sim
         plans = {}
         answers = []
+        for index in unread:
+            error = CommandError(str(batch[index].message))
+            sim.count_rejection(error)
+            answers.append(
+                self._answer(batch[index], commands_msg.REJECTED, str(error), {}, "warning")
+            )
         for index in motions:
             pending = batch[index]
             if covered(batch, index, plans):

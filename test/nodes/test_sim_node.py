@@ -233,6 +233,34 @@ def test_command_times_read_minus_one_when_there_is_none(ros):
     assert float(client.diagnostics[-1][key.LAST_COMMAND_START]) == start  # ...not its record
 
 
+def test_bytes_that_are_no_command_are_answered_and_counted(ros):
+    """CDR bytes on a command topic that are no message of its type (too short for a
+    Float64) are answered rejected, saying so, logged and counted, as the outcome counts
+    must add up to every command received; the well-formed command after them runs."""
+    sim, client, spin_until = ros(diagnostics_rate_hz=20.0, shape_rate_hz=0.0)
+    answers = []
+    client.create_subscription(
+        DiagnosticArray,
+        topics.COMMAND_STATUS,
+        lambda m: answers.extend(commands_msg.command_answers(m)),
+        topics.COMMAND_STATUS_QOS,
+    )
+    deploy = command_publisher(client, topics.DEPLOY_CMD)
+    spin_until(lambda: deploy.get_subscription_count() >= 1, 5.0, "the deploy subscription")
+    time.sleep(0.3)  # the simulator's side of the match too (volatile: nothing before it)
+    deploy.publish(b"\x00\x01\x00\x00\x00")  # a CDR header and one byte of a double
+    deploy.publish(Float64(data=11.0))
+    spin_until(lambda: len(answers) >= 2, 5.0, "two answers")
+    assert [a.outcome for a in answers] == ["rejected", "accepted"], answers
+    assert answers[0].topic == "/sail/deploy_cmd"
+    assert answers[0].message.startswith(
+        "5 bytes are not a std_msgs/msg/Float64 in CDR (failed to deserialize ROS message"
+    ), answers[0].message
+    spin_until(lambda: client.diagnostics[-1][key.ACCEPTED] == "1", 5.0, "the counts")
+    status = client.diagnostics[-1]
+    assert status[key.REJECTED] == "1" and "5 bytes are not a" in status[key.LAST_REJECTION]
+
+
 @pytest.mark.parametrize("wait", ["for a tick", "not at all"])
 def test_a_burst_larger_than_the_queue_waits_for_a_tick_instead_of_being_rejected(
     ros, monkeypatch, wait
