@@ -24,8 +24,8 @@ SAIL_ROS_KILL_TRIALS="${SAIL_ROS_KILL_TRIALS:-20}" \
 # (~2 min; the suite: the main job and the offline blocks)
 trial "the whole README" test_readme_runs_top_to_bottom --slow "$@"
 
-# 1000 valid, then 1000 malformed deploy commands a second, 10 s each, at a simulator
-# that keeps real time and counts every command (~50 s)
+# 1000 valid, then 1000 malformed (NaN), then 1000 undecodable deploy commands a second,
+# 10 s each, at a simulator that keeps real time and counts every command (~60 s)
 trial "a flood of commands" test_a_flood_of_commands_is_held_in_real_time_and_counted --slow "$@"
 
 # SIGINT 0.05 to 1.5 s after `sail-ros sim` starts: no traceback, exit 130 or 0 (~10 s; the
