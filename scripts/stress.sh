@@ -31,3 +31,8 @@ trial "a flood of commands" test_a_flood_of_commands_is_held_in_real_time_and_co
 # SIGINT 0.05 to 1.5 s after `sail-ros sim` starts: no traceback, exit 130 or 0 (~10 s; the
 # suite: the SIGINT sent from inside its imports)
 trial "an early SIGINT" test_a_sigint_soon_after_the_simulator_starts_ends_it_without_a_traceback --slow "$@"
+
+# a scenario of 300000 waypoints at `sail-ros deploy`: refused (max_trajectory_points)
+# before a spline is made; prints the time and memory the refusal took (~15 s; the suite:
+# 1001 waypoints)
+trial "300000 waypoints" test_a_scenario_of_300000_waypoints_is_refused_before_any_work --slow "$@"
