@@ -36,3 +36,9 @@ trial "an early SIGINT" test_a_sigint_soon_after_the_simulator_starts_ends_it_wi
 # before a spline is made; prints the time and memory the refusal took (~15 s; the suite:
 # 1001 waypoints)
 trial "300000 waypoints" test_a_scenario_of_300000_waypoints_is_refused_before_any_work --slow "$@"
+
+# 200 Foxglove clients that subscribe and never read at a running simulator's bridge,
+# then 20000 bad frames: max_clients kept, the rest refused and counted, the memory back
+# once they leave, a few log lines; prints the bridge's memory (~40 s; the suite: 4
+# clients, 300 frames)
+trial "200 clients that never read" test_two_hundred_clients_that_never_read_and_twenty_thousand_bad_frames --slow "$@"
