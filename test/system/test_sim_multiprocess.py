@@ -16,7 +16,7 @@ import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from harness import ROOT
+from harness import ROOT, run_tool
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
@@ -418,3 +418,34 @@ def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
         )  # fmt: skip
         replayed = model.tip_deflections(q[-len(tips) :])
         assert np.abs(replayed - tips).max() <= bound * np.abs(tips).max(), shift
+
+
+def test_a_simulator_restarted_under_the_recorder_is_recorded_as_another_run(
+    processes, operator, tmp_path
+):
+    """A simulator stopped and started again with more boom modes while the recorder runs:
+    the recorder fetches the new simulator's parameters and stores them as a new record
+    where that happened, and `sail-ros report` refuses the log in one line saying what
+    changed, rather than read both runs as one with the old mode counts."""
+    bag = tmp_path / "bag"
+    recorder = processes("recorder", "-o", str(bag))
+    counts = []
+    for boom_modes in (2, 3):
+        sail = {"sail.n_boom_modes": boom_modes, "sail.n_membrane_modes": 2}
+        sim = processes("sim", parameters={**sail, "time_scale": 4.0})
+        stored = "again: it appeared anew" if counts else "parameters of 'sail_sim'"
+        recorder.wait_for_lines([stored])
+        operator.wait_for_simulator(subscribers=2)  # the simulator and the recorder
+        operator.spin_for(0.5)
+        assert sim.stop(signal.SIGINT) == 0, sim.log()
+        counts.append(boom_modes)
+    operator.spin_until_quiet()
+    assert recorder.stop(signal.SIGINT) == 0, recorder.log()
+    records = [d for n, d in BagReader(bag).metadata() if n == topics.PARAMETERS_METADATA]
+    assert [r["sail.n_boom_modes"] for r in records] == ["2", "3"]
+    code, _, err = run_tool("report", [str(bag), "--out", str(tmp_path / "report")])
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(
+        f"error: '{bag}' holds more than one run of the simulator: the sail parameters change "
+        "(sail.n_boom_modes 2 -> 3)"
+    ), err
