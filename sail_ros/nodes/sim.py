@@ -53,6 +53,7 @@ from sail_ros.ros.commanding import decode
 from sail_ros.ros.discovery import subscriptions_of
 from sail_ros.ros.parameters import ConfigError, ParamSpec, declare, node_options
 from sail_ros.ros.taking import take_waiting
+from sail_ros.runtime.affordable import StepCost
 from sail_ros.runtime.config import PARAMETERS, config_from_values
 from sail_ros.runtime.intake import Undecodable
 from sail_ros.runtime.realtime import RealTimeRun
@@ -94,6 +95,9 @@ class SimNode(Node):
             model = SailModel(config.sail)
         except ValueError as error:  # mode counts whose integrals would not fit
             raise ConfigError(f"sail.n_boom_modes, sail.n_membrane_modes: {error}") from None
+        # what a sub-step of this model costs here: how short a min_length it affords
+        self._cost = StepCost.measure(model, config)
+        self._cost.check(model, config)
         self.surface = SailSurface(model, config.shape_divisions)
         self._shape = ShapeSerializer(
             self.surface.triangles, self.surface.boom_stations.size, config.frame_id
@@ -245,9 +249,11 @@ class SimNode(Node):
     # -- parameters, services, commands: the executor's thread -----------------------------------
 
     def _check_parameters(self, parameters) -> SetParametersResult:
-        """On-set: accept a change only if the whole configuration stays valid."""
+        """On-set: accept a change only if the whole configuration stays valid, and its
+        booms at min_length affordable (`StepCost.check`)."""
         try:
-            config_from_values({**self._values, **{p.name: p.value for p in parameters}})
+            config = config_from_values({**self._values, **{p.name: p.value for p in parameters}})
+            self._cost.check(self.sim.model, config)
         except ConfigError as error:
             return SetParametersResult(successful=False, reason=str(error))
         return SetParametersResult(successful=True)

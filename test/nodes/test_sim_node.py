@@ -36,6 +36,8 @@ from sail_ros.ros.commanding import command_publisher
 
 pytestmark = pytest.mark.node
 
+SMALL = {"sail.n_boom_modes": 4, "sail.n_membrane_modes": 6}  # whatever the defaults
+
 
 @pytest.fixture
 def ros(monkeypatch, tmp_path):
@@ -346,6 +348,29 @@ def test_bad_parameter_values_stop_the_start(ros):
         ros(realtime_priority=100)
 
 
+def test_booms_shorter_than_the_model_affords_are_refused_at_start_and_at_run_time(ros):
+    """min_length 7 mm with max_substep_rate 1e7 (both within their ranges) would make a
+    moving grid step take tens of seconds, the simulator deaf to services and signals
+    meanwhile: refused at start, and as a change at run time, whichever of the two
+    parameters comes last; the simulator goes on and answers its reset."""
+    short = {"max_substep_rate": 1e7, "min_length": 0.007, "initial_lengths": [0.007]}
+    with pytest.raises(ConfigError, match=r"^min_length = 0\.007 m would need \d+ sub-steps"):
+        ros(**short)
+    sim, client, spin_until = ros(**SMALL, diagnostics_rate_hz=20.0)
+
+    def set_parameters(**values):
+        parameters = [Parameter(n, value=v).to_parameter_msg() for n, v in values.items()]
+        return call(spin_until, client.set, SetParameters.Request(parameters=parameters))
+
+    assert set_parameters(max_substep_rate=1e7).results[0].successful
+    (result,) = set_parameters(min_length=0.007).results
+    assert not result.successful
+    assert result.reason.startswith("min_length = 0.007 m would need "), result.reason
+    assert "the shortest affordable min_length here is " in result.reason
+    assert sim.config.policy.min_length == 1.0
+    assert call(spin_until, client.reset, Trigger.Request()).success
+
+
 def test_an_integer_is_taken_for_a_double_as_ros_users_type_it(ros):
     """`-p time_scale:=2` (rclpy reads an INTEGER) starts a simulator at 2x."""
     sim, client, spin_until = ros(time_scale=2, max_rate=2)
@@ -374,6 +399,7 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
             "sail.hub_inertia_y": 10.0,
         },  # fmt: skip
         initial_hub_velocity=[0.0, 0.02, -0.01],
+        min_length=2.0,  # a free hub's booms need 4.4 times the sub-steps (runtime.affordable)
     )
     hubs, answers = [], []
     client.create_subscription(Odometry, topics.HUB_STATE, hubs.append, topics.STATE_QOS)

@@ -10,6 +10,7 @@ import re
 import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -449,3 +450,45 @@ def test_a_simulator_restarted_under_the_recorder_is_recorded_as_another_run(
         f"error: '{bag}' holds more than one run of the simulator: the sail parameters change "
         "(sail.n_boom_modes 2 -> 3)"
     ), err
+
+
+@pytest.mark.timing
+def test_the_stall_of_allowed_values_is_refused_and_the_simulator_stays_answering(
+    processes, operator
+):
+    """The fault that stalled a simulator: max_substep_rate raised to 1e7 at run time
+    (allowed), then min_length 7 mm (refused: a moving grid step there would take tens of
+    seconds), then a deployment to 7.5 mm (rejected, outside the limits kept). The
+    simulator keeps publishing, answers its reset at once and ends within 2 s of a SIGINT
+    (it went 25 s without a state, its reset unanswered, and took 29 s to stop); at start
+    the same values are refused with exit code 2 and one line."""
+    sim = processes("sim", parameters={"sail.n_boom_modes": 4, "sail.n_membrane_modes": 6})
+    operator.wait_for_simulator()
+
+    def set_parameter(name, value):
+        parameter = Parameter(name, value=value).to_parameter_msg()
+        request = SetParameters.Request(parameters=[parameter])
+        return operator.call(operator.set_parameters, request).results[0]
+
+    assert set_parameter("max_substep_rate", 1e7).successful
+    refused = set_parameter("min_length", 0.007)
+    assert not refused.successful and refused.reason.startswith("min_length = 0.007 m")
+    operator.deploy.publish(Float64(data=0.0075))
+    status = operator.wait_for_status(
+        lambda s: s[key.REJECTED] == "1", 5.0, "the deployment to be rejected"
+    )
+    assert "outside [min_length, max_length] = [1, " in status[key.LAST_REJECTION]
+    states = len(operator.states[topics.BOOM_STATE])
+    asked = time.monotonic()
+    assert operator.call(operator.reset, Trigger.Request(), timeout=2.0).success
+    assert time.monotonic() - asked < 2.0
+    operator.spin_until(
+        lambda: len(operator.states[topics.BOOM_STATE]) > states + 10, 2.0, "states after it"
+    )
+    assert sim.stop(signal.SIGINT, timeout=2.0) == 0, sim.log()
+
+    short = {"max_substep_rate": 1e7, "min_length": 0.007, "initial_lengths": [0.007]}
+    refused_start = processes("sim", parameters=short)
+    assert refused_start.process.wait(30.0) == 2
+    (line,) = [text for text in refused_start.log().splitlines() if "ERROR" in text]
+    assert "min_length = 0.007 m would need " in line and "Traceback" not in refused_start.log()
