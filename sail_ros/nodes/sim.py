@@ -5,7 +5,9 @@ The run itself is `runtime.realtime.RealTimeRun` (pacing, stepping, commands,
 status); this node wires it to ROS: parameters (`runtime.config`), command
 subscriptions, the reset and pause services, the publishers of its outputs
 (msg_docs/README.md), and a `Ticker` thread that calls its `tick`. The
-executor's thread serves the parameters, services and command subscriptions.
+executor's thread serves the parameters and services, and what they change is
+done on the ticks' thread (`RealTimeRun.later`): however long the model's work,
+the executor never waits for it. The commands have a thread of their own.
 
 Stamps are simulation time: the wall-clock (ROS system) time when the node
 started plus the simulation time, so with time_scale 1 they follow the
@@ -38,6 +40,7 @@ from rclpy.duration import Duration
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.task import Future
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
@@ -61,6 +64,7 @@ from sail_ros.runtime.ticker import Ticker
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
+TICK_STOP_S = 0.5  # ... and this long for a tick under way to end
 SWITCH_INTERVAL_S = 0.0005  # the interpreter's switch interval in the simulator's process
 # Commands act at the next tick (ticks are at least 5 ms apart): taking them more often
 # buys nothing, and each wake-up of the commands' executor costs ~0.4 ms of the
@@ -261,8 +265,8 @@ class SimNode(Node):
     def _apply_parameters(self, parameters) -> None:
         """Post-set: use the new values, and say so (the recorder keeps the change too)."""
         self._values.update({p.name: p.value for p in parameters})
-        self.config = config_from_values(self._values)
-        self.run.configure(self.config)
+        self.config = config = config_from_values(self._values)
+        self._on_ticks(lambda: self.run.configure(config))  # this thread waits for no step
         for parameter in parameters:
             self.get_logger().info(
                 f"parameter {parameter.name} set to {parameter.value!r} at t = {self.sim.t:.6f} s"
@@ -321,15 +325,34 @@ class SimNode(Node):
             wake = self.run.submit(*command) or wake
         return wake, []
 
-    def _on_reset(self, request, response):
-        response.message = self.run.reset()
+    async def _on_reset(self, request, response):
+        response.message = await self._on_ticks(self.run.reset)
         response.success = True
         return response
 
-    def _on_pause(self, request, response):
-        response.message = self.run.pause(request.data)
+    async def _on_pause(self, request, response):
+        response.message = await self._on_ticks(lambda: self.run.pause(request.data))
         response.success = True
         return response
+
+    def _on_ticks(self, action) -> Future:
+        """`action()` on the ticks' thread, woken for it at once (`RealTimeRun.later`); its
+        result as a future of this node's executor, which meanwhile serves everything
+        else: however long a grid step takes, the executor never waits for it (a service
+        callback awaits the future and answers once it is done)."""
+        future = Future(executor=self.executor)
+        future.add_done_callback(lambda _: None)  # its scheduling wakes the executor
+
+        def act():
+            try:
+                future.set_result(action())
+            except Exception as error:  # the service's caller learns of it, as rclpy's would
+                future.set_exception(error)
+                raise
+
+        self.run.later(act)
+        self._ticker.poke()
+        return future
 
     # -- outputs of the run (`runtime.realtime.Outputs`) ---------------------------------------
 
@@ -392,10 +415,16 @@ class SimNode(Node):
     # -- shutdown --------------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Stop integrating and give subscribers time to acknowledge what was published."""
+        """Stop integrating and give subscribers time to acknowledge what was published.
+        A grid step still under way after TICK_STOP_S is not waited for."""
         self._intake.stop()
-        self._ticker.stop()
-        self.run.finish()
+        if self._ticker.stop(TICK_STOP_S):
+            self.run.finish()
+        else:
+            self.get_logger().warning(
+                f"the integration thread is still in a step after {TICK_STOP_S:g} s: stopping "
+                "without it"
+            )
         deadline = time.monotonic() + ACK_TIMEOUT_S
         for publisher in self._outputs.values():
             remaining = max(0.0, deadline - time.monotonic())
@@ -403,7 +432,7 @@ class SimNode(Node):
 
     def destroy_node(self) -> None:
         self._intake.stop()
-        self._ticker.stop()
+        self._ticker.stop(TICK_STOP_S)
         self._commands.destroy_node()
         super().destroy_node()
 

@@ -371,6 +371,39 @@ def test_booms_shorter_than_the_model_affords_are_refused_at_start_and_at_run_ti
     assert call(spin_until, client.reset, Trigger.Request()).success
 
 
+@pytest.mark.timing
+def test_a_grid_step_of_seconds_blocks_neither_the_services_nor_the_stop(ros):
+    """A grid step that takes 3 s (a model costlier than it was measured at start): a
+    reset asked meanwhile is answered once the step ends, while the executor answers
+    everything else at once (it waited for the step inside the reset before), and the
+    node stops within a second, without waiting for the step."""
+    sim, client, spin_until = ros(**SMALL, diagnostics_rate_hz=20.0, shape_rate_hz=0.0)
+    original, slow = sim.sim.step, threading.Event()
+
+    def step():
+        if not slow.is_set():
+            slow.set()
+            time.sleep(3.0)
+        return original()
+
+    sim.sim.step = step
+    spin_until(slow.is_set, 5.0, "the slow step")
+    spin_until(client.reset.service_is_ready, 5.0, "the reset service")
+    reset = client.reset.call_async(Trigger.Request())
+    asked = time.monotonic()
+    names = DescribeParameters.Request(names=["max_rate"])
+    described = call(spin_until, client.describe, names)
+    assert described.descriptors[0].name == "max_rate" and time.monotonic() - asked < 1.0
+    assert not reset.done()
+    spin_until(reset.done, 5.0, "the reset's answer")
+    assert reset.result().success and "reset to the initial state" in reset.result().message
+    slow.clear()  # one more slow step, under way as the node stops
+    spin_until(slow.is_set, 5.0, "the next slow step")
+    stopping = time.monotonic()
+    sim.close()
+    assert time.monotonic() - stopping < 1.0 + sim_node.ACK_TIMEOUT_S
+
+
 def test_an_integer_is_taken_for_a_double_as_ros_users_type_it(ros):
     """`-p time_scale:=2` (rclpy reads an INTEGER) starts a simulator at 2x."""
     sim, client, spin_until = ros(time_scale=2, max_rate=2)
