@@ -373,7 +373,7 @@ def test_booms_shorter_than_the_model_affords_are_refused_at_start_and_at_run_ti
 
 @pytest.mark.timing
 def test_a_grid_step_of_seconds_blocks_neither_the_services_nor_the_stop(ros):
-    """A grid step that takes 3 s (a model costlier than it was measured at start): a
+    """A grid step that takes 2 s (a model costlier than it was measured at start): a
     reset asked meanwhile is answered once the step ends, while the executor answers
     everything else at once (it waited for the step inside the reset before), and the
     node stops within a second, without waiting for the step."""
@@ -383,7 +383,7 @@ def test_a_grid_step_of_seconds_blocks_neither_the_services_nor_the_stop(ros):
     def step():
         if not slow.is_set():
             slow.set()
-            time.sleep(3.0)
+            time.sleep(2.0)
         return original()
 
     sim.sim.step = step
