@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import json
 import math
 import sys
@@ -190,8 +191,9 @@ def build_parser() -> ToolParser:
     return parser
 
 
-def _scenario(args):
-    """The scenario to run and a one-line description of it."""
+def _scenario(args, limits=None):
+    """The scenario to run and a one-line description of it; `limits` (a `Configuration`),
+    if given, bound its waypoints."""
     given = [name for name in LEGACY if getattr(args, name) is not None]
     if args.scenario is not None:
         if given:
@@ -202,7 +204,8 @@ def _scenario(args):
                 f"{options} describe the reference scenario; with --scenario "
                 f"{args.scenario} put them in the file"
             )
-        scenario = load_scenario(args.scenario)
+        points = limits and functools.partial(limits.check, limits.policy.check_points)
+        scenario = load_scenario(args.scenario, points)
         return scenario, f"{scenario.description or 'scenario'} ({args.scenario})"
     document = copy.deepcopy(REFERENCE)
     body = document["scenario"]
@@ -496,7 +499,9 @@ def _output_size(args, duration: float, n: int, extra: int) -> None:
 
 
 def _deploy(args) -> int:
-    scenario, description = _scenario(args)
+    # the limits first: a scenario's waypoints are counted before anything is made of them
+    limits = configuration(args)
+    scenario, description = _scenario(args, limits)
     where = f"{args.scenario}: sail section" if args.scenario else "scenario sail section"
     config = configuration(args, scenario.sail, where)
     config = dataclasses.replace(config, sail=config.sail.resolved(scenario.shortest_length))

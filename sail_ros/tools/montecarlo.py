@@ -40,7 +40,7 @@ from sail_ros.analysis.montecarlo import (
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.outputs import staged
 from sail_ros.policy import Policy
-from sail_ros.tools.cluster import add_cluster_options, dask_client
+from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
 from sail_ros.tools.common import add_sail_options, configuration, print_written, run
 
 WORST = 5
@@ -81,6 +81,7 @@ def build_parser() -> ToolParser:
 
 
 def _montecarlo(args) -> int:
+    check_cluster_options(args.scheduler, args.workers)
     study = load_study(args.study)
     if args.samples is not None:
         if args.samples < 1:

@@ -28,7 +28,9 @@ up to its last complete record) and writes into `--out`:
   moves by more than 1 %).
 
 `--config`/`--set` describe the sail only for a log without recorded parameters; the
-limits of a rerun are those the log recorded, changed by `--set`.
+limits of a rerun are those the log recorded, changed by `--set`. A log that holds more
+than one run of the simulator (restarted under the recorder: other sail parameters, a
+state of another size, another epoch) is refused in one line saying what changed.
 """
 
 from __future__ import annotations

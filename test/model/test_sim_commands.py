@@ -370,7 +370,7 @@ def test_bad_load_commands_are_rejected_whole(model, config, topic, values, reas
 
 
 def test_short_booms_get_sub_steps(model, config):
-    short = config_from_values({**SMALL_SIM, "initial_lengths": [1.0]})
+    short = config_from_values({**SMALL_SIM, "min_length": 1.0, "initial_lengths": [1.0]})
     sim = Simulation(model, short)
     # omega_1 = 1.8751^2 sqrt(6000 / 0.1) / 1.0^2 = 861 rad/s; a step of the tolerance's
     # stepper is two rational steps of at most 2 rad: 4 / 861 = 4.6 ms, so 0.01 s needs 3
@@ -583,7 +583,7 @@ def test_every_parameter_is_described_with_unit_and_range():
         (
             {"initial_lengths": [10.0, 10.0, 80.0, 10.0]},
             "initial_lengths of boom c = 80 m is outside \\[min_length, max_length\\] = "
-            "\\[1, 70.7107\\] m",
+            "\\[5, 70.7107\\] m",
         ),
         (
             {"initial_lengths": [10.0, 10.0]},

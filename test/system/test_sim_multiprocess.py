@@ -10,13 +10,14 @@ import re
 import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from harness import ROOT, SMALL, SMALL_SIM
+from harness import ROOT, SMALL, SMALL_SIM, run_tool
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
@@ -425,3 +426,76 @@ def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
         )  # fmt: skip
         replayed = model.tip_deflections(q[-len(tips) :])
         assert np.abs(replayed - tips).max() <= bound * np.abs(tips).max(), shift
+
+
+def test_a_simulator_restarted_under_the_recorder_is_recorded_as_another_run(
+    processes, operator, tmp_path
+):
+    """A simulator stopped and started again with more boom modes while the recorder runs:
+    the recorder fetches the new simulator's parameters and stores them as a new record
+    where that happened, and `sail-ros report` refuses the log in one line saying what
+    changed, rather than read both runs as one with the old mode counts."""
+    bag = tmp_path / "bag"
+    recorder = processes("recorder", "-o", str(bag))
+    counts = []
+    for boom_modes in (2, 3):
+        sail = {"sail.n_boom_modes": boom_modes, "sail.n_membrane_modes": 2}
+        sim = processes("sim", parameters={**sail, "time_scale": 4.0})
+        stored = "again: it appeared anew" if counts else "parameters of 'sail_sim'"
+        recorder.wait_for_lines([stored])
+        operator.wait_for_simulator(subscribers=2)  # the simulator and the recorder
+        operator.spin_for(0.5)
+        assert sim.stop(signal.SIGINT) == 0, sim.log()
+        counts.append(boom_modes)
+    operator.spin_until_quiet()
+    assert recorder.stop(signal.SIGINT) == 0, recorder.log()
+    records = [d for n, d in BagReader(bag).metadata() if n == topics.PARAMETERS_METADATA]
+    assert [r["sail.n_boom_modes"] for r in records] == ["2", "3"]
+    code, _, err = run_tool("report", [str(bag), "--out", str(tmp_path / "report")])
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(
+        f"error: '{bag}' holds more than one run of the simulator: the sail parameters change "
+        "(sail.n_boom_modes 2 -> 3)"
+    ), err
+
+
+@pytest.mark.timing
+def test_the_stall_of_allowed_values_is_refused_and_the_simulator_stays_answering(
+    processes, operator
+):
+    """The fault that stalled a simulator: max_substep_rate raised to 1e7 at run time
+    (allowed), then min_length 7 mm (refused: a moving grid step there would take tens of
+    seconds), then a deployment to 7.5 mm (rejected, outside the limits kept). The
+    simulator keeps publishing, answers its reset at once and ends within 2 s of a SIGINT
+    (it went 25 s without a state, its reset unanswered, and took 29 s to stop); at start
+    the same values are refused with exit code 2 and one line."""
+    sim = processes("sim", parameters={"sail.n_boom_modes": 4, "sail.n_membrane_modes": 6})
+    operator.wait_for_simulator()
+
+    def set_parameter(name, value):
+        parameter = Parameter(name, value=value).to_parameter_msg()
+        request = SetParameters.Request(parameters=[parameter])
+        return operator.call(operator.set_parameters, request).results[0]
+
+    assert set_parameter("max_substep_rate", 1e7).successful
+    refused = set_parameter("min_length", 0.007)
+    assert not refused.successful and refused.reason.startswith("min_length = 0.007 m")
+    operator.deploy.publish(Float64(data=0.0075))
+    status = operator.wait_for_status(
+        lambda s: s[key.REJECTED] == "1", 5.0, "the deployment to be rejected"
+    )
+    assert "outside [min_length, max_length] = [5, " in status[key.LAST_REJECTION]
+    states = len(operator.states[topics.BOOM_STATE])
+    asked = time.monotonic()
+    assert operator.call(operator.reset, Trigger.Request(), timeout=2.0).success
+    assert time.monotonic() - asked < 2.0
+    operator.spin_until(
+        lambda: len(operator.states[topics.BOOM_STATE]) > states + 10, 2.0, "states after it"
+    )
+    assert sim.stop(signal.SIGINT, timeout=2.0) == 0, sim.log()
+
+    short = {"max_substep_rate": 1e7, "min_length": 0.007, "initial_lengths": [0.007]}
+    refused_start = processes("sim", parameters=short)
+    assert refused_start.process.wait(30.0) == 2
+    (line,) = [text for text in refused_start.log().splitlines() if "ERROR" in text]
+    assert "min_length = 0.007 m would need " in line and "Traceback" not in refused_start.log()

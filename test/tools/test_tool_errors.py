@@ -37,6 +37,7 @@ def files(tmp_path_factory):
     (root / "no_mcap").mkdir()
     (root / "text.mcap").write_text("not an mcap file\n")
     (root / "blocker").write_text("")  # a file where a folder is needed
+    (root / "program").write_bytes(b"\x7fELF\x02\x01\x01\x00" + bytes(16) + b"\xd0\x00")
     bag = root / "crc.mcap"
     with BagWriter(bag, compression="none", fsync=False) as writer:
         writer.add_topic("/sail/boom_state", "sensor_msgs/msg/JointState")
@@ -54,6 +55,9 @@ BAD_INPUTS = [
     ("modes", ["--config", "{root}/missing.yaml"], "cannot read config '{root}/missing.yaml'"),
     ("modes", ["--config", "{root}/broken.yaml"], "broken.yaml: not valid YAML"),
     ("modes", ["--config", "{root}/misspelt.yaml"], "unknown sail parameter(s) 'max_rat'"),
+    # a file that is no text at all (a program) is named with why
+    ("modes", ["--config", "{root}/program"], "cannot read config '{root}/program': not UTF-8"),
+    ("deploy", ["--scenario", "{root}/program"], "cannot read scenario '{root}/program': not"),
     (
         "deploy",
         ["--config", "{root}/sim_limit.yaml"],
@@ -110,6 +114,7 @@ BAD_INPUTS = [
         "--params-file {root}/missing.yaml: No such file or directory",
     ),
     ("recorder", ["--ros-args", "--params-file", "{root}/broken.yaml"], "broken.yaml: "),
+    ("sim", ["--ros-args", "--params-file", "{root}/program"], "{root}/program: not UTF-8 text"),
     ("watch", ["--ros-args", "--params-file", "{root}/misspelt.yaml"], "expected '<node>: ros"),
 ]
 
