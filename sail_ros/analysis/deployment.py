@@ -1,7 +1,7 @@
 """An offline deployment run: the sail's state on a time grid under a scenario.
 
 The same integration as the live simulator (the exponential-midpoint stepper of
-`sail_ros.model.stepper`), run as fast as the machine allows; the wall time
+`sail_ros.integrate.stepper`), run as fast as the machine allows; the wall time
 gives the achieved real-time factor. The same policy too (`sail_ros.policy`): a
 scenario the simulator would refuse is refused before the run, and a run whose
 tip deflections leave the linear range stops there with the simulator's alarm,
@@ -18,13 +18,13 @@ from typing import NamedTuple
 import numpy as np
 
 from sail_ros.analysis.scenario import Scenario, check_scenario
+from sail_ros.integrate.driver import sample
+from sail_ros.integrate.peaks import HERMITE_BOUND, OutputPeaks, Peaks, SampledSteps, hermite_motion
+from sail_ros.integrate.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.model import IntegrationError, SailModel
-from sail_ros.model.integrate import sample
 from sail_ros.model.loads import input_function
-from sail_ros.model.peaks import HERMITE_BOUND, OutputPeaks, Peaks, SampledSteps, hermite_motion
 from sail_ros.model.profiles import motion_over
 from sail_ros.model.record import StateSample, take
-from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.policy import OutOfRangeError, Policy
 
 

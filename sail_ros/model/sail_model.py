@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from sail_ros.integrate.driver import simulate, simulate_on_grid
+from sail_ros.integrate.stepper import SailStepper
 from sail_ros.model.assembly import (
     DAMPING,
     GYROSCOPIC,
@@ -32,7 +34,6 @@ from sail_ros.model.integrals import (
     default_quadrature_order,
     quadrant_integrals,
 )
-from sail_ros.model.integrate import simulate, simulate_on_grid
 from sail_ros.model.layout import (
     BOOM_DIRECTIONS,
     BOOMS,
@@ -57,7 +58,6 @@ from sail_ros.model.loads import (
 )
 from sail_ros.model.parameters import SailParameters
 from sail_ros.model.record import StateSample
-from sail_ros.model.stepper import SailStepper
 
 # A free hub turns a boom's root from clamped into guided (hub heaving) or pinned (hub
 # tilting) when light: the pinned-free frequency is the highest, (3.92660 / 1.87510)^2 =

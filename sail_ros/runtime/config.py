@@ -20,10 +20,10 @@ import dataclasses
 
 import numpy as np
 
+from sail_ros.integrate.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, check_fields, default_of, fields_of, setting
 from sail_ros.model.layout import per_boom
-from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.policy import Policy
 from sail_ros.topics import SAIL_PREFIX
 

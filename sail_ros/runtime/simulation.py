@@ -20,9 +20,9 @@ import time
 
 import numpy as np
 
+from sail_ros.integrate.sampling import GridSampler
 from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
 from sail_ros.model.record import StateSample
-from sail_ros.model.sampling import GridSampler
 from sail_ros.runtime.commands import (
     BoomState,
     CommandError,

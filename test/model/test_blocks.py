@@ -5,10 +5,10 @@ form the stepper uses."""
 import numpy as np
 import pytest
 
+from sail_ros.integrate import stepper as stepper_module
+from sail_ros.integrate.rational import PADE_POLES, STEP_MATRICES
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
-from sail_ros.model import stepper as stepper_module
 from sail_ros.model.blocks import DenseMatrices
-from sail_ros.model.rational import PADE_POLES, STEP_MATRICES
 
 pytestmark = pytest.mark.model
 

@@ -278,7 +278,7 @@ def test_strongly_damped_followed_modes_leave_every_state_finite():
     within a step; between steps they are the end's vibration turned back, whose growth
     (`fast_modes.TURN_BACK_EXPONENT`) must keep their underflowed 0 a 0: every output
     state and every sample the peaks are searched on finite (18 of 200 states were nan)."""
-    from sail_ros.model.peaks import OutputPeaks
+    from sail_ros.integrate.peaks import OutputPeaks
 
     params = SailParameters(
         n_boom_modes=20, n_membrane_modes=20, mass_damping=0.02, stiffness_damping=2e-4

@@ -28,11 +28,11 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.integrate.stepper import DEFAULT_MAX_STEP
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion, SwitchedProfile
-from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.policy import Policy
 from sail_ros.runtime.commands import BoomState, Rules, plan_deploy, plan_trajectory
 from sail_ros.runtime.config import config_from_values

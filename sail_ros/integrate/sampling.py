@@ -27,8 +27,8 @@ from __future__ import annotations
 import math
 from collections import deque
 
+from sail_ros.integrate.stepper import STATIC_MARGIN, SailStepper
 from sail_ros.model.record import StepperState
-from sail_ros.model.stepper import STATIC_MARGIN, SailStepper
 
 # the state at a grid time: t [s], boom lengths [m] and rates [m/s], q, qd
 GridPoint = StepperState

@@ -16,7 +16,7 @@ forces `Q = B_u u` of the inputs (model.md §12) add `- C_d qd + Q` to `pd`:
 * While the booms move, `exp` is replaced by its (4, 4) diagonal Padé
   approximant (`rational`: one complex `n x n` solve per conjugate pole pair;
   symplectic undamped, A-stable damped; a continuous extension inside the step).
-* While the booms stand still, the step is exact (`exact_step`: each mode's own
+* While the booms stand still, the step is exact (`rest`: each mode's own
   propagator from the modes of `(K, M)`, cached; energy kept to round-off).
 
 The step is chosen to meet a tolerance on the outputs users read (tips, root
@@ -45,6 +45,24 @@ from typing import NamedTuple, Protocol
 import numpy as np
 import scipy.linalg
 
+from sail_ros.integrate.fast_modes import (
+    FreeVibration,
+    FrozenModes,
+    follow,
+    follow_floor,
+    followed,
+    forcing_of,
+    slow_part,
+)
+from sail_ros.integrate.rational import (
+    PADE_POLES,
+    STEP_MATRICES,
+    Extension,
+    extended_momentum,
+    extension_weights,
+    moving_step,
+)
+from sail_ros.integrate.rest import Rest, exact_propagator, rest_states, rest_step
 from sail_ros.model.assembly import (
     DAMPING,
     GYROSCOPIC,
@@ -54,26 +72,8 @@ from sail_ros.model.assembly import (
     STRUCTURAL_DAMPING,
 )
 from sail_ros.model.blocks import BlockMatrices, DenseMatrices
-from sail_ros.model.exact_step import Rest, exact_propagator, rest_states, rest_step
-from sail_ros.model.fast_modes import (
-    FreeVibration,
-    FrozenModes,
-    follow,
-    follow_floor,
-    followed,
-    forcing_of,
-    slow_part,
-)
 from sail_ros.model.layout import per_boom
 from sail_ros.model.profiles import SWITCH_RESOLUTION
-from sail_ros.model.rational import (
-    PADE_POLES,
-    STEP_MATRICES,
-    Extension,
-    extended_momentum,
-    extension_weights,
-    moving_step,
-)
 
 
 class LinearSystem(Protocol):
@@ -912,7 +912,7 @@ class SailStepper:
 
     def _static_step(self, lengths, h, force):
         """The exact step of `h` [s] at rest under the held generalised force `force`
-        (None: none): `(q, p, Rest)` (`exact_step`), its propagator kept per lengths and
+        (None: none): `(q, p, Rest)` (`rest`), its propagator kept per lengths and
         `h` (a simulator at rest repeats them)."""
         key = (lengths.tobytes(), h)
         propagator = self._static_cache.get(key)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sail_ros.model.sampling import GridSampler
-from sail_ros.model.stepper import LinearSystem, SailStepper, time_slack
+from sail_ros.integrate.sampling import GridSampler
+from sail_ros.integrate.stepper import LinearSystem, SailStepper, time_slack
 
 
 class Run(tuple):
