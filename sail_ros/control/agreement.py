@@ -1,0 +1,83 @@
+"""Does the simulator run the plant the controller was designed for?
+
+The node asks the simulator for its parameters (`SIMULATOR_PARAMETERS`) before it
+commands, and `disagreement` compares them with its own: a clamped hub, other mode
+counts or another sail, another state rate, or limits below the controller's
+saturation (its commands would be refused) are errors, each one line naming the
+parameter and both values; a model that may run ahead of the published samples (a
+`max_model_step` above the `integration_step`) is a warning: commands then act later
+than the design's loop delay.
+"""
+
+from __future__ import annotations
+
+import math
+
+from sail_ros.control.settings import DesignSettings
+from sail_ros.model import SailParameters
+from sail_ros.policy import Policy
+
+LIMITS = (("max_hub_force", "N"), ("max_hub_torque", "N m"), ("max_tip_force", "N"))
+SIMULATOR_PARAMETERS = (
+    *(f"sail.{name}" for name in SailParameters.field_names()),
+    "state_rate_hz",
+    "time_scale",
+    "integration_step",
+    "max_model_step",
+    *(name for name, _ in LIMITS),
+)
+
+
+def disagreement(
+    params: SailParameters, design: DesignSettings, policy: Policy, simulator: dict, node: str
+) -> tuple[str, list[str]]:
+    """`(error, warnings)`: the first thing in `simulator` (parameter name -> value, as
+    the simulator `node` has them) that the controller cannot work with ("" if none), and
+    what it can but should be told about."""
+    sail = {name[len("sail.") :]: v for name, v in simulator.items() if name.startswith("sail.")}
+    if sail.get("free_hub") is False:
+        return (
+            f"the simulator {node} has a clamped hub (sail.free_hub = false): nothing to "
+            "control; run it with -p sail.free_hub:=true",
+            [],
+        )
+    for name in ("n_boom_modes", "n_membrane_modes"):
+        if name in sail and sail[name] != getattr(params, name):
+            return (
+                f"sail.{name} = {getattr(params, name)} here, {sail[name]} in {node}: the "
+                "controller's plant has other mode counts than the simulator's (give both the "
+                "same sail)",
+                [],
+            )
+    for name in SailParameters.field_names():
+        mine, theirs = getattr(params, name), sail.get(name)
+        if theirs is None or mine == theirs:
+            continue
+        if isinstance(mine, float) and math.isclose(mine, float(theirs), rel_tol=1e-12):
+            continue
+        return (f"sail.{name} = {mine!r} here, {theirs!r} in {node}: another sail", [])
+    rate = simulator.get("state_rate_hz")
+    if rate is not None and not math.isclose(rate, design.state_rate_hz, rel_tol=1e-9):
+        return (
+            f"state_rate_hz = {design.state_rate_hz:g} Hz here, {rate:g} Hz in {node}: the "
+            "loop is designed for one sample period",
+            [],
+        )
+    for name, unit in LIMITS:
+        mine, theirs = getattr(policy, name), simulator.get(name)
+        if theirs is not None and mine > theirs * (1 + 1e-12):
+            return (
+                f"{name} = {mine:g} {unit} here, {theirs:g} {unit} in {node}: commands up to "
+                "the controller's limit would be refused",
+                [],
+            )
+    warnings = []
+    step, longest = simulator.get("integration_step"), simulator.get("max_model_step")
+    if step is not None and longest is not None and longest > step * (1 + 1e-9):
+        warnings.append(
+            f"{node}'s max_model_step = {longest:g} s is above its integration_step = "
+            f"{step:g} s: its model may run ahead of the published samples, and a command "
+            f"then acts up to {longest - step:g} s later than loop_delay_s = "
+            f"{design.loop_delay_s:g} s (run it with -p max_model_step:={step:g})"
+        )
+    return "", warnings
