@@ -264,3 +264,30 @@ def summary_lines(numbers: dict) -> list[str]:
         f"mrad, |z_h| <= {1e3 * numbers['final_heave_m']:.4g} mm"
     )
     return lines
+
+
+def last_run(log) -> tuple[np.ndarray, np.ndarray]:
+    """A live log's free hub over its last run: times [s] from the run's start (the last
+    reset, which repeats the stamp of the sample before it; else the first sample) and
+    the hub's (k, 6) values (`StateSample.hub`)."""
+    if log.hub is None:
+        raise ValueError("the log holds no /sail/hub_state (a free hub's)")
+    stamps, hub = log.hub
+    repeats = np.flatnonzero(np.diff(stamps) <= 0)
+    start = int(repeats[-1]) + 1 if repeats.size else 0
+    return (stamps[start:] - stamps[start]) / 1e9, hub[start:]
+
+
+def tilt_agreement(t, hub, closed: ClosedLoopRun) -> tuple[float, float, int]:
+    """How closely a hub's tilt history (`t` [s], `hub` (k, 6), e.g. `last_run` of a live
+    log) follows an offline closed loop's at the same times: the largest |theta - theta
+    offline| [rad] (the tilt vector's difference), the offline peak |theta| [rad] over
+    those times, and how many times were compared (those of both)."""
+    offline = closed.run
+    keys = np.round(offline.t, 6)
+    common = np.isin(np.round(t, 6), keys)
+    rows = np.searchsorted(keys, np.round(t[common], 6))
+    theirs = offline.hub[rows, 1:3]
+    difference = np.hypot(*(hub[common, 1:3] - theirs).T)
+    peak = float(np.hypot(*theirs.T).max(initial=0.0))
+    return float(difference.max(initial=0.0)), peak, int(common.sum())

@@ -5,8 +5,9 @@ commands, and `disagreement` compares them with its own: a clamped hub, other mo
 counts or another sail, another state rate, or limits below the controller's
 saturation (its commands would be refused) are errors, each one line naming the
 parameter and both values; a model that may run ahead of the published samples (a
-`max_model_step` above the `integration_step`) is a warning: commands then act later
-than the design's loop delay.
+`max_model_step` above the `integration_step`), a tick that carries more than one
+sample or ends between samples are warnings: commands then act later than the
+design's loop delay.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from sail_ros.model import SailParameters
 from sail_ros.policy import Policy
 
 LIMITS = (("max_hub_force", "N"), ("max_hub_torque", "N m"), ("max_tip_force", "N"))
+TICK_S = 0.005  # the simulator's shortest tick [s of wall time] (runtime.pacing)
 SIMULATOR_PARAMETERS = (
     *(f"sail.{name}" for name in SailParameters.field_names()),
     "state_rate_hz",
@@ -73,6 +75,24 @@ def disagreement(
             )
     warnings = []
     step, longest = simulator.get("integration_step"), simulator.get("max_model_step")
+    scale = simulator.get("time_scale")
+    if scale is not None and scale > 0 and TICK_S * scale > design.period * (1 + 1e-9):
+        warnings.append(
+            f"at time_scale {scale:g} a tick of {node} (at least {1e3 * TICK_S:g} ms) carries "
+            f"{TICK_S * scale / design.period:.3g} state samples: the commands of all but its "
+            f"last act a sample or more late; state_rate_hz <= {1 / (TICK_S * scale):g} Hz "
+            "keeps one sample a tick"
+        )
+    if step is not None and not math.isclose(
+        design.period / step, round(design.period / step), rel_tol=1e-9
+    ):
+        warnings.append(f"{node}'s samples do not fall on its integration_step = {step:g} s")
+    elif step is not None and scale is not None and scale > 0 and step < design.period * (1 - 1e-9):
+        warnings.append(
+            f"{node}'s integration_step = {step:g} s is shorter than the sample period "
+            f"{design.period:g} s: a tick may end between two samples, and a command then "
+            f"acts that much later (run it with -p integration_step:={design.period:g})"
+        )
     if step is not None and longest is not None and longest > step * (1 + 1e-9):
         warnings.append(
             f"{node}'s max_model_step = {longest:g} s is above its integration_step = "
