@@ -16,8 +16,8 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
   one-line YAML, as the recorder stores them;
 - metadata `sail_deploy_scenario`: the scenario as YAML and the epoch;
 - a closed loop's commands (`commands`): /sail/hub_wrench_cmd (and /sail/tip_force_cmd)
-  at every state sample, stamped with the sample they answer and logged when they act
-  (the loop delay later), as the recorder logs `sail_control`'s.
+  at every state sample, stamped and logged with the time they act (the sample's plus
+  the loop delay), as `sail_control` stamps its own.
 
 The messages are the bytes the live simulator publishes, made by the same
 serialisers (`sail_ros.messages.cdr`: exact CDR, nothing after the last
@@ -177,14 +177,13 @@ def _commands(commands, frame_id: str) -> list:
     times, values, delay, names = commands
     found = []
     for t, u in zip(times, values, strict=True):
-        stamp = topics.stamp_ns(LOG_EPOCH_NS, float(t))
         acts = topics.stamp_ns(LOG_EPOCH_NS, float(t) + delay)
         wrench = hub_msg.hub_wrench_command(*u[:3], frame_id=frame_id)
-        wrench.header.stamp = topics.stamp(stamp)
+        wrench.header.stamp = topics.stamp(acts)
         found.append((float(t), acts, topics.HUB_WRENCH_CMD, serialize(wrench)))
         if len(names) > 3:
             forces = dict(zip(topics.BOOM_JOINTS, map(float, u[3:]), strict=True))
             message = commands_msg.load_command(topics.TIP_FORCE_CMD, forces)
-            message.header.stamp = topics.stamp(stamp)
+            message.header.stamp = topics.stamp(acts)
             found.append((float(t), acts, topics.TIP_FORCE_CMD, serialize(message)))
     return found

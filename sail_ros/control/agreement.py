@@ -26,6 +26,7 @@ SIMULATOR_PARAMETERS = (
     "time_scale",
     "integration_step",
     "max_model_step",
+    "command_wait_s",
     *(name for name, _ in LIMITS),
 )
 
@@ -76,12 +77,23 @@ def disagreement(
     warnings = []
     step, longest = simulator.get("integration_step"), simulator.get("max_model_step")
     scale = simulator.get("time_scale")
-    if scale is not None and scale > 0 and TICK_S * scale > design.period * (1 + 1e-9):
+    span = TICK_S * scale if scale is not None and scale > 0 else 0.0  # [s] of a tick
+    if span > design.period + design.loop_delay_s + 1e-9:
         warnings.append(
             f"at time_scale {scale:g} a tick of {node} (at least {1e3 * TICK_S:g} ms) carries "
-            f"{TICK_S * scale / design.period:.3g} state samples: the commands of all but its "
-            f"last act a sample or more late; state_rate_hz <= {1 / (TICK_S * scale):g} Hz "
-            "keeps one sample a tick"
+            f"{span / design.period:.3g} state samples: the commands of all but its last act "
+            f"late; state_rate_hz <= {1 / span:g} Hz keeps one sample a tick"
+        )
+    elif (
+        span >= design.period * (1 - 1e-9)
+        and design.loop_delay_s < design.period
+        and not simulator.get("command_wait_s")
+    ):
+        warnings.append(
+            f"at time_scale {scale:g} a tick of {node} is as short as it gets ({1e3 * TICK_S:g} "
+            f"ms): a command acts from its sample only if it comes before the next tick, and "
+            f"else a tick late; -p command_wait_s:=1.0 of the simulator has each step wait for "
+            "its command"
         )
     if step is not None and not math.isclose(
         design.period / step, round(design.period / step), rel_tol=1e-9

@@ -61,9 +61,10 @@ class DiscreteController:
         self.restart()
 
     def restart(self) -> None:
-        """Forget the estimate: the next step starts from a zero prior (the state is then
-        what the measurements say, the disturbance zero)."""
+        """Forget the estimate: the next step starts from what its measurements say (the
+        least-squares state of the smallest norm), the disturbance zero."""
         self._prior = np.zeros(self.schedule.size)
+        self._fresh = True
         self._filtered: np.ndarray | None = None
         self._point = None
         self.u = np.zeros(len(self.schedule.inputs))  # the command the plant holds
@@ -84,6 +85,9 @@ class DiscreteController:
                 f"({', '.join(self.schedule.measurements)}), got {y!r}"
             )
         point = self.schedule.at(float(length))
+        if self._fresh:  # the filter's steady gain would take many samples to get there
+            self._prior = np.linalg.pinv(point.C) @ y
+            self._fresh = False
         filtered = self._prior + point.M @ (y - point.C @ self._prior)
         demand = -point.K @ filtered
         u = np.clip(demand, -self.limits, self.limits)

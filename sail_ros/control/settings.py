@@ -106,12 +106,13 @@ class DesignSettings:
         above_minimum=True,
     )  # fmt: skip
     hub_position_noise: float = setting(
-        1e-5, "m, rad", "Kalman filter: noise of the measured heave and tilts; small keeps "
+        1e-7, "m, rad", "Kalman filter: noise of the measured heave and tilts; small keeps "
         "the feedback collocated (the measured hub state, not a model's)", minimum=0.0,
         maximum=1e3, above_minimum=True,
     )  # fmt: skip
     hub_rate_noise: float = setting(
-        1e-5, "m/s, rad/s", "Kalman filter: noise of the measured heave and tilt rates",
+        1e-7, "m/s, rad/s", "Kalman filter: noise of the measured heave and tilt rates; small "
+        "keeps the rate feedback collocated, a damper on every flexible mode",
         minimum=0.0, maximum=1e3, above_minimum=True,
     )  # fmt: skip
     tip_noise: float = setting(
@@ -142,6 +143,11 @@ class DesignSettings:
                 "tip_forces = true needs a design model with modes (design_boom_modes and "
                 "design_membrane_modes >= 1): the rigid-body model does not see what a tip "
                 "force does to its boom"
+            )
+        if self.tip_forces and self.loop_delay_s > 0:
+            raise ValueError(
+                f"tip_forces = true with loop_delay_s = {self.loop_delay_s:g} s: the simulator "
+                "times hub wrenches alone (a tip force acts when it comes)"
             )
         lengths = self.schedule_lengths
         if len(lengths) == 1 or any(b <= a for a, b in zip(lengths, lengths[1:], strict=False)):

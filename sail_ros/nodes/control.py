@@ -6,7 +6,10 @@ scheduled over boom length; docs/control.md); this node wires it to ROS: it take
 each state sample of the simulator (`sail/hub_state`, `sail/boom_state`, and with a
 design model with modes `sail/tip_deflection`), steps the controller once and
 publishes the command (`sail/hub_wrench_cmd`, with `tip_forces` also
-`sail/tip_force_cmd`), the header stamped with the sample it answers. Before it
+`sail/tip_force_cmd`), the header stamped with the time it is to act: the sample's
+plus `loop_delay_s` (the simulator holds a hub wrench stamped ahead of its model until
+then, so a loop delay of whole samples is met exactly however late in wall time the
+command comes within it). Before it
 commands it asks the simulator for its parameters and refuses (exit 2, one line) a
 clamped hub, another sail or other mode counts, another state rate, or limits below
 its own. When no sample comes for `stale_periods` periods (the simulator paused or
@@ -27,6 +30,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # small matrices: one BLAS t
 
 import argparse
 import collections
+import gc
 import json
 import math
 import sys
@@ -147,6 +151,7 @@ class ControlNode(Node):
             GetParameters, f"{self.settings.simulator_node}/get_parameters"
         )
         self._period_ns = round(self.design.period * 1e9)
+        self._delay_ns = round(self.design.loop_delay_s * 1e9)
         self._watch = StaleWatch(self._stale_limit(1.0))
         self._parts: dict[int, dict] = {}  # stamp -> the sample's messages so far
         self._last_stamp: int | None = None
@@ -225,6 +230,12 @@ class ControlNode(Node):
         if self._simulator_values is not None or self.failure:
             return
         answer = future.result()
+        if len(answer.values) != len(SIMULATOR_PARAMETERS):  # one unknown: none given
+            self.failure = (
+                f"'{self._simulator}' lacks parameters of a simulator of this package (asked "
+                f"for {', '.join(SIMULATOR_PARAMETERS[:3])}, ...): is it sail_sim?"
+            )
+            return
         values = {
             name: parameter_value_to_python(value)
             for name, value in zip(SIMULATOR_PARAMETERS, answer.values, strict=False)
@@ -305,8 +316,8 @@ class ControlNode(Node):
         `answers`: the command answers that sample (its applied delay is measured)."""
         stamp = self._last_stamp if stamp is None else stamp
         wrench = hub_msg.hub_wrench_command(*u[:3])  # frame "": the hub's body frame
-        if stamp is not None:
-            wrench.header.stamp = topics.stamp(stamp)
+        if stamp is not None:  # when it acts: the simulator holds it until then
+            wrench.header.stamp = topics.stamp(stamp + self._delay_ns)
         self._wrench.publish(wrench)
         self._sent.append((stamp if answers else None, np.array(u[:3], dtype=float)))
         self.commands += 1
@@ -315,7 +326,7 @@ class ControlNode(Node):
                 topics.TIP_FORCE_CMD, dict(zip(topics.BOOM_JOINTS, map(float, u[3:]), strict=True))
             )
             if stamp is not None:
-                forces.header.stamp = topics.stamp(stamp)
+                forces.header.stamp = topics.stamp(stamp + self._delay_ns)
             self._forces.publish(forces)
 
     def command_zero(self, why: str) -> None:
@@ -496,6 +507,10 @@ def main(argv=None) -> int:
 
 def _control(_namespace, stop) -> int:
     node = ControlNode()
+    # what start-up built (the gains, rclpy's objects) lives as long as the node: out of
+    # the collector's way, a collection does not hold a sample's command back
+    gc.collect()
+    gc.freeze()
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     failed = _Failed(node)

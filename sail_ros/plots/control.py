@@ -62,8 +62,8 @@ def closed_loop_figure(open_loop, closed_loop, commands, path, title: str = ""):
                      label=f"{label} [{unit}] (limit {limits[j]:g})")  # fmt: skip
     axes[2].set_ylabel("command")
     largest = float(np.max(limits)) if len(limits) else 1.0
-    axes[2].set_ylim(-1.25 * largest, 1.6 * largest)
-    axes[2].legend(ncols=2, loc="upper right", frameon=False)
+    axes[2].set_ylim(-1.25 * largest, 1.8 * largest)  # the legend above the limit
+    axes[2].legend(ncols=3, loc="upper center", frameon=False)
     for ax in axes:
         ax.margins(x=0)
     axes[-1].set_xlabel(TIME_LABEL)
