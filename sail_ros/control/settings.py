@@ -18,7 +18,7 @@ import dataclasses
 import math
 
 from sail_ros.model import SailParameters
-from sail_ros.model.fields import check_fields, fields_of, setting
+from sail_ros.model.fields import check_fields, default_of, fields_of, setting, spec_of
 from sail_ros.policy import Policy
 
 MAX_DELAY_PERIODS = 50  # a longer loop delay is no design this controller makes sense for
@@ -35,10 +35,11 @@ class DesignSettings:
         "frequency (docs/control.md)", minimum=0.01, maximum=1000.0,
     )  # fmt: skip
     loop_delay_s: float = setting(
-        0.0, "s", "simulation time from a state sample to its command taking effect; 0: "
-        "from the sample's own time, as the simulator applies a command that arrives "
-        "before its next tick when its model does not run ahead (max_model_step = "
-        "integration_step)", minimum=0.0, maximum=10.0,
+        0.0, "s", "simulation time from a state sample to its command taking effect (the "
+        "command is stamped so, and the simulator holds a wrench stamped ahead until "
+        "then); 0: from the sample's own time, which the simulator meets when its model "
+        "does not run ahead (max_model_step = integration_step) and its steps wait for "
+        "their commands (command_wait_s)", minimum=0.0, maximum=10.0,
     )  # fmt: skip
     design_boom_modes: int = setting(
         0, "-", "cantilever modes per boom of the design model; 0 (with "
@@ -235,10 +236,22 @@ class NodeSettings:
 # the limits of the policy the controller saturates at (the simulator's, checked against it)
 LIMIT_NAMES = ("max_hub_force", "max_hub_torque", "max_tip_force")
 SAIL_PREFIX = "sail."  # as the simulator's: `sail.<field>` is SailParameters.<field>
+
+
+def _fixed(field):
+    """A field of another table as a read-only setting of the node (the design is made
+    at start: a limit changed later would not be the one it saturates at)."""
+    spec = spec_of(field)
+    return setting(
+        default_of(field), spec.unit, spec.doc + "; the simulator's, at most", minimum=spec.minimum,
+        maximum=spec.maximum, above_minimum=spec.above_minimum,
+    )  # fmt: skip
+
+
 # the node's parameters, name -> field: the design, the node's own, the limits, the sail
 NODE_PARAMETERS = {
     **{f.name: f for f in fields_of(DesignSettings)},
     **{f.name: f for f in fields_of(NodeSettings)},
-    **{f.name: f for f in fields_of(Policy) if f.name in LIMIT_NAMES},
+    **{f.name: _fixed(f) for f in fields_of(Policy) if f.name in LIMIT_NAMES},
     **{SAIL_PREFIX + f.name: f for f in fields_of(SailParameters)},
 }

@@ -6,17 +6,15 @@ scheduled over boom length; docs/control.md); this node wires it to ROS: it take
 each state sample of the simulator (`sail/hub_state`, `sail/boom_state`, and with a
 design model with modes `sail/tip_deflection`), steps the controller once and
 publishes the command (`sail/hub_wrench_cmd`, with `tip_forces` also
-`sail/tip_force_cmd`), the header stamped with the time it is to act: the sample's
-plus `loop_delay_s` (the simulator holds a hub wrench stamped ahead of its model until
-then, so a loop delay of whole samples is met exactly however late in wall time the
-command comes within it). Before it
-commands it asks the simulator for its parameters and refuses (exit 2, one line) a
-clamped hub, another sail or other mode counts, another state rate, or limits below
-its own. When no sample comes for `stale_periods` periods (the simulator paused or
-gone) it commands a zero wrench, says so once, and goes on when samples return.
-/diagnostics (`sail_control: controller`) reports the loop latency (the sample's
-publication to the command's), the delay with which the simulator applied the
-commands (from its answers), and the saturations.
+`sail/tip_force_cmd`), stamped with the time it is to act: the sample's plus
+`loop_delay_s` (the simulator holds a hub wrench stamped ahead of its model until
+then). Before it commands it asks the simulator for its parameters and refuses (exit
+2, one line) a clamped hub, another sail or other mode counts, another state rate, or
+limits below its own. When no sample comes for `stale_periods` periods (the simulator
+paused or gone) it commands a zero wrench, says so once, and goes on when samples
+return. /diagnostics (`sail_control: controller`) reports the loop latency (the
+sample's publication to the command's), the delay with which the simulator applied
+the commands (from its answers), and the saturations.
 
 SIGINT/SIGTERM: a zero wrench, acknowledged, then exit 0. A bad parameter: exit 2.
 
@@ -34,6 +32,7 @@ import gc
 import json
 import math
 import sys
+import textwrap
 import time
 
 import numpy as np
@@ -489,10 +488,15 @@ def _parser() -> argparse.ArgumentParser:
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="\n\n".join(__doc__.split("\n\n")[1:3])
-        + "\n\nThe design model is explicit: design_boom_modes and design_membrane_modes "
-        "(0 and 0: the rigid-body model; docs/control.md says why that is the default) and "
-        "the gains' schedule_lengths. `sail-ros plant --controller` checks the loop's poles "
-        "against the full plant along a deployment.\n\n"
+        + "\n\n"
+        + textwrap.fill(
+            "The design model is explicit: design_boom_modes and design_membrane_modes (0 "
+            "and 0: the rigid-body model; docs/control.md says why that is the default) and "
+            "the gains' schedule_lengths. `sail-ros plant --controller` checks the loop's "
+            "poles against the full plant along a deployment.",
+            88,
+        )
+        + "\n\n"
         + PHYSICS_DOC
         + "\n\nROS parameters (--ros-args -p name:=value, or --params-file "
         "config/closed_loop.yaml):\n" + "\n".join(lines),

@@ -64,10 +64,9 @@ SWITCH_INTERVAL_S = 0.0005  # the interpreter's switch interval in the simulator
 # interpreter that a tick would wait for. After a wake-up everything waiting is taken.
 INTAKE_PAUSE_S = 0.005
 # ... but after a wake-up that found one command alone, a stream (a controller's, one
-# command a state sample) rather than a burst, a rest of INTAKE_PAUSE_S would make the
-# next command of a stream at the tick rate miss its tick about half the time: the
-# rest is this long then (a controller at time scale 4 and 50 Hz: 35 % of its commands
-# a tick late with 5 ms, 2 % with 1 ms; benchmarks/control_loop.py)
+# command a state sample) rather than a burst, a rest of INTAKE_PAUSE_S would have the
+# next command of a stream at the tick rate miss its tick about every other time: the
+# rest is this long then
 STREAM_PAUSE_S = 0.001
 # A burst that fills the queue waits this long at most for a tick to take it (the ticks
 # are at most MAX_TICK_PERIOD_S apart, and one is called at once); what still finds the
