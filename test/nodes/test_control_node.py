@@ -43,8 +43,8 @@ class StandIn(Node):
     """A node called sail_sim with the simulator's parameters; publishes state samples
     on demand and keeps the wrench commands and the controller's statuses."""
 
-    def __init__(self, context, parameters):
-        super().__init__(topics.SIM_NODE, context=context)
+    def __init__(self, context, parameters, namespace=None):
+        super().__init__(topics.SIM_NODE, context=context, namespace=namespace)
         for name, value in parameters.items():
             self.declare_parameter(name, value)
         self.hub = self.create_publisher(Odometry, topics.HUB_STATE, topics.STATE_QOS)
@@ -60,7 +60,8 @@ class StandIn(Node):
         self.stamp = 1_700_000_000 * 10**9
 
     def _on_status(self, array):
-        name = topics.controller_status_name("/" + topics.CONTROLLER_NODE)
+        name = topics.controller_status_name(topics.absolute(topics.CONTROLLER_NODE,
+                                                             self.get_namespace()))  # fmt: skip
         for status in array.status:
             if status.name == name:
                 self.statuses.append({v.key: v.value for v in status.values})
@@ -85,10 +86,10 @@ def ros(ros_context):
     def spin_until(condition, timeout, what):
         harness_spin_until(executor, condition, timeout, what, step=0.002)
 
-    def start(simulator=SIMULATOR, **parameters):
+    def start(simulator=SIMULATOR, namespace=None, **parameters):
         overrides = [Parameter(n, value=v) for n, v in {**SAIL, **parameters}.items()]
-        controller = ControlNode(overrides, context=context)
-        stand_in = StandIn(context, simulator)
+        controller = ControlNode(overrides, context=context, namespace=namespace)
+        stand_in = StandIn(context, simulator, namespace)
         for node in (controller, stand_in):
             executor.add_node(node)
             nodes.append(node)
@@ -232,3 +233,13 @@ def test_the_status_names_the_controller():
         topics.controller_status_name("/sat2/sail_control"),
     )
     assert array.status[0].name == "sat2/sail_control: controller"
+
+
+def test_in_a_namespace_it_controls_the_simulator_of_its_namespace(ros):
+    controller, stand_in, spin_until = ros(namespace="/sat2")
+    commanding(controller, stand_in, spin_until)
+    assert controller._simulator == "/sat2/sail_sim"
+    stand_in.sample()
+    spin_until(lambda: stand_in.wrenches, 2.0, "a command in /sat2")
+    assert controller._hub_topic == "/sat2/sail/hub_wrench_cmd"
+    spin_until(lambda: stand_in.statuses, 3.0, "the status sat2/sail_control: controller")
