@@ -25,6 +25,8 @@ PHYSICS_DOC = (
     "share/sail_ros/docs/model.md)."
 )
 
+INTERRUPTED = 130  # the exit code of a program ended by SIGINT (128 + 2), as shells give it
+
 # tool name -> "module:function" (a console_scripts target)
 TOOLS = {
     "modes": "sail_ros.tools.modes:main",
@@ -161,9 +163,14 @@ def main(argv=None):
 
 def _run_tool(name: str, args: list[str], prog: str) -> int:
     module_name, function_name = TOOLS[name].split(":")
-    tool_main = getattr(importlib.import_module(module_name), function_name)
-    sys.argv = [prog, *args]
-    return tool_main(args)
+    try:
+        tool_main = getattr(importlib.import_module(module_name), function_name)
+        sys.argv = [prog, *args]
+        return tool_main(args)
+    except KeyboardInterrupt:
+        # Ctrl-C before a node took SIGINT over (its second of imports), or in an offline
+        # tool: the shell's exit code for it, without a traceback
+        return INTERRUPTED
 
 
 def _entry_point(name: str):

@@ -38,7 +38,8 @@ class Policy:
     """The limits a motion, a load or an output must respect, and the alarms of a run."""
 
     min_length: float = setting(
-        1.0, "m", "shortest boom length a command may ask for or pass through",
+        5.0, "m", "shortest boom length a command may ask for or pass through (the simulator "
+        "refuses one its model cannot step in real time on the machine)",
         minimum=1e-3, maximum=1e4, read_only=False,
     )  # fmt: skip
     max_length: float = setting(
@@ -55,8 +56,9 @@ class Policy:
         minimum=1e-6, maximum=100.0, read_only=False,
     )  # fmt: skip
     max_trajectory_points: int = setting(
-        1000, "-", "most points a boom-length trajectory may hold (planning checks the "
-        "whole spline)", minimum=1, maximum=100000, read_only=False,
+        1000, "-", "most points a boom-length trajectory (a command, or a scenario's "
+        "waypoint profile offline) may hold (planning checks the whole spline)", minimum=1,
+        maximum=100000, read_only=False,
     )  # fmt: skip
     max_pressure: float = setting(
         0.01, "Pa", "largest |pressure| on a quadrant (solar radiation pressure at 1 AU "
@@ -186,6 +188,16 @@ class Policy:
                 f"[{-self.max_rate:g}, {self.max_rate:g}] m/s"
             )
         return float(rate)
+
+    def check_points(self, count: int, what: str = "") -> None:
+        """A trajectory of `count` points (waypoints) within max_trajectory_points: refused
+        before its spline is built."""
+        if count > self.max_trajectory_points:
+            prefix = f"{what}: " if what else ""
+            raise ValueError(
+                f"{prefix}{count} points, more than max_trajectory_points = "
+                f"{self.max_trajectory_points}"
+            )
 
     def check_motion(self, profile, sail: SailParameters, booms=range(4), what: str = "") -> None:
         """A motion (a profile with `extremes()`) of the booms at indices `booms`: its

@@ -24,6 +24,21 @@ SAIL_ROS_KILL_TRIALS="${SAIL_ROS_KILL_TRIALS:-20}" \
 # (~2 min; the suite: the main job and the offline blocks)
 trial "the whole README" test_readme_runs_top_to_bottom --slow "$@"
 
-# 1000 valid, then 1000 malformed deploy commands a second, 10 s each, at a simulator
-# that keeps real time and counts every command (~50 s)
+# 1000 valid, then 1000 malformed (NaN), then 1000 undecodable deploy commands a second,
+# 10 s each, at a simulator that keeps real time and counts every command (~60 s)
 trial "a flood of commands" test_a_flood_of_commands_is_held_in_real_time_and_counted --slow "$@"
+
+# SIGINT 0.05 to 1.5 s after `sail-ros sim` starts: no traceback, exit 130 or 0 (~10 s; the
+# suite: the SIGINT sent from inside its imports)
+trial "an early SIGINT" test_a_sigint_soon_after_the_simulator_starts_ends_it_without_a_traceback --slow "$@"
+
+# a scenario of 300000 waypoints at `sail-ros deploy`: refused (max_trajectory_points)
+# before a spline is made; prints the time and memory the refusal took (~15 s; the suite:
+# 1001 waypoints)
+trial "300000 waypoints" test_a_scenario_of_300000_waypoints_is_refused_before_any_work --slow "$@"
+
+# 200 Foxglove clients that subscribe and never read at a running simulator's bridge,
+# then 20000 bad frames: max_clients kept, the rest refused and counted, the memory back
+# once they leave, a few log lines; prints the bridge's memory (~40 s; the suite: 4
+# clients, 300 frames)
+trial "200 clients that never read" test_two_hundred_clients_that_never_read_and_twenty_thousand_bad_frames --slow "$@"

@@ -36,11 +36,19 @@ from sail_ros import topics
 from sail_ros.cli import TOOLS
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
+from sail_ros.model import SailParameters
 from sail_ros.ros.commanding import command_publisher
 from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often
 from sail_ros.tools.domains import FIRST_DOMAIN, DomainLease, bound_udp_ports, domain_in_use
 
 ROOT = Path(__file__).resolve().parents[1]  # the repository
+# Small mode counts for the tests whose subject is not the model's convergence (the
+# defaults, several hundred coordinates, are tested where it is: test_continuum.py)
+SMALL_MODES = {"n_boom_modes": 4, "n_membrane_modes": 6}
+SMALL = SailParameters(**SMALL_MODES)
+SMALL_SET = ("--set", "n_boom_modes=4", "--set", "n_membrane_modes=6")  # a tool's options
+SMALL_ROS = ("-p", "sail.n_boom_modes:=4", "-p", "sail.n_membrane_modes:=6")  # the simulator's
+SMALL_SIM = {f"sail.{name}": value for name, value in SMALL_MODES.items()}  # its parameters
 CONFIG = ROOT / "config"
 JS = ROOT / "test" / "js"  # Foxglove's JavaScript readers and clients (npm, lockfile)
 NODE_MAJOR = 20  # the oldest node they are run with

@@ -375,86 +375,35 @@ def hold_peaks(model: SailModel, profile, duration: float, spacing=HOLD_SPACING_
                      float(t[1] - t[0]) if t.size > 1 else 0.0)  # fmt: skip
 
 
-@dataclasses.dataclass(frozen=True)
-class Convergence:
-    """How a run's peaks move when the mode counts grow (`converge`).
-
-    Attributes:
-        n_boom_modes, n_membrane_modes: the larger mode counts of the rerun.
-        peaks: the rerun's peaks.
-        tip_change, moment_change: per boom a..d, `(finer - coarser) / finer` of the
-            peak |tip deflection| and |root moment| (0 where the finer peak is 0).
-    """
-
-    n_boom_modes: int
-    n_membrane_modes: int
-    peaks: Peaks
-    tip_change: np.ndarray
-    moment_change: np.ndarray
-
-    def largest(self) -> float:
-        """The largest |relative change| of any peak."""
-        return float(np.max(np.abs(np.concatenate([self.tip_change, self.moment_change]))))
-
-
-def finer_mode_counts(params, n_boom_modes=None, n_membrane_modes=None) -> tuple[int, int]:
-    """The mode counts of a convergence rerun: those given, else twice the run's, at most
-    `MAX_BOOM_MODES` and `MAX_MEMBRANE_MODES`; ValueError unless at least one grows."""
-    from sail_ros.model.parameters import MAX_BOOM_MODES, MAX_MEMBRANE_MODES
-
-    nb = n_boom_modes or min(2 * params.n_boom_modes, MAX_BOOM_MODES)
-    nm = n_membrane_modes or min(2 * params.n_membrane_modes, MAX_MEMBRANE_MODES)
-    if (
-        nb < params.n_boom_modes
-        or nm < params.n_membrane_modes
-        or ((nb, nm) == (params.n_boom_modes, params.n_membrane_modes))
-    ):
-        raise ValueError(
-            f"convergence: mode counts ({nb}, {nm}) must grow from the run's "
-            f"(n_B, n_M) = ({params.n_boom_modes}, {params.n_membrane_modes})"
-        )
-    return nb, nm
-
-
-def converge(
+def rerun_peaks(
     model: SailModel,
     scenario: Scenario,
     run: DeploymentRun,
-    n_boom_modes: int,
-    n_membrane_modes: int,
+    finer: SailModel,
     max_step: float = DEFAULT_MAX_STEP,
     progress=None,
     policy: Policy | None = None,
-) -> Convergence:
-    """Rerun `scenario` with more modes and compare the peaks with `run`'s (of `model`).
-
-    The finer model starts from the same initial deflection: the cantilever and
-    triangle functions of the coarser model are the first ones of the finer (the
-    bases are nested), so its coordinates carry over by name and the new ones start
-    at 0.
+) -> Peaks:
+    """The true peaks of `scenario` run again on `finer`, a model with more modes than
+    `model` (whose run is `run`), from the same initial deflection: the cantilever and
+    triangle functions of the coarser model are the first ones of the finer (the bases
+    are nested), so its coordinates carry over by name and the new ones start at 0.
 
     Raises:
         OutOfRangeError: the rerun left the linear range (its alarm).
     """
-    finer = SailModel(
-        model.params.replace(n_boom_modes=n_boom_modes, n_membrane_modes=n_membrane_modes)
-    )
     q0, qd0 = scenario.initial_state(model)
     initial = (carried_over(q0, model, finer), carried_over(qd0, model, finer))
     rtol = run.accuracy.rtol if run.accuracy is not None else DEFAULT_RTOL
-    rerun = run_deployment(finer, scenario, run.t, max_step, progress, initial, policy, rtol)
+    rerun = run_deployment(
+        finer, scenario, run.t, max_step, progress, initial, policy, rtol, rates=None, states=False
+    )
     if rerun.alarm:
         raise OutOfRangeError(
-            f"the rerun at (n_B, n_M) = ({n_boom_modes}, {n_membrane_modes}): {rerun.alarm}"
+            f"the rerun at (n_B, n_M) = ({finer.n_boom_modes}, {finer.n_membrane_modes}): "
+            f"{rerun.alarm}"
         )
-    coarse, fine = run.peaks, rerun.peaks
-    return Convergence(
-        n_boom_modes,
-        n_membrane_modes,
-        fine,
-        relative_change(coarse.tip_deflection.value, fine.tip_deflection.value),
-        relative_change(coarse.root_moment.value, fine.root_moment.value),
-    )
+    return rerun.peaks
 
 
 def carried_over(values, model: SailModel, finer: SailModel) -> np.ndarray:
@@ -465,7 +414,3 @@ def carried_over(values, model: SailModel, finer: SailModel) -> np.ndarray:
     for name, value in zip(model.coordinate_names, values, strict=True):
         carried[index[name]] = value
     return carried
-
-
-def relative_change(coarse, fine) -> np.ndarray:
-    return np.divide(fine - coarse, fine, out=np.zeros_like(fine), where=fine != 0)

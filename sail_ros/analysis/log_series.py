@@ -124,27 +124,48 @@ class LogSeries:
     def sail_parameters(self) -> SailParameters | None:
         """`SailParameters` from the recorded `sail.<field>` values (None if not recorded).
 
+        An automatic membrane count (`n_membrane_modes` 0) is pinned to the one the
+        simulator ran: the membrane coordinates of `/sail/modal_state`, or, without them,
+        the count its recorded initial lengths resolve.
+
         Raises ValueError naming the parameter when a recorded value is invalid.
         """
         if not self.parameters:
             return None
-        return topics.sail_parameters_from_record(self.parameters)
+        params = topics.sail_parameters_from_record(self.parameters)
+        if params is None or params.n_membrane_modes:
+            return params
+        if self.modal is not None:
+            count = sum(name.startswith("membrane_ab_") for name in self.modal.names)
+            return params.replace(n_membrane_modes=count) if count else params
+        lengths = self.parameters.get("initial_lengths")
+        try:
+            shortest = min(yaml_values.load(lengths)) if lengths else 0.0
+        except (TypeError, ValueError, yaml.YAMLError):
+            shortest = 0.0
+        return params.resolved(shortest)
 
 
-def _joint_series(messages) -> JointSeries | None:
+def _joint_series(messages, topic: str) -> JointSeries | None:
     if not messages:
         return None
     names = list(messages[0].name)
-    kept = [m for m in messages if list(m.name) == names]  # a reset may not rename joints
+    for message in messages:  # in stamp order
+        if list(message.name) != names:  # a reset keeps them: another simulator
+            t = (_stamp(message) - _stamp(messages[0])) / 1e9
+            raise AnotherRunError(
+                f"{topic} changes from {len(names)} to {len(message.name)} joints "
+                f"{t:.3f} s after its first message"
+            )
 
     def field(name):
-        rows = [getattr(m, name) for m in kept]
+        rows = [getattr(m, name) for m in messages]
         width = len(names) if all(len(row) == len(names) for row in rows) else 0
         values = [row if width else [] for row in rows]
-        return np.array(values, dtype=float).reshape(len(kept), width)
+        return np.array(values, dtype=float).reshape(len(messages), width)
 
     return JointSeries(
-        np.array([topics.stamp_ns_of(m.header.stamp) for m in kept], dtype=np.int64),
+        np.array([_stamp(m) for m in messages], dtype=np.int64),
         names,
         field("position"),
         field("velocity"),
@@ -152,13 +173,35 @@ def _joint_series(messages) -> JointSeries | None:
     )
 
 
+class AnotherRunError(ValueError):
+    """What shows that a log holds more than one run of a simulator."""
+
+
+def _stamp(message) -> int:
+    return topics.stamp_ns_of(message.header.stamp)
+
+
 def read_log(path, namespace: str | None = None) -> LogSeries:
     """Read the simulator topics and metadata of a log (ValueError if it is not one).
+
+    A log holds one run of the simulator: one that was restarted under the recorder
+    (another epoch, other sail parameters, other mode counts: a state of another size)
+    is refused, saying what changed, rather than read as one run.
 
     Args:
         path: MCAP file or bag folder.
         namespace: the simulator's namespace ("/sat2"); None: the only one in the log.
     """
+    try:
+        return _read_log(path, namespace)
+    except AnotherRunError as error:
+        raise ValueError(
+            f"'{path}' holds more than one run of the simulator: {error} (it started again "
+            "under the recorder); a report covers one run: record each run on its own"
+        ) from None
+
+
+def _read_log(path, namespace: str | None) -> LogSeries:
     reader = BagReader(path)
     found = topics.sail_namespaces(reader.topics())
     if namespace is None:
@@ -174,6 +217,7 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
     parameters, epoch_ns, scenario = None, None, None
     for name, record in reader.metadata():
         if name == topics.PARAMETERS_METADATA:
+            _same_sail(parameters, record)
             parameters = dict(record)  # the last record wins (a split re-stores it)
         elif name == topics.SCENARIO_METADATA:
             if "epoch_ns" in record:
@@ -206,7 +250,10 @@ def read_log(path, namespace: str | None = None) -> LogSeries:
             joints[name].append(deserialize_message(message.data, JointState))
     for name in topics.STATE_TOPICS:  # an incomplete file is read in file order
         joints[name].sort(key=lambda m: topics.stamp_ns_of(m.header.stamp))
-    series = {name: _joint_series(joints[name]) for name in topics.STATE_TOPICS}
+    series = {
+        name: _joint_series(joints[name], topics.absolute(name, namespace))
+        for name in topics.STATE_TOPICS
+    }
     series = {name: s for name, s in series.items() if s is not None}
     present = list(series.values())
     if not present:
@@ -257,15 +304,45 @@ def _hub_series(messages) -> tuple[np.ndarray, np.ndarray] | None:
     return stamps, np.array([hub_msg.hub_from_odometry(m) for m in messages])
 
 
+def _same_sail(before: dict | None, record) -> None:
+    """A later `sail_sim_parameters` record (a split's, or a restarted simulator's) must
+    give the sail the same values: they are read-only, so only a new start changes them."""
+    if before is None:
+        return
+    changed = [
+        f"{name} {before.get(name)} -> {record.get(name)}"
+        for name in sorted(set(before) | set(record))
+        if name.startswith(topics.SAIL_PREFIX) and before.get(name) != record.get(name)
+    ]
+    if changed:
+        raise AnotherRunError(f"the sail parameters change ({', '.join(changed)})")
+
+
+EPOCH_SLACK_NS = 1000  # statuses of one run agree on their epoch to round-off
+
+
 def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) -> int | None:
-    """Stamp - sim_time_s of the first /diagnostics message that has both (the
-    simulator stamps its status with the simulation time of the state)."""
+    """Stamp - sim_time_s of the /diagnostics messages that have both (the simulator
+    stamps its status with the simulation time of the state), which one run keeps from
+    start to end (pauses and resets included).
+
+    Raises:
+        AnotherRunError: a status gives another epoch (a simulator started anew).
+    """
+    epoch = None
     for stamp, text in zip(stamps, values.get(key.SIM_TIME, []), strict=False):
         try:
-            return int(stamp) - round(float(text) * 1e9)
+            this = int(stamp) - round(float(text) * 1e9)
         except ValueError:
             continue
-    return None
+        if epoch is None:
+            epoch, first = this, int(stamp)
+        elif abs(this - epoch) > EPOCH_SLACK_NS:
+            raise AnotherRunError(
+                f"its /diagnostics tell another start {(int(stamp) - first) / 1e9:.3f} s "
+                f"after the first (epoch {epoch} -> {this} ns)"
+            )
+    return epoch
 
 
 def _diagnostics(arrays: list[DiagnosticArray], sim_node: str):

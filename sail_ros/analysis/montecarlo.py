@@ -459,6 +459,17 @@ def study_parameters(study: Study, base_sail: dict) -> SailParameters:
     return SailParameters.from_dict({**base_sail, **(study.scenario.get("sail") or {})})
 
 
+def study_sail(study: Study, sail: SailParameters) -> SailParameters:
+    """The sail every sample starts from: `sail` with the automatic membrane count of the
+    study's nominal scenario written out (its base sail and shortest length), so that the
+    dispersed prestress and stiffness do not change the model's size."""
+    scenario = scenario_from_dict(study.scenario)
+    nominal = sail.replace(**scenario.sail).resolved(scenario.shortest_length)
+    return sail.replace(
+        n_membrane_modes=nominal.membrane_modes, resolved_length=nominal.resolved_length
+    )
+
+
 def summarize(study: Study, rows: list[dict], base_sail: dict, worst: int = 5) -> Summary:
     import scipy.stats
 

@@ -223,6 +223,12 @@ class Scenario:
     labels: dict = dataclasses.field(default_factory=lambda: dict(FILE_LABELS))
     controller: DesignSettings | None = None
 
+    @property
+    def shortest_length(self) -> float:
+        """The shortest any boom gets over the profile [m] (what the automatic membrane
+        mode count resolves, `SailParameters.resolved`)."""
+        return float(np.min(self.profile.extremes()[0]))
+
     def initial_state(self, model: SailModel) -> tuple[np.ndarray, np.ndarray]:
         """`(q0, qd0)` for `model` (coordinates [m], velocities [m/s])."""
         q0 = np.zeros(model.n)
@@ -233,12 +239,13 @@ class Scenario:
         return q0, qd0
 
 
-def load_scenario(path) -> Scenario:
-    """Read and validate a scenario YAML file (ValueError names the entry)."""
+def load_scenario(path, check_points=None) -> Scenario:
+    """Read and validate a scenario YAML file (ValueError names the entry);
+    `check_points` as in `scenario_from_dict`."""
     path = Path(path)
     document = yaml_values.load_file(path, "scenario")
     try:
-        return scenario_from_dict(document)
+        return scenario_from_dict(document, check_points=check_points)
     except ValueError as error:
         raise ValueError(f"{path}: {error}") from None
 
@@ -248,15 +255,16 @@ def reference_scenario() -> Scenario:
     return scenario_from_dict(REFERENCE)
 
 
-def scenario_from_dict(document, labels: dict | None = None) -> Scenario:
+def scenario_from_dict(document, labels: dict | None = None, check_points=None) -> Scenario:
     """Validate a scenario document (the YAML structure above); `labels` as
-    `Scenario.labels`."""
+    `Scenario.labels`. `check_points(count, what)` (`Policy.check_points`), if given,
+    checks the number of each waypoint profile's points before anything is made of them."""
     if not isinstance(document, dict) or not isinstance(document.get("scenario"), dict):
         raise ValueError(f"expected a mapping with a 'scenario' section, got {document!r}")
     TOP.check_keys(document, "top level")
     body = SCENARIO.check_keys(document["scenario"], "scenario")
     duration = SCENARIO.number(body, "duration", "scenario")
-    profile = _motion(body["profile"], "scenario.profile")
+    profile = _motion(body["profile"], "scenario.profile", check_points)
     initial = INITIAL.check_keys(body.get("initial") or {}, "scenario.initial")
     modes = initial.get("mode_state") or {}
     if not isinstance(modes, dict):
@@ -372,23 +380,23 @@ def _loads(spec, duration: float, where: str) -> LoadSchedule | None:
         raise ValueError(f"{where}: {error}") from None
 
 
-def _motion(spec, where: str):
+def _motion(spec, where: str, check_points=None):
     if not isinstance(spec, dict):
         raise ValueError(
             f"{where} must be a mapping (type: cycloidal | waypoints | static, "
             f"or one profile per boom a, b, c, d), got {spec!r}"
         )
     if "type" in spec:
-        return _profile(spec, where)
+        return _profile(spec, where, check_points)
     if set(spec) != set(BOOMS):
         raise ValueError(
             f"{where} needs 'type', or one profile for each boom a, b, c, d; "
             f"got keys {sorted(spec)}"
         )
-    return BoomMotion(_profile(spec[boom], f"{where}.{boom}") for boom in BOOMS)
+    return BoomMotion(_profile(spec[boom], f"{where}.{boom}", check_points) for boom in BOOMS)
 
 
-def _profile(spec, where: str):
+def _profile(spec, where: str, check_points=None):
     if not isinstance(spec, dict):
         raise ValueError(f"{where} must be a mapping with a 'type', got {spec!r}")
     kind = spec.get("type")
@@ -396,6 +404,9 @@ def _profile(spec, where: str):
         raise ValueError(f"{where}.type must be one of {', '.join(PROFILES)}, got {kind!r}")
     section = PROFILES[kind]
     section.check_keys(spec, f"{where} ({kind})")
+    times = spec.get("times")
+    if check_points is not None and kind == "waypoints" and isinstance(times, list):
+        check_points(len(times), f"{where}.times")
     values = {}
     for entry in section.keys:
         if entry.name == "type" or (entry.name not in spec and entry.default is None):

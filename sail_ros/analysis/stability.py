@@ -58,6 +58,8 @@ class FrozenSystem:
     matrices of two models, at 0 and 1 Pa, computed once."""
 
     def __init__(self, params: SailParameters, length: float, rate: float):
+        # one model for every prestress: the automatic membrane count of the one given
+        params = params.resolved(length).fixed_modes()
         slack = SailModel(params.replace(membrane_prestress=0.0))
         unit = SailModel(params.replace(membrane_prestress=1.0))
         M, C0, K0 = slack.matrices(length, rate, 0.0)

@@ -10,8 +10,9 @@ is the one owner of the files and of what is stored in them:
   none are expected, or `parameters_wait_s` passed without them since the first
   message), and each new
   file starts with the values of that moment;
-- the parameters: the first fetch is stored at once (metadata record
-  `parameters_record`, name -> value as one line of YAML); every later event
+- the parameters: each fetch (the first, and one after the node appeared again:
+  a restarted node, whose read-only values may differ) is stored at once (metadata
+  record `parameters_record`, name -> value as one line of YAML); every later event
   or fetch updates the values, and each change is stored where it happened as a
   `changes_record` (`changes_record_of`: the node, its times, and name, old and
   new value of each parameter it changed);
@@ -282,11 +283,11 @@ class Recording:
         )
 
     def _on_parameters(self, values: dict[str, str], log_time_ns: int) -> None:
-        first = self._parameters.values is None
         changes = self._parameters.snapshot(values)
-        if first:
-            self._store_parameters()
         self._store_changes(log_time_ns, log_time_ns, changes)
+        # every fetch, the first and one after the node appeared again, is a record of all
+        # the values: a node started anew may have other read-only ones (the sail's)
+        self._store_parameters()
 
     def _on_update(self, update: ParameterUpdate) -> None:
         changes = self._parameters.apply(update)

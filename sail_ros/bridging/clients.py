@@ -9,7 +9,14 @@ import threading
 from sail_ros.bridging.protocol import MESSAGE_ENCODING, full_type_or_none
 from sail_ros.messages import status as key
 
-COUNTED = (key.SERVED, key.CLIENT_COMMANDS, key.REFUSED, key.SERVICE_CALLS, key.SLOW_REPORTS)
+COUNTED = (
+    key.SERVED,
+    key.CLIENT_COMMANDS,
+    key.REFUSED,
+    key.SERVICE_CALLS,
+    key.SLOW_REPORTS,
+    key.REFUSED_CONNECTIONS,
+)
 
 
 class ClientBook:
@@ -25,6 +32,30 @@ class ClientBook:
         self._client_channels: dict[tuple[int, int], str] = {}  # (client, channel) -> topic
         self._last_refusal = ""
         self._slow_clients: set[str] = set()
+        self._connected: set[str] = set()  # addresses of the clients connected
+        self.left = False  # a client left since `take_left` last asked
+
+    def connect(self, address: str, most: int) -> bool:
+        """A client connected from `address`: whether it may stay, at most `most` being
+        connected at once (else it is counted refused and not kept)."""
+        with self._lock:
+            if len(self._connected) >= most:
+                self._counts[key.REFUSED_CONNECTIONS] += 1
+                return False
+            self._connected.add(address)
+            return True
+
+    def disconnect(self, address: str) -> None:
+        """The client from `address` is gone (a refused one too)."""
+        with self._lock:
+            self._connected.discard(address)
+            self.left = True
+
+    def take_left(self) -> bool:
+        """Whether a client left since the last call."""
+        with self._lock:
+            left, self.left = self.left, False
+            return left
 
     def count(self, name: str) -> None:
         """One more of `name` (COUNTED)."""
@@ -71,6 +102,7 @@ class ClientBook:
             return {
                 key.BRIDGE_URL: self.url,
                 key.CLIENTS: str(len(self._subscribers)),
+                key.CONNECTIONS: str(len(self._connected)),
                 key.CHANNELS: str(self.channels),
                 **{name: str(value) for name, value in self._counts.items()},
                 key.SLOW_CLIENTS: " ".join(sorted(self._slow_clients)),

@@ -39,7 +39,7 @@ QUADRANT_BOOMS = ((0, 1), (1, 2), (2, 3), (3, 0))
 EIGEN_MARGIN = 4
 
 
-def _factorize(A: sp.spmatrix) -> sp.linalg.SuperLU:
+def factorize(A: sp.spmatrix) -> sp.linalg.SuperLU:
     """Sparse LU of a symmetric matrix.
 
     A symmetric fill-reducing ordering with preference for diagonal pivots
@@ -191,7 +191,7 @@ class SailFEM:
         b = slice(0, 4 * self.n_boom_dofs)
         v = slice(4 * self.n_boom_dofs, self.n_dofs)
         K_vb = K[v, b].toarray()
-        K_red = K[b, b].toarray() - K[b, v] @ _factorize(K[v, v]).solve(K_vb)
+        K_red = K[b, b].toarray() - K[b, v] @ factorize(K[v, v]).solve(K_vb)
         return M[b, b], sp.csr_matrix(K_red)
 
     # eigenvalues -------------------------------------------------------
@@ -215,7 +215,7 @@ class SailFEM:
             return scipy.linalg.eigh(
                 K.toarray(), M.toarray(), eigvals_only=True, subset_by_index=[0, k - 1]
             )
-        K_inverse = sp.linalg.LinearOperator(K.shape, matvec=_factorize(K).solve, dtype=float)
+        K_inverse = sp.linalg.LinearOperator(K.shape, matvec=factorize(K).solve, dtype=float)
         start = np.random.default_rng(0).standard_normal(n)  # not symmetric: all irreps
         _, V = sp.linalg.eigsh(
             K, k=k + EIGEN_MARGIN, M=M, sigma=0.0, which="LM", OPinv=K_inverse, v0=start

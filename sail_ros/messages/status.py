@@ -36,6 +36,9 @@ DISSIPATION = "damping_dissipation_W"
 # -- the bridge's status (msg_docs/bridge.md) --------------------------------------------------
 BRIDGE_URL = "url"  # where the bridge serves
 CLIENTS = "clients"  # clients subscribed to at least one channel
+CONNECTIONS = "connections"  # clients connected (their WebSocket handshake done)
+REFUSED_CONNECTIONS = "refused_connections"  # clients disconnected beyond max_clients
+SERVER_PROBLEMS = "server_problems"  # warnings and errors the server logged, since start
 CHANNELS = "channels"  # topics served
 SERVED = "messages_served"  # messages handed to the server, since start
 CLIENT_COMMANDS = "client_commands"  # client messages published on DDS, since start

@@ -18,7 +18,17 @@ import sail_ros.model.yaml_values as yaml_values
 from sail_ros.model.fields import check_fields, setting, spec_of
 
 MAX_BOOM_MODES = 30  # beyond, the cantilever functions' evaluation and the integrals cost more
-MAX_MEMBRANE_MODES = 100  # than the model is worth
+# than the model is worth; the membrane's integrals take about 10 s and 1 GiB at 400 modes
+MAX_MEMBRANE_MODES = 400
+# the first root of cos(b) cosh(b) + 1 = 0: a cantilever's first frequency is
+# FIRST_CANTILEVER_ROOT^2 sqrt(EI / rho_B) / L^2
+FIRST_CANTILEVER_ROOT = 1.8751040687119611
+# the fewest membrane modes an automatic count gives (a membrane without waves: no tension
+# or no mass)
+MIN_AUTOMATIC_MEMBRANE_MODES = 6
+# [m] the length the automatic count resolves where no run names one: the reference
+# deployment's and the simulator's initial length
+DEFAULT_RESOLVED_LENGTH = 10.0
 
 # the node whose parameters in a ROS 2 params file give the sail (the simulator's)
 SIMULATOR_NODE = "sail_sim"
@@ -60,11 +70,23 @@ class SailParameters:
         maximum=1e12,
     )  # fmt: skip
     n_boom_modes: int = setting(
-        4, "-", "cantilever modes per boom n_B", minimum=1, maximum=MAX_BOOM_MODES
+        8, "-", "cantilever modes per boom n_B", minimum=1, maximum=MAX_BOOM_MODES
     )
     n_membrane_modes: int = setting(
-        6, "-", "clamped-triangle modes per quadrant n_M", minimum=1, maximum=MAX_MEMBRANE_MODES
-    )
+        0, "-", "clamped-triangle modes per quadrant n_M; 0: every mode up to membrane_band "
+        "times the first cantilever frequency at resolved_length", minimum=0,
+        maximum=MAX_MEMBRANE_MODES,
+    )  # fmt: skip
+    membrane_band: float = setting(
+        1.8, "-", "the automatic n_M keeps every membrane mode up to this multiple of the "
+        "booms' first cantilever frequency at resolved_length", minimum=0.0, maximum=10.0,
+        above_minimum=True,
+    )  # fmt: skip
+    resolved_length: float = setting(
+        0.0, "m", "the shortest boom length the automatic n_M resolves; 0: the run's "
+        "shortest (the simulator's initial lengths, a scenario's profile, the lengths a tool "
+        "analyses; 10 m where none is known)", minimum=0.0, maximum=1e4,
+    )  # fmt: skip
     mass_damping: float = setting(
         0.0, "1/s", "Rayleigh alpha of the damping C_d = alpha M + beta K", minimum=0.0,
         maximum=1e6,
@@ -103,6 +125,52 @@ class SailParameters:
     def full_boom_length(self) -> float:
         """Fully deployed boom length a/sqrt(2) [m]."""
         return self.sail_side / math.sqrt(2.0)
+
+    @property
+    def membrane_modes(self) -> int:
+        """Clamped-triangle modes per quadrant the model keeps: `n_membrane_modes`, or, when
+        that is 0, `membrane_mode_need` up to `MAX_MEMBRANE_MODES`."""
+        if self.n_membrane_modes:
+            return self.n_membrane_modes
+        return min(self.membrane_mode_need, MAX_MEMBRANE_MODES)
+
+    @property
+    def membrane_mode_need(self) -> int:
+        """The automatic count: every clamped-triangle mode `(m, n)` whose frequency
+        `(pi / L) sqrt(N0 / rho_M) sqrt(m^2 + n^2)` at `L = resolved_length` (10 m when 0)
+        is at most `membrane_band` times the first cantilever frequency
+        `beta_1^2 sqrt(EI / rho_B) / L^2` there.
+
+        A boom's vibration loads the film at its own frequency, and the film's spectrum is
+        dense: it carries the energy away through the modes around that frequency, so
+        those must be in the model (docs/model.md, "Mode counts"). Both frequencies fall
+        as the booms grow, the boom's faster, so the shortest length decides. A film
+        without waves (no tension or no mass) gets `MIN_AUTOMATIC_MEMBRANE_MODES`."""
+        tension, density = self.membrane_tension, self.membrane_areal_density
+        if tension == 0 or density == 0:
+            return MIN_AUTOMATIC_MEMBRANE_MODES
+        length = self.resolved_length or DEFAULT_RESOLVED_LENGTH
+        boom = FIRST_CANTILEVER_ROOT**2 * math.sqrt(
+            self.boom_bending_stiffness / self.boom_linear_density
+        )
+        radius = self.membrane_band * boom / (math.pi * length * math.sqrt(tension / density))
+        squared = int(radius * radius)  # the modes kept have m^2 + n^2 <= squared, m > n >= 1
+        count = sum(
+            min(m - 1, math.isqrt(squared - m * m)) for m in range(2, math.isqrt(squared) + 1)
+        )
+        return max(count, MIN_AUTOMATIC_MEMBRANE_MODES)
+
+    def resolved(self, shortest_length: float) -> SailParameters:
+        """These parameters for a run whose booms are never shorter than `shortest_length`
+        [m]: `resolved_length` set to it where it is 0 (automatic), else unchanged."""
+        if self.resolved_length or not (math.isfinite(shortest_length) and shortest_length > 0):
+            return self
+        return self.replace(resolved_length=float(shortest_length))
+
+    def fixed_modes(self) -> SailParameters:
+        """These parameters with the membrane count written out (`membrane_modes`), so
+        that changing the sail (a Monte Carlo sample's prestress) keeps the model's size."""
+        return self.replace(n_membrane_modes=self.membrane_modes)
 
     @property
     def membrane_areal_density(self) -> float:

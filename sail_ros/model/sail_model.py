@@ -156,14 +156,15 @@ class SailModel:
     instances); every call below only scales and adds them.
 
     Args:
-        params: physical parameters and mode counts.
+        params: physical parameters and mode counts (`n_membrane_modes` 0: the automatic
+            count, `SailParameters.membrane_modes`).
         quadrature_order: Gauss points per direction for the reference
             integrals; the default resolves every basis product.
     """
 
     def __init__(self, params: SailParameters | None = None, quadrature_order: int | None = None):
         self.params = params if params is not None else SailParameters()
-        nb, nm = self.params.n_boom_modes, self.params.n_membrane_modes
+        nb, nm = self.params.n_boom_modes, self.params.membrane_modes
         self.n_boom_modes, self.n_membrane_modes = nb, nm
         self.free_hub = self.params.free_hub
         self.layout = Layout(nb, nm, free_hub=self.free_hub)

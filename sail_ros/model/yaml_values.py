@@ -37,8 +37,15 @@ def load_file(path, what: str):
         return load(Path(path).read_text())
     except yaml.YAMLError as error:
         raise ValueError(f"{path}: not valid YAML: {describe(error)}") from None
+    except UnicodeDecodeError as error:
+        raise ValueError(f"cannot read {what} {str(path)!r}: {not_text(error)}") from None
     except OSError as error:
         raise ValueError(f"cannot read {what} {str(path)!r}: {error.strerror}") from None
+
+
+def not_text(error: UnicodeDecodeError) -> str:
+    """Why a file is no YAML at all, in a few words: its first byte that is not UTF-8."""
+    return f"not UTF-8 text (byte {error.object[error.start]:#04x} at offset {error.start})"
 
 
 def describe(error: yaml.YAMLError) -> str:

@@ -61,10 +61,17 @@ from std_srvs.srv import SetBool, Trigger
 from sail_ros import topics
 from sail_ros.bag import message_definition
 from sail_ros.bridging.clients import ClientBook, command_refusal
-from sail_ros.bridging.protocol import MESSAGE_ENCODING, Listener, ServerLog, service_schema
+from sail_ros.bridging.protocol import (
+    MESSAGE_ENCODING,
+    LineThrottle,
+    Listener,
+    ServerLog,
+    service_schema,
+)
+from sail_ros.bridging.sockets import disconnect, release_freed_memory
 from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
-from sail_ros.ros.commanding import command_publisher
+from sail_ros.ros.commanding import command_publisher, decode
 from sail_ros.ros.parameters import (
     ConfigError,
     ParamSpec,
@@ -93,6 +100,11 @@ SUBSCRIPTION_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 SERVICE_TIMEOUT_S = 5.0  # a protocol service call waits this long for the simulator
+# At shutdown the server closes its clients' connections (a close frame each, which a
+# client answers in milliseconds) and waits for their tasks: those not ended after this
+# long [s] have their sockets shut down, and then it waits at most STOP_WAIT_S more.
+STOP_GRACE_S = 0.25
+STOP_WAIT_S = 1.0
 # the simulator's services, offered over the protocol: name -> (service class, type name)
 SERVICES = {
     topics.PAUSE_SERVICE: (SetBool, "std_srvs/srv/SetBool"),
@@ -125,7 +137,7 @@ SPECS = [
         "client_publish",
         True,
         "let clients publish on the command topics (deploy, boom length trajectory, "
-        "pressures, tip forces) and call sail/pause and sail/reset",
+        "pressures, tip forces, a free hub's wrench) and call sail/pause and sail/reset",
     ),
     ParamSpec(
         "client_queue",
@@ -134,6 +146,14 @@ SPECS = [
         "traffic loses its oldest queued messages (about 4 s of the default traffic)",
         minimum=16,
         maximum=1_000_000,
+    ),
+    ParamSpec(
+        "max_clients",
+        16,
+        "clients connected at once [clients]; one more is disconnected as it connects, "
+        "logged and counted: with client_queue this bounds what the clients' queues hold",
+        minimum=1,
+        maximum=10_000,
     ),
     ParamSpec(
         "diagnostics_period_s",
@@ -183,7 +203,13 @@ class Bridge(Node):
             DiagnosticArray, topics.DIAGNOSTICS, topics.DIAGNOSTICS_QOS
         )
 
-        self._server_log = ServerLog(self.get_logger(), self._on_slow_client).attach()
+        self._port = None  # the server's, once it listens
+        self._server_log = ServerLog(
+            self.get_logger(), self._on_slow_client, self._on_client
+        ).attach()
+        # the bridge's own refusals, one a client message or connection at worst
+        self._refusals = LineThrottle(self.get_logger(), "refused: ", key.REFUSED)
+        self._connections = LineThrottle(self.get_logger(), "", key.REFUSED_CONNECTIONS)
         self.foxglove_context = foxglove.Context()
         for name in served:
             self._serve(name)
@@ -208,6 +234,7 @@ class Bridge(Node):
         except RuntimeError as error:  # foxglove-sdk's error for a bind that failed
             self._server_log.detach()
             raise OSError(f"cannot listen on {address}:{self.config['port']}: {error}") from None
+        self._port = self.server.port
         self.url = self.client_book.url = f"ws://{address}:{self.server.port}"
         self.get_logger().info(f"serving on {self.url}")
         if not loopback:
@@ -312,20 +339,40 @@ class Bridge(Node):
             return
         spec, publisher = self._commands[topic]
         try:
-            deserialize_message(data, spec.message_type)
-        except Exception as error:  # rclpy's RMWError: the bytes are not that message
-            reason = str(error).split(",", 1)[0]
+            decode(data, spec.message_type)
+        except ValueError as error:
             self._refuse(f"client {client_id}: {len(data)} bytes on {topic} are not a "
-                         f"{spec.type_name} in CDR ({reason})")  # fmt: skip
+                         f"{spec.type_name} in CDR ({error})")  # fmt: skip
             return
-        publisher.publish(data)
+        try:
+            publisher.publish(data)
+        except Exception as error:  # rclpy's RCLError: DDS refused the bytes (trailing data)
+            reason = str(error).split(",", 1)[0]
+            self._refuse(f"client {client_id}: {len(data)} bytes on {topic} could not be "
+                         f"published on DDS ({reason})")  # fmt: skip
+            return
         self.client_book.count(key.CLIENT_COMMANDS)
 
     def _refuse(self, text: str, quiet: bool = False) -> None:
         self.client_book.refused(text)
         if not quiet:
-            self.get_logger().warning(f"refused: {text}")
+            self._refusals.line("warning", text)
             self.server.publish_status(text, StatusLevel.Error)
+
+    def _on_client(self, address: str, connected: bool) -> None:
+        """A client connected (the server registers it, on its thread) or left: one beyond
+        `max_clients` is disconnected at once, before anything is queued for it."""
+        if not connected:
+            self.client_book.disconnect(address)
+            return
+        most = self.config["max_clients"]
+        if self.client_book.connect(address, most) or self._port is None:
+            return
+        disconnect(self._port, address)
+        self._connections.line(
+            "warning",
+            f"client {address} disconnected: {most} clients are connected already (max_clients)",
+        )
 
     def _on_slow_client(self, address: str) -> None:
         self.client_book.slow(address)
@@ -369,9 +416,16 @@ class Bridge(Node):
 
     def status_values(self) -> dict[str, str]:
         """The key/value pairs of the bridge's status (msg_docs/bridge.md)."""
-        return self.client_book.status_values()
+        return {
+            **self.client_book.status_values(),
+            key.SERVER_PROBLEMS: str(self._server_log.problems),
+        }
 
     def _publish_status(self) -> None:
+        for lines in (self._server_log, self._refusals, self._connections):
+            lines.roll()
+        if self.client_book.take_left():
+            release_freed_memory()  # what the clients' queues held, back to the system
         values = self.status_values()
         slow = int(values[key.SLOW_REPORTS]) > 0
         status = DiagnosticStatus(
@@ -392,10 +446,25 @@ class Bridge(Node):
 
     def close(self) -> None:
         """Stop the server (clients see the connection close), say what was served and
-        release the SDK's log."""
-        self.server.stop()
+        release the SDK's log. The server's stop waits for every connection's task, and
+        one still in its handshake (a client that connected and sent nothing) would hold
+        it for as long as it stays: what has not ended after `STOP_GRACE_S` has its
+        socket shut down."""
+        stopping = threading.Thread(target=self.server.stop, name="server stop", daemon=True)
+        stopping.start()
+        stopping.join(STOP_GRACE_S)
+        if stopping.is_alive():
+            disconnect(self._port)
+            stopping.join(STOP_WAIT_S)
+        if stopping.is_alive():
+            self.get_logger().warning(
+                f"the server did not stop within {STOP_WAIT_S:g} s (a connection it still "
+                "waits for); exiting without it"
+            )
         for topic, count in sorted(self.served.items()):
             self.get_logger().info(f"  {topic}: {count} messages served")
+        for lines in (self._server_log, self._refusals, self._connections):
+            lines.roll(end=True)
         self._server_log.detach()
 
 

@@ -10,8 +10,9 @@ thread (`sail_ros.bag.recording.Recording`, the one owner of the files, the
 splits and the parameters stored). Log time is the DDS reception time and
 publish time the DDS source time [ns since the Unix epoch]. The parameters of
 the simulator node are stored in every file as the MCAP metadata record
-`sail_sim_parameters` (the values when the file starts), and each change of
-them, with its time, as a record `sail_sim_parameter_changes`.
+`sail_sim_parameters` (the values when the file starts, and again when the node
+starts anew under the recorder: a restarted simulator's sail may differ), and each
+change of them, with its time, as a record `sail_sim_parameter_changes`.
 
 SIGINT/SIGTERM: take what DDS has already received, finish the file(s)
 (summary, metadata.yaml) and exit 0. A write error (disk full, no
@@ -568,6 +569,11 @@ class Recorder(Node):
         self.bag.parameters_fetched(values, time.time_ns())
         if self._fetches == 1:
             self.get_logger().info(f"stored {len(values)} parameters of '{self._parameter_node}'")
+        else:
+            self.get_logger().info(
+                f"stored {len(values)} parameters of '{self._parameter_node}' again: it "
+                "appeared anew (a restart: its sail may differ)"
+            )
 
 
 def main(argv=None) -> int:

@@ -5,7 +5,9 @@ The run itself is `runtime.realtime.RealTimeRun` (pacing, stepping, commands,
 status); this node wires it to ROS: parameters (`runtime.config`), command
 subscriptions, the reset and pause services, the publishers of its outputs
 (msg_docs/README.md), and a `Ticker` thread that calls its `tick`. The
-executor's thread serves the parameters, services and command subscriptions.
+executor's thread serves the parameters and services, and what they change is
+done on the ticks' thread (`RealTimeRun.later`): however long the model's work,
+the executor never waits for it. The commands have a thread of their own.
 
 Stamps are simulation time: the wall-clock (ROS system) time when the node
 started plus the simulation time, so with time_scale 1 they follow the
@@ -38,6 +40,7 @@ from rclpy.duration import Duration
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.task import Future
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
@@ -49,15 +52,19 @@ from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
+from sail_ros.ros.commanding import decode
 from sail_ros.ros.discovery import subscriptions_of
 from sail_ros.ros.parameters import ConfigError, ParamSpec, declare, node_options
 from sail_ros.ros.taking import take_waiting
+from sail_ros.runtime.affordable import StepCost
 from sail_ros.runtime.config import PARAMETERS, config_from_values
+from sail_ros.runtime.intake import Undecodable
 from sail_ros.runtime.realtime import RealTimeRun
 from sail_ros.runtime.ticker import Ticker
 
 NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
+TICK_STOP_S = 0.5  # ... and this long for a tick under way to end
 SWITCH_INTERVAL_S = 0.0005  # the interpreter's switch interval in the simulator's process
 # Commands act at the next tick (ticks are at least 5 ms apart): taking bursts more often
 # buys nothing, and each wake-up of the commands' executor costs ~0.4 ms of the
@@ -94,9 +101,12 @@ class SimNode(Node):
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
         try:
-            model = SailModel(config.sail)
+            model = SailModel(config.resolved_sail)
         except ValueError as error:  # mode counts whose integrals would not fit
             raise ConfigError(f"sail.n_boom_modes, sail.n_membrane_modes: {error}") from None
+        # what a sub-step of this model costs here: how short a min_length it affords
+        self._cost = StepCost.measure(model, config)
+        self._cost.check(model, config)
         self.surface = SailSurface(model, config.shape_divisions)
         self._shape = ShapeSerializer(
             self.surface.triangles, self.surface.boom_stations.size, config.frame_id
@@ -122,6 +132,7 @@ class SimNode(Node):
             for name in published
         }
         self._ticker = None
+        self._clock_ns = -1  # the last /clock published [ns]
         self.run = RealTimeRun(
             model,
             config,
@@ -163,9 +174,10 @@ class SimNode(Node):
                 self._commands.create_subscription(
                     topics.TOPICS[name].message_type,
                     name,
-                    lambda message, info, name=name: self._receive(name, message, info),
+                    lambda data, info, name=name: self._receive(name, data, info),
                     qos,
                     event_callbacks=quiet,
+                    raw=True,  # read here: bytes that are no command are answered too
                 ),
             )
             for name in commands
@@ -249,9 +261,11 @@ class SimNode(Node):
     # -- parameters, services, commands: the executor's thread -----------------------------------
 
     def _check_parameters(self, parameters) -> SetParametersResult:
-        """On-set: accept a change only if the whole configuration stays valid."""
+        """On-set: accept a change only if the whole configuration stays valid, and its
+        booms at min_length affordable (`StepCost.check`)."""
         try:
-            config_from_values({**self._values, **{p.name: p.value for p in parameters}})
+            config = config_from_values({**self._values, **{p.name: p.value for p in parameters}})
+            self._cost.check(self.sim.model, config)
         except ConfigError as error:
             return SetParametersResult(successful=False, reason=str(error))
         return SetParametersResult(successful=True)
@@ -259,22 +273,25 @@ class SimNode(Node):
     def _apply_parameters(self, parameters) -> None:
         """Post-set: use the new values, and say so (the recorder keeps the change too)."""
         self._values.update({p.name: p.value for p in parameters})
-        self.config = config_from_values(self._values)
-        self.run.configure(self.config)
+        self.config = config = config_from_values(self._values)
+        self._on_ticks(lambda: self.run.configure(config))  # this thread waits for no step
         for parameter in parameters:
             self.get_logger().info(
                 f"parameter {parameter.name} set to {parameter.value!r} at t = {self.sim.t:.6f} s"
             )
 
-    def _receive(self, name: str, message, info: dict) -> None:
-        """A command from the commands' executor, then every other one already waiting,
-        submitted in the order they arrived (DDS's reception times)."""
+    def _receive(self, name: str, data: bytes, info: dict) -> None:
+        """A command's CDR bytes from the commands' executor, then every other one already
+        waiting, each read as its topic's type and submitted in the order they arrived
+        (DDS's reception times). Bytes that are no such message are submitted as
+        `Undecodable`, to be answered and counted as rejected: a typed subscription
+        would drop them without a word."""
         # With the run's lock held, as a tick: the two then never take turns at the
         # interpreter (every switch interval), which under a flood doubled a tick's wall
         # time; a tick waits for at most one burst, and a burst for at most one tick.
         self._count_listeners()  # before: the graph's lock is not the run's to wait on
         with self.run.lock:
-            taken = [(name, message, info)]
+            taken = [(name, data, info)]
             for other, subscription in self._command_subscriptions:
                 taken.extend(
                     (other, *pair)
@@ -282,6 +299,7 @@ class SimNode(Node):
                 )
             taken.sort(key=lambda command: command[2].get("received_timestamp") or 0)
             self._burst = len(taken) > 1
+            taken = [(topic, _read(topic, data), info) for topic, data, info in taken]
             wake, rest = self._submit_while_room(taken)
         while rest:
             # The queue is full (a burst larger than it, or the sender stalled and then
@@ -316,21 +334,52 @@ class SimNode(Node):
             wake = self.run.submit(*command) or wake
         return wake, []
 
-    def _on_reset(self, request, response):
-        response.message = self.run.reset()
+    async def _on_reset(self, request, response):
+        response.message = await self._on_ticks(self.run.reset)
         response.success = True
         return response
 
-    def _on_pause(self, request, response):
-        response.message = self.run.pause(request.data)
+    async def _on_pause(self, request, response):
+        response.message = await self._on_ticks(lambda: self.run.pause(request.data))
         response.success = True
         return response
+
+    def _on_ticks(self, action) -> Future:
+        """`action()` on the ticks' thread, woken for it at once (`RealTimeRun.later`); its
+        result as a future of this node's executor, which meanwhile serves everything
+        else: however long a grid step takes, the executor never waits for it (a service
+        callback awaits the future and answers once it is done)."""
+        future = Future(executor=self.executor)
+        future.add_done_callback(lambda _: None)  # its scheduling wakes the executor
+
+        def act():
+            try:
+                future.set_result(action())
+            except Exception as error:  # the service's caller learns of it, as rclpy's would
+                future.set_exception(error)
+                raise
+
+        self.run.later(act)
+        self._ticker.poke()
+        return future
 
     # -- outputs of the run (`runtime.realtime.Outputs`) ---------------------------------------
 
     def state(self, stamp_ns: int, sample) -> None:
         for name, data in self._states.serialize(stamp_ns, sample):
+            if name == topics.CLOCK and not self._clock_moved(stamp_ns):
+                continue
             self._outputs[name].publish(data)  # CDR bytes of `messages.state.state_messages`
+
+    def _clock_moved(self, stamp_ns: int) -> bool:
+        """Whether /clock may go out at `stamp_ns` [ns]: only forward, never the same
+        time twice (a reset's own sample repeats the stamp of the state it leaves, and a
+        status repeats the latest sample's), so a `use_sim_time` node never sees its
+        clock stand still on a message; noted as published if so."""
+        if stamp_ns <= self._clock_ns:
+            return False
+        self._clock_ns = stamp_ns
+        return True
 
     def shape(self, stamp_ns: int, q, lengths) -> None:
         self._outputs[topics.SHAPE].publish(  # CDR bytes of `messages.shape.shape`
@@ -345,7 +394,8 @@ class SimNode(Node):
                 stamp_ns, level, message, values, self.get_fully_qualified_name()
             )
         )
-        if topics.CLOCK in self._outputs:  # fresh for late joiners, also while paused
+        # the time reached since the last state sample (fewer samples than grid steps)
+        if topics.CLOCK in self._outputs and self._clock_moved(stamp_ns):
             self._outputs[topics.CLOCK].publish(state_msg.clock(stamp_ns))
 
     def answers(self, answers: list[commands_msg.CommandAnswer]) -> None:
@@ -374,10 +424,16 @@ class SimNode(Node):
     # -- shutdown --------------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Stop integrating and give subscribers time to acknowledge what was published."""
+        """Stop integrating and give subscribers time to acknowledge what was published.
+        A grid step still under way after TICK_STOP_S is not waited for."""
         self._intake.stop()
-        self._ticker.stop()
-        self.run.finish()
+        if self._ticker.stop(TICK_STOP_S):
+            self.run.finish()
+        else:
+            self.get_logger().warning(
+                f"the integration thread is still in a step after {TICK_STOP_S:g} s: stopping "
+                "without it"
+            )
         deadline = time.monotonic() + ACK_TIMEOUT_S
         for publisher in self._outputs.values():
             remaining = max(0.0, deadline - time.monotonic())
@@ -385,9 +441,18 @@ class SimNode(Node):
 
     def destroy_node(self) -> None:
         self._intake.stop()
-        self._ticker.stop()
+        self._ticker.stop(TICK_STOP_S)
         self._commands.destroy_node()
         super().destroy_node()
+
+
+def _read(topic: str, data: bytes):
+    """The command of `topic` that CDR bytes `data` hold, or `Undecodable` saying why not."""
+    kind = topics.TOPICS[topic]
+    try:
+        return decode(data, kind.message_type)
+    except ValueError as error:
+        return Undecodable(len(data), kind.type_name, str(error))
 
 
 class CommandThread:

@@ -56,6 +56,8 @@ def read_params_files(ros_argv: list[str]) -> list[tuple[str, list[str]]]:
                 document = yaml_values.load(stream)
         except OSError as error:
             raise ConfigError(f"--params-file {path}: {error.strerror}") from None
+        except UnicodeDecodeError as error:
+            raise ConfigError(f"--params-file {path}: {yaml_values.not_text(error)}") from None
         except yaml.YAMLError as error:
             raise ConfigError(f"--params-file {path}: {yaml_values.describe(error)}") from None
         try:

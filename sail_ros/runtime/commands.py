@@ -115,11 +115,7 @@ def plan_trajectory(trajectory, now: BoomState, rules: Rules) -> Plan:
     repeated = sorted({name for name in names if names.count(name) > 1})
     if repeated:
         raise CommandError(f"joint name(s) {', '.join(map(repr, repeated))} given more than once")
-    most = rules.policy.max_trajectory_points
-    if len(trajectory.points) > most:
-        raise CommandError(
-            f"{len(trajectory.points)} points, more than max_trajectory_points = {most}"
-        )
+    rules.check(rules.policy.check_points, len(trajectory.points))
     points = list(trajectory.points)
     if not points:
         raise CommandError("no points")

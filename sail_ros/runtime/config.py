@@ -153,6 +153,12 @@ class SimConfig:
         return getattr(self.settings, name)
 
     @property
+    def resolved_sail(self) -> SailParameters:
+        """The sail the model is built with: an automatic membrane count resolved at the
+        shortest of the initial lengths (`SailParameters.resolved`)."""
+        return self.sail.resolved(float(self.initial_lengths.min()))
+
+    @property
     def as_fast_as_possible(self) -> bool:
         return self.settings.time_scale <= 0.0
 

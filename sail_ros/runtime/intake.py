@@ -16,7 +16,9 @@ rejected. The simulator's thread takes everything waiting as one batch
 replaces (a deploy replaces every boom's motion, a trajectory its booms') never
 starts, so it is answered "superseded" without being planned, and only the
 newest are planned (newest first; if one is rejected, the next older one has its
-turn, which is what acting on them one by one would leave). Every command ends
+turn, which is what acting on them one by one would leave). Bytes that are no
+message of the topic's type (`Undecodable`) wait and are answered rejected like
+any other command. Every command ends
 accepted, superseded, rejected or ignored (published before the simulator
 started), each answered and counted.
 """
@@ -40,6 +42,18 @@ class Pending(NamedTuple):
     topic: str
     message: object
     info: dict
+
+
+class Undecodable(NamedTuple):
+    """A command's bytes that are no message of its topic's type (the node's CDR reader
+    said why): it waits and is answered rejected like any command, and counted."""
+
+    size: int  # bytes
+    type_name: str  # the topic's type, pkg/msg/Type
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.size} bytes are not a {self.type_name} in CDR ({self.reason})"
 
 
 class CommandIntake:
@@ -130,13 +144,16 @@ def booms_moved(pending: Pending) -> frozenset[int] | None:
     return frozenset(topics.BOOM_JOINTS.index(name) for name in names)
 
 
-def split_batch(batch: list[Pending]) -> tuple[list[int], list[int]]:
-    """The indices of a batch's (oldest first) motion commands, newest first, and of the
-    other commands, oldest first: the order in which they are tried."""
+def split_batch(batch: list[Pending]) -> tuple[list[int], list[int], list[int]]:
+    """The indices of a batch's (oldest first) undecodable commands, oldest first; of its
+    motion commands, newest first; and of the other commands, oldest first: the order in
+    which they are tried."""
     motion_topics = (topics.DEPLOY_CMD, topics.BOOM_LENGTH_CMD)
-    motion = [i for i, pending in enumerate(batch) if pending.topic in motion_topics]
-    others = [i for i, pending in enumerate(batch) if pending.topic not in motion_topics]
-    return motion[::-1], others
+    unread = [i for i, pending in enumerate(batch) if isinstance(pending.message, Undecodable)]
+    read = [i for i in range(len(batch)) if i not in set(unread)]
+    motion = [i for i in read if batch[i].topic in motion_topics]
+    others = [i for i in read if batch[i].topic not in motion_topics]
+    return unread, motion[::-1], others
 
 
 def covered(batch: list[Pending], index: int, accepted) -> bool:

@@ -10,11 +10,12 @@ services and parameters. The node (`nodes.sim`) only wires topics, services,
 parameters and a `Ticker` to it; tests drive it with a fake clock.
 
 `lock` is held by `tick` (the ticker holds it around each call) and by the
-services, so they never see a half-made step; `submit` only queues.
+services, so they never see a half-made step; `submit` and `later` only queue.
 """
 
 from __future__ import annotations
 
+import collections
 import math
 import threading
 import time
@@ -165,6 +166,7 @@ class RealTimeRun:
         self._waiting_since: float | None = None  # [s, clock] a step waits for its command
         self.missed_commands = 0  # steps that waited command_wait_s in vain
         self._excused_until = -math.inf  # [s] the steps of a wait in vain go up to here
+        self._later: collections.deque = collections.deque()  # actions for the next tick
         self._use_config()
 
     # -- lifecycle ---------------------------------------------------------------------------
@@ -198,10 +200,18 @@ class RealTimeRun:
             period = min(period, self.pacer.tick_period)
         return period
 
+    def later(self, action) -> None:
+        """Call `action()` at the start of the next tick (from any thread): what a service
+        or a parameter change does, on the ticks' thread, so that the thread that serves
+        them never waits for the model's work."""
+        self._later.append(action)
+
     def tick(self) -> None:
-        """One wake-up (the ticker holds `lock`): act on the commands, integrate what is
-        due while running, publish the status when due."""
+        """One wake-up (the ticker holds `lock`): what `later` asked for, act on the
+        commands, integrate what is due while running, publish the status when due."""
         woke = self.clock()  # the commands' work is the tick's, not lateness
+        while self._later:
+            self._later.popleft()()
         self._run_commands()
         if self.sim.state == RUNNING:
             self._integrate(woke)
@@ -241,17 +251,24 @@ class RealTimeRun:
         return False
 
     def _run_commands(self) -> None:
-        """The waiting commands as one batch (`intake.split_batch`): motion commands
-        planned newest first, one a newer accepted one replaces answered superseded
-        unplanned, the accepted ones applied oldest first; then the loads in order. Their
-        answers go out together, one message."""
+        """The waiting commands as one batch (`intake.split_batch`): bytes that are no
+        command rejected, oldest first; motion commands planned newest first, one a
+        newer accepted one replaces answered superseded unplanned, the accepted ones
+        applied oldest first; then the loads in order. Their answers go out together,
+        one message."""
         batch = self.queue.take()
         if not batch:
             return
-        motions, loads = split_batch(batch)
+        unread, motions, loads = split_batch(batch)
         sim = self.sim
         plans = {}
         answers = []
+        for index in unread:
+            error = CommandError(str(batch[index].message))
+            sim.count_rejection(error)
+            answers.append(
+                self._answer(batch[index], commands_msg.REJECTED, str(error), {}, "warning")
+            )
         for index in motions:
             pending = batch[index]
             if covered(batch, index, plans):

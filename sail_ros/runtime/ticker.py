@@ -88,17 +88,22 @@ class Ticker:
             raise OSError("this system has no SCHED_FIFO scheduling")
         os.sched_setscheduler(self._thread.native_id, os.SCHED_FIFO, os.sched_param(priority))
 
-    def stop(self) -> None:
-        """No more calls once this returns (a call under way finishes first)."""
+    def stop(self, timeout: float | None = None) -> bool:
+        """No more calls once this returns (a call under way finishes first, waited for
+        at most `timeout` [s]; None: as long as it takes); whether the thread ended. A
+        call still under way then ends the calls, and what it raises is let go."""
         self._stopping = True
         self._wake()
         if self._thread is not threading.current_thread():
-            self._thread.join()
+            self._thread.join(timeout)
+        return not self._thread.is_alive()
 
     def _run(self) -> None:
         try:
             self._loop()
         except BaseException as error:  # handed on: the owner decides what follows
+            if self._stopping:  # a call the owner stopped waiting for, ended with what it used
+                return
             self.failure = error
             if self._on_failure is not None:
                 self._on_failure(error)

@@ -23,6 +23,7 @@ import yaml
 from sail_ros import topics
 from sail_ros.cli import nearest
 from sail_ros.model import SailParameters, yaml_values
+from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.runtime.config import PARAMETERS
@@ -185,6 +186,20 @@ def sail_parameters(args: argparse.Namespace) -> SailParameters:
     return configuration(args).sail
 
 
+def _automatic(params) -> str:
+    """How an automatic membrane count was chosen ("" for a count given)."""
+    if params.n_membrane_modes:
+        return ""
+    length = params.resolved_length or DEFAULT_RESOLVED_LENGTH
+    capped = ""
+    if params.membrane_mode_need > params.membrane_modes:
+        capped = f", capped from {params.membrane_mode_need}"
+    return (
+        f"; n_M automatic: the membrane modes up to {params.membrane_band:g} x the first "
+        f"cantilever frequency at L = {length:g} m{capped}"
+    )
+
+
 def describe_parameters(params: SailParameters) -> str:
     """The parameters in one block, with units, for printing next to results (a free
     hub's in one more line)."""
@@ -208,9 +223,9 @@ def describe_parameters(params: SailParameters) -> str:
             f"  film prestress          {params.membrane_prestress:g} Pa "
             f"(N0 = {params.membrane_tension:.4g} N/m)",
             f"  boom axial load P       {params.boom_axial_load:g} N",
-            f"  modes n_B, n_M          {params.n_boom_modes}, {params.n_membrane_modes} "
-            f"({4 * params.n_boom_modes + 4 * params.n_membrane_modes}"
-            f"{' + 3 hub' if params.free_hub else ''} coordinates)",
+            f"  modes n_B, n_M          {params.n_boom_modes}, {params.membrane_modes} "
+            f"({4 * params.n_boom_modes + 4 * params.membrane_modes}"
+            f"{' + 3 hub' if params.free_hub else ''} coordinates){_automatic(params)}",
             f"  Rayleigh damping        alpha = {params.mass_damping:g} 1/s, "
             f"beta = {params.stiffness_damping:g} s",
             *hub,

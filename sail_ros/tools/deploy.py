@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import json
 import math
 import sys
@@ -28,13 +29,13 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from sail_ros.analysis.convergence import BAR, converge, finer_parameters
 from sail_ros.analysis.deployment import (
-    converge,
-    finer_mode_counts,
     hold_peaks,
     hold_reactions,
     output_count,
     output_times,
+    rerun_peaks,
     run_deployment,
     sample_bytes,
 )
@@ -60,7 +61,6 @@ from sail_ros.tools.common import (
 )
 
 LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
-CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
 FIGURES = ("deployment_snapshots.png", "tip_deflections.png", "boom_lengths.png")
 HUB_FIGURE = "hub_attitude.png"  # with a free hub: its tilt, heave and hold reactions
 CLOSED_LOOP_FIGURE = "closed_loop.png"  # with a controller: open against closed loop
@@ -138,9 +138,10 @@ def build_parser() -> ToolParser:
         type=int,
         nargs="*",
         metavar=("N_B", "N_M"),
-        help="rerun with more modes (default: twice n_B and n_M, at most 30 and 100) and "
-        "say how far each peak moves; a warning when one moves by more than "
-        f"{100 * CONVERGENCE_WARNING:g} %%",
+        help="rerun on finer models (each: 4 more boom modes, membrane modes up to 1.25 "
+        "times the band of the one before; or the counts given) until two agree within "
+        f"{100 * BAR:g} %% of the largest peak of each kind (at most 3 reruns), and give "
+        "each peak's change against the finest; a warning when one is off by more",
     )
     parser.add_argument(
         "--json",
@@ -195,8 +196,9 @@ def build_parser() -> ToolParser:
     return parser
 
 
-def _scenario(args):
-    """The scenario to run and a one-line description of it."""
+def _scenario(args, limits=None):
+    """The scenario to run and a one-line description of it; `limits` (a `Configuration`),
+    if given, bound its waypoints."""
     given = [name for name in LEGACY if getattr(args, name) is not None]
     if args.scenario is not None:
         if given:
@@ -207,7 +209,8 @@ def _scenario(args):
                 f"{options} describe the reference scenario; with --scenario "
                 f"{args.scenario} put them in the file"
             )
-        scenario = load_scenario(args.scenario)
+        points = limits and functools.partial(limits.check, limits.policy.check_points)
+        scenario = load_scenario(args.scenario, points)
         return scenario, f"{scenario.description or 'scenario'} ({args.scenario})"
     document = copy.deepcopy(REFERENCE)
     body = document["scenario"]
@@ -327,20 +330,29 @@ def _accuracy_line(accuracy) -> str:
     )
 
 
-def _print_peaks(peaks, params, convergence=None) -> None:
+def _print_peaks(peaks, model, convergence=None) -> None:
     """Each boom's peak |tip| and |root moment| with its time, and their convergence."""
     print()
     print(
         f"  peaks over the whole run, per boom (taken inside every integration step; "
-        f"n_B = {params.n_boom_modes}, n_M = {params.n_membrane_modes}):"
+        f"n_B = {model.n_boom_modes}, n_M = {model.n_membrane_modes}):"
     )
     changes = None
     if convergence is not None:
+        finest = convergence.finest
         label = (
-            f"  change at ({convergence.n_boom_modes}, {convergence.n_membrane_modes}) modes [%]"
+            f"  change against ({finest.n_boom_modes}, {finest.n_membrane_modes}) modes, "
+            "% of the largest peak"
         )
-        changes = (label, convergence.tip_change, convergence.moment_change)
+        changes = (label, convergence.change.tips, convergence.change.moments)
     print_peak_table(peaks, changes)
+    if convergence is not None:
+        for level in convergence.levels:
+            print(
+                f"  rerun at (n_B, n_M) = ({level.n_boom_modes}, {level.n_membrane_modes}): "
+                f"the peaks before it move by {100 * level.change_before.largest():.2g} % "
+                "of the largest of their kind"
+            )
 
 
 def _print_hub_peaks(hub, holds) -> None:
@@ -356,24 +368,29 @@ def _print_hub_peaks(hub, holds) -> None:
 
 
 def _convergence_warning(convergence) -> str:
-    """One line naming every peak that moved by more than CONVERGENCE_WARNING ("" if none)."""
+    """One line when the run's peaks are not within the bar of the finest rerun's, or the
+    reruns did not settle ("" if both hold)."""
     moved = [
         f"{what} {boom} {100 * change:+.2f} %"
         for what, changes in (
-            ("tip", convergence.tip_change),
-            ("moment", convergence.moment_change),
+            ("tip", convergence.change.tips),
+            ("moment", convergence.change.moments),
         )
         for boom, change in zip("abcd", changes, strict=True)
-        if abs(change) > CONVERGENCE_WARNING
+        if abs(change) > convergence.bar
     ]
-    if not moved:
-        return ""
-    return (
-        f"warning: peaks not converged: with (n_B, n_M) = ({convergence.n_boom_modes}, "
-        f"{convergence.n_membrane_modes}) they move by more than "
-        f"{100 * CONVERGENCE_WARNING:g} % ({', '.join(moved)}); raise n_boom_modes and "
-        "n_membrane_modes (--set) until they stop moving"
-    )
+    parts = []
+    if moved:
+        finest = convergence.finest
+        parts.append(
+            f"peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
+            f"{finest.n_membrane_modes}) they are off by more than {100 * convergence.bar:g} % "
+            f"of the largest of their kind ({', '.join(moved)}); raise membrane_band "
+            "(--set) or give the finer counts"
+        )
+    if convergence.stopped:
+        parts.append(f"the reruns did not settle: {convergence.stopped}")
+    return f"warning: {'; '.join(parts)}" if parts else ""
 
 
 def _hub_json(hub, holds) -> dict:
@@ -407,7 +424,7 @@ def _json_report(result, config, description, convergence, holds=None) -> dict:
         "peak_root_moment_Nm": per_boom(peaks.root_moment.value),
         "peak_root_moment_time_s": per_boom(peaks.root_moment.time_s),
         "n_boom_modes": params.n_boom_modes,
-        "n_membrane_modes": params.n_membrane_modes,
+        "n_membrane_modes": params.membrane_modes,
         "parameters": params.to_dict(),
         "limits": dataclasses.asdict(config.policy),
         "wall_time_s": result.wall_seconds,
@@ -420,15 +437,25 @@ def _json_report(result, config, description, convergence, holds=None) -> dict:
     if peaks.hub is not None:
         report["hub"] = _hub_json(peaks.hub, holds)
     if convergence is not None:
-        fine = convergence.peaks
+        change = convergence.change
         report["convergence"] = {
-            "n_boom_modes": convergence.n_boom_modes,
-            "n_membrane_modes": convergence.n_membrane_modes,
-            "peak_tip_deflection_m": per_boom(fine.tip_deflection.value),
-            "peak_root_moment_Nm": per_boom(fine.root_moment.value),
-            "tip_deflection_change": per_boom(convergence.tip_change),
-            "root_moment_change": per_boom(convergence.moment_change),
-            "converged": convergence.largest() <= CONVERGENCE_WARNING,
+            "bar": convergence.bar,
+            "levels": [
+                {
+                    "n_boom_modes": level.n_boom_modes,
+                    "n_membrane_modes": level.n_membrane_modes,
+                    "peak_tip_deflection_m": per_boom(level.peaks.tip_deflection.value),
+                    "peak_root_moment_Nm": per_boom(level.peaks.root_moment.value),
+                    "change_before": level.change_before.largest(),
+                }
+                for level in convergence.levels
+            ],
+            "tip_deflection_change": per_boom(change.tips),
+            "root_moment_change": per_boom(change.moments),
+            "tip_deflection_change_own": per_boom(change.tips_own),
+            "root_moment_change_own": per_boom(change.moments_own),
+            "converged": convergence.converged and change.largest() <= convergence.bar,
+            "stopped": convergence.stopped,
         }
     return report
 
@@ -477,18 +504,20 @@ def _output_size(args, duration: float, n: int, extra: int) -> None:
 
 
 def _deploy(args) -> int:
-    scenario, description = _scenario(args)
+    # the limits first: a scenario's waypoints are counted before anything is made of them
+    limits = configuration(args)
+    scenario, description = _scenario(args, limits)
     where = f"{args.scenario}: sail section" if args.scenario else "scenario sail section"
     config = configuration(args, scenario.sail, where)
+    config = dataclasses.replace(config, sail=config.sail.resolved(scenario.shortest_length))
     params, policy = config.sail, config.policy
     duration = scenario.duration
     snapshots = args.snapshots or list(scenario.snapshots)
     _check_options(args, duration, snapshots)
-    finer = None
-    if args.convergence is not None:
-        finer = finer_mode_counts(params, *args.convergence)
-    counts = finer or (params.n_boom_modes, params.n_membrane_modes)
-    _output_size(args, duration, 4 * sum(counts) + 3 * params.free_hub, len(snapshots))
+    if args.convergence:  # explicit counts: checked before the run
+        finer_parameters(params, *args.convergence)
+    coordinates = 4 * (params.n_boom_modes + params.membrane_modes) + 3 * params.free_hub
+    _output_size(args, duration, coordinates, len(snapshots))
     table_times = np.unique(np.append(np.arange(0.0, duration, args.every), duration))
     grid = output_times(duration, args.rate)
     if args.mcap or args.figures:
@@ -504,7 +533,7 @@ def _deploy(args) -> int:
     config.check(check_scenario, scenario, model, policy)
     closed = open_loop = None
     if scenario.controller is not None:
-        if finer is not None:
+        if args.convergence is not None:
             raise ValueError(
                 "--convergence reruns the open loop; a scenario with a controller section "
                 "runs closed (raise n_boom_modes and n_membrane_modes with --set instead)"
@@ -523,22 +552,21 @@ def _deploy(args) -> int:
             file=sys.stderr,
         )
     convergence, stopped = None, result.alarm
-    if finer is not None and not stopped:
-        with tqdm(
-            total=duration,
-            unit="s sim",
-            desc=f"rerun at (n_B, n_M) = {finer}",
-            disable=None,
-            leave=False,
-            file=sys.stderr,
-        ) as bar:
-            try:
-                convergence = converge(
-                    model, scenario, result, *finer, args.max_step,
+    if args.convergence is not None and not stopped:
+
+        def rerun(finer):
+            desc = f"rerun at (n_B, n_M) = ({finer.n_boom_modes}, {finer.n_membrane_modes})"
+            with tqdm(total=duration, unit="s sim", desc=desc, disable=None, leave=False,
+                      file=sys.stderr) as bar:  # fmt: skip
+                return rerun_peaks(
+                    model, scenario, result, finer, args.max_step,
                     lambda t: bar.update(t - bar.n), policy,
                 )  # fmt: skip
-            except OutOfRangeError as error:
-                stopped = str(error)
+
+        try:
+            convergence = converge(rerun, model, result.peaks, args.convergence or None)
+        except OutOfRangeError as error:
+            stopped = str(error)
 
     holds = None
     if model.free_hub:  # over the time the run reached
@@ -555,7 +583,7 @@ def _deploy(args) -> int:
         print(json.dumps(report, indent=2))
     elif args.summary or not (args.mcap or args.figures):
         _print_table(result, table_times, description, config)
-        _print_peaks(result.peaks, params, convergence)
+        _print_peaks(result.peaks, model, convergence)
         if holds is not None:
             _print_hub_peaks(result.peaks.hub, holds)
         if numbers is not None:

@@ -233,7 +233,7 @@ def summarise(output: Path, t_start: float) -> None:
     sail = log.sail_parameters() or SailParameters()
     print(
         f"  simulator parameters stored: {len(parameters)} (n_B = {sail.n_boom_modes}, "
-        f"n_M = {sail.n_membrane_modes}, time_scale = {parameters.get('time_scale')})"
+        f"n_M = {sail.membrane_modes}, time_scale = {parameters.get('time_scale')})"
     )
 
     t = log.seconds(log.tips.stamp_ns) - t_start

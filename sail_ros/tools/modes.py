@@ -349,7 +349,8 @@ def _modes(args) -> int:
     config = configuration(args)
     params = config.sail
     lengths = config.per_boom(args.lengths or [params.full_boom_length], "--lengths")
-    coordinates = 4 * (params.n_boom_modes + params.n_membrane_modes) + 3 * params.free_hub
+    params = params.resolved(min(lengths))
+    coordinates = 4 * (params.n_boom_modes + params.membrane_modes) + 3 * params.free_hub
     if not 1 <= args.count <= coordinates:
         raise ValueError(
             f"--count must be in [1, {coordinates}] (the model's coordinates), got {args.count}"

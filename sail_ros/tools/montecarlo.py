@@ -34,12 +34,13 @@ from sail_ros.analysis.montecarlo import (
     load_study,
     run_sample,
     sample_scenario,
+    study_sail,
     summarize,
 )
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.outputs import staged
 from sail_ros.policy import Policy
-from sail_ros.tools.cluster import add_cluster_options, dask_client
+from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
 from sail_ros.tools.common import add_sail_options, configuration, print_written, run
 
 WORST = 5
@@ -80,6 +81,7 @@ def build_parser() -> ToolParser:
 
 
 def _montecarlo(args) -> int:
+    check_cluster_options(args.scheduler, args.workers)
     study = load_study(args.study)
     if args.samples is not None:
         if args.samples < 1:
@@ -89,7 +91,7 @@ def _montecarlo(args) -> int:
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: a file, not a folder")
     config = configuration(args)
-    base_sail = config.sail.to_dict()
+    base_sail = study_sail(study, config.sail).to_dict()
     config.check(check_study, study, base_sail, config.policy)
     cases = [(study, index, base_sail, config.policy) for index in range(study.samples)]
     print(f"Study {args.study}: {study.samples} samples, seed {study.seed}")

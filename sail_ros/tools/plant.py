@@ -135,6 +135,7 @@ def _plant(args) -> int:
     if len(args.rates) not in (1, 4):
         raise ValueError(f"--rates takes 1 or 4 values, got {len(args.rates)}")
     rates = config.check(config.policy.check_rates, args.rates * (4 // len(args.rates)), "--rates")
+    params = params.resolved(float(np.min(lengths)))
     model = SailModel(params)
     if not 1 <= args.count <= 2 * model.n:
         raise ValueError(f"--count must be in [1, {2 * model.n}], got {args.count}")
@@ -195,7 +196,7 @@ def _plant(args) -> int:
         omega = 2 * np.pi * np.geomspace(low, high, 600)
         title = (
             f"lengths {', '.join(f'{v:.4g}' for v in plant.lengths)} m, n_B = "
-            f"{params.n_boom_modes}, n_M = {params.n_membrane_modes}, alpha = "
+            f"{params.n_boom_modes}, n_M = {params.membrane_modes}, alpha = "
             f"{params.mass_damping:g} 1/s, beta = {params.stiffness_damping:g} s"
         )
         if note:

@@ -30,7 +30,9 @@ up to its last complete record) and writes into `--out`:
   moves by more than 1 %).
 
 `--config`/`--set` describe the sail only for a log without recorded parameters; the
-limits of a rerun are those the log recorded, changed by `--set`.
+limits of a rerun are those the log recorded, changed by `--set`. A log that holds more
+than one run of the simulator (restarted under the recorder: other sail parameters, a
+state of another size, another epoch) is refused in one line saying what changed.
 """
 
 from __future__ import annotations
@@ -42,11 +44,10 @@ from pathlib import Path
 
 import numpy as np
 
+from sail_ros.analysis.convergence import converge
 from sail_ros.analysis.deployment import (
     carried_over,
-    finer_mode_counts,
     hold_reactions,
-    relative_change,
     run_deployment,
 )
 from sail_ros.analysis.energy import group_energies
@@ -320,7 +321,6 @@ PEAK_COLUMNS = [
         ("root_moment", "time_s"),
     )
 ]
-CONVERGENCE_WARNING = 0.01  # a peak that moves more than this with more modes is not converged
 
 
 def _peaks(args, log, out: Path, given: SailParameters) -> str:
@@ -376,7 +376,7 @@ HUB_PEAK_COLUMNS = [
 
 
 def _peak_row(source: str, params, peaks) -> list:
-    cells = [source, params.n_boom_modes, params.n_membrane_modes]
+    cells = [source, params.n_boom_modes, params.membrane_modes]
     for k in range(4):
         cells += [
             peaks.tip_deflection.value[k],
@@ -416,24 +416,29 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
         print_peak_table(peaks, indent="    ")
         _print_rerun_hub(peaks)
         return rows, ""
-    finer = finer_mode_counts(model.params)
-    finer_model = SailModel(model.params.replace(n_boom_modes=finer[0], n_membrane_modes=finer[1]))
     try:
-        more = rerun(log, finer_model, carried_from=model)[0]
+        convergence = converge(
+            lambda finer: rerun(log, finer, carried_from=model)[0], model, peaks, max_levels=1
+        )
     except OutOfRangeError as error:
         print_peak_table(peaks, indent="    ")
-        return rows, f"the rerun at (n_B, n_M) = {finer}: {error}"
-    tip = relative_change(peaks.tip_deflection.value, more.tip_deflection.value)
-    moment = relative_change(peaks.root_moment.value, more.root_moment.value)
-    label = f"  change at ({finer[0]}, {finer[1]}) modes [%]"
-    print_peak_table(peaks, (label, tip, moment), indent="    ")
+        return rows, str(error)
+    finest, change = convergence.finest, convergence.change
+    label = (
+        f"  change against ({finest.n_boom_modes}, {finest.n_membrane_modes}) modes, % of the "
+        "largest peak"
+    )
+    print_peak_table(peaks, (label, change.tips, change.moments), indent="    ")
     _print_rerun_hub(peaks)
-    rows.append(_peak_row("rerun, more modes", finer_model.params, more))
-    largest = float(np.max(np.abs(np.concatenate([tip, moment]))))
-    if largest > CONVERGENCE_WARNING:
+    finer_params = model.params.replace(
+        n_boom_modes=finest.n_boom_modes, n_membrane_modes=finest.n_membrane_modes
+    )
+    rows.append(_peak_row("rerun, more modes", finer_params, finest.peaks))
+    if change.largest() > convergence.bar:
         print(
-            f"warning: peaks not converged: with (n_B, n_M) = {finer} they move by up to "
-            f"{100 * largest:.3g} %; raise n_boom_modes and n_membrane_modes",
+            f"warning: peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
+            f"{finest.n_membrane_modes}) they are off by up to {100 * change.largest():.3g} % "
+            "of the largest of their kind; raise membrane_band (--set)",
             file=sys.stderr,
         )
     return rows, ""

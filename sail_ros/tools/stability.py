@@ -29,7 +29,7 @@ from sail_ros.analysis.stability import (
 )
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.policy import Policy
-from sail_ros.tools.cluster import add_cluster_options, dask_client
+from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
 from sail_ros.tools.common import (
     LIMITS_NOTE,
     add_sail_options,
@@ -157,6 +157,7 @@ def _critical_rows(sweeps, params) -> list[dict]:
 
 
 def _stability(args) -> int:
+    check_cluster_options(args.scheduler, args.workers)
     config = configuration(args)
     params = config.sail
     lengths = args.lengths or [params.full_boom_length]
@@ -173,7 +174,7 @@ def _stability(args) -> int:
     if points < 2:
         raise ValueError(f"--points must be >= 2, got {points}")
     total = len(lengths) * len(args.rates) * points
-    n = 4 * (params.n_boom_modes + params.n_membrane_modes)
+    n = 4 * (params.n_boom_modes + params.resolved(min(lengths)).membrane_modes)
     # per point: prestress, max Re, max |lambda|, unstable; the loci: 2n eigenvalues
     fewer = "fewer --points, --lengths or --rates"
     Policy.check_output(total, 4 * 8, "the stability grid", fewer)

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import scipy.linalg
+from harness import SMALL
 
 from sail_ros.model import (
     CycloidalProfile,
@@ -96,7 +97,7 @@ def test_non_finite_state_raises_and_reset_recovers():
 
 
 def test_profile_swap_keeps_velocity_continuous():
-    model = SailModel()
+    model = SailModel(SMALL)
     stepper = model.stepper(CycloidalProfile(10.0, 15.0, 15.0), q0=model.mode_state("a", 0.1))
     stepper.advance(4.0)
     q, qd = stepper.q, stepper.qd
@@ -109,7 +110,7 @@ def test_profile_swap_keeps_velocity_continuous():
 
 
 def test_advance_by_less_than_round_off_of_a_step():
-    model = SailModel()
+    model = SailModel(SMALL)
     stepper = model.stepper(CycloidalProfile(10.0, 15.0, 15.0), q0=model.mode_state("a", 0.1))
     stepper.advance(1.0)
     stepper.advance(1.0 + 1e-10)  # one tiny step, not a division by zero
@@ -119,7 +120,7 @@ def test_advance_by_less_than_round_off_of_a_step():
 
 
 def test_simulate_arguments_are_checked():
-    model = SailModel()
+    model = SailModel(SMALL)
     profile = StaticProfile(30.0)
     with pytest.raises(ValueError, match="t_end must be finite and > 0, got -1"):
         model.simulate(profile, -1.0)
@@ -134,7 +135,7 @@ def test_simulate_arguments_are_checked():
 
 
 def test_simulate_at_rest_stays_at_rest():
-    model = SailModel()
+    model = SailModel(SMALL)
     t, q, qd = model.simulate(CycloidalProfile(10.0, 40.0, 20.0), 25.0)
     assert np.all(q == 0.0) and np.all(qd == 0.0)
 
@@ -142,7 +143,7 @@ def test_simulate_at_rest_stays_at_rest():
 def test_free_vibration_matches_modal_solution():
     """At fixed length the answer is the modal superposition; the stepper must
     reproduce it (exact propagator path) over many periods."""
-    model = SailModel()
+    model = SailModel(SMALL)
     M, K = model.mass_and_stiffness(30.0)
     lam, V = scipy.linalg.eigh(K, M)
     q0 = model.mode_state("d", 0.2)

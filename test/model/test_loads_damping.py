@@ -10,6 +10,7 @@ import pytest
 import scipy.integrate
 import scipy.linalg
 import skfem
+from harness import SMALL
 from skfem.helpers import dot, grad
 
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
@@ -188,7 +189,7 @@ def test_state_space_matches_eigenvalues_and_matrices():
 
 
 def test_with_zero_loads_and_damping_the_model_is_the_seeds():
-    seed, zero = SailModel(SailParameters()), SailModel(SailParameters(mass_damping=0.0))
+    seed, zero = SailModel(SMALL), SailModel(SMALL.replace(mass_damping=0.0))
     profile = CycloidalProfile(10.0, 15.0, 15.0)
     q0 = seed.mode_state("a", 0.1)
     _, q_seed, _ = seed.simulate(profile, 15.0, q0=q0)
@@ -334,7 +335,7 @@ def test_strongly_damped_followed_modes_leave_every_state_finite():
     ids=lambda value: value if isinstance(value, str) else "call",
 )
 def test_load_and_damping_errors_name_the_argument(call, message):
-    model = SailModel()
+    model = SailModel(SMALL)
     with pytest.raises(ValueError, match=re.escape(message)):
         call(model)
 

@@ -25,7 +25,8 @@ def test_defaults_match_model_md():
     assert p.full_boom_length == pytest.approx(70.7107, abs=1e-4)
     assert p.membrane_areal_density == pytest.approx(3.575e-3)
     assert p.membrane_tension == pytest.approx(0.017225)
-    assert (p.n_boom_modes, p.n_membrane_modes, p.boom_axial_load) == (4, 6, 0.0)
+    assert (p.n_boom_modes, p.n_membrane_modes, p.boom_axial_load) == (8, 0, 0.0)
+    assert (p.membrane_band, p.resolved_length, p.membrane_modes) == (1.8, 0.0, 181)
     assert SailParameters.from_yaml(CONFIG) == p
 
 
@@ -44,7 +45,7 @@ def test_defaults_match_model_md():
         ("boom_axial_load", -0.5, "boom_axial_load must be in [0, 1e+12] N, got -0.5"),
         ("membrane_density", "heavy", "membrane_density must be a number, got 'heavy'"),
         ("n_boom_modes", 0, "n_boom_modes must be an integer in [1, 30], got 0"),
-        ("n_membrane_modes", 2.5, "n_membrane_modes must be an integer in [1, 100], got 2.5"),
+        ("n_membrane_modes", 2.5, "n_membrane_modes must be an integer in [0, 400], got 2.5"),
     ],
     ids=lambda v: str(v)[:24],
 )
@@ -76,7 +77,7 @@ def test_yaml_round_trip_and_unknown_keys(tmp_path):
         "sail_recorder:\n  ros__parameters:\n    sail.n_boom_modes: 9\n"
         "sail_sim:\n  ros__parameters:\n    max_rate: 2.0\n"
     )
-    assert SailParameters.from_yaml(path).n_boom_modes == 4
+    assert SailParameters.from_yaml(path).n_boom_modes == 8
     path.write_text("sail_sim:\n  ros__parameters:\n    sail: 4\n")
     with pytest.raises(ValueError, match="sail of sail_sim must be a mapping, got 4"):
         SailParameters.from_yaml(path)

@@ -4,6 +4,7 @@
 import numpy as np
 import pytest
 import scipy.linalg
+from harness import SMALL
 
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.loads import LoadSchedule
@@ -185,7 +186,7 @@ def test_samples_close_enough_for_the_followed_modes_they_weigh(profile, boom):
     (`OutputPeaks.spacings`): over the first 4 s, every peak within `PEAK_ERROR` of a 50
     kHz sampling of the same run, retracting too (the booms' frequencies rise as they
     shorten), with fewer samples than 0.5 rad of the highest followed mode would take."""
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     ours = OutputPeaks(model)
     dense = Dense(model, ours.rows)
     highest = []  # samples at 0.5 rad of each step's highest followed mode
@@ -214,8 +215,8 @@ def test_a_batch_of_steps_gives_each_step_its_own_curve():
     here, retracting from 15 m), padded with null modes: each step's samples and followed
     modes are those of its own `Extension`, to round-off, in any order; damped, and
     undamped on a grid of equal intervals (their turns as running products)."""
-    check_batch_of_steps(SailParameters(mass_damping=0.02, stiffness_damping=2e-4))
-    check_batch_of_steps(SailParameters(), grid=True)
+    check_batch_of_steps(SMALL.replace(mass_damping=0.02, stiffness_damping=2e-4))
+    check_batch_of_steps(SMALL, grid=True)
 
 
 def check_batch_of_steps(params, grid=False):

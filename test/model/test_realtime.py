@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from harness import SMALL, SMALL_SIM
 from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -15,6 +16,7 @@ from sail_ros.messages import hub as hub_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel
 from sail_ros.runtime.config import config_from_values
+from sail_ros.runtime.intake import Undecodable
 from sail_ros.runtime.realtime import COMMAND_LINES, RTF_MIN_WINDOW_S, RealTimeRun
 from sail_ros.runtime.simulation import PAUSED, RUNNING
 
@@ -60,7 +62,7 @@ class Outputs:
 
 @pytest.fixture(scope="module")
 def model():
-    return SailModel()
+    return SailModel(SMALL)
 
 
 def make_run(model, **values):
@@ -68,7 +70,7 @@ def make_run(model, **values):
     periods = []
     run = RealTimeRun(
         model,
-        config_from_values(values),
+        config_from_values({**SMALL_SIM, **values}),
         outputs,
         START_NS,
         clock=clock,
@@ -249,18 +251,26 @@ def test_a_flood_of_deploy_commands_costs_one_plan_a_tick(model):
     assert sum(f"{1900 - COMMAND_LINES} superseded" in text for _, text in outputs.lines) == 1
 
 
-def test_a_flood_of_malformed_commands_is_rejected_and_counted(model):
+UNDECODABLE = Undecodable(5, "std_msgs/msg/Float64", "failed to deserialize ROS message")
+
+
+@pytest.mark.parametrize(
+    ("message", "reason"),
+    [(deploy(math.nan), "not a finite length"), (UNDECODABLE, "5 bytes are not a std_msgs")],
+    ids=["nan", "undecodable"],
+)
+def test_a_flood_of_malformed_commands_is_rejected_and_counted(model, message, reason):
     run, clock, outputs, _ = make_run(model, shape_rate_hz=0.0)
     sent = 0
     for _ in range(50):
         for _ in range(20):
-            run.submit(topics.DEPLOY_CMD, deploy(math.nan), info(sent))
+            run.submit(topics.DEPLOY_CMD, message, info(sent))
             sent += 1
         advance(run, clock, 0.02)
     status = run.status()[3]
     assert status[key.REJECTED] == sent and status[key.ACCEPTED] == 0
     assert count(outputs, commands_msg.REJECTED) == sent
-    assert all("not a finite length" in a.message for a in outputs.answered)
+    assert all(reason in a.message for a in outputs.answered)
     advance(run, clock, 6.0)  # the interval of the counts ends
     warnings = [text for severity, text in outputs.lines if severity == "warning"]
     assert sum(text.startswith("sail/deploy_cmd rejected:") for text in warnings) == COMMAND_LINES
@@ -286,15 +296,25 @@ def test_a_flood_of_malformed_commands_is_rejected_and_counted(model):
             10.0,
             13.0,
         ),
+        # bytes that are no command, the newest of the batch, replace nothing
+        ([deploy(12.0), UNDECODABLE], ["accepted", "rejected"], 12.0, 12.0),
     ],
-    ids=["rejected-newest", "deploy-then-boom", "overlapping", "replaced", "unknown-boom"],
+    ids=[
+        "rejected-newest",
+        "deploy-then-boom",
+        "overlapping",
+        "replaced",
+        "unknown-boom",
+        "undecodable-newest",
+    ],
 )
 def test_a_batch_ends_as_acting_on_its_commands_one_by_one(
     model, commands, outcomes, final_a, final_b
 ):
     run, clock, outputs, _ = make_run(model, shape_rate_hz=0.0)
     for i, message in enumerate(commands):
-        topic = topics.DEPLOY_CMD if isinstance(message, Float64) else topics.BOOM_LENGTH_CMD
+        motion = isinstance(message, Float64 | Undecodable)
+        topic = topics.DEPLOY_CMD if motion else topics.BOOM_LENGTH_CMD
         run.submit(topic, message, info(i))
     advance(run, clock, 0.02)
     by_sequence = sorted(outputs.answered, key=lambda answer: answer.sequence)
@@ -324,7 +344,7 @@ def test_commands_published_before_the_start_are_ignored_and_counted(model):
     assert len(outputs.answered) == 1  # a repeat of a sample is not a new command
 
 
-FREE = {"sail.free_hub": True, "sail.hub_mass": 20.0, "sail.hub_inertia_x": 10.0,
+FREE = {**SMALL_SIM, "sail.free_hub": True, "sail.hub_mass": 20.0, "sail.hub_inertia_x": 10.0,
         "sail.hub_inertia_y": 10.0}  # fmt: skip
 
 

@@ -100,6 +100,30 @@ def test_a_file_ends_only_with_the_parameters_and_the_next_starts_with_the_value
     )
 
 
+def test_a_node_fetched_again_is_stored_again_where_it_happened(tmp_path):
+    """A fetch after the node appeared again (a simulator restarted under the recorder,
+    here with more boom modes) stores its changes and then all its values as a new record,
+    in the file where it happened: what follows is read with the new sail."""
+    folder = tmp_path / "restart"
+    bag = recording(folder)
+    bag.parameters_fetched({"sail.n_boom_modes": "4", "time_scale": "1.0"}, T0)
+    write(bag, 0, 10)
+    bag.parameters_fetched({"sail.n_boom_modes": "8", "time_scale": "1.0"}, T0 + 10 * STEP_NS)
+    write(bag, 10, 10)
+    bag.close()
+    assert [values["sail.n_boom_modes"] for values in records(folder, "sail_sim_parameters")] == [
+        "4",
+        "8",
+    ]
+    ((_, _, log_time_ns, changes),) = map(
+        parse_changes_record, records(folder, "sail_sim_parameter_changes")
+    )
+    assert (log_time_ns, changes) == (
+        T0 + 10 * STEP_NS,
+        [ParameterChange("sail.n_boom_modes", "4", "8")],
+    )
+
+
 def test_a_due_split_waits_for_the_parameters_at_most_parameters_wait_s(tmp_path):
     waiting = recording(tmp_path / "waiting", clock_s=0.0, max_file_duration_s=0.1)
     waited = recording(tmp_path / "waited", clock_s=5.5, max_file_duration_s=0.1)

@@ -4,6 +4,7 @@
 import numpy as np
 import pytest
 import scipy.linalg
+from harness import SMALL
 
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.assembly import GYROSCOPIC, MASS, STIFFNESS_CANONICAL
@@ -76,7 +77,7 @@ def test_samples_inside_a_moving_step_are_the_extension_of_the_frozen_system():
 def test_the_sampled_deployment_keeps_the_accuracy_bar():
     """The reference deployment sampled every 0.01 s from 0.05 s steps, against 0.002 s
     steps: the tips within 0.05 % of their peak (the bar is 0.2 %; measured 0.01 %)."""
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     profile, q0 = CycloidalProfile(10.0, 12.0, 4.0), model.initial_coordinates([0.1, 0, 0, 0])
     t, q, qd = model.simulate_on_grid(profile, 5.0, 0.01, q0, max_step=0.05)
     _, reference, _ = model.simulate(profile, 5.0, q0, t_eval=t, max_step=0.002)
@@ -86,7 +87,7 @@ def test_the_sampled_deployment_keeps_the_accuracy_bar():
 
 
 def test_at_rest_every_sample_is_one_exact_step():
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     q0 = model.initial_coordinates([0.1, 0, 0, 0])
     stepper = model.stepper(StaticProfile(10.0), q0=q0)
     sampler = GridSampler(stepper, 0.01)
@@ -104,7 +105,7 @@ def test_a_steps_extension_is_freed_with_the_step_not_left_to_the_garbage_collec
     import gc
     import weakref
 
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     stepper = model.stepper(CycloidalProfile(10.0, 15.0, 20.0), q0=model.mode_state("a", 0.1))
     stepper.advance_step(1.0)
     extension = stepper.last_curve()

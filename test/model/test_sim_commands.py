@@ -10,7 +10,7 @@ import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import Point
-from harness import ROOT
+from harness import ROOT, SMALL_SIM
 from rclpy.serialization import deserialize_message, serialize_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
@@ -246,7 +246,12 @@ def test_boom_motion_takes_each_boom_from_its_own_profile():
 @pytest.fixture(scope="module")
 def config():
     return config_from_values(
-        {"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0], "max_rate": 1.0, "max_acceleration": 0.5}
+        {
+            **SMALL_SIM,
+            "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0],
+            "max_rate": 1.0,
+            "max_acceleration": 0.5,
+        }
     )
 
 
@@ -285,7 +290,7 @@ def test_loads_are_held_from_the_next_step_and_match_simulate(model, config):
     """A tip force and pressures commanded at t = 1 s, the solar pressure on top: the
     offline model with the same loads switched at 1 s agrees to round-off; a reset
     zeroes the commanded loads."""
-    solar = config_from_values({**DEFAULTS, "initial_tip_deflection": [0.1, 0, 0, 0],
+    solar = config_from_values({**SMALL_SIM, "initial_tip_deflection": [0.1, 0, 0, 0],
                                 "solar_pressure": 9.08e-6})  # fmt: skip
     sim = Simulation(model, solar)
     for _ in range(100):
@@ -325,7 +330,7 @@ def test_the_balance_of_a_damped_ringing_sail_is_its_energy_and_dissipation():
     """With Rayleigh damping the dissipation `qd^T C_d qd` is positive and the energy
     that of the model, both from the one assembly `balance` makes."""
     damping = {"sail.mass_damping": 0.01, "sail.stiffness_damping": 1e-3}
-    damped = config_from_values({**DEFAULTS, "initial_tip_deflection": [0.1, 0, 0, 0], **damping})
+    damped = config_from_values({**SMALL_SIM, "initial_tip_deflection": [0.1, 0, 0, 0], **damping})
     model = SailModel(damped.sail)
     sim = Simulation(model, damped)
     for _ in range(30):
@@ -365,7 +370,7 @@ def test_bad_load_commands_are_rejected_whole(model, config, topic, values, reas
 
 
 def test_short_booms_get_sub_steps(model, config):
-    short = config_from_values({**DEFAULTS, "initial_lengths": [1.0]})
+    short = config_from_values({**SMALL_SIM, "min_length": 1.0, "initial_lengths": [1.0]})
     sim = Simulation(model, short)
     # omega_1 = 1.8751^2 sqrt(6000 / 0.1) / 1.0^2 = 861 rad/s; a step of the tolerance's
     # stepper is two rational steps of at most 2 rad: 4 / 861 = 4.6 ms, so 0.01 s needs 3
@@ -393,7 +398,7 @@ def test_rejected_command_leaves_the_state_alone(model, config):
 def test_leaving_the_linear_range_warns_then_stops_before_anything_is_non_finite(config):
     # twice the Euler load pi^2 EI / (4 L^2) = 148 N of the 10 m booms: they buckle slowly
     buckling = config_from_values(
-        {**DEFAULTS, "sail.boom_axial_load": 300.0, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]}
+        {**SMALL_SIM, "sail.boom_axial_load": 300.0, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]}
     )
     sim = Simulation(SailModel(buckling.sail), buckling)
     warned_at = None
@@ -421,7 +426,7 @@ class NoRangeCheck:
 def test_non_finite_state_stops_until_reset(config):
     buckling = config_from_values(
         {
-            **DEFAULTS,
+            **SMALL_SIM,
             "sail.boom_axial_load": 1e6,
             "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0],
         }
@@ -437,7 +442,7 @@ def test_non_finite_state_stops_until_reset(config):
     with pytest.raises(CommandError, match="call sail/reset first"):
         sim.deploy(12.0)
     sim.paused = True
-    sim.reset(config_from_values({**DEFAULTS, "sail.boom_axial_load": 1e6}))  # no tip: stays 0
+    sim.reset(config_from_values({**SMALL_SIM, "sail.boom_axial_load": 1e6}))  # no tip: stays 0
     assert sim.state == PAUSED and sim.t == t and not np.any(sim.q)
     sim.paused = False
     assert sim.state == RUNNING and all(sim.step() for _ in range(100))
@@ -578,7 +583,7 @@ def test_every_parameter_is_described_with_unit_and_range():
         (
             {"initial_lengths": [10.0, 10.0, 80.0, 10.0]},
             "initial_lengths of boom c = 80 m is outside \\[min_length, max_length\\] = "
-            "\\[1, 70.7107\\] m",
+            "\\[5, 70.7107\\] m",
         ),
         (
             {"initial_lengths": [10.0, 10.0]},

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import scipy.integrate
 import scipy.linalg
+from harness import SMALL
 
 from sail_ros.model import BoomMotion, CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.assembly import DAMPING, MASS, STIFFNESS_EQ
@@ -229,6 +230,6 @@ def test_a_live_load_step_lands_at_the_steppers_time_and_keeps_the_bar():
     ids=str,
 )
 def test_tolerance_options_are_checked(options, message):
-    model = SailModel()
+    model = SailModel(SMALL)
     with pytest.raises(ValueError, match=message):
         model.stepper(CycloidalProfile(10.0, 12.0, 4.0), **options)

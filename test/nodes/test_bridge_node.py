@@ -1,9 +1,19 @@
-"""The bridge node in this process: what it serves where, and what it refuses to start with."""
+"""The bridge node in this process: what it serves where, what it refuses to start with,
+and what it does with clients that misbehave."""
+
+import asyncio
+import json
+import time
 
 import pytest
 from rclpy.parameter import Parameter
+from rclpy.serialization import serialize_message
+from std_msgs.msg import Float64
+from tornado.httpclient import HTTPRequest
+from tornado.websocket import websocket_connect
 
 from sail_ros import topics
+from sail_ros.messages import status as key
 from sail_ros.nodes.bridge import SERVABLE, Bridge, main
 from sail_ros.ros.parameters import ConfigError
 
@@ -46,6 +56,86 @@ def test_a_port_in_use_is_exit_1_with_the_reason(ros_context, capfd):
         port = node.url.rsplit(":", 1)[1]
         assert main(["--port", port, "--topics", "/clock"]) == 1
         assert f"cannot listen on 127.0.0.1:{port}" in capfd.readouterr().err
+    finally:
+        node.close()
+        node.destroy_node()
+
+
+async def _connect(url: str):
+    """A Foxglove WebSocket client (no library: the protocol's handshake and JSON), once the
+    server sent its channels; None if the server closed the connection first."""
+    request = HTTPRequest(url, headers={"Sec-WebSocket-Protocol": "foxglove.sdk.v1"})
+    client = await websocket_connect(request)
+    while True:
+        message = await client.read_message()
+        if message is None:
+            return None
+        if isinstance(message, str) and json.loads(message)["op"] == "advertise":
+            return client
+
+
+async def _read(client) -> int:
+    """Read what `client` is sent until the connection closes; how many messages."""
+    count = 0
+    while await client.read_message() is not None:
+        count += 1
+    return count
+
+
+def _wait_for(condition, what: str, timeout: float = 5.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.01)
+
+
+def test_clients_beyond_max_clients_are_disconnected_and_bad_frames_counted(ros_context):
+    """300 bad frames from a client are counted as the server's problems (their log lines
+    are few: test_bridging); with max_clients 2, two more clients are disconnected as they
+    connect (so what the clients' queues hold stays bounded whoever connects), counted;
+    the clients' departure is seen."""
+    node = bridge(ros_context, max_clients=2)
+
+    async def run():
+        clients = [await _connect(node.url) for _ in range(2)]
+        statuses = asyncio.ensure_future(_read(clients[0]))  # each frame is answered
+        for _ in range(300):
+            await clients[0].write_message("not json")
+        for _ in range(500):
+            if node.status_values()[key.SERVER_PROBLEMS] == "300":
+                break
+            await asyncio.sleep(0.01)
+        assert node.status_values()[key.SERVER_PROBLEMS] == "300"
+        assert [await _connect(node.url) for _ in range(2)] == [None, None]
+        values = node.status_values()
+        assert values[key.CONNECTIONS] == "2" and values[key.REFUSED_CONNECTIONS] == "2"
+        for client in clients[:2]:
+            client.close()
+        await statuses
+
+    try:
+        asyncio.run(run())
+        _wait_for(lambda: node.status_values()[key.CONNECTIONS] == "0", "the clients gone")
+    finally:
+        node.close()
+        node.destroy_node()
+
+
+def test_a_command_dds_refuses_is_answered(ros_context):
+    """A deploy command that decodes (rclpy's reader ignores what follows the message) but
+    that DDS refuses to publish (1 MiB of trailing bytes): refused and counted, its client
+    told, where the failed publish once ended the server's callback without a word."""
+    node = bridge(ros_context)
+    try:
+        node.client_book.accept_channel(1, 1, "/sail/deploy_cmd")
+        data = serialize_message(Float64(data=12.0)) + bytes(1 << 20)
+        node.on_message_data(1, 1, data)
+        values = node.status_values()
+        assert values[key.REFUSED] == "1" and values[key.CLIENT_COMMANDS] == "0"
+        assert values[key.LAST_REFUSAL].startswith(
+            f"client 1: {len(data)} bytes on /sail/deploy_cmd could not be published on DDS "
+            "(Failed to publish"
+        ), values[key.LAST_REFUSAL]
     finally:
         node.close()
         node.destroy_node()

@@ -119,7 +119,7 @@ def test_help_gives_the_ranges_the_nodes_enforce():
     integers in full)."""
     code, out, _ = run_tool("sim", ["--help"])
     assert code == 0
-    assert "sail.n_boom_modes (default 4, read-only; [1, 30]): " in out
+    assert "sail.n_boom_modes (default 8, read-only; [1, 30]): " in out
     assert "state_rate_hz (default 50.0; [0.01, 1000]): " in out
     assert "initial_lengths (default [10.0]; 1 or 4 values (booms a, b, c, d), each " in out
     assert "initial_hub_velocity (default [0.0, 0.0, 0.0]; 3 values, each [" in out

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import DOMAIN_ID
+from harness import DOMAIN_ID, SMALL_SIM
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, SetParameters
 from rclpy.event_handler import PublisherEventCallbacks
@@ -36,6 +36,8 @@ from sail_ros.ros.commanding import command_publisher
 
 pytestmark = pytest.mark.node
 
+SMALL = {"sail.n_boom_modes": 4, "sail.n_membrane_modes": 6}  # whatever the defaults
+
 
 @pytest.fixture
 def ros(monkeypatch, tmp_path):
@@ -54,6 +56,7 @@ def ros(monkeypatch, tmp_path):
             executor.spin_once(timeout_sec=0.01)
 
     def start(**parameters):
+        parameters = {**SMALL_SIM, **parameters}
         overrides = [Parameter(name, value=value) for name, value in parameters.items()]
         sim = SimNode(overrides, context=context)
         sim.start()
@@ -137,7 +140,7 @@ def test_writable_parameters_are_validated_then_applied(ros):
     assert not result.successful and "read-only" in result.reason
     result = set_parameter("max_rate", float("nan"))
     assert not result.successful
-    assert sim.config.policy.min_length == 1.0 and math.isfinite(sim.config.policy.max_rate)
+    assert sim.config.policy.min_length == 5.0 and math.isfinite(sim.config.policy.max_rate)
     # an integer for a double, as `ros2 param set /sail_sim max_rate 2` sends it
     assert set_parameter("max_rate", 2).successful and sim.config.policy.max_rate == 2.0
     assert sim.get_parameter("max_rate").value == 2.0
@@ -165,6 +168,25 @@ def test_as_fast_as_possible_publishes_clock(ros):
     clock = stamps - sim.run.epoch_ns
     assert np.all(np.diff(clock) >= 0)
     assert clock / 1e7 == pytest.approx(np.round(clock / 1e7), abs=1e-6)
+
+
+def test_clock_never_repeats_a_stamp(ros):
+    """/clock moves forward with every message: through statuses (20 a second here, each
+    at the latest sample's time), a pause and a reset (whose own sample repeats the stamp
+    of the state it leaves), so a `use_sim_time` node never sees its clock stand still."""
+    sim, client, spin_until = ros(
+        time_scale=2.0, diagnostics_rate_hz=20.0, shape_rate_hz=0.0, state_rate_hz=20.0
+    )
+    spin_until(lambda: sim.sim.t > 0.5, 5.0, "0.5 s of simulation")
+    call(spin_until, client.pause, SetBool.Request(data=True))
+    spin_until(lambda: len(client.diagnostics) > 10, 5.0, "statuses while paused")
+    call(spin_until, client.pause, SetBool.Request(data=False))
+    spin_until(lambda: sim.sim.t > 1.0, 5.0, "1 s of simulation")
+    call(spin_until, client.reset, Trigger.Request())
+    reset_at = sim.sim.t
+    spin_until(lambda: sim.sim.t > reset_at + 0.5, 5.0, "0.5 s after the reset")
+    stamps = np.array([c.clock.sec * 10**9 + c.clock.nanosec for c in client.clocks])
+    assert len(stamps) > 30 and np.all(np.diff(stamps) > 0), np.diff(stamps).min()
 
 
 def test_pause_resume_and_reset(ros):
@@ -212,6 +234,34 @@ def test_command_times_read_minus_one_when_there_is_none(ros):
         lambda: client.diagnostics[-1][key.MOTION_END] == "-1.0", 2.0, "the status after the reset"
     )  # the reset ended the motion...
     assert float(client.diagnostics[-1][key.LAST_COMMAND_START]) == start  # ...not its record
+
+
+def test_bytes_that_are_no_command_are_answered_and_counted(ros):
+    """CDR bytes on a command topic that are no message of its type (too short for a
+    Float64) are answered rejected, saying so, logged and counted, as the outcome counts
+    must add up to every command received; the well-formed command after them runs."""
+    sim, client, spin_until = ros(diagnostics_rate_hz=20.0, shape_rate_hz=0.0)
+    answers = []
+    client.create_subscription(
+        DiagnosticArray,
+        topics.COMMAND_STATUS,
+        lambda m: answers.extend(commands_msg.command_answers(m)),
+        topics.COMMAND_STATUS_QOS,
+    )
+    deploy = command_publisher(client, topics.DEPLOY_CMD)
+    spin_until(lambda: deploy.get_subscription_count() >= 1, 5.0, "the deploy subscription")
+    time.sleep(0.3)  # the simulator's side of the match too (volatile: nothing before it)
+    deploy.publish(b"\x00\x01\x00\x00\x00")  # a CDR header and one byte of a double
+    deploy.publish(Float64(data=11.0))
+    spin_until(lambda: len(answers) >= 2, 5.0, "two answers")
+    assert [a.outcome for a in answers] == ["rejected", "accepted"], answers
+    assert answers[0].topic == "/sail/deploy_cmd"
+    assert answers[0].message.startswith(
+        "5 bytes are not a std_msgs/msg/Float64 in CDR (failed to deserialize ROS message"
+    ), answers[0].message
+    spin_until(lambda: client.diagnostics[-1][key.ACCEPTED] == "1", 5.0, "the counts")
+    status = client.diagnostics[-1]
+    assert status[key.REJECTED] == "1" and "5 bytes are not a" in status[key.LAST_REJECTION]
 
 
 @pytest.mark.parametrize("wait", ["for a tick", "not at all"])
@@ -299,6 +349,62 @@ def test_bad_parameter_values_stop_the_start(ros):
         ros(realtime_priority=100)
 
 
+def test_booms_shorter_than_the_model_affords_are_refused_at_start_and_at_run_time(ros):
+    """min_length 7 mm with max_substep_rate 1e7 (both within their ranges) would make a
+    moving grid step take tens of seconds, the simulator deaf to services and signals
+    meanwhile: refused at start, and as a change at run time, whichever of the two
+    parameters comes last; the simulator goes on and answers its reset."""
+    short = {"max_substep_rate": 1e7, "min_length": 0.007, "initial_lengths": [0.007]}
+    with pytest.raises(ConfigError, match=r"^min_length = 0\.007 m would need \d+ sub-steps"):
+        ros(**short)
+    sim, client, spin_until = ros(**SMALL, diagnostics_rate_hz=20.0)
+
+    def set_parameters(**values):
+        parameters = [Parameter(n, value=v).to_parameter_msg() for n, v in values.items()]
+        return call(spin_until, client.set, SetParameters.Request(parameters=parameters))
+
+    assert set_parameters(max_substep_rate=1e7).results[0].successful
+    (result,) = set_parameters(min_length=0.007).results
+    assert not result.successful
+    assert result.reason.startswith("min_length = 0.007 m would need "), result.reason
+    assert "the shortest affordable min_length here is " in result.reason
+    assert sim.config.policy.min_length == 5.0
+    assert call(spin_until, client.reset, Trigger.Request()).success
+
+
+@pytest.mark.timing
+def test_a_grid_step_of_seconds_blocks_neither_the_services_nor_the_stop(ros):
+    """A grid step that takes 2 s (a model costlier than it was measured at start): a
+    reset asked meanwhile is answered once the step ends, while the executor answers
+    everything else at once (it waited for the step inside the reset before), and the
+    node stops within a second, without waiting for the step."""
+    sim, client, spin_until = ros(**SMALL, diagnostics_rate_hz=20.0, shape_rate_hz=0.0)
+    original, slow = sim.sim.step, threading.Event()
+
+    def step():
+        if not slow.is_set():
+            slow.set()
+            time.sleep(2.0)
+        return original()
+
+    sim.sim.step = step
+    spin_until(slow.is_set, 5.0, "the slow step")
+    spin_until(client.reset.service_is_ready, 5.0, "the reset service")
+    reset = client.reset.call_async(Trigger.Request())
+    asked = time.monotonic()
+    names = DescribeParameters.Request(names=["max_rate"])
+    described = call(spin_until, client.describe, names)
+    assert described.descriptors[0].name == "max_rate" and time.monotonic() - asked < 1.0
+    assert not reset.done()
+    spin_until(reset.done, 5.0, "the reset's answer")
+    assert reset.result().success and "reset to the initial state" in reset.result().message
+    slow.clear()  # one more slow step, under way as the node stops
+    spin_until(slow.is_set, 5.0, "the next slow step")
+    stopping = time.monotonic()
+    sim.close()
+    assert time.monotonic() - stopping < 1.0 + sim_node.ACK_TIMEOUT_S
+
+
 def test_an_integer_is_taken_for_a_double_as_ros_users_type_it(ros):
     """`-p time_scale:=2` (rclpy reads an INTEGER) starts a simulator at 2x."""
     sim, client, spin_until = ros(time_scale=2, max_rate=2)
@@ -327,6 +433,7 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
             "sail.hub_inertia_y": 10.0,
         },  # fmt: skip
         initial_hub_velocity=[0.0, 0.02, -0.01],
+        min_length=2.0,  # a free hub's booms need 4.4 times the sub-steps (runtime.affordable)
     )
     hubs, answers = [], []
     client.create_subscription(Odometry, topics.HUB_STATE, hubs.append, topics.STATE_QOS)

@@ -16,21 +16,27 @@ bridge drops for the slow one and reports it, the other is served without a
 gap and the simulator keeps real time.
 """
 
+import asyncio
+import contextlib
 import hashlib
 import json
 import re
 import signal
+import socket
 import subprocess
 import time
 from pathlib import Path
 
+import psutil
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import JS, spin_until
+from harness import JS, SMALL_SIM, spin_until
 from mcap.reader import make_reader
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
+from tornado.httpclient import HTTPRequest
+from tornado.websocket import WebSocketClosedError, websocket_connect
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, bag_files
@@ -127,7 +133,9 @@ def stop(*tools) -> None:
 
 
 def test_foxglove_client_sees_the_log_and_commands_the_sail(processes, js_readers, tmp_path):  # noqa: F811
-    sim = processes("sim", parameters={"shape_divisions": 4, "diagnostics_rate_hz": 2.0})
+    sim = processes(
+        "sim", parameters={**SMALL_SIM, "shape_divisions": 4, "diagnostics_rate_hz": 2.0}
+    )
     bag = tmp_path / "bag"
     recorder = processes("recorder", "-o", str(bag))
     served = processes("bridge", "--port", "0", "--diagnostics-period-s", "0.5")
@@ -253,7 +261,7 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     # big shapes, often (190 kB at 25 Hz): the stalled client's socket buffers (small: it
     # stalls before it read anything, so the kernel did not grow them) and its queue fill
     # early in the stall; the reading client takes the state only
-    processes("sim", parameters={"shape_divisions": 20, "shape_rate_hz": 25.0})
+    processes("sim", parameters={**SMALL_SIM, "shape_divisions": 20, "shape_rate_hz": 25.0})
     served = processes(
         "bridge", "--port", "0", "--client-queue", "32", "--diagnostics-period-s", "0.5"
     )
@@ -333,3 +341,89 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     span = float(last[key.SIM_TIME]) - float(first[key.SIM_TIME])
     assert span / ((last_ns - first_ns) * 1e-9) == pytest.approx(1.0, abs=0.02), factors
     stop(served)
+
+
+@pytest.mark.timing
+def test_sigterm_ends_the_bridge_while_a_client_has_not_finished_its_handshake(processes):
+    """Two TCP clients that never finish the WebSocket handshake (one sends nothing, one
+    half a GET) do not hold the bridge: SIGTERM ends it within 2 s, exit code 0, where the
+    server's stop once waited for them for as long as they stayed."""
+    tool = processes("bridge", "--port", "0")
+    host, port = served_url(tool).removeprefix("ws://").rsplit(":", 1)
+    silent = socket.create_connection((host, int(port)))
+    partial = socket.create_connection((host, int(port)))
+    partial.sendall(b"GET / HTTP/1.1\r\nHost: localhost\r\nUpgrade: websocket\r\n")
+    time.sleep(0.3)  # both accepted, each in its handshake
+    try:
+        assert tool.stop(signal.SIGTERM, timeout=2.0) == 0, tool.log()
+    finally:
+        silent.close()
+        partial.close()
+    assert "SIGTERM: closing the server" in tool.log()
+
+
+@pytest.mark.slow
+def test_two_hundred_clients_that_never_read_and_twenty_thousand_bad_frames(processes):
+    """The full size of test_bridge_node's clients beyond max_clients and bad frames: 200
+    clients subscribe to every channel of a running simulator and never read for 20 s,
+    then leave; one more sends up to 20000 frames that are no protocol message (the server
+    drops a client that sends faster than it reads the answers). The bridge keeps
+    max_clients (16) of them, disconnects and counts the rest, hands back what their
+    queues held once they leave, and logs a few of the server's error lines and their
+    count. Prints the bridge's resident memory and log size."""
+    processes("sim", parameters=SMALL_SIM)
+    tool = processes("bridge", "--port", "0")
+    url = served_url(tool)
+    memory = psutil.Process(tool.process.pid).memory_info
+    mib = {"start": memory().rss / 2**20}
+
+    async def subscriber():
+        request = HTTPRequest(url, headers={"Sec-WebSocket-Protocol": "foxglove.sdk.v1"})
+        client = await websocket_connect(request)
+        while (message := await client.read_message()) is not None:
+            channels = json.loads(message).get("channels") if isinstance(message, str) else None
+            if channels:
+                ids = [{"id": c["id"], "channelId": c["id"]} for c in channels]
+                await client.write_message(json.dumps({"op": "subscribe", "subscriptions": ids}))
+                return client
+        return None
+
+    async def drain(client):
+        while await client.read_message() is not None:
+            pass
+
+    async def run():
+        clients = [await subscriber() for _ in range(200)]
+        kept = [client for client in clients if client is not None]
+        await asyncio.sleep(20.0)
+        mib["held"] = memory().rss / 2**20
+        for client in kept:
+            client.close()
+        await asyncio.sleep(3.0)  # a status of the bridge comes meanwhile
+        sender, sent = await subscriber(), 0
+        answers = asyncio.ensure_future(drain(sender))  # a status answers each frame
+        with contextlib.suppress(WebSocketClosedError):  # the server may drop such a client
+            while sent < 20000:
+                await sender.write_message("not json")
+                sent += 1
+        await asyncio.sleep(6.0)  # the interval of the counts ends
+        sender.close()
+        await answers
+        return len(kept), sent
+
+    kept, sent = asyncio.run(run())
+    mib["closed"] = memory().rss / 2**20
+    assert tool.stop(signal.SIGINT) == 0
+    log = tool.log()
+    print(
+        f"\nbridge resident memory: {mib['start']:.0f} MiB at start, {mib['held']:.0f} MiB "
+        f"with {kept} clients that never read, {mib['closed']:.0f} MiB after they left; "
+        f"{sent} bad frames sent before the server dropped the sender; log "
+        f"{len(log.encode())} bytes"
+    )
+    assert kept == 16 and log.count("(max_clients)") <= 3 + 1, log[-2000:]
+    assert "181 warning line(s) not logged one by one" in log
+    # one by one, and the last in the count; the rest counted
+    assert 1 <= log.count("Invalid message from") <= 3 + 1, log[-2000:]
+    assert re.search(r"\d+ error line\(s\) not logged one by one .*Invalid message", log)
+    assert mib["closed"] < mib["start"] + 32.0, mib

@@ -1,5 +1,6 @@
 """A flood of commands at a simulator process: valid deploy commands, then malformed
-ones, at 1000 a second (as benchmarks/command_flood.py). Every command ends counted:
+ones (to NaN), then bytes that are no Float64 at all, at 1000 a second (the first two as
+benchmarks/command_flood.py). Every command ends counted:
 accepted, superseded or rejected, adding up to what was sent; the simulator never
 stalls (no state later than five state periods after the one before, where the flood
 once stalled it for seconds).
@@ -16,6 +17,7 @@ import os
 import time
 
 import pytest
+from harness import SMALL_SIM
 from std_msgs.msg import Float64
 
 from sail_ros import topics
@@ -31,7 +33,11 @@ SIZES = {  # commands per second, seconds per phase
         float(os.environ.get("SAIL_ROS_FLOOD_SECONDS", "10")),
     ),
 }
-KINDS = {"valid": lambda i: 10.2 + 0.2 * (i % 5), "malformed": lambda i: math.nan}
+KINDS = {  # the i-th command of each phase
+    "valid": lambda i: Float64(data=10.2 + 0.2 * (i % 5)),
+    "malformed": lambda i: Float64(data=math.nan),
+    "undecodable": lambda i: b"\x00\x01\x00\x00\x00",  # a CDR header and one byte
+}
 OUTCOMES = (key.ACCEPTED, key.SUPERSEDED, key.REJECTED)
 
 
@@ -42,11 +48,11 @@ def late_states(stamps: list[int]) -> list[float]:
 
 
 def flood(operator, targets, rate: float, seconds: float) -> int:
-    """Publish deploy commands to `targets(i)` at `rate` for `seconds`; how many were sent."""
+    """Publish deploy commands `targets(i)` at `rate` for `seconds`; how many were sent."""
     sent, start = 0, time.monotonic()
     while (now := time.monotonic()) < start + seconds:
         while sent < int((now - start) * rate):
-            operator.deploy.publish(Float64(data=targets(sent)))
+            operator.deploy.publish(targets(sent))
             sent += 1
         operator.spinner.spin_once(timeout_sec=0.0005)
     return sent
@@ -62,7 +68,7 @@ def test_a_flood_of_commands_is_held_in_real_time_and_counted(processes, operato
         lambda message, info: states.append(info["source_timestamp"]),
         topics.STATE_QOS,
     )
-    processes("sim", parameters={"diagnostics_rate_hz": 4.0})
+    processes("sim", parameters={**SMALL_SIM, "diagnostics_rate_hz": 4.0})
     operator.wait_for_simulator()
     quiet = operator.wait_for_status(lambda s: True, 5.0, "a status before the quiet phase")
     quiet_first = len(states)

@@ -20,7 +20,7 @@ import time
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import run_tool, spin_until
+from harness import SMALL_SIM, run_tool, spin_until
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -141,6 +141,7 @@ def test_loads_from_the_terminal_push_the_damped_sail(processes, ros_env, tmp_pa
     sim = processes(
         "sim",
         parameters={
+            **SMALL_SIM,
             "sail.mass_damping": 0.5,
             "sail.stiffness_damping": 1e-3,
             "diagnostics_rate_hz": 10.0,
@@ -219,7 +220,7 @@ def test_commands_from_publishers_that_send_at_once_all_arrive(processes, operat
     answer two of them may land in one batch of the simulator's intake, where the newer
     supersedes the older, as documented."""
     answers = Answers(operator)
-    processes("sim")
+    processes("sim", parameters=SMALL_SIM)
     operator.wait_for_simulator()
     for i in range(6):
         node = Node(f"hand_written_{i}", context=operator.context)
@@ -246,7 +247,7 @@ def test_a_burst_beyond_the_command_queue_waits_and_is_answered_and_counted(proc
     superseded by a newer one of its batch, and /diagnostics counts exactly those; what
     still finds the queue full after the wait is rejected (test_sim_node)."""
     answers = Answers(operator)
-    processes("sim", parameters={"time_scale": 0.0, "max_queued_commands": 2})
+    processes("sim", parameters={**SMALL_SIM, "time_scale": 0.0, "max_queued_commands": 2})
     operator.wait_for_simulator()
     # reliable, volatile, keeping all 30 until acknowledged
     publisher = operator.create_publisher(Float64, topics.DEPLOY_CMD, QoSProfile(depth=100))
@@ -273,7 +274,7 @@ def test_a_started_simulator_does_not_run_commands_published_before(processes, o
     publisher = operator.create_publisher(Float64, topics.DEPLOY_CMD, topics.LATCHED_COMMAND_QOS)
     publisher.publish(Float64(data=20.0))
     time.sleep(0.2)  # the command is older than the simulator
-    processes("sim")
+    processes("sim", parameters=SMALL_SIM)
     operator.wait_for_simulator()
     operator.spin_until(lambda: answers.received, 10.0, "the answer")
     (answer,) = answers.received
@@ -286,8 +287,12 @@ def test_a_started_simulator_does_not_run_commands_published_before(processes, o
 
 
 def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_path):
-    sat1 = processes("sim", "--ros-args", "-r", "__ns:=/sat1", parameters=FAST_STATUS)
-    sat2 = processes("sim", "--ros-args", "-r", "__ns:=/sat2", parameters=FAST_STATUS)
+    sat1 = processes(
+        "sim", "--ros-args", "-r", "__ns:=/sat1", parameters={**SMALL_SIM, **FAST_STATUS}
+    )
+    sat2 = processes(
+        "sim", "--ros-args", "-r", "__ns:=/sat2", parameters={**SMALL_SIM, **FAST_STATUS}
+    )
     recorders = [
         processes("recorder", "-o", str(tmp_path / ns), "--ros-args", "-r", f"__ns:=/{ns}")
         for ns in ("sat1", "sat2")
@@ -370,7 +375,7 @@ def test_a_publisher_that_behaves_like_ros2_topic_pub_once_reaches_the_simulator
     (ros2cli 0.32): reliable, transient local, keep last 10; wait for one matching
     subscription; publish once; stay 0.1 s; exit. Five times, five answers."""
     answers = Answers(operator)
-    processes("sim")
+    processes("sim", parameters=SMALL_SIM)
     operator.wait_for_simulator()
     for i in range(5):
         node = Node(f"ros2_topic_pub_{i}", context=operator.context)
@@ -389,7 +394,12 @@ def test_a_hub_wrench_from_the_terminal_tilts_a_free_hub_and_watch_shows_it(proc
     max_hub_torque is accepted and tilts the hub about x, which `watch` shows from
     /sail/hub_state; one beyond the limit is rejected in the policy's words (exit 1); a
     value that is not finite never leaves the terminal (exit 2)."""
-    processes("sim", parameters={"sail.free_hub": True, **FAST_STATUS})
+    # a free hub's booms need 4.4 times the sub-steps: 1 m ones are more than real time
+    # affords (runtime.affordable)
+    processes(
+        "sim",
+        parameters={**SMALL_SIM, "sail.free_hub": True, "min_length": 2.0, **FAST_STATUS},
+    )
     assert "hub" in watch(ros_env, run=in_process)  # waits for the simulator
     pushed = in_process("send", "hub-wrench", "--torque-x", "0.5")
     assert pushed.returncode == 0, pushed.stderr

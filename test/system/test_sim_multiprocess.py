@@ -10,13 +10,14 @@ import re
 import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from harness import ROOT
+from harness import ROOT, SMALL, SMALL_SIM, run_tool
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
@@ -34,7 +35,7 @@ from sail_ros.model.profiles import BoomMotion, SwitchedProfile
 from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.policy import Policy
 from sail_ros.runtime.commands import BoomState, Rules, plan_deploy, plan_trajectory
-from sail_ros.runtime.config import DEFAULTS, config_from_values
+from sail_ros.runtime.config import config_from_values
 from sail_ros.runtime.realtime import COMMAND_LINES, RTF_MIN_WINDOW_S
 from sail_ros.runtime.simulation import Simulation
 
@@ -95,7 +96,12 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
     tip0 = [0.1, 0.0, 0.0, 0.0]
     sim = processes(
         "sim",
-        parameters={"time_scale": 4.0, "initial_tip_deflection": tip0, "diagnostics_rate_hz": 10.0},
+        parameters={
+            **SMALL_SIM,
+            "time_scale": 4.0,
+            "initial_tip_deflection": tip0,
+            "diagnostics_rate_hz": 10.0,
+        },
     )
     bag = tmp_path / "bag"
     recorder = processes("recorder", "-o", str(bag))
@@ -146,7 +152,7 @@ def test_deployment_follows_both_commands_and_is_recorded(processes, operator, t
     assert rates == pytest.approx(np.array([e[1] for e in expected]), abs=1e-7)
     assert lengths[-1] == pytest.approx([13.0, 11.0, 12.0, 12.0])
 
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     t_tip, tips, tip_rates = series(operator.states[topics.TIP_DEFLECTION], epoch)
     t_grid, q, qd = model.simulate_on_grid(
         motion, t_tip[-1] + 0.5 * STEP, STEP, model.initial_coordinates(tip0), max_step=MODEL_STEP
@@ -208,7 +214,9 @@ BAD_COMMANDS = [
 def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator):
     """Real time; then pause, resume and reset through the services."""
     tip0 = [0.0, 0.02, 0.0, -0.01]
-    sim = processes("sim", parameters={"initial_tip_deflection": tip0, "diagnostics_rate_hz": 20.0})
+    sim = processes(
+        "sim", parameters={**SMALL_SIM, "initial_tip_deflection": tip0, "diagnostics_rate_hz": 20.0}
+    )
     operator.wait_for_simulator()
     for count, (command, reason) in enumerate(BAD_COMMANDS, start=1):
         publisher = operator.deploy if isinstance(command, Float64) else operator.trajectory
@@ -228,7 +236,7 @@ def test_bad_commands_are_rejected_whole_and_change_nothing(processes, operator)
     _, lengths, rates = series(operator.states[topics.BOOM_STATE], epoch)
     assert np.all(lengths == 10.0) and np.all(rates == 0.0)
     t, q, _ = series(operator.states[topics.MODAL_STATE], epoch)
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     _, q_alone, _ = model.simulate(
         StaticProfile(10.0), t[-1], model.initial_coordinates(tip0), t_eval=t, max_step=STEP
     )
@@ -307,7 +315,7 @@ def test_divergence_is_an_error_before_anything_non_finite_until_reset(
             }
         )
     )
-    sim = processes("sim", "--ros-args", "--params-file", str(params))
+    sim = processes("sim", "--ros-args", "--params-file", str(params), parameters=SMALL_SIM)
     # diagnostics go on in the error state (the states stop), so this needs no head start
     error = operator.wait_for_status(
         lambda s: s["level"] == DiagnosticStatus.ERROR, 30.0, "the ERROR diagnostic"
@@ -394,7 +402,7 @@ def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
     switches still fall on the simulator's step ends (`SWITCH_RESOLUTION`); the tolerance's
     choices of step may then differ where an error lies at its threshold, and the tips
     stay within 1e-5 of their peak."""
-    config = config_from_values({**DEFAULTS, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
+    config = config_from_values({**SMALL_SIM, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0]})
     model = SailModel(config.sail)
     sim = Simulation(model, config)
     while sim.t < 0.5 - 1e-9:
@@ -418,3 +426,76 @@ def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
         )  # fmt: skip
         replayed = model.tip_deflections(q[-len(tips) :])
         assert np.abs(replayed - tips).max() <= bound * np.abs(tips).max(), shift
+
+
+def test_a_simulator_restarted_under_the_recorder_is_recorded_as_another_run(
+    processes, operator, tmp_path
+):
+    """A simulator stopped and started again with more boom modes while the recorder runs:
+    the recorder fetches the new simulator's parameters and stores them as a new record
+    where that happened, and `sail-ros report` refuses the log in one line saying what
+    changed, rather than read both runs as one with the old mode counts."""
+    bag = tmp_path / "bag"
+    recorder = processes("recorder", "-o", str(bag))
+    counts = []
+    for boom_modes in (2, 3):
+        sail = {"sail.n_boom_modes": boom_modes, "sail.n_membrane_modes": 2}
+        sim = processes("sim", parameters={**sail, "time_scale": 4.0})
+        stored = "again: it appeared anew" if counts else "parameters of 'sail_sim'"
+        recorder.wait_for_lines([stored])
+        operator.wait_for_simulator(subscribers=2)  # the simulator and the recorder
+        operator.spin_for(0.5)
+        assert sim.stop(signal.SIGINT) == 0, sim.log()
+        counts.append(boom_modes)
+    operator.spin_until_quiet()
+    assert recorder.stop(signal.SIGINT) == 0, recorder.log()
+    records = [d for n, d in BagReader(bag).metadata() if n == topics.PARAMETERS_METADATA]
+    assert [r["sail.n_boom_modes"] for r in records] == ["2", "3"]
+    code, _, err = run_tool("report", [str(bag), "--out", str(tmp_path / "report")])
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(
+        f"error: '{bag}' holds more than one run of the simulator: the sail parameters change "
+        "(sail.n_boom_modes 2 -> 3)"
+    ), err
+
+
+@pytest.mark.timing
+def test_the_stall_of_allowed_values_is_refused_and_the_simulator_stays_answering(
+    processes, operator
+):
+    """The fault that stalled a simulator: max_substep_rate raised to 1e7 at run time
+    (allowed), then min_length 7 mm (refused: a moving grid step there would take tens of
+    seconds), then a deployment to 7.5 mm (rejected, outside the limits kept). The
+    simulator keeps publishing, answers its reset at once and ends within 2 s of a SIGINT
+    (it went 25 s without a state, its reset unanswered, and took 29 s to stop); at start
+    the same values are refused with exit code 2 and one line."""
+    sim = processes("sim", parameters={"sail.n_boom_modes": 4, "sail.n_membrane_modes": 6})
+    operator.wait_for_simulator()
+
+    def set_parameter(name, value):
+        parameter = Parameter(name, value=value).to_parameter_msg()
+        request = SetParameters.Request(parameters=[parameter])
+        return operator.call(operator.set_parameters, request).results[0]
+
+    assert set_parameter("max_substep_rate", 1e7).successful
+    refused = set_parameter("min_length", 0.007)
+    assert not refused.successful and refused.reason.startswith("min_length = 0.007 m")
+    operator.deploy.publish(Float64(data=0.0075))
+    status = operator.wait_for_status(
+        lambda s: s[key.REJECTED] == "1", 5.0, "the deployment to be rejected"
+    )
+    assert "outside [min_length, max_length] = [5, " in status[key.LAST_REJECTION]
+    states = len(operator.states[topics.BOOM_STATE])
+    asked = time.monotonic()
+    assert operator.call(operator.reset, Trigger.Request(), timeout=2.0).success
+    assert time.monotonic() - asked < 2.0
+    operator.spin_until(
+        lambda: len(operator.states[topics.BOOM_STATE]) > states + 10, 2.0, "states after it"
+    )
+    assert sim.stop(signal.SIGINT, timeout=2.0) == 0, sim.log()
+
+    short = {"max_substep_rate": 1e7, "min_length": 0.007, "initial_lengths": [0.007]}
+    refused_start = processes("sim", parameters=short)
+    assert refused_start.process.wait(30.0) == 2
+    (line,) = [text for text in refused_start.log().splitlines() if "ERROR" in text]
+    assert "min_length = 0.007 m would need " in line and "Traceback" not in refused_start.log()

@@ -48,6 +48,45 @@ def test_a_sigint_while_starting_in_the_background_finishes_the_recording(ros_en
     assert (folder / "metadata.yaml").is_file()
 
 
+def test_a_sigint_while_the_simulator_imports_ends_it_without_a_traceback(ros_env):
+    """Ctrl-C while `sail-ros sim` is still importing its modules (its SIGINT handling is
+    Python's until the node takes it over): the program ends with the shell's exit code
+    for it, 130, and not a KeyboardInterrupt traceback."""
+    program = (
+        "import importlib, os, signal, sys\n"
+        "import sail_ros.cli\n"
+        "assert signal.getsignal(signal.SIGINT) is signal.default_int_handler\n"
+        "load = importlib.import_module\n"
+        "def importing(name, *args, **kwargs):\n"
+        "    if name == 'sail_ros.nodes.sim':\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "    return load(name, *args, **kwargs)\n"
+        "importlib.import_module = importing\n"
+        "sys.exit(sail_ros.cli.main(['sim']))\n"
+    )
+    result = run_script(program, ros_env)
+    assert result.returncode == 130, result.stderr
+    assert "Traceback" not in result.stderr and "KeyboardInterrupt" not in result.stderr
+
+
+@pytest.mark.slow
+def test_a_sigint_soon_after_the_simulator_starts_ends_it_without_a_traceback(ros_env):
+    """The trial of the test above as a user meets it: `sail-ros sim` sent SIGINT 0.05 to
+    1.5 s after it started, in its imports, its set-up or its run: every time it ends
+    within 10 s, with 130 (still importing) or 0 (stopped by its node), and no
+    traceback."""
+    for delay in (0.05, 0.2, 0.5, 1.0, 1.5):
+        process = subprocess.Popen(
+            ["sail-ros", "sim"], env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+            text=True,
+        )  # fmt: skip
+        time.sleep(delay)
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=10)
+        assert process.returncode in (0, 130), (delay, err)
+        assert "Traceback" not in err, (delay, err)
+
+
 def run_script(text: str, env: dict) -> subprocess.CompletedProcess:
     """Python `text` run in a process of its own (its output kept, at most 60 s)."""
     return subprocess.run(

@@ -4,6 +4,7 @@ for byte from all three; a failing sample is a row; the worst samples rerun; the
 stability sweep on the external cluster."""
 
 import csv
+import ipaddress
 import json
 import os
 import socket
@@ -13,6 +14,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import psutil
 import pytest
 import yaml
 from harness import assert_figure
@@ -185,6 +187,30 @@ def test_local_workers_keep_glibc_malloc_defaults_no_profiler_and_seldom_ticks(m
     assert (trim, profiler) == (None, False)
     assert periods_ms == {"tick": 1000, "monitor": 5000, "memory_monitor": 1000}, periods_ms
     assert "MALLOC_TRIM_THRESHOLD_" not in os.environ
+
+
+def _listening(process) -> set[tuple[int, str, int]]:
+    """(pid, address, port) of every TCP socket listening in `process` and its children."""
+    found = set()
+    for each in [process, *process.children(recursive=True)]:
+        try:
+            sockets = each.net_connections(kind="tcp")
+        except psutil.NoSuchProcess:
+            continue
+        found |= {(each.pid, s.laddr.ip, s.laddr.port) for s in sockets if s.status == "LISTEN"}
+    return found
+
+
+def test_a_local_cluster_listens_on_loopback_only():
+    """Every port a local cluster opens (scheduler, workers, nannies, Dask's HTTP endpoints
+    and dashboard) is on 127.0.0.1: Dask's default would serve the dashboard on every
+    interface, to anyone who reaches the machine."""
+    me = psutil.Process()
+    before = _listening(me)
+    with dask_client(workers=1):
+        opened = _listening(me) - before
+    assert len(opened) >= 4, opened  # the scheduler, its HTTP server, the worker, the nanny
+    assert all(ipaddress.ip_address(ip).is_loopback for _, ip, _ in opened), opened
 
 
 def test_worst_samples_rerun_to_the_same_numbers(study_file, tmp_path, capsys, external_cluster):

@@ -1,10 +1,17 @@
-"""The bridge's client book and command checks, without a node or a server."""
+"""The bridge's client book, command checks and server log, without a node or a server."""
+
+import logging
 
 import pytest
 
 from sail_ros import topics
 from sail_ros.bridging.clients import ClientBook, command_refusal
-from sail_ros.bridging.protocol import service_definitions
+from sail_ros.bridging.protocol import (
+    SERVER_LINES,
+    SERVER_LOG_INTERVAL_S,
+    ServerLog,
+    service_definitions,
+)
 from sail_ros.messages import status as key
 
 pytestmark = pytest.mark.model
@@ -66,3 +73,60 @@ def test_a_client_publishes_only_a_command_in_cdr_of_its_type(topic, schema, enc
 def test_service_schemas_split_the_srv_file():
     request, response = service_definitions("std_srvs/srv/SetBool")
     assert "bool data" in request and "bool success" in response and "string message" in response
+
+
+class Logger:
+    """A ROS logger's three levels, kept."""
+
+    def __init__(self):
+        self.lines = []
+
+    def info(self, text):
+        self.lines.append(("info", text))
+
+    def warning(self, text):
+        self.lines.append(("warning", text))
+
+    def error(self, text):
+        self.lines.append(("error", text))
+
+
+def test_the_servers_bad_frame_lines_are_a_few_and_a_count():
+    """20000 bad frames make the server log 20000 errors: three reach the log one by one,
+    the rest one line of counts when the interval ends; every one is counted. Its lines
+    as clients connect and leave reach `on_client`."""
+    now = [0.0]
+    logger, joined = Logger(), []
+    server = ServerLog(logger, print, lambda *a: joined.append(a), clock=lambda: now[0])
+    record = logging.makeLogRecord
+    server.emit(record({"levelno": logging.INFO, "msg": "Registered client 127.0.0.1:5000"}))
+    for _ in range(20000):
+        server.emit(record({"levelno": logging.ERROR, "msg": "Invalid message from x: bad"}))
+    server.emit(record({"levelno": logging.WARNING, "msg": "Failed to parse advertised"}))
+    server.emit(record({"levelno": logging.INFO, "msg": "Unregistered client 127.0.0.1:5000"}))
+    assert joined == [("127.0.0.1:5000", True), ("127.0.0.1:5000", False)]
+    assert server.problems == 20001
+    errors = [text for level, text in logger.lines if level == "error"]
+    assert errors == ["foxglove server: Invalid message from x: bad"] * SERVER_LINES
+    server.roll()  # within the interval: nothing yet
+    assert len(logger.lines) == SERVER_LINES + 2
+    now[0] += SERVER_LOG_INTERVAL_S
+    server.roll()
+    assert logger.lines[-1] == ("warning", (
+        "foxglove server: 19997 error, 1 warning line(s) not logged one by one in the last "
+        "5 s (the last: Failed to parse advertised); /diagnostics counts them (server_problems)"
+    ))  # fmt: skip
+    server.emit(record({"levelno": logging.ERROR, "msg": "again"}))  # a new interval
+    assert logger.lines[-1] == ("error", "foxglove server: again")
+
+
+def test_connections_beyond_the_limit_are_refused_and_counted():
+    book = ClientBook(channels=1)
+    assert book.connect("a:1", 2) and book.connect("a:2", 2)
+    assert not book.connect("a:3", 2)
+    book.disconnect("a:3")  # the refused one's departure changes nothing
+    values = book.status_values()
+    assert values[key.CONNECTIONS] == "2" and values[key.REFUSED_CONNECTIONS] == "1"
+    assert book.take_left() and not book.take_left()
+    book.disconnect("a:1")
+    assert book.connect("a:4", 2) and book.status_values()[key.CONNECTIONS] == "2"

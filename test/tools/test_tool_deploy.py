@@ -5,7 +5,7 @@ import re
 import numpy as np
 import pytest
 import yaml
-from harness import CONFIG, assert_figure
+from harness import CONFIG, SMALL, SMALL_SET, assert_figure
 from rclpy.serialization import deserialize_message
 from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
@@ -283,7 +283,7 @@ def test_a_run_without_states_has_the_same_tips_peaks_and_end(case):
                                  "initial": {"mode_state": {"a": 4.0}}}}  # fmt: skip
         scenario = scenario_from_dict(document)
         t_eval = np.arange(0.0, 6.05, 0.1)
-    model = SailModel(SailParameters(**scenario.sail))
+    model = SailModel(SMALL.replace(**scenario.sail))
     policy = Policy(max_rate=3.0, max_acceleration=2.0)
     full = run_deployment(model, scenario, t_eval, rates=None, policy=policy)
     lean = run_deployment(model, scenario, t_eval, states=False, policy=policy)
@@ -313,7 +313,7 @@ def test_a_run_stopped_by_its_alarm_has_no_peak_after_the_stop():
     document = {"scenario": {"duration": 15.0, "profile": profile,
                              "initial": {"mode_state": {"a": 4.0}}}}  # fmt: skip
     scenario = scenario_from_dict(document)
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     run = run_deployment(model, scenario, np.arange(0.0, 15.05, 0.1), states=False)
     stop = float(run.alarm.split("stopped at t = ")[1].split(" s")[0])
     assert 9.0 < stop < 9.3, run.alarm
@@ -336,7 +336,7 @@ def test_a_batched_range_check_stops_where_a_check_after_every_step_does(monkeyp
     document = {"scenario": {"duration": 15.0, "profile": profile,
                              "initial": {"mode_state": {"a": 4.0}}}}  # fmt: skip
     scenario = scenario_from_dict(document)
-    model = SailModel(SailParameters())
+    model = SailModel(SMALL)
     t_eval = np.arange(0.0, 15.05, 0.1)
     runs, batched_steps = {}, peaks_module.BATCH_STEPS
     for batch in (batched_steps, 1):
@@ -376,20 +376,20 @@ def test_reference_options_conflict_with_a_scenario(capsys):
 def test_json_gives_true_peaks_per_boom_and_their_convergence(capsys):
     """`--json`: one object with every boom's true peaks and times (those of the run's
     own steps, not of the printed 1 s table), the parameters, mode counts and wall time;
-    `--convergence 4 10` reruns with more membrane modes, which moves the small booms'
-    peaks by far more than 1 %: a warning says so."""
+    `--convergence 4 10` reruns with more membrane modes, which moves the peaks by far
+    more than 1 % of the largest: a warning says so."""
     import json
 
     from sail_ros.analysis.deployment import run_deployment
 
-    argv = ["--t-end", "6", "--set", "n_membrane_modes=3"]
+    argv = ["--t-end", "6", "--set", "n_boom_modes=4", "--set", "n_membrane_modes=3"]
     assert deploy.main([*argv, "--json", "--convergence", "4", "10"]) == 0
     captured = capsys.readouterr()
     report = json.loads(captured.out)
     assert report["n_boom_modes"] == 4 and report["n_membrane_modes"] == 3
     assert report["parameters"]["n_membrane_modes"] == 3 and report["wall_time_s"] > 0
     scenario = deploy._scenario(deploy.build_parser().parse_args(argv))[0]
-    model = SailModel(SailParameters(n_membrane_modes=3))
+    model = SailModel(SailParameters(n_boom_modes=4, n_membrane_modes=3))
     peaks = run_deployment(model, scenario, np.arange(7.0)).peaks
     for key, peak in (("peak_tip_deflection", peaks.tip_deflection),
                       ("peak_root_moment", peaks.root_moment)):  # fmt: skip
@@ -404,7 +404,8 @@ def test_json_gives_true_peaks_per_boom_and_their_convergence(capsys):
     assert 1e3 * peaks.tip_deflection.value[0] > max(abs(v) for v in printed)
     assert "peaks over the whole run, per boom" in table and "|root moment| [N m]" in table
     convergence = report["convergence"]
-    assert (convergence["n_boom_modes"], convergence["n_membrane_modes"]) == (4, 10)
+    (level,) = convergence["levels"]
+    assert (level["n_boom_modes"], level["n_membrane_modes"]) == (4, 10)
     changes = [convergence["root_moment_change"][b] for b in "abcd"]
     assert max(map(abs, changes)) > 0.01 and convergence["converged"] is False
     assert "warning: peaks not converged" in captured.err and "moment b" in captured.err
@@ -412,7 +413,7 @@ def test_json_gives_true_peaks_per_boom_and_their_convergence(capsys):
 
 def test_convergence_needs_more_modes(capsys):
     assert deploy.main(["--convergence", "4", "6"]) == 2
-    assert "must grow from the run's (n_B, n_M) = (4, 6)" in capsys.readouterr().err
+    assert "must grow from the run's (n_B, n_M) = (8, 181)" in capsys.readouterr().err
     assert deploy.main(["--convergence", "8"]) == 2
     assert "--convergence takes no value or two (N_B N_M)" in capsys.readouterr().err
 
@@ -426,10 +427,11 @@ def test_a_free_hubs_log_gives_back_its_attitude(tmp_path):
 
     path = tmp_path / "hub.mcap"
     scenario_file = CONFIG / "scenario_free_hub.yaml"
-    assert deploy.main(["--scenario", str(scenario_file), "--rate", "10", "--mcap", str(path)]) == 0
+    argv = [*SMALL_SET, "--scenario", str(scenario_file), "--rate", "10", "--mcap", str(path)]
+    assert deploy.main(argv) == 0
     log = read_log(path)
     scenario = load_scenario(scenario_file)
-    model = SailModel(SailParameters().replace(**scenario.sail))
+    model = SailModel(SMALL.replace(**scenario.sail))
     run = run_deployment(model, scenario, log.seconds(log.hub[0]))
     assert log.hub[1].shape == (201, 6) and np.degrees(np.abs(log.hub[1][:, 1]).max()) > 4.0
     np.testing.assert_allclose(log.hub[1], run.hub, rtol=0, atol=1e-12 * np.abs(run.hub).max())
@@ -461,11 +463,11 @@ def test_a_free_hub_deployment_prints_its_attitude_peaks_and_hold_reactions(
     from sail_ros.analysis.deployment import hold_reactions, run_deployment
 
     scenario_file = CONFIG / "scenario_free_hub.yaml"
-    argv = ["--scenario", str(scenario_file), "--every", "5"]
+    argv = [*SMALL_SET, "--scenario", str(scenario_file), "--every", "5"]
     assert deploy.main([*argv, "--summary", "--rate", "10", "--figures", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     scenario = load_scenario(scenario_file)
-    model = SailModel(SailParameters().replace(**scenario.sail))
+    model = SailModel(SMALL.replace(**scenario.sail))
     run = run_deployment(model, scenario, [0.0, 5.0, 10.0, 15.0, 20.0])
 
     lines = out.splitlines()

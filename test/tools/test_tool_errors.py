@@ -37,6 +37,7 @@ def files(tmp_path_factory):
     (root / "no_mcap").mkdir()
     (root / "text.mcap").write_text("not an mcap file\n")
     (root / "blocker").write_text("")  # a file where a folder is needed
+    (root / "program").write_bytes(b"\x7fELF\x02\x01\x01\x00" + bytes(16) + b"\xd0\x00")
     bag = root / "crc.mcap"
     with BagWriter(bag, compression="none", fsync=False) as writer:
         writer.add_topic("/sail/boom_state", "sensor_msgs/msg/JointState")
@@ -54,6 +55,9 @@ BAD_INPUTS = [
     ("modes", ["--config", "{root}/missing.yaml"], "cannot read config '{root}/missing.yaml'"),
     ("modes", ["--config", "{root}/broken.yaml"], "broken.yaml: not valid YAML"),
     ("modes", ["--config", "{root}/misspelt.yaml"], "unknown sail parameter(s) 'max_rat'"),
+    # a file that is no text at all (a program) is named with why
+    ("modes", ["--config", "{root}/program"], "cannot read config '{root}/program': not UTF-8"),
+    ("deploy", ["--scenario", "{root}/program"], "cannot read scenario '{root}/program': not"),
     (
         "deploy",
         ["--config", "{root}/sim_limit.yaml"],
@@ -75,8 +79,8 @@ BAD_INPUTS = [
     ("modes", ["--set", "n_boom_modes=0"], "n_boom_modes must be an integer in [1, 30], got 0"),
     ("modes", ["--set", "membrane_thickness"], "--set expects KEY=VALUE"),
     ("modes", ["--set", "sail_side=[1,"], "--set sail_side: '[1,' is not a value"),
-    ("modes", ["--count", "100000"], "--count must be in [1, 40]"),
-    ("modes", ["--count", "0"], "--count must be in [1, 40]"),
+    ("modes", ["--count", "100000"], "--count must be in [1, 56]"),
+    ("modes", ["--count", "0"], "--count must be in [1, 56]"),
     ("modes", ["--csv", "{root}/blocker/f.csv"], "'{root}/blocker' is a file, not a folder"),
     ("modes", ["--lengths", "abc"], "argument --lengths: invalid float value: 'abc'"),
     ("stability", ["--points", "0"], "--points must be >= 2, got 0"),
@@ -87,7 +91,7 @@ BAD_INPUTS = [
     ("deploy", ["--duration", "-1"], "error: --duration must be > 0 s, got -1.0"),
     ("deploy", ["--t-end", "-2"], "error: --t-end must be > 0 s, got -2.0"),
     ("deploy", ["--tip", "nan"], "error: --tip must be finite, got nan"),
-    ("deploy", ["--set", "n_membrane_modes=-1"], "n_membrane_modes must be an integer in [1, 100]"),
+    ("deploy", ["--set", "n_membrane_modes=-1"], "n_membrane_modes must be an integer in [0, 400]"),
     ("report", ["{root}/nothing_here"], "'{root}/nothing_here' does not exist"),
     ("report", ["{root}/no_mcap"], "folder '{root}/no_mcap' has no .mcap file"),
     ("report", ["{root}/text.mcap"], "is not an MCAP file"),
@@ -110,6 +114,7 @@ BAD_INPUTS = [
         "--params-file {root}/missing.yaml: No such file or directory",
     ),
     ("recorder", ["--ros-args", "--params-file", "{root}/broken.yaml"], "broken.yaml: "),
+    ("sim", ["--ros-args", "--params-file", "{root}/program"], "{root}/program: not UTF-8 text"),
     ("watch", ["--ros-args", "--params-file", "{root}/misspelt.yaml"], "expected '<node>: ros"),
 ]
 

@@ -5,7 +5,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from harness import CONFIG, assert_figure, assert_png
+from harness import CONFIG, SMALL, assert_figure, assert_png
 
 from sail_ros.analysis.montecarlo import input_unit, load_study, run_sample, summarize
 from sail_ros.model import SailParameters
@@ -156,7 +156,7 @@ def test_the_free_hub_scenario_draws_its_attitude_heave_and_holds(tmp_path, figu
     from sail_ros.plots.histories import hub_attitude_figure
 
     scenario = load_scenario(CONFIG / "scenario_free_hub.yaml")
-    model = SailModel(SailParameters().replace(**scenario.sail))
+    model = SailModel(SMALL.replace(**scenario.sail))
     run = run_deployment(model, scenario, output_times(scenario.duration, 20.0))
     holds = hold_reactions(model, scenario.profile, run.t)
     assert np.all(holds[:, 0] == 0.0) and 0.5 < np.abs(holds[:, 1]).max() < 2.0

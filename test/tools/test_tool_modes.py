@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from harness import assert_figure
+from harness import SMALL, SMALL_SET, assert_figure
 
 from sail_ros.analysis.modes import group_multiplicities, modal_analysis, representative_shapes
 from sail_ros.model import SailModel, SailParameters
@@ -16,11 +16,14 @@ pytestmark = pytest.mark.model
 
 def test_table_csv_and_json_agree_with_the_model(tmp_path, capsys):
     csv_path, json_path = tmp_path / "f.csv", tmp_path / "f.json"
-    assert modes.main(["--count", "8", "--csv", str(csv_path), "--json", str(json_path)]) == 0
+    assert (
+        modes.main([*SMALL_SET, "--count", "8", "--csv", str(csv_path), "--json", str(json_path)])
+        == 0
+    )
     out = capsys.readouterr().out
     assert "2-3" in out and "multiplicity" in out and "6890 Pa" in out
 
-    omega = SailModel().natural_frequencies(SailParameters().full_boom_length)
+    omega = SailModel(SMALL).natural_frequencies(SailParameters().full_boom_length)
     rows = list(csv.DictReader(csv_path.open()))
     assert [int(r["mode"]) for r in rows] == list(range(1, 9))
     np.testing.assert_allclose([float(r["omega_rad_s"]) for r in rows], omega[:8], rtol=1e-12)
@@ -62,7 +65,7 @@ def test_three_d_view_and_unequal_lengths(tmp_path, figure_checks):
 
 
 def test_representative_of_a_double_mode_is_a_mode_with_boom_a_tip_up():
-    model = SailModel()
+    model = SailModel(SMALL)
     found = modal_analysis(model, model.params.full_boom_length)
     number, first, multiplicity, omega, vector = representative_shapes(model, found, 2)[1]
     assert (number, first, multiplicity) == (2, 1, 2)
@@ -150,7 +153,7 @@ def test_a_free_hub_lists_its_rigid_zeros_and_each_elastic_group_beside_its_clam
     booms' tilt inertia: it stiffens the heave mode and moves the tilting pair (clamped
     2-3) far up, which a note says; modes that leave the hub still are unchanged."""
     csv_path = tmp_path / "f.csv"
-    heavy = ["--set", "free_hub=true"] + [
+    heavy = [*SMALL_SET, "--set", "free_hub=true"] + [
         f"--set={name}=1e8" for name in ("hub_mass", "hub_inertia_x", "hub_inertia_y")
     ]
     assert modes.main([*heavy, "--count", "12", "--csv", str(csv_path)]) == 0
@@ -159,7 +162,7 @@ def test_a_free_hub_lists_its_rigid_zeros_and_each_elastic_group_beside_its_clam
     rows = list(csv.DictReader(csv_path.open()))
     assert [float(r["omega_rad_s"]) for r in rows[:3]] == [0.0] * 3
     assert [r["period_s"] + r["clamped_mode"] for r in rows[:3]] == [""] * 3
-    clamped = SailModel().natural_frequencies(SailParameters().full_boom_length)
+    clamped = SailModel(SMALL).natural_frequencies(SailParameters().full_boom_length)
     for row in rows[3:]:  # beside the clamped group of its rank (free mode 4: clamped 1)
         rank = int(row["mode"]) - 4
         paired = clamped[int(row["clamped_mode"]) - 1]
@@ -168,7 +171,7 @@ def test_a_free_hub_lists_its_rigid_zeros_and_each_elastic_group_beside_its_clam
         assert float(row["omega_rad_s"]) == pytest.approx(clamped[rank], rel=1e-3)
         assert float(row["shape_share"]) > 0.999
 
-    assert modes.main(["--set", "free_hub=true", "--count", "16"]) == 0
+    assert modes.main([*SMALL_SET, "--set", "free_hub=true", "--count", "16"]) == 0
     out = capsys.readouterr().out
     lines = out.splitlines()
     header = lines.index(next(line for line in lines if line.startswith("  mode ")))

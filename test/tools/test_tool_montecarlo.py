@@ -7,7 +7,7 @@ import csv
 import numpy as np
 import pytest
 import yaml
-from harness import run_tool
+from harness import SMALL, run_tool
 
 from sail_ros.analysis.deployment import hold_reactions
 from sail_ros.analysis.execution import batch_size, batch_sizes
@@ -19,7 +19,7 @@ from sail_ros.analysis.montecarlo import (
     summarize,
 )
 from sail_ros.analysis.scenario import scenario_from_dict
-from sail_ros.model import SailModel, SailParameters
+from sail_ros.model import SailModel
 from sail_ros.tools import montecarlo
 
 pytestmark = pytest.mark.model
@@ -67,7 +67,7 @@ def test_a_free_hub_study_summarises_the_hubs_peaks_and_hold_reactions(tmp_path,
 
     study = study_from_dict(STUDY)
     scenario = scenario_from_dict(sample_scenario(study, 0))
-    model = SailModel(SailParameters().replace(**scenario.sail))
+    model = SailModel(SMALL.replace(**scenario.sail))
     t = np.linspace(0.0, 4.0, 4001)
     holds = hold_reactions(model, scenario.profile, t)
     assert float(rows[0]["peak_hold_force_N"]) == pytest.approx(
@@ -94,9 +94,9 @@ def test_a_clamped_study_has_no_hub_outputs():
     clamped = {"study": {**STUDY["study"], "samples": 1, "dispersions": {},
                "scenario": {**SCENARIO, "sail": sail}}}  # fmt: skip
     study = study_from_dict(clamped)
-    row = run_sample((study, 0, SailParameters().to_dict()))
+    row = run_sample((study, 0, SMALL.to_dict()))
     assert row["error"] == "" and not set(HUB_OUTPUTS) & set(row)
-    summary = summarize(study, [row], SailParameters().to_dict())
+    summary = summarize(study, [row], SMALL.to_dict())
     assert not set(HUB_OUTPUTS) & set(summary.percentiles)
 
 

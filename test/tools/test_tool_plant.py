@@ -5,7 +5,7 @@ import control
 import numpy as np
 import pytest
 import scipy.io
-from harness import assert_figure
+from harness import SMALL, SMALL_SET, assert_figure
 
 from sail_ros.analysis.plant import frequency_response, linear_plant, poles
 from sail_ros.model import SailModel, SailParameters
@@ -22,7 +22,7 @@ def test_plant_writes_matrices_that_python_control_loads_with_equal_poles(
     tmp_path, capsys, figure_checks
 ):
     npz, mat, png = tmp_path / "p.npz", tmp_path / "p.mat", tmp_path / "bode.png"
-    code = main(["--lengths", "20", "22", "20", "22", "--rates", "0.05", *DAMPED,
+    code = main([*SMALL_SET, "--lengths", "20", "22", "20", "22", "--rates", "0.05", *DAMPED,
                  "--npz", str(npz), "--mat", str(mat), "--figure", str(png)])  # fmt: skip
     assert code == 0
     captured = capsys.readouterr()
@@ -56,7 +56,7 @@ def test_plant_writes_matrices_that_python_control_loads_with_equal_poles(
 
 
 def test_poles_carry_the_rayleigh_damping_ratio_and_the_response_its_dc_gain():
-    params = SailParameters(mass_damping=0.02, stiffness_damping=1e-3)
+    params = SMALL.replace(mass_damping=0.02, stiffness_damping=1e-3)
     model = SailModel(params)
     plant = linear_plant(model, 25.0)
     listed = poles(plant)
@@ -116,7 +116,7 @@ def test_the_phase_is_wrapped_into_one_turn_and_breaks_where_it_wraps():
         (["--lengths", "1", "2"], "--lengths takes 1 or 4 values, got 2"),
         (["--rates", "0", "0", "0"], "--rates takes 1 or 4 values, got 3"),
         (["--lengths", "-3"], "--lengths of boom a = -3 m is outside [min_length, max_length]"),
-        (["--count", "0"], "--count must be in [1, 80]"),
+        ([*SMALL_SET, "--count", "0"], "--count must be in [1, 80]"),
         (["--band", "2", "1"], "--band needs 0 < F_MIN < F_MAX"),
         (["--set", "mass_damping=-1"], "mass_damping must be in [0, 1e+06] 1/s, got -1"),
     ],

@@ -7,12 +7,13 @@ import json
 import resource
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
-from harness import ROOT, run_tool
+from harness import ROOT, SMALL, SMALL_SET, run_tool
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
@@ -46,14 +47,14 @@ def leftovers(folder: Path) -> list[str]:
     [
         ("deploy", ["--to", "500"],
          "--from/--to/--duration: boom_a would pass through 500 m on the way, "
-         "outside [min_length, max_length] = [1, 70.7107] m" + DEFAULTS_NOTE),
+         "outside [min_length, max_length] = [5, 70.7107] m" + DEFAULTS_NOTE),
         ("deploy", ["--tip", "1e6"],
          "--boom/--tip: tip deflection of boom a = 1e+06 m is outside +-tip_error_fraction x "
          "length = +-3 m (boom length 10 m)" + DEFAULTS_NOTE),
         ("deploy", ["--duration", "2"],
          "--from/--to/--duration: boom_a would move at 5 m/s, above max_rate 1 m/s"),
         ("deploy", ["--to", "80", "--duration", "150", "--set", "max_length=75"],
-         "outside [min_length, max_length] = [1, 75] m; the simulator's limits "
+         "outside [min_length, max_length] = [5, 75] m; the simulator's limits "
          "(--set max_length=75; --set NAME=VALUE changes them)"),
         ("deploy", ["--set", "min_length=0.01"],
          "min_length = 0.01 m would need 4.306e+06 sub-steps per second of simulation, more "
@@ -83,6 +84,68 @@ def test_what_the_simulator_refuses_is_refused_in_its_words(tmp_path, tool, argv
     assert leftovers(tmp_path) == []  # nothing written
 
 
+def waypoint_scenario(path: Path, points: int) -> Path:
+    """A scenario whose booms stand at 10 m through `points` waypoints 1 ms apart."""
+    times = [1e-3 * i for i in range(points)]
+    document = {"scenario": {"duration": times[-1], "profile": {
+        "type": "waypoints", "times": times, "lengths": [10.0] * points}}}  # fmt: skip
+    path.write_text(yaml.safe_dump(document))
+    return path
+
+
+def test_a_scenario_with_more_waypoints_than_the_simulator_takes_is_refused_first(
+    tmp_path, monkeypatch
+):
+    """1001 waypoints, one more than max_trajectory_points: refused in the simulator's words
+    (the count it refuses a trajectory command with) before a spline is made of them;
+    --set max_trajectory_points=1001 admits them."""
+    from std_msgs.msg import Header  # noqa: F401 (the message packages load first)
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from sail_ros.runtime.commands import BoomState, CommandError, Rules, plan_trajectory
+
+    scenario = waypoint_scenario(tmp_path / "many.yaml", 1001)
+    points = [JointTrajectoryPoint(positions=[10.0]) for _ in range(1001)]
+    command = JointTrajectory(joint_names=["boom_a"], points=points)
+    now = BoomState(0.0, np.full(4, 10.0), np.zeros(4), np.zeros(4))
+    with pytest.raises(CommandError) as simulator:
+        plan_trajectory(command, now, Rules(Policy(), SAIL))
+    assert str(simulator.value) == "1001 points, more than max_trajectory_points = 1000"
+
+    def never(*args, **kwargs):
+        raise AssertionError("a spline was made of the refused waypoints")
+
+    monkeypatch.setattr("sail_ros.analysis.scenario.WaypointProfile", never)
+    code, _, err = run_tool("deploy", ["--scenario", str(scenario), "--mcap", str(tmp_path / "r")])
+    assert code == 2
+    assert err == (f"error: {scenario}: scenario.profile.times: {simulator.value}{DEFAULTS_NOTE}\n")
+    assert leftovers(tmp_path) == ["many.yaml"]
+    monkeypatch.undo()
+    code, _, err = run_tool(
+        "deploy", ["--scenario", str(scenario), "--set", "max_trajectory_points=1001",
+                   "--json"],
+    )  # fmt: skip
+    assert code == 0, err
+
+
+@pytest.mark.slow
+def test_a_scenario_of_300000_waypoints_is_refused_before_any_work(tmp_path):
+    """The full size of the test above, as a process: 300000 waypoints are refused with
+    one line and exit 2; prints the wall time and the peak memory the refusal took."""
+    scenario = waypoint_scenario(tmp_path / "huge.yaml", 300_000)
+    started = time.monotonic()
+    result = subprocess.run(
+        [sys.executable, "-m", "sail_ros.cli", "deploy", "--scenario", str(scenario)],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    seconds = time.monotonic() - started
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024  # kB -> MiB
+    print(f"\n300000 waypoints refused in {seconds:.1f} s, peak {peak:.0f} MiB (a process's)")
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.count("\n") == 1
+    assert "300000 points, more than max_trajectory_points = 1000" in result.stderr
+
+
 def test_limits_come_from_set_or_the_simulators_params_file(tmp_path):
     """--set max_length=100 admits a deployment to 80 m (refused by default); the
     simulator's own params file as --config brings its limits."""
@@ -109,7 +172,19 @@ def test_a_run_that_leaves_the_linear_range_stops_with_the_alarm_and_keeps_its_l
     length: the run stops there with the simulator's alarm, the log holds the run up to
     the sample before, and the exit code is 1."""
     log = tmp_path / "retract.mcap"
-    argv = ["--from", "15", "--to", "10", "--tip", "4", "--rate", "10", "--mcap", str(log)]
+    argv = [
+        *SMALL_SET,
+        "--from",
+        "15",
+        "--to",
+        "10",
+        "--tip",
+        "4",
+        "--rate",
+        "10",
+        "--mcap",
+        str(log),
+    ]
     code, out, err = run_tool("deploy", argv)
     assert code == 1
     warning, alarm = err.strip().splitlines()
@@ -135,7 +210,7 @@ def test_a_run_that_leaves_the_linear_range_stops_with_the_alarm_and_keeps_its_l
 
 
 def test_output_sizes_are_refused_with_the_estimate(tmp_path):
-    code, _, err = run_tool("deploy", ["--duration", "1e7", "--to", "10"])
+    code, _, err = run_tool("deploy", [*SMALL_SET, "--duration", "1e7", "--to", "10"])
     assert code == 2
     assert err == (
         "error: the run over 1e+07 s (a table row every 1 s): 1e+07 samples would take 15.1 "
@@ -144,7 +219,7 @@ def test_output_sizes_are_refused_with_the_estimate(tmp_path):
     )
     scenario = tmp_path / "long.yaml"
     scenario.write_text("scenario: {duration: 1.0e9, profile: {type: static, lengths: 10.0}}\n")
-    code, _, err = run_tool("deploy", ["--scenario", str(scenario), "--every", "1e3"])
+    code, _, err = run_tool("deploy", [*SMALL_SET, "--scenario", str(scenario), "--every", "1e3"])
     assert code == 2 and "1e+06 samples would take 1.51 GiB" in err
 
 
@@ -194,12 +269,12 @@ def test_montecarlo_checks_the_base_scenario_and_each_draw(tmp_path):
             }
         }  # fmt: skip
     )
-    row = run_sample((quicker, 0, SailParameters().to_dict(), Policy()))
+    row = run_sample((quicker, 0, SMALL.to_dict(), Policy()))
     prefix, _, rest = row["error"].partition(" would move at ")
     assert prefix == "ValueError: scenario.profile: boom_c"
     speed, _, limit = rest.partition(" m/s, ")
     assert 2 * 5 / 15 * 1.6 <= float(speed) <= 2 * 5 / 15 * 1.7 and limit == "above max_rate 1 m/s"
-    row = run_sample((quicker, 0, SailParameters().to_dict(), Policy(max_rate=1.2)))
+    row = run_sample((quicker, 0, SMALL.to_dict(), Policy(max_rate=1.2)))
     assert row["error"] == "" and np.isfinite(row["peak_tip_m"])
 
 

@@ -4,7 +4,7 @@ import csv
 
 import numpy as np
 import pytest
-from harness import assert_figure, assert_png
+from harness import SMALL, SMALL_SET, assert_figure, assert_png
 from rcl_interfaces.msg import ParameterEvent
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
@@ -30,7 +30,7 @@ def deploy_log(tmp_path_factory):
     """The reference deployment's first 4 s at 25 Hz, shapes at 5 Hz."""
     folder = tmp_path_factory.mktemp("deploy")
     path = folder / "run.mcap"
-    assert deploy.main(["--t-end", "4", "--rate", "25", "--mcap", str(path)]) == 0
+    assert deploy.main([*SMALL_SET, "--t-end", "4", "--rate", "25", "--mcap", str(path)]) == 0
     return path
 
 
@@ -60,7 +60,7 @@ def test_report_of_a_deploy_log(deploy_log, tmp_path, capsys, figure_checks):
     energies = _rows(out / "energies.csv")
     first = energies[0]
     # boom a bent in its first mode at rest: all energy is boom a's strain energy
-    model = SailModel()
+    model = SailModel(SMALL)
     q0 = model.mode_state("a", 0.1)
     assert float(first["total_J"]) == pytest.approx(model.energy(q0, 0 * q0, 10.0), rel=1e-9)
     assert float(first["boom_a_J"]) == pytest.approx(float(first["total_J"]), rel=1e-9)
@@ -261,6 +261,68 @@ def test_report_of_a_live_log_with_a_reset_and_a_time_scale(tmp_path, capsys, fi
     assert high - low < 0.1  # the variation (0.004) fills a visible part of the axis
 
 
+def _two_runs(path, change: str) -> None:
+    """A log of a simulator run then another, 10 samples each, as a recorder that kept
+    running while the simulator was restarted writes it: the second with another sail
+    ("sail", its parameters stored again; the same state size and epoch), other mode
+    counts ("size", no parameters stored; the same epoch), or the same sail started
+    again ("epoch", a new epoch)."""
+    epoch = 1_700_000_000_000_000_000
+    first = SailParameters(n_boom_modes=2, n_membrane_modes=2)
+    second = {
+        "sail": first.replace(boom_bending_stiffness=2 * first.boom_bending_stiffness),
+        "size": first.replace(n_boom_modes=3),
+        "epoch": first,
+    }[change]
+    state = topics.absolute(topics.MODAL_STATE)
+    with BagWriter(path) as bag:
+        bag.add_topic(state, "sensor_msgs/msg/JointState")
+        bag.add_topic(topics.DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray")
+        for run, params in enumerate((first, second)):
+            if change == "sail":
+                record = {f"sail.{k}": str(v) for k, v in params.to_dict().items()}
+                bag.add_metadata(topics.PARAMETERS_METADATA, record)
+            model = SailModel(params)
+            start = epoch + run * (1_000_000_000 if change != "epoch" else 3_000_000_000)
+            for i in range(10):
+                t = 0.1 * i + (run if change != "epoch" else 0.0)  # sim time, the run's
+                stamp = topics.stamp_ns(epoch if change != "epoch" else start, t)
+                q = model.mode_state("a", 0.01)
+                messages = [(state, state_msg.modal_state(stamp, model.coordinate_names, q, q))]
+                if i % 5 == 0:
+                    status = {key.SIM_TIME: t, key.REAL_TIME_FACTOR: 1.0}
+                    messages.append(
+                        (topics.DIAGNOSTICS, diagnostics_msg.diagnostics(stamp, "OK", "", status))
+                    )
+                for topic, message in messages:
+                    bag.write(topic, serialize_message(message), log_time_ns=stamp)
+
+
+@pytest.mark.parametrize(
+    ("change", "what"),
+    [
+        ("sail", "the sail parameters change (sail.boom_bending_stiffness 6000.0 -> 12000.0)"),
+        ("size", "/sail/modal_state changes from 16 to 20 joints 1.000 s after its first message"),
+        ("epoch", "its /diagnostics tell another start 3.000 s after the first (epoch "),
+    ],
+)
+def test_a_log_of_a_simulator_restarted_under_the_recorder_is_refused(
+    tmp_path, capsys, change, what
+):
+    """A recorder that ran on while the simulator was restarted holds two runs: the report
+    refuses the log in one line saying what changed, rather than read it as one run
+    (the old mode counts for the new state, energies that stop at the restart)."""
+    log = tmp_path / "two_runs.mcap"
+    _two_runs(log, change)
+    argv = [str(log), "--out", str(tmp_path / "report"), "--set", "n_boom_modes=2"]
+    assert report.main([*argv, "--set", "n_membrane_modes=2"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: '{log}' holds more than one run of the simulator: {what}")
+    assert err.endswith("a report covers one run: record each run on its own\n")
+    assert err.count("\n") == 1
+    assert not (tmp_path / "report").exists()
+
+
 def test_report_rejects_what_is_not_a_log(tmp_path, capsys):
     path = tmp_path / "notes.mcap"
     path.write_text("not an mcap file")
@@ -311,7 +373,8 @@ def test_report_of_a_free_hub_log_gives_its_peaks_figure_and_states(
 
     log_path = tmp_path / "hub.mcap"
     scenario = CONFIG / "scenario_free_hub.yaml"
-    assert deploy.main(["--scenario", str(scenario), "--rate", "10", "--mcap", str(log_path)]) == 0
+    argv = [*SMALL_SET, "--scenario", str(scenario), "--rate", "10", "--mcap", str(log_path)]
+    assert deploy.main(argv) == 0
     out = tmp_path / "report"
     assert report.main([str(log_path), "--out", str(out), "--no-convergence"]) == 0
     text = capsys.readouterr().out

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import scipy.optimize
+from harness import SMALL
 
 from sail_ros.analysis.stability import (
     CRITICAL,
@@ -11,12 +12,12 @@ from sail_ros.analysis.stability import (
     is_unstable,
     prestress_sweep,
 )
-from sail_ros.model import SailModel, SailParameters
+from sail_ros.model import SailModel
 from sail_ros.tools import stability
 
 pytestmark = pytest.mark.model
 
-PARAMS = SailParameters()
+PARAMS = SMALL
 L = PARAMS.full_boom_length
 
 
@@ -62,7 +63,7 @@ def test_the_prestress_scaling_equals_a_model_rebuilt_at_that_prestress():
         (["--prestress", "10", "1"], "--prestress needs 0 < MIN < MAX [Pa], got 10 1"),
         (["--points", "1"], "--points must be >= 2, got 1"),
         (["--workers", "0", "--rates", "0.1"], "--workers must be >= 1, got 0"),
-        (["--lengths", "-5"], "--lengths = -5 m is outside [min_length, max_length] = [1, 70.71"),
+        (["--lengths", "-5"], "--lengths = -5 m is outside [min_length, max_length] = [5, 70.71"),
     ],
     ids=["range", "points", "workers", "length"],
 )
