@@ -111,6 +111,13 @@ class SimSettings:
         "newer one replaces before it started is answered superseded and leaves the queue)",
         minimum=1, maximum=10000,
     )  # fmt: skip
+    command_wait_s: float = setting(
+        0.0, "s", "with a controller closing the loop on a free hub (sail_control): how long "
+        "of wall time the simulation waits, before a step, for a hub wrench command acting "
+        "at or before that step's sample (stamped so), then goes on without it (counted); "
+        "the clock waits too, so the run is the same however late the commands come; 0: "
+        "never waits", minimum=0.0, maximum=10.0, read_only=False,
+    )  # fmt: skip
     solar_pressure: float = setting(
         0.0, "Pa", "uniform pressure on every quadrant, on top of sail/pressure_cmd, +z of "
         "the sail frame (an ideal reflector facing the sun at 1 AU: 2 x 1361 W/m^2 / c = "
