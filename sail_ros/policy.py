@@ -143,7 +143,7 @@ class Policy:
             )
         # here, not at the top: `send` and `watch` use the policy, and start without the
         # model's solvers
-        from sail_ros.integrate.stepper import PHASE_PER_STEP
+        from sail_ros.integrate.control import PHASE_PER_STEP
         from sail_ros.model.sail_model import boom_frequency_bound
 
         needed = boom_frequency_bound(sail, low) / PHASE_PER_STEP

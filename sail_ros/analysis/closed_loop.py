@@ -26,7 +26,7 @@ from sail_ros.control.design import HUB_WRENCH, TIP_FORCES, command_limits
 from sail_ros.control.loop import DiscreteController
 from sail_ros.control.schedule import GainSchedule, design_schedule
 from sail_ros.control.settings import DesignSettings
-from sail_ros.integrate.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
+from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.loads import input_function
 from sail_ros.model.profiles import motion_over

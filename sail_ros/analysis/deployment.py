@@ -18,9 +18,9 @@ from typing import NamedTuple
 import numpy as np
 
 from sail_ros.analysis.scenario import Scenario, check_scenario
+from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.integrate.driver import sample
 from sail_ros.integrate.peaks import HERMITE_BOUND, OutputPeaks, Peaks, SampledSteps, hermite_motion
-from sail_ros.integrate.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.loads import input_function
 from sail_ros.model.profiles import motion_over

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from sail_ros.integrate.control import time_slack
 from sail_ros.integrate.sampling import GridSampler
-from sail_ros.integrate.stepper import LinearSystem, SailStepper, time_slack
+from sail_ros.integrate.stepper import SailStepper
+from sail_ros.integrate.system import LinearSystem
 
 
 class Run(tuple):

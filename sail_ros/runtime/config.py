@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from sail_ros.integrate.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
+from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, check_fields, default_of, fields_of, setting
 from sail_ros.model.layout import per_boom

@@ -31,7 +31,7 @@ from sail_ros import topics
 from sail_ros.analysis.log_series import read_log
 from sail_ros.bag import BagReader
 from sail_ros.cli import ToolParser, help_epilog
-from sail_ros.integrate.stepper import DEFAULT_MAX_STEP
+from sail_ros.integrate.control import DEFAULT_MAX_STEP
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import status as key
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters

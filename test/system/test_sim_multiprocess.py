@@ -28,7 +28,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
-from sail_ros.integrate.stepper import DEFAULT_MAX_STEP
+from sail_ros.integrate.control import DEFAULT_MAX_STEP
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, StaticProfile
