@@ -13,24 +13,25 @@ are those of `run_deployment` (`RangeWatch` sees every step).
 
 from __future__ import annotations
 
-import collections
+import bisect
 import dataclasses
-import math
 import time
 
 import numpy as np
 
-from sail_ros.analysis.deployment import Accuracy, DeploymentRun, RangeWatch, output_times
+from sail_ros.analysis.deployment import Accuracy, DeploymentRun, output_times
 from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.control.design import HUB_WRENCH, TIP_FORCES, command_limits
 from sail_ros.control.loop import DiscreteController
 from sail_ros.control.schedule import GainSchedule, design_schedule
 from sail_ros.control.settings import DesignSettings
-from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL, time_slack
+from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
+from sail_ros.integrate.driver import run
+from sail_ros.integrate.observers import RangeWatch
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.loads import input_function
 from sail_ros.model.profiles import motion_over
-from sail_ros.policy import OutOfRangeError, Policy
+from sail_ros.policy import Policy
 
 
 def measurements(model: SailModel, q, qd, names) -> np.ndarray:
@@ -43,18 +44,29 @@ def measurements(model: SailModel, q, qd, names) -> np.ndarray:
     return np.concatenate(values)
 
 
-class HeldInputs:
+class LoopInputs:
     """The scenario's loads (`base`, a callable `t -> u` or None, with its switch times)
-    with the controller's command added on its columns, held."""
+    with the controller's commands added on their columns, each held from its time
+    (`command(at, u)`) until the next: the steps end at the commands' times (those not
+    yet passed are among the switch times)."""
 
-    def __init__(self, base, size: int, columns, command):
-        self._base, self._size = base, size
-        self._columns, self._command = columns, np.asarray(command, dtype=float)
-        self.switch_times = tuple(getattr(base, "switch_times", ()))
+    def __init__(self, base, size: int, columns):
+        self._base, self._size, self._columns = base, size, columns
+        self._times: list[float] = []
+        self._commands: list[np.ndarray] = [np.zeros(len(columns))]  # before the first
+        self._base_switches = tuple(getattr(base, "switch_times", ()))
+        self.switch_times = self._base_switches
+
+    def command(self, at: float, u, now: float) -> None:
+        """The command `u` acts from `at` [s] on; `now` [s], the sample time it was made."""
+        self._times.append(at)
+        self._commands.append(np.asarray(u, dtype=float))
+        later = tuple(t for t in self._times[-8:] if t >= now)
+        self.switch_times = self._base_switches + later
 
     def __call__(self, t: float) -> np.ndarray:
         u = np.zeros(self._size) if self._base is None else np.array(self._base(t), dtype=float)
-        u[self._columns] += self._command
+        u[self._columns] += self._commands[bisect.bisect_left(self._times, t)]
         return u
 
 
@@ -115,67 +127,41 @@ def run_closed_loop(
     controller = DiscreteController(schedule, limits)
     columns = HUB_WRENCH + (TIP_FORCES if len(schedule.inputs) > 3 else [])
     base = input_function(scenario.loads, model.free_hub)
-    size = len(model.input_names)
+    inputs = LoopInputs(base, len(model.input_names), columns)
     times = output_times(scenario.duration, design.state_rate_hz)
     q0, qd0 = scenario.initial_state(model)
     watch = RangeWatch(model, policy)
     stepper = model.stepper(
-        scenario.profile, q0=q0, qd0=qd0, max_step=max_step, rtol=rtol,
-        inputs=HeldInputs(base, size, columns, np.zeros(len(columns))),
-        on_step=watch.after_step,
-    )  # fmt: skip
-    watch.start(stepper)
+        scenario.profile, q0=q0, qd0=qd0, max_step=max_step, rtol=rtol, inputs=inputs
+    )
     k = times.size
-    q, qd = np.full((k, model.n), np.nan), np.full((k, model.n), np.nan)
     commands, demands = np.zeros((k, len(columns))), np.zeros((k, len(columns)))
     saturated = np.zeros((k, len(columns)), dtype=bool)
-    pending: collections.deque = collections.deque()  # (time, command) still to act
-    kept, alarm = 0, ""
 
-    def advance(t: float) -> None:
-        """Step to `t`, each pending command taking effect at its time on the way."""
-        while pending and pending[0][0] <= t + time_slack(t):
-            at, command = pending.popleft()
-            stepper.advance(at)
-            stepper.inputs = HeldInputs(base, size, columns, command)
-        stepper.advance(t)
+    def sample(i: int, t: float, q, qd) -> None:
+        """The controller at sample `i`: the measured outputs in, the command out, acting
+        from `t + loop_delay_s`."""
+        lengths = np.asarray(scenario.profile(t)[0], dtype=float) * np.ones(4)
+        y = measurements(model, q, qd, schedule.measurements)
+        if not np.all(np.isfinite(y)):
+            raise IntegrationError(f"the state became non-finite at t = {t:.6g} s")
+        command = controller.step(y, float(np.mean(lengths)))
+        commands[i], demands[i], saturated[i] = command.u, command.demand, command.saturated
+        inputs.command(t + design.loop_delay_s, command.u, t)
+        if progress is not None:
+            progress(t)
 
     started = time.perf_counter()
-    try:
-        try:
-            for i, t in enumerate(times):
-                advance(t)
-                q[i], qd[i] = stepper.q, stepper.qd
-                lengths = np.asarray(scenario.profile(float(t))[0], dtype=float) * np.ones(4)
-                y = measurements(model, q[i], qd[i], schedule.measurements)
-                if not np.all(np.isfinite(y)):
-                    raise IntegrationError(f"the state became non-finite at t = {t:.6g} s")
-                command = controller.step(y, float(np.mean(lengths)))
-                commands[i], demands[i], saturated[i] = command.u, command.demand, command.saturated
-                kept = i + 1
-                pending.append((t + design.loop_delay_s, command.u))
-                if design.loop_delay_s == 0.0:
-                    advance(t)
-                if progress is not None:
-                    progress(float(t))
-        except IntegrationError:
-            watch.finish()
-            raise
-        watch.finish()
-    except (OutOfRangeError, IntegrationError) as error:
-        alarm = str(error)
-        if math.isfinite(watch.stopped_at):
-            kept = min(kept, int(np.searchsorted(times, watch.stopped_at, "left")))
+    result = run(stepper, times, scenario.duration, (watch,), at_outputs=sample)
     wall = time.perf_counter() - started
-    t = times[:kept]
+    t, q, qd = result
+    kept = t.size
     lengths, rates, _ = motion_over(scenario.profile, t)
-    states = model.sample(t, lengths, rates, q[:kept], qd[:kept])
-    accuracy = Accuracy(
-        stepper.rtol, stepper.relative_error_estimate, stepper.steps_taken, stepper.steps_rejected
-    )
-    run = DeploymentRun(states, wall, watch.peaks.peaks, watch.warning, alarm, accuracy)
+    states = model.sample(t, lengths, rates, q, qd)
+    accuracy = Accuracy(result.rtol, result.relative_error_estimate, result.steps, result.rejected)
+    run_ = DeploymentRun(states, wall, watch.peaks.peaks, watch.warning, result.alarm, accuracy)
     return ClosedLoopRun(
-        run, commands[:kept], demands[:kept], saturated[:kept], schedule.inputs, schedule, limits
+        run_, commands[:kept], demands[:kept], saturated[:kept], schedule.inputs, schedule, limits
     )
 
 

@@ -30,13 +30,10 @@ from sail_ros.integrate.control import (
     time_slack,
 )
 from sail_ros.integrate.dense import MovingDense, RestDense
+from sail_ros.integrate.errors import IntegrationError
 from sail_ros.integrate.rest import rest_step
 from sail_ros.integrate.system import LinearSystem, SystemAt
 from sail_ros.model.profiles import SWITCH_RESOLUTION
-
-
-class IntegrationError(RuntimeError):
-    """The state became non-finite; `reset` starts again."""
 
 
 class SailStepper:

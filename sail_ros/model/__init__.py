@@ -24,7 +24,7 @@ import importlib
 _WHERE = {
     "BoomMotion": "sail_ros.model.profiles",
     "CycloidalProfile": "sail_ros.model.profiles",
-    "IntegrationError": "sail_ros.integrate.stepper",
+    "IntegrationError": "sail_ros.integrate.errors",
     "SailModel": "sail_ros.model.sail_model",
     "SailParameters": "sail_ros.model.parameters",
     "SailStepper": "sail_ros.integrate.stepper",
