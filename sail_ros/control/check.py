@@ -29,7 +29,7 @@ from sail_ros.control.design import HUB_WRENCH, TIP_FORCES, DesignPoint, sampled
 from sail_ros.control.schedule import GainSchedule
 from sail_ros.model import SailModel
 from sail_ros.model.layout import per_boom
-from sail_ros.model.sail_model import without_rigid
+from sail_ros.model.linear import without_rigid
 
 NEUTRAL = 1e-9  # 1/s: |Re s| within this is on the imaginary axis (|z| - 1 ~ 1e-11)
 
