@@ -100,8 +100,9 @@ class SimNode(Node):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
+        sail = config.resolved_sail
         try:
-            model = SailModel(config.resolved_sail)
+            model = SailModel(sail)
         except ValueError as error:  # mode counts whose integrals would not fit
             raise ConfigError(f"sail.n_boom_modes, sail.n_membrane_modes: {error}") from None
         # what a sub-step of this model costs here: how short a min_length it affords

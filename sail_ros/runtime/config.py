@@ -24,6 +24,7 @@ from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, check_fields, default_of, fields_of, setting
 from sail_ros.model.layout import per_boom
+from sail_ros.model.parameters import MAX_MEMBRANE_MODES
 from sail_ros.policy import Policy
 from sail_ros.topics import SAIL_PREFIX
 
@@ -155,8 +156,22 @@ class SimConfig:
     @property
     def resolved_sail(self) -> SailParameters:
         """The sail the model is built with: an automatic membrane count resolved at the
-        shortest of the initial lengths (`SailParameters.resolved`)."""
-        return self.sail.resolved(float(self.initial_lengths.min()))
+        shortest of the initial lengths (`SailParameters.resolved`).
+
+        Raises:
+            ConfigError: the automatic count there is more than `MAX_MEMBRANE_MODES` (a
+                model that big cannot run in real time, and a capped one is not converged).
+        """
+        shortest = float(self.initial_lengths.min())
+        sail = self.sail.resolved(shortest)
+        if not sail.n_membrane_modes and sail.membrane_mode_need > MAX_MEMBRANE_MODES:
+            raise ConfigError(
+                f"initial_lengths = {self.initial_lengths.tolist()} m: the automatic membrane "
+                f"count at {sail.resolved_length:g} m is {sail.membrane_mode_need} modes per "
+                f"quadrant, more than {MAX_MEMBRANE_MODES}; start the booms longer, or set "
+                f"sail.n_membrane_modes or sail.resolved_length"
+            )
+        return sail
 
     @property
     def as_fast_as_possible(self) -> bool:
