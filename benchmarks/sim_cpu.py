@@ -41,7 +41,8 @@ from sail_ros.ros.commanding import command_publisher
 from sail_ros.topics import TOPIC_QOS
 
 SETTINGS = [
-    ("default (n_B 4, n_M 6, 50 Hz state, 5 Hz shape), real time", {}),
+    ("default (n_B 8, automatic n_M, 50 Hz state, 5 Hz shape), real time", {}),
+    ("default, 2x real time", {"time_scale": 2.0}),
     (
         "n_B = n_M = 10, 100 Hz state, 10 Hz shape, real time",
         {

@@ -18,6 +18,7 @@ import numpy as np
 
 from sail_ros.integrate.control import largest
 from sail_ros.integrate.fast_modes import (
+    TURN_BACK_EXPONENT,
     FreeVibration,
     follow,
     follow_floor,
@@ -27,6 +28,9 @@ from sail_ros.integrate.fast_modes import (
 )
 from sail_ros.integrate.rational import extension_weights, moving_step
 from sail_ros.integrate.system import potrs
+
+# the continuous extension's weights at a step's middle (`extension_weights`)
+_MIDDLE = extension_weights(np.array([0.5]))
 
 
 class Trial(NamedTuple):
@@ -48,7 +52,8 @@ class Trial(NamedTuple):
     carried_frequency: float = math.inf
     # the run of local extrapolations at the step's end (`attempt`): (q, p, qd)
     companion: tuple | None = None
-    # the continuous extension's error inside the step per output kind (`attempt`)
+    # the dense output's error inside the step per output kind (`attempt`): the
+    # extension's, and half the followed modes' jump at the middle
     interpolation: np.ndarray | None = None
 
 
@@ -78,6 +83,24 @@ def _replaced(end, q, qd, p, M, G, factor, invariant):
     return q, potrs(factor, p_new - G @ q)[0], p_new
 
 
+def _middle_jump(vibration, q_middle, half, rows) -> np.ndarray:
+    """`rows` (r, n) of the step's state at its middle as the first half represents it
+    (the start's followed modes turned on by `half` [s]) less as the second does (the
+    end's turned back): the slow part of `q_middle` in each set of modes, and each set's
+    vibration there."""
+    start, end = vibration
+    parts = []
+    for vib, t in ((start, half), (end, -half)):
+        m = vib.count
+        modes = vib.modes
+        wd, d = modes.omega_d[-m:], modes.d[-m:]
+        grow = np.minimum(-0.5 * d * t, TURN_BACK_EXPONENT)
+        e = (vib.a * np.exp(1j * wd * t + grow)).real + vib.s
+        V, MV = modes.V[:, -m:], modes.MV[:, -m:]
+        parts.append(rows @ (q_middle - V @ (MV.T @ q_middle)) + (rows @ V) @ e)
+    return parts[0] - parts[1]
+
+
 def fixed(at, force_at, t0, q0, p0, h) -> Trial:
     """One rational step of `h` [s], no estimate (fixed steps)."""
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
@@ -97,7 +120,9 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
     carried to the step's end, the run's error estimate (`Trial.companion`).
     `Trial.interpolation`: the extension's error inside the step, from the whole step's
     extension at its middle against the halves' state there, over `2^5` (the extension
-    matches `exp` to order 4)."""
+    matches `exp` to order 4), plus half the jump of the followed modes' representation
+    at the middle (the start's turned on, the end's turned back: the state lies
+    between)."""
     half, t1 = t0 + 0.5 * h, t0 + h
     # the three rational steps' middles, as `rational_step` finds them
     mats = at.step_matrices((t0 + 0.5 * (0.5 * h), half + 0.5 * (0.5 * h), half))
@@ -155,9 +180,12 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
         pc = pc_new
     rows = at.rows(lengths1)
     estimate = largest(rows, dq, dqd) / 3.0
-    c, w = extension_weights(np.array([0.5]))
+    c, w = _MIDDLE
     whole_middle = c[0] * q0 + 2.0 * (w[0] @ whole[1]).real
     interpolation = largest(rows, whole_middle - qh, np.zeros_like(qh)) / 2.0**5
+    if count:  # half the jump of the followed modes' representation at the middle
+        jump = _middle_jump(vibration, qh, 0.5 * h, rows)
+        interpolation[[0, 2]] += 0.5 * np.abs(jump).reshape(2, 4).max(axis=1)
     outputs = largest(rows, q2, qd2)
     # the highest mode not followed: the next below those followed, or, when a set
     # carried on (the highest modes only) is followed whole, below its lowest

@@ -106,7 +106,7 @@ class SailStepper:
         self._q = q
         self._p = self.at.momentum(self._t, q, qd)
         self._qd = (self._t, qd.copy())  # the velocity at a time, kept
-        self._companion = (q.copy(), self._p.copy())  # the run of whole steps
+        self._companion = (q.copy(), self._p.copy())  # the run of local extrapolations
         self._last = None  # (t0, q0, qd0, dense output) of the last step
         self.control.restart()
         self.control.observe(self._outputs(self._t, q, qd))
@@ -292,28 +292,22 @@ class SailStepper:
             if taken.qd is not None:
                 self._qd = (self._t, taken.qd)
             self.control.accepted(h, taken)
-            self._account(taken, dense)
+            self._account(taken)
         self._enter_switch()
         if self.on_step is not None:
             self.on_step(self)
 
-    def _account(self, trial, dense) -> None:
+    def _account(self, trial) -> None:
         """The run's error estimate (`StepControl.account`) after the moving step `trial`:
-        the halves' run against the companion's at its end; inside it the extension's
-        error and half the jump of the followed modes' representation at its middle (the
-        start's turned on, the end's turned back: the state lies between)."""
+        the run of local extrapolations against the steps' at its end, and inside it the
+        dense output's error (`Trial.interpolation`)."""
         if trial.companion is None:  # fixed steps: no estimate
             self._companion = (self._q, self._p)
             return
         q_c, p_c, qd_c = trial.companion
         self._companion = (q_c, p_c)
         rows = self.at.rows(self.at.motion(self._t)[0])
-        inside = trial.interpolation.copy()
-        if trial.vibration:
-            y, _ = dense.extension.curve(np.array([0.5 - 1e-9, 0.5]), rows)
-            jump = np.abs(y[1] - y[0]).reshape(2, 4).max(axis=1)
-            inside[[0, 2]] += 0.5 * jump
-        self.control.account(largest(rows, self._q - q_c, trial.qd - qd_c), inside)
+        self.control.account(largest(rows, self._q - q_c, trial.qd - qd_c), trial.interpolation)
 
     def _enter_switch(self) -> None:
         """At a switch of a piecewise profile (`profiles.SwitchedProfile`), the next piece

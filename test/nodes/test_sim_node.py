@@ -433,7 +433,6 @@ def test_a_free_hub_publishes_its_state_and_takes_its_wrench(ros):
             "sail.hub_inertia_y": 10.0,
         },  # fmt: skip
         initial_hub_velocity=[0.0, 0.02, -0.01],
-        min_length=2.0,  # a free hub's booms need 4.4 times the sub-steps (runtime.affordable)
     )
     hubs, answers = [], []
     client.create_subscription(Odometry, topics.HUB_STATE, hubs.append, topics.STATE_QOS)

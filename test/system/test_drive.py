@@ -398,7 +398,7 @@ def test_a_hub_wrench_from_the_terminal_tilts_a_free_hub_and_watch_shows_it(proc
     # affords (runtime.affordable)
     processes(
         "sim",
-        parameters={**SMALL_SIM, "sail.free_hub": True, "min_length": 2.0, **FAST_STATUS},
+        parameters={**SMALL_SIM, "sail.free_hub": True, **FAST_STATUS},
     )
     assert "hub" in watch(ros_env, run=in_process)  # waits for the simulator
     pushed = in_process("send", "hub-wrench", "--torque-x", "0.5")
