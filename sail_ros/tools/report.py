@@ -24,8 +24,10 @@ up to its last complete record) and writes into `--out`:
   Hermite), with what the sampling cannot follow; then the true peaks of a
   rerun (of a `sail-ros deploy` log's recorded scenario; of a live log's logged
   motion, loads and state, `analysis.log_rerun`) and, unless
-  `--no-convergence`, of a rerun with twice the modes (a warning when a peak
-  moves by more than 1 %).
+  `--no-convergence`, of a rerun on a finer model (`analysis.convergence`: four more
+  boom modes, the membrane band 1.25 times wider), each change against the largest
+  peak of its kind and against the boom's own (a warning when a peak moves by more
+  than 1 % of the largest of its kind).
 
 `--config`/`--set` describe the sail only for a log without recorded parameters; the
 limits of a rerun are those the log recorded, changed by `--set`. A log that holds more
@@ -75,6 +77,7 @@ from sail_ros.tools.common import (
     print_hub_peak_table,
     print_peak_table,
     print_written,
+    refine_hint,
     run,
     set_values,
 )
@@ -128,7 +131,7 @@ def build_parser() -> ToolParser:
     parser.add_argument(
         "--no-convergence",
         action="store_true",
-        help="for a `sail-ros deploy` log: skip the rerun with twice the modes",
+        help="skip the rerun on a finer model that says how converged the peaks are",
     )
     add_sail_options(parser)  # used only when the log has no recorded parameters
     return parser
@@ -299,7 +302,7 @@ PEAK_COLUMNS = [
 
 def _peaks(args, log, out: Path, given: SailParameters) -> str:
     """Each boom's peaks: from the log's samples, and for a deploy log from reruns of its
-    scenario (the same mode counts, then twice as many); one row each in peaks.csv.
+    scenario (the same mode counts, then a finer model); one row each in peaks.csv.
     Returns the alarm of a rerun that left the linear range ("" if none did)."""
     params = _recorded_parameters(log) or given
     model = SailModel(params)
@@ -368,7 +371,7 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
     """The log run again (a deploy log's recorded scenario, within the limits it recorded;
     a live log's logged motion, loads and state, `analysis.log_rerun`): its true peaks,
     how well it reproduces the logged tips, and unless --no-convergence how its peaks
-    move with twice the modes. The rows, and the alarm of a rerun that left the linear
+    move on a finer model. The rows, and the alarm of a rerun that left the linear
     range ("")."""
     what, rerun = "the logged motion, loads and state", rerun_log
     if log.scenario is not None:  # refused by the limits: ValueError, exit 2
@@ -398,11 +401,7 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
         print_peak_table(peaks, indent="    ")
         return rows, str(error)
     finest, change = convergence.finest, convergence.change
-    label = (
-        f"  change against ({finest.n_boom_modes}, {finest.n_membrane_modes}) modes, % of the "
-        "largest peak"
-    )
-    print_peak_table(peaks, (label, change.tips, change.moments), indent="    ")
+    print_peak_table(peaks, convergence, indent="    ")
     _print_rerun_hub(peaks)
     finer_params = model.params.replace(
         n_boom_modes=finest.n_boom_modes, n_membrane_modes=finest.n_membrane_modes
@@ -412,7 +411,7 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
         print(
             f"warning: peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
             f"{finest.n_membrane_modes}) they are off by up to {100 * change.largest():.3g} % "
-            "of the largest of their kind; raise membrane_band (--set)",
+            f"of the largest of their kind; {refine_hint(model.params)}",
             file=sys.stderr,
         )
     return rows, ""
