@@ -636,6 +636,7 @@ def _write_log(args, model, result, grid, scenario, policy) -> Path:
 
 
 def _write_figures(folder: Path, model, result, snapshots, scenario, description) -> list[Path]:
+    from sail_ros.analysis.load_changes import schedule_changes
     from sail_ros.plots.deployment import snapshots_figure
     from sail_ros.plots.histories import (
         boom_lengths_figure,
@@ -643,6 +644,7 @@ def _write_figures(folder: Path, model, result, snapshots, scenario, description
         tip_deflections_figure,
     )
 
+    loads = [(change.t_s, change.text) for change in schedule_changes(scenario.loads)]
     rows = [result.index_of(t) for t in snapshots if t <= result.t[-1] + 1e-9] or [0]
     snapshots_path, tips_path, lengths_path = (folder / name for name in FIGURES)
     hub = []
@@ -660,7 +662,7 @@ def _write_figures(folder: Path, model, result, snapshots, scenario, description
             snapshots_path,
             title=f"Deployment snapshots: {description}",
         ),
-        tip_deflections_figure(result.t, result.tips, tips_path, title=description),
+        tip_deflections_figure(result.t, result.tips, tips_path, title=description, loads=loads),
         boom_lengths_figure(
             result.t, result.lengths, result.rates, lengths_path, title=description
         ),

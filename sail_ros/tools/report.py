@@ -51,6 +51,7 @@ from sail_ros.analysis.deployment import (
     run_deployment,
 )
 from sail_ros.analysis.energy import group_energies
+from sail_ros.analysis.load_changes import log_changes, run_description
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE, log_peaks
 from sail_ros.analysis.log_rerun import rerun_log
 from sail_ros.analysis.log_series import read_log
@@ -189,6 +190,8 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
         )
     for topic, count in sorted(log.topic_counts.items()):
         print(f"  {topic}: {count} messages")
+    title = run_description(log)
+    loads = [(change.t_s, change.text) for change in log_changes(log)]
 
     if log.tips is not None:
         t = log.seconds(log.tips.stamp_ns)
@@ -200,8 +203,9 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
             t,
             log.tips.position,
             out / "tip_deflections.png",
-            title=args.log.name,
+            title=title,
             time_label=time_label,
+            loads=loads,
         )
     if log.moments is not None and log.moments.effort.size:
         t = log.seconds(log.moments.stamp_ns)
@@ -214,9 +218,10 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
             t,
             log.moments.effort,
             out / "root_moments.png",
-            title=args.log.name,
+            title=title,
             time_label=time_label,
             n_boom_modes=params.n_boom_modes if params else None,
+            loads=loads,
         )
     if log.boom is not None:
         t = log.seconds(log.boom.stamp_ns)
@@ -226,16 +231,16 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
             log.boom.position,
             log.boom.velocity,
             out / "boom_lengths.png",
-            title=args.log.name,
+            title=title,
             time_label=time_label,
         )
     if log.hub is not None:
-        _hub(log, out / HUB_FIGURE, time_label, args.log.name)
+        _hub(log, out / HUB_FIGURE, time_label, title)
     _write_states(log, out / "states.csv")
     _parameter_changes(args, log, out / "parameter_changes.csv", time_label)
     stopped = _peaks(args, log, out, given)
-    _energies(log, out, time_label, given)
-    _real_time_factor(log, out, time_label, args.log.name)
+    _energies(log, out, time_label, given, title, loads)
+    _real_time_factor(log, out, time_label, title)
     return stopped
 
 
@@ -499,7 +504,8 @@ def _write_states(log, path: Path) -> Path:
     return _write_csv(path, header, columns)
 
 
-def _energies(log, out: Path, time_label: str, given: SailParameters) -> list[Path]:
+def _energies(log, out: Path, time_label: str, given: SailParameters, title: str,
+              loads) -> list[Path]:  # fmt: skip
     if log.modal is None:
         print("  no /sail/modal_state: energies not available")
         return []
@@ -556,8 +562,9 @@ def _energies(log, out: Path, time_label: str, given: SailParameters) -> list[Pa
             energies.quadrants,
             energies.total,
             out / "modal_energies.png",
-            title=log.path.name,
+            title=title,
             time_label=time_label,
+            loads=loads,
         ),
     ]
 

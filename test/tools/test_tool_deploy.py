@@ -167,7 +167,7 @@ def test_figures_of_the_loaded_scenario_fit_its_description_and_show_every_boom(
     assert lengths.lines == ("boom a", "boom b", "boom c", "boom d")
     assert rates.lines == ("booms a, b", "boom c", "boom d")
     (tips,) = checks["tip_deflections"].panels.values()
-    assert tips.lines == ("boom a", "boom b", "boom c", "boom d")
+    assert tips.lines == ("boom a", "boom b", "boom c", "boom d", "", "")  # and 2 load changes
     assert tips.ylabel == "tip deflection [mm]" and rates.ylabel == "extension rate [m/s]"
 
 
