@@ -124,28 +124,36 @@ def lay_out_panels(fig, axes, columns: int, cell_width_in: float, title, aspect=
     that a panel's margin never hides its neighbour's axis labels (mplot3d draws them
     outside the box). With `aspect` (the panels' box aspect, drawn at `zoom`), a panel
     whose box and labels would spill out of its cell (a tall box) is drawn smaller."""
-    title_in = title.get_window_extent(fig.canvas.get_renderer()).height / fig.dpi
+    renderer = fig.canvas.get_renderer()
+    title_in = title.get_window_extent(renderer).height / fig.dpi
     width_in, height_in = fig.get_figwidth(), fig.get_figheight()
-    top_in = height_in - title_in - 0.45
+    top_in = height_in - title_in - 0.2
     rows = -(-len(axes) // columns)
+    row_in = top_in / rows
+    # each panel's title in a band at the top of its row, the box below it
+    band_in = max(ax.title.get_window_extent(renderer).height for ax in axes) / fig.dpi + 0.1
     for index, ax in enumerate(axes):
         row, column = divmod(index, columns)
-        bottom_in = top_in - (row + 1) * top_in / rows
+        bottom_in = top_in - (row + 1) * row_in
         ax.set_position([column * cell_width_in / width_in, bottom_in / height_in,
-                         cell_width_in / width_in, top_in / rows / height_in])  # fmt: skip
+                         cell_width_in / width_in, (row_in - band_in) / height_in])  # fmt: skip
         ax.patch.set_alpha(0.0)
     if aspect is None:
         return
     shown = {ax: zoom for ax in axes if ax.get_visible()}
-    for _ in range(3):  # the labels do not shrink with the box: measured again
+    for _ in range(4):  # the labels do not shrink with the box: measured again
         fig.canvas.draw()
         renderer = fig.canvas.get_renderer()
         spilling = False
         for ax in shown:
-            drawn, cell = ax.get_tightbbox(renderer), ax.get_window_extent(renderer)
+            ax.title.set_visible(False)  # above the cell by design: the box and its labels
+            drawn = ax.get_tightbbox(renderer)
+            ax.title.set_visible(True)
+            # the cell given, not the square mplot3d draws the box in
+            cell = ax.get_position(original=True).transformed(fig.transFigure)
             fits = min(cell.width / drawn.width, cell.height / drawn.height)
             if fits < 1.0:
-                shown[ax] *= 0.98 * fits
+                shown[ax] *= 0.97 * fits
                 ax.set_box_aspect(aspect, zoom=shown[ax])
                 spilling = True
         if not spilling:
