@@ -19,7 +19,7 @@ setup(
         ("share/" + package_name + "/config", glob("config/*.yaml") + glob("config/*.json")),
         ("share/" + package_name + "/launch", glob("launch/*.launch.py")),
         ("share/" + package_name + "/msg_docs", glob("msg_docs/*.md")),
-        ("share/" + package_name + "/docs", ["docs/model.md"]),
+        ("share/" + package_name + "/docs", ["docs/model.md", "docs/control.md"]),
     ],
     install_requires=["setuptools"],
     zip_safe=False,  # the fastdds_*.xml files are read from their paths

@@ -30,10 +30,10 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> dict:
 
     import numpy as np
 
+    from sail_ros.integrate import system as system_module
+    from sail_ros.integrate.rational import PADE_POLES, STEP_MATRICES
     from sail_ros.model import CycloidalProfile, SailModel, SailParameters
-    from sail_ros.model import stepper as stepper_module
     from sail_ros.model.blocks import DenseMatrices
-    from sail_ros.model.rational import PADE_POLES, STEP_MATRICES
 
     profile = CycloidalProfile(10.0, 15.0, 15.0)
     models = {
@@ -71,7 +71,7 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> dict:
     taus = 0.05 / PADE_POLES
     parts = {}
     for hub, model in models.items():
-        blocks = model.n >= stepper_module.BLOCK_SOLVE_MIN_COORDINATES
+        blocks = model.n >= system_module.BLOCK_SOLVE_MIN_COORDINATES
 
         def assemble(model=model, blocks=blocks):
             if blocks:

@@ -152,7 +152,7 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> list[dict]
 
     import numpy as np
 
-    from sail_ros.model.integrate import simulate
+    from sail_ros.integrate.driver import simulate
     from sail_ros.model.loads import input_function
 
     started = time.perf_counter()
@@ -243,8 +243,8 @@ def measure_sampler(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> di
     os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     import time
 
+    from sail_ros.integrate.sampling import GridSampler
     from sail_ros.model.loads import input_function
-    from sail_ros.model.sampling import GridSampler
 
     model, profile, q0, loads = deployment(n_boom_modes, n_membrane_modes, True)
     grid_steps = int(T_END / 0.01)

@@ -40,6 +40,7 @@ TOOLS = {
     "replay": "sail_ros.nodes.replay:main",
     "bridge": "sail_ros.nodes.bridge:main",
     "sim": "sail_ros.nodes.sim:main",
+    "control": "sail_ros.nodes.control:main",
     "send": "sail_ros.tools.send:main",
     "watch": "sail_ros.tools.watch:main",
     "demo": "sail_ros.tools.main_job:main",

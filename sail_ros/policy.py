@@ -143,8 +143,8 @@ class Policy:
             )
         # here, not at the top: `send` and `watch` use the policy, and start without the
         # model's solvers
+        from sail_ros.integrate.control import PHASE_PER_STEP
         from sail_ros.model.sail_model import boom_frequency_bound
-        from sail_ros.model.stepper import PHASE_PER_STEP
 
         needed = boom_frequency_bound(sail, low) / PHASE_PER_STEP
         if needed > self.max_substep_rate:

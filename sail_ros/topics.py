@@ -56,6 +56,7 @@ HUB_WRENCH_CMD = "sail/hub_wrench_cmd"  # a free hub only
 COMMAND_STATUS = "sail/command_status"
 RESET_SERVICE = "sail/reset"
 PAUSE_SERVICE = "sail/pause"
+CONTROL_ENABLE_SERVICE = "sail/control/enable"  # the hub controller's switch
 SIM_NODE = SIMULATOR_NODE  # the node whose params-file section holds the sail
 
 
@@ -104,6 +105,14 @@ def integrator_status_name(node: str = SIM_NODE) -> str:
 
 
 DIAGNOSTIC_NAME = integrator_status_name()
+CONTROLLER_NODE = "sail_control"  # the free hub's controller (nodes.control)
+
+
+def controller_status_name(node: str = CONTROLLER_NODE) -> str:
+    """The /diagnostics status name of the controller node `node` (its fully qualified
+    name): "sail_control: controller"."""
+    return f"{node.lstrip('/')}: controller"
+
 
 # -- QoS --------------------------------------------------------------------------------------
 # Everything is reliable: a recorder or a slow subscriber gets every sample

@@ -19,9 +19,9 @@ import dataclasses
 
 import numpy as np
 
+from sail_ros.integrate.peaks import Peaks
 from sail_ros.model import SailModel
 from sail_ros.model.parameters import MAX_BOOM_MODES, MAX_MEMBRANE_MODES
-from sail_ros.model.peaks import Peaks
 
 # a peak is converged when the next finer model moves it by at most this fraction of the
 # largest peak of its kind

@@ -14,7 +14,10 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
 - metadata `sail_sim_parameters`: the simulator's parameter names
   (`sail.<field>`, the policy's limits, `initial_lengths`, ...) with values as
   one-line YAML, as the recorder stores them;
-- metadata `sail_deploy_scenario`: the scenario as YAML and the epoch.
+- metadata `sail_deploy_scenario`: the scenario as YAML and the epoch;
+- a closed loop's commands (`commands`): /sail/hub_wrench_cmd (and /sail/tip_force_cmd)
+  at every state sample, stamped and logged with the time they act (the sample's plus
+  the loop delay), as `sail_control` stamps its own.
 
 The messages are the bytes the live simulator publishes, made by the same
 serialisers (`sail_ros.messages.cdr`: exact CDR, nothing after the last
@@ -34,7 +37,9 @@ from sail_ros import topics
 from sail_ros.analysis.deployment import DeploymentRun
 from sail_ros.bag import BagWriter
 from sail_ros.bag.qos import recorded_entry
-from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
+from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import hub as hub_msg
+from sail_ros.messages.cdr import ShapeSerializer, StateSerializer, serialize
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
 from sail_ros.policy import Policy
@@ -97,6 +102,7 @@ def write_deployment_log(
     shape_divisions: int,
     frame_id: str = topics.FRAME_ID,
     progress: Callable[[float], None] | None = None,
+    commands=None,
 ) -> list:
     """Write `run` to `path` (a `.mcap` file, replaced if present, or a bag folder).
 
@@ -111,6 +117,8 @@ def write_deployment_log(
         shape_divisions: mesh subdivisions of each quadrant edge in the shape.
         frame_id: frame of every message.
         progress: optional callable `progress(t)` after each output time.
+        commands: a closed loop's `(t [s] (k,), u (k, nu), delay [s], input names)`: the
+            command of each sample time (the hub wrench first, then tip forces).
 
     Returns:
         the `BagWriter` file summaries.
@@ -134,6 +142,8 @@ def write_deployment_log(
             },
         )
         logged = (*LOGGED_TOPICS, topics.HUB_STATE) if model.free_hub else LOGGED_TOPICS
+        command_messages = _commands(commands, frame_id)
+        logged = (*logged, *sorted({topic for _, _, topic, _ in command_messages}))
         for name in logged:
             if name != topics.SHAPE or shape_every:
                 topic = topics.TOPICS[name]
@@ -151,6 +161,29 @@ def write_deployment_log(
                 messages.append((topics.SHAPE, shapes.serialize(stamp, vertices, booms)))
             for topic, data in messages:
                 bag.write(topics.absolute(topic), data, log_time_ns=stamp, publish_time_ns=stamp)
+            while command_messages and command_messages[0][0] <= t + 1e-9:
+                _, at_ns, topic, data = command_messages.pop(0)
+                bag.write(topics.absolute(topic), data, log_time_ns=at_ns, publish_time_ns=at_ns)
             if progress is not None:
                 progress(float(t))
     return bag.close()
+
+
+def _commands(commands, frame_id: str) -> list:
+    """`(t [s], log time [ns], topic, CDR bytes)` of a closed loop's commands, in time
+    order (`write_deployment_log`)."""
+    if commands is None:
+        return []
+    times, values, delay, names = commands
+    found = []
+    for t, u in zip(times, values, strict=True):
+        acts = topics.stamp_ns(LOG_EPOCH_NS, float(t) + delay)
+        wrench = hub_msg.hub_wrench_command(*u[:3], frame_id=frame_id)
+        wrench.header.stamp = topics.stamp(acts)
+        found.append((float(t), acts, topics.HUB_WRENCH_CMD, serialize(wrench)))
+        if len(names) > 3:
+            forces = dict(zip(topics.BOOM_JOINTS, map(float, u[3:]), strict=True))
+            message = commands_msg.load_command(topics.TIP_FORCE_CMD, forces)
+            message.header.stamp = topics.stamp(acts)
+            found.append((float(t), acts, topics.TIP_FORCE_CMD, serialize(message)))
+    return found

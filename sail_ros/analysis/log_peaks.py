@@ -20,10 +20,10 @@ import dataclasses
 import numpy as np
 
 from sail_ros.analysis.log_series import LogSeries
+from sail_ros.integrate.peaks import Peak, Peaks, PeakSearch, with_tilt
 from sail_ros.model import SailModel
 from sail_ros.model.basis import cantilever_roots
 from sail_ros.model.layout import BOOMS
-from sail_ros.model.peaks import Peak, Peaks, PeakSearch, with_tilt
 
 RESOLVED_PHASE = 1.0  # rad of a mode between two samples that Hermite interpolation follows
 

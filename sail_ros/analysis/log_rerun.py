@@ -28,10 +28,10 @@ from sail_ros import topics
 from sail_ros.analysis.deployment import carried_over
 from sail_ros.analysis.log_series import LogSeries
 from sail_ros.bag import BagReader
+from sail_ros.integrate.peaks import OutputPeaks, Peak, Peaks
 from sail_ros.messages import commands as commands_msg
 from sail_ros.model import SailModel
 from sail_ros.model.loads import LoadSchedule
-from sail_ros.model.peaks import OutputPeaks, Peak, Peaks
 from sail_ros.model.profiles import SampledProfile
 from sail_ros.model.yaml_values import load as load_yaml
 

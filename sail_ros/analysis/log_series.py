@@ -21,13 +21,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
-from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import hub as hub_msg
 from sail_ros.messages import state as state_msg
 from sail_ros.messages import status as key
@@ -67,6 +67,11 @@ class LogSeries:
         scenario: the scenario document of a `sail-ros deploy` log (its
             `sail_deploy_scenario` record), or None.
         namespace: the simulator's namespace in the log ("/", "/sat2").
+        hub_commands: the `/sail/hub_wrench_cmd` commands (a controller's, `send`'s) as
+            header stamps [ns] (k,) (a controller stamps the sample it answers), log
+            times [ns] (k,) and (k, 3) F_z [N], tau_x, tau_y [N m], or None.
+        controller: a controller's statuses (`sail_control: controller` in the
+            namespace) as stamps [ns] (k,) and their values per key as text lists, or None.
     """
 
     path: Path
@@ -80,6 +85,8 @@ class LogSeries:
     scenario: dict | None = None
     namespace: str = "/"  # the simulator's, whose topics were read
     hub: tuple[np.ndarray, np.ndarray] | None = None
+    hub_commands: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    controller: tuple[np.ndarray, dict[str, list[str]]] | None = None
 
     @property
     def boom(self) -> JointSeries | None:
@@ -225,15 +232,19 @@ def _read_log(path, namespace: str | None) -> LogSeries:
     joints: dict[str, list] = {name: [] for name in topics.STATE_TOPICS}
     diagnostics: list[DiagnosticArray] = []
     hub: list[Odometry] = []
+    wrenches: list[tuple[int, WrenchStamped]] = []
     counts: dict[str, int] = {}
     hub_topic = topics.absolute(topics.HUB_STATE, namespace)
-    wanted = [*state_topics, topics.DIAGNOSTICS, hub_topic]
+    wrench_topic = topics.absolute(topics.HUB_WRENCH_CMD, namespace)
+    wanted = [*state_topics, topics.DIAGNOSTICS, hub_topic, wrench_topic]
     for message in reader.messages(topics=wanted):
         counts[message.topic] = counts.get(message.topic, 0) + 1
         if message.topic == topics.DIAGNOSTICS:
             diagnostics.append(deserialize_message(message.data, DiagnosticArray))
         elif message.topic == hub_topic:
             hub.append(deserialize_message(message.data, Odometry))
+        elif message.topic == wrench_topic:
+            wrenches.append((message.log_time_ns, deserialize_message(message.data, WrenchStamped)))
         else:
             name = state_topics[message.topic]
             joints[name].append(deserialize_message(message.data, JointState))
@@ -266,7 +277,23 @@ def _read_log(path, namespace: str | None) -> LogSeries:
         scenario=scenario,
         namespace=namespace,
         hub=_hub_series(hub),
+        hub_commands=_wrench_series(wrenches),
+        controller=_statuses(
+            diagnostics,
+            topics.controller_status_name(topics.absolute(topics.CONTROLLER_NODE, namespace)),
+        ),
     )
+
+
+def _wrench_series(messages) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    if not messages:
+        return None
+    messages.sort(key=lambda pair: pair[0])
+    stamps = np.array([topics.stamp_ns_of(m.header.stamp) for _, m in messages], dtype=np.int64)
+    logged = np.array([t for t, _ in messages], dtype=np.int64)
+    values = np.array([[m.wrench.force.z, m.wrench.torque.x, m.wrench.torque.y]
+                       for _, m in messages])  # fmt: skip
+    return stamps, logged, values
 
 
 def _hub_series(messages) -> tuple[np.ndarray, np.ndarray] | None:
@@ -319,9 +346,18 @@ def _epoch_from_diagnostics(stamps: np.ndarray, values: dict[str, list[str]]) ->
 
 
 def _diagnostics(arrays: list[DiagnosticArray], sim_node: str):
+    return _statuses(arrays, topics.integrator_status_name(sim_node))
+
+
+def _statuses(arrays: list[DiagnosticArray], name: str):
+    """The statuses called `name` as stamps [ns] and values per key (text), or None."""
     stamps, values = [], []
     for array in arrays:
-        pairs = diagnostics_msg.diagnostic_values(array, sim_node)
+        pairs = next(
+            ({pair.key: pair.value for pair in status.values} for status in array.status
+             if status.name == name),
+            None,
+        )  # fmt: skip
         if pairs:
             stamps.append(topics.stamp_ns_of(array.header.stamp))
             values.append(pairs)

@@ -21,6 +21,8 @@ range in docs/scenarios.md, made from the sections here)::
         - {at: 3.0, tip_forces: [0.0, 0.05, 0.0, 0.0]}       # N at the tips of a..d
     sail:                            # optional: overrides of the sail parameters
       membrane_prestress: 5000.0
+    controller:                      # optional: close the loop (free hub; docs/control.md)
+      weight_tilt: 2.5e5             # fields of control.DesignSettings; {} for the defaults
 
 Errors name the entry by its path, down to the element:
 `scenario.loads[1].tip_forces.b must be a number, got 'x'`. What a scenario may
@@ -45,6 +47,8 @@ from sail_ros.analysis.schema import (
     check_times,
     key,
 )
+from sail_ros.cli import nearest
+from sail_ros.control.settings import DesignSettings
 from sail_ros.model import (
     CycloidalProfile,
     SailModel,
@@ -68,6 +72,12 @@ TOP = Section(
             "sail", "mapping", "", "overrides of the sail parameters (fields of "
             "`SailParameters`, below); `--set` on the command line wins over them",
             default=None, absent="the sail of `--config` and `--set`",
+        ),
+        key(
+            "controller", "mapping", "", "closes the loop: the hub's controller "
+            "(`sail_control`'s design, the table `controller` below; `{}` for its "
+            "defaults), run offline as the node runs live (docs/control.md); needs "
+            "`free_hub: true`", default=None, absent="open loop",
         ),
     ),
 )  # fmt: skip
@@ -199,6 +209,7 @@ class Scenario:
         loads: the load schedule (`LoadSchedule`), None for an unloaded run.
         labels: how errors name the profile and the initial state ("profile",
             "initial"): their place in the file, or the options that made them.
+        controller: the controller's design (`controller:` section), None: open loop.
     """
 
     description: str
@@ -210,6 +221,7 @@ class Scenario:
     document: dict
     loads: LoadSchedule | None = None
     labels: dict = dataclasses.field(default_factory=lambda: dict(FILE_LABELS))
+    controller: DesignSettings | None = None
 
     @property
     def shortest_length(self) -> float:
@@ -299,7 +311,29 @@ def scenario_from_dict(document, labels: dict | None = None, check_points=None) 
         document,
         _loads(body.get("loads"), duration, "scenario.loads"),
         {**FILE_LABELS, **(labels or {})},
+        controller_settings((document["controller"] or {}) if "controller" in document else None),
     )
+
+
+def controller_settings(section) -> DesignSettings | None:
+    """The `controller:` section as `DesignSettings` (None: none); a ValueError names
+    the key (`controller.weight_tilt must be finite, got nan`) or the nearest one."""
+    if section is None:
+        return None
+    if not isinstance(section, dict):
+        raise ValueError(
+            f"controller must be a mapping of the controller's fields, got {section!r}"
+        )
+    known = DesignSettings.field_names()
+    for name in section:
+        if name not in known:
+            close = nearest(str(name), known)
+            hint = f" (did you mean {close!r}?)" if close else ""
+            raise ValueError(f"controller: unknown key {name!r}{hint}")
+    try:
+        return DesignSettings(**section)
+    except ValueError as error:
+        raise ValueError(f"controller.{error}") from None
 
 
 def check_scenario(scenario: Scenario, model: SailModel, policy: Policy) -> None:

@@ -39,7 +39,7 @@ import scipy.linalg
 
 from sail_ros.analysis.execution import run_cases
 from sail_ros.model import SailModel, SailParameters
-from sail_ros.model.sail_model import without_rigid
+from sail_ros.model.linear import without_rigid
 
 INSTABILITY_RTOL = 1e-9
 BISECTION_RTOL = 1e-4  # relative width of the final prestress bracket

@@ -11,20 +11,27 @@ LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": Dia
 
 
 def diagnostics(
-    stamp_ns_: int, level: str, message: str, values: dict, node: str = SIM_NODE
+    stamp_ns_: int,
+    level: str,
+    message: str,
+    values: dict,
+    node: str = SIM_NODE,
+    name: str | None = None,
 ) -> DiagnosticArray:
-    """`/diagnostics`: one status `<node>: integrator` (`integrator_status_name`).
+    """`/diagnostics`: one status `<node>: integrator` (`integrator_status_name`), or
+    `name`.
 
     Args:
         stamp_ns_: stamp [ns].
         level: "OK", "WARN" or "ERROR".
         message: one line saying why the level is what it is.
         values: key -> value, written with `str` (round floats before).
-        node: the simulator's fully qualified node name (also the hardware_id).
+        node: the publishing node's fully qualified name (also the hardware_id).
+        name: the status's name (default the simulator's integrator status).
     """
     status = DiagnosticStatus(
         level=LEVELS[level],
-        name=integrator_status_name(node),
+        name=integrator_status_name(node) if name is None else name,
         message=message,
         hardware_id=node.lstrip("/"),
     )

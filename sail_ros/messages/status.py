@@ -20,6 +20,7 @@ ACCEPTED = "accepted_commands"  # since start, per outcome
 SUPERSEDED = "superseded_commands"
 REJECTED = "rejected_commands"
 IGNORED = "ignored_commands"
+MISSED_COMMANDS = "missed_commands"  # steps that waited command_wait_s for a hub wrench in vain
 DROPPED = "dropped_commands"  # of the rejected: refused because the intake was full
 LAST_COMMAND = "last_command"
 LAST_COMMAND_START = "last_command_start_s"

@@ -10,13 +10,9 @@ A one-way chain, each module importing only those above it:
 - `assembly`: the matrices of Eq. 2 as a table of named terms, lifted (§5, §6), with a
   free hub's terms (§13);
 - `parameters`, `sail_model`: `SailParameters` and `SailModel`;
-- `stepper`, `sampling`, `integrate`: time integration against a narrow
-  `LinearSystem` (the matrices at a boom motion), which `SailModel` is; the
-  state sampled on a grid between long moving steps; batch runs; the steps
-  themselves: `rational` (moving), `exact_step` (at rest), `fast_modes` (the
-  followed high modes), `blocks` (a large system's solves);
+- `blocks`: the matrices as component blocks (a large system's solves);
 - `profiles`: boom motion (`Profile`, the profiles, `BoomMotion`);
-- `record`: the state sample, `peaks`: true peaks inside the steps;
+- `record`: the state sample;
 - `shape`: the deflected sail sampled on a mesh.
 
 The names below are imported when first used (PEP 562): a tool that needs only the
@@ -26,14 +22,14 @@ parameters (`send`, `watch`) does not pay for scipy's solvers and splines at sta
 import importlib
 
 _WHERE = {
-    "BoomMotion": "profiles",
-    "CycloidalProfile": "profiles",
-    "IntegrationError": "stepper",
-    "SailModel": "sail_model",
-    "SailParameters": "parameters",
-    "SailStepper": "stepper",
-    "StaticProfile": "profiles",
-    "WaypointProfile": "profiles",
+    "BoomMotion": "sail_ros.model.profiles",
+    "CycloidalProfile": "sail_ros.model.profiles",
+    "IntegrationError": "sail_ros.integrate.errors",
+    "SailModel": "sail_ros.model.sail_model",
+    "SailParameters": "sail_ros.model.parameters",
+    "SailStepper": "sail_ros.integrate.stepper",
+    "StaticProfile": "sail_ros.model.profiles",
+    "WaypointProfile": "sail_ros.model.profiles",
 }
 
 __all__ = sorted(_WHERE)
@@ -41,7 +37,7 @@ __all__ = sorted(_WHERE)
 
 def __getattr__(name: str):
     if name in _WHERE:
-        value = getattr(importlib.import_module(f"{__name__}.{_WHERE[name]}"), name)
+        value = getattr(importlib.import_module(_WHERE[name]), name)
         globals()[name] = value
         return value
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -66,10 +66,15 @@ NODE_NAME = "sail_sim"
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for subscribers to acknowledge
 TICK_STOP_S = 0.5  # ... and this long for a tick under way to end
 SWITCH_INTERVAL_S = 0.0005  # the interpreter's switch interval in the simulator's process
-# Commands act at the next tick (ticks are at least 5 ms apart): taking them more often
+# Commands act at the next tick (ticks are at least 5 ms apart): taking bursts more often
 # buys nothing, and each wake-up of the commands' executor costs ~0.4 ms of the
 # interpreter that a tick would wait for. After a wake-up everything waiting is taken.
 INTAKE_PAUSE_S = 0.005
+# ... but after a wake-up that found one command alone, a stream (a controller's, one
+# command a state sample) rather than a burst, a rest of INTAKE_PAUSE_S would have the
+# next command of a stream at the tick rate miss its tick about every other time: the
+# rest is this long then
+STREAM_PAUSE_S = 0.001
 # A burst that fills the queue waits this long at most for a tick to take it (the ticks
 # are at most MAX_TICK_PERIOD_S apart, and one is called at once); what still finds the
 # queue full is rejected.
@@ -95,8 +100,9 @@ class SimNode(Node):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
+        sail = config.resolved_sail
         try:
-            model = SailModel(config.resolved_sail)
+            model = SailModel(sail)
         except ValueError as error:  # mode counts whose integrals would not fit
             raise ConfigError(f"sail.n_boom_modes, sail.n_membrane_modes: {error}") from None
         # what a sub-step of this model costs here: how short a min_length it affords
@@ -178,7 +184,10 @@ class SimNode(Node):
             for name in commands
             for qos in topics.COMMAND_INTAKE_QOS
         ]
-        self._intake = CommandThread(self._commands)
+        self._burst = True  # the last wake-up of the commands' node took more than one
+        self._intake = CommandThread(
+            self._commands, lambda: INTAKE_PAUSE_S if self._burst else STREAM_PAUSE_S
+        )
         self.create_service(Trigger, topics.RESET_SERVICE, self._on_reset)
         self.create_service(SetBool, topics.PAUSE_SERVICE, self._on_pause)
         self.add_on_set_parameters_callback(self._check_parameters)
@@ -290,6 +299,7 @@ class SimNode(Node):
                     for pair in take_waiting(subscription, topics.COMMAND_INTAKE_DEPTH)
                 )
             taken.sort(key=lambda command: command[2].get("received_timestamp") or 0)
+            self._burst = len(taken) > 1
             taken = [(topic, _read(topic, data), info) for topic, data, info in taken]
             wake, rest = self._submit_while_room(taken)
         while rest:
@@ -448,10 +458,11 @@ def _read(topic: str, data: bytes):
 
 class CommandThread:
     """Serves `node` (the command subscriptions) with an executor on a thread of its own
-    until `stop`."""
+    until `stop`, resting `rest()` [s] after each wake-up."""
 
-    def __init__(self, node: Node):
+    def __init__(self, node: Node, rest):
         self._node = node
+        self._rest = rest
         self._executor = SingleThreadedExecutor(context=node.context)
         self._executor.add_node(node)
         self._stopping = threading.Event()
@@ -463,7 +474,7 @@ class CommandThread:
         try:
             while not self._stopping.is_set() and self._node.context.ok():
                 self._executor.spin_once(timeout_sec=1.0)
-                self._stopping.wait(INTAKE_PAUSE_S)
+                self._stopping.wait(self._rest())
         except ExternalShutdownException:
             pass
 

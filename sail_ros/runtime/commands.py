@@ -290,10 +290,17 @@ def _cubic_fits(lengths, rates, target: float, durations, rules: Rules) -> np.nd
 
 
 class LoadChange(NamedTuple):
-    """An accepted load command: the new values (4,) of the loaded kind, and a summary."""
+    """An accepted load command: the new values (4,) of the loaded kind, a summary, and
+    when they act [s of simulation time] (None: from the model's time on)."""
 
     values: np.ndarray
     summary: str
+    t_start: float | None = None
+
+
+# the furthest ahead of the model a hub wrench's header stamp may ask it to act: further,
+# the stamp is of another clock than the simulator's, and the command is refused
+MAX_COMMAND_LEAD_S = 1.0
 
 
 def plan_load(topic: str, message, current: np.ndarray, rules: Rules) -> LoadChange:
@@ -333,14 +340,24 @@ def plan_load(topic: str, message, current: np.ndarray, rules: Rules) -> LoadCha
     return LoadChange(new, summary + " (others held)" if len(names) < 4 else summary)
 
 
-def plan_hub_wrench(message, rules: Rules, frame_id: str, free_hub: bool) -> LoadChange:
+def plan_hub_wrench(
+    message,
+    rules: Rules,
+    frame_id: str,
+    free_hub: bool,
+    now: float = 0.0,
+    at: float | None = None,
+) -> LoadChange:
     """The hub wrench `(F_z [N], tau_x, tau_y [N m])` of a `sail/hub_wrench_cmd`
-    (`geometry_msgs/WrenchStamped`-like) in frame `frame_id` (or no frame).
+    (`geometry_msgs/WrenchStamped`-like) in frame `frame_id` (or no frame), acting from
+    `at` [s of simulation time, its header stamp's] when that is later than the model's
+    time `now` [s] (a controller's command for a loop delay), else from `now`.
 
     Raises:
         CommandError: the hub is clamped; a held axis (force.x, force.y, torque.z) is not
             zero (the holds would absorb it without a word); another frame; a value not
-            finite or beyond max_hub_force / max_hub_torque.
+            finite or beyond max_hub_force / max_hub_torque; a stamp more than
+            MAX_COMMAND_LEAD_S ahead of the model.
     """
     if not free_hub:
         raise CommandError("the hub is clamped (sail.free_hub = false): no hub wrench")
@@ -358,4 +375,12 @@ def plan_hub_wrench(message, rules: Rules, frame_id: str, free_hub: bool) -> Loa
     values = np.array([force.z, torque.x, torque.y], dtype=float)
     rules.check(rules.policy.check_hub_wrench, *values)
     summary = f"hub force_z = {values[0]:g} N, torque_x = {values[1]:g} N m, torque_y = "
-    return LoadChange(values, summary + f"{values[2]:g} N m")
+    summary += f"{values[2]:g} N m"
+    if at is None or at <= now + 1e-9:
+        return LoadChange(values, summary)
+    if at > now + MAX_COMMAND_LEAD_S:
+        raise CommandError(
+            f"header.stamp is {at - now:.6g} s ahead of the simulation (more than "
+            f"{MAX_COMMAND_LEAD_S:g} s): a stamp of another clock? Leave it 0 to act at once"
+        )
+    return LoadChange(values, f"{summary} from t = {at:.6f} s", at)

@@ -20,10 +20,11 @@ import dataclasses
 
 import numpy as np
 
+from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, check_fields, default_of, fields_of, setting
 from sail_ros.model.layout import per_boom
-from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
+from sail_ros.model.parameters import MAX_MEMBRANE_MODES
 from sail_ros.policy import Policy
 from sail_ros.topics import SAIL_PREFIX
 
@@ -111,6 +112,13 @@ class SimSettings:
         "newer one replaces before it started is answered superseded and leaves the queue)",
         minimum=1, maximum=10000,
     )  # fmt: skip
+    command_wait_s: float = setting(
+        0.0, "s", "with a controller closing the loop on a free hub (sail_control): how long "
+        "of wall time the simulation waits, before a step, for a hub wrench command acting "
+        "at or before that step's sample (stamped so), then goes on without it (counted); "
+        "the clock waits too, so the run is the same however late the commands come; 0: "
+        "never waits", minimum=0.0, maximum=10.0, read_only=False,
+    )  # fmt: skip
     solar_pressure: float = setting(
         0.0, "Pa", "uniform pressure on every quadrant, on top of sail/pressure_cmd, +z of "
         "the sail frame (an ideal reflector facing the sun at 1 AU: 2 x 1361 W/m^2 / c = "
@@ -148,8 +156,22 @@ class SimConfig:
     @property
     def resolved_sail(self) -> SailParameters:
         """The sail the model is built with: an automatic membrane count resolved at the
-        shortest of the initial lengths (`SailParameters.resolved`)."""
-        return self.sail.resolved(float(self.initial_lengths.min()))
+        shortest of the initial lengths (`SailParameters.resolved`).
+
+        Raises:
+            ConfigError: the automatic count there is more than `MAX_MEMBRANE_MODES` (a
+                model that big cannot run in real time, and a capped one is not converged).
+        """
+        shortest = float(self.initial_lengths.min())
+        sail = self.sail.resolved(shortest)
+        if not sail.n_membrane_modes and sail.membrane_mode_need > MAX_MEMBRANE_MODES:
+            raise ConfigError(
+                f"initial_lengths = {self.initial_lengths.tolist()} m: the automatic membrane "
+                f"count at {sail.resolved_length:g} m is {sail.membrane_mode_need} modes per "
+                f"quadrant, more than {MAX_MEMBRANE_MODES}; start the booms longer, or set "
+                f"sail.n_membrane_modes or sail.resolved_length"
+            )
+        return sail
 
     @property
     def as_fast_as_possible(self) -> bool:

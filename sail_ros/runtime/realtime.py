@@ -163,6 +163,9 @@ class RealTimeRun:
         self._window = self._window_start()
         self._sampled_from = 0
         self._state_published_t = math.nan  # simulation time of the last state sent [s]
+        self._waiting_since: float | None = None  # [s, clock] a step waits for its command
+        self.missed_commands = 0  # steps that waited command_wait_s in vain
+        self._excused_until = -math.inf  # [s] the steps of a wait in vain go up to here
         self._later: collections.deque = collections.deque()  # actions for the next tick
         self._use_config()
 
@@ -236,7 +239,7 @@ class RealTimeRun:
             self.outputs.answers([self._answer(pending, commands_msg.IGNORED, text, {}, "warning")])
             return False
         if self.queue.offer(pending):
-            return self.sim.state != RUNNING
+            return self.sim.state != RUNNING or (self.waiting and topic == topics.HUB_WRENCH_CMD)
         error = CommandError(
             f"{self.queue.capacity} commands were already waiting (max_queued_commands); not run"
         )
@@ -293,7 +296,9 @@ class RealTimeRun:
             topic = batch[index].topic
             try:
                 if topic == topics.HUB_WRENCH_CMD:
-                    change = sim.wrench(batch[index].message, self.config.frame_id)
+                    stamp = topics.stamp_ns_of(batch[index].message.header.stamp)
+                    at = (stamp - self.epoch_ns) / 1e9 if stamp else None
+                    change = sim.wrench(batch[index].message, self.config.frame_id, at)
                 else:
                     change = sim.load(topic, batch[index].message)
             except CommandError as error:
@@ -303,7 +308,8 @@ class RealTimeRun:
                 continue
             # the loads now held, all of the kind: a log then tells the loads from the answers
             held = change.values
-            values = {"t_start_s": repr(sim.t_model), commands_msg.LOADS_HELD: _numbers(held)}
+            start = sim.t_model if change.t_start is None else change.t_start
+            values = {"t_start_s": repr(start), commands_msg.LOADS_HELD: _numbers(held)}
             answers.append(self._accepted(batch[index], change.summary, values))
         self.outputs.answers(answers)
 
@@ -333,6 +339,8 @@ class RealTimeRun:
         [s, steady clock] (never beyond), publishing the samples that fall on them,
         within the tick's wall-time budget."""
         sim = self.sim
+        if self.waiting and self._waits_for_command():
+            return  # the clock holds while the step waits: no overrun
         due, deadline, overrun = self.pacer.tick(sim.t, woke)
         if overrun:
             self.overruns += 1
@@ -346,6 +354,8 @@ class RealTimeRun:
                 )
         limit = due + 1e-9 * sim.step_size  # round-off must not cost a step
         while sim.t + sim.step_size <= limit and self.clock() < deadline:
+            if self._waits_for_command():
+                return  # the command's arrival pokes the next tick
             warned = sim.range_warning
             if not sim.step():
                 self._set_running()
@@ -364,8 +374,47 @@ class RealTimeRun:
             if self._every_shape and steps % self._every_shape == 0:
                 self._publish_shape()
 
+    @property
+    def waiting(self) -> bool:
+        """A step waits for the hub wrench command that acts at its sample."""
+        return self._waiting_since is not None
+
+    def _waits_for_command(self) -> bool:
+        """With `command_wait_s` (a controller in the loop): whether the next step must wait
+        for a hub wrench command acting at or before the sample it starts from (one period
+        of samples covered by the latest, `Simulation.commanded_until`), at most
+        `command_wait_s` of the clock; the clock holds meanwhile (the pacing starts again
+        from the model's time when the step goes), so how late the command comes does not
+        change the run. A wait in vain is counted (`missed_commands`) and the step goes."""
+        sim, wait = self.sim, self.config.command_wait_s
+        if wait <= 0.0 or not sim.model.free_hub:
+            return False
+        period = self._every_state * sim.step_size
+        covered = max(sim.commanded_until + period, self._excused_until)
+        if sim.t < covered - 1e-9 * period:
+            self._stop_waiting()
+            return False
+        now = self.clock()
+        if self._waiting_since is None:
+            self._waiting_since = now
+            self.pacer.hold(sim.t)
+        if now - self._waiting_since < wait:
+            return True
+        self.missed_commands += 1
+        self._excused_until = sim.t + period  # this sample goes without
+        self._stop_waiting()
+        return False
+
+    def _stop_waiting(self) -> None:
+        if self._waiting_since is not None:
+            self._waiting_since = None
+            # the clock held while the step waited; it goes on as if the step were due now
+            period = self._every_state * self.sim.step_size
+            self.pacer.run_from(self.sim.t + period)
+
     def _set_running(self) -> None:
         """Integrate while the simulation runs; hold the clock otherwise."""
+        self._waiting_since = None  # a wait starts again from here
         running = self.sim.state == RUNNING
         if running:
             self.pacer.run_from(self.sim.t)
@@ -505,6 +554,7 @@ class RealTimeRun:
             key.STEP_TIME_MAX: round(1e3 * largest, 4),
             key.STEPS_IN_WINDOW: steps,
             key.OVERRUNS: self.overruns,
+            key.MISSED_COMMANDS: self.missed_commands,
             key.REALTIME_PRIORITY: self.realtime_priority,
             key.ACCEPTED: sim.accepted,
             key.SUPERSEDED: self.superseded,

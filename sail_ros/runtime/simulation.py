@@ -20,9 +20,9 @@ import time
 
 import numpy as np
 
+from sail_ros.integrate.sampling import GridSampler
 from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
 from sail_ros.model.record import StateSample
-from sail_ros.model.sampling import GridSampler
 from sail_ros.runtime.commands import (
     BoomState,
     CommandError,
@@ -57,6 +57,18 @@ class StepStatistics:
         return window
 
 
+class ScheduledInputs:
+    """Inputs `t -> u` that switch from `levels[0]` to `levels[i + 1]` at `times[i]`
+    [s], increasing (the stepper ends its steps there: `switch_times`)."""
+
+    def __init__(self, times, levels):
+        self.switch_times = tuple(float(t) for t in times)
+        self._levels = levels
+
+    def __call__(self, t: float) -> np.ndarray:
+        return self._levels[int(np.searchsorted(self.switch_times, t, "right"))]
+
+
 class Simulation:
     """The sail's state, stepped on a grid of `config.integration_step` [s] from t = 0.
 
@@ -83,6 +95,9 @@ class Simulation:
         self.pressures = np.zeros(4)  # commanded, per quadrant ab, bc, cd, da [Pa]
         self.tip_forces = np.zeros(4)  # commanded, per boom a..d [N]
         self.hub_wrench = np.zeros(3)  # commanded on a free hub: F_z [N], tau_x, tau_y [N m]
+        # hub wrenches commanded to act later: (time [s], values), in time order
+        self.pending_wrenches: list[tuple[float, np.ndarray]] = []
+        self.commanded_until = -math.inf  # [s] when the latest hub wrench command acts
         self._use_loads()
         self.steps = 0  # grid steps taken since start
         self.paused = False
@@ -176,9 +191,27 @@ class Simulation:
 
     def _use_loads(self) -> None:
         """Hand the loads to the stepper: held constant from the next step on (so a change
-        lands on a step boundary)."""
+        lands on a step boundary), and the hub wrenches still to act from their times
+        (switch times, where the stepper ends its steps)."""
         u = self.inputs()
-        self.stepper.inputs = (lambda t: u) if u.any() else None
+        if self.pending_wrenches:
+            later = []
+            for _, wrench in self.pending_wrenches:
+                later.append(u.copy())
+                later[-1][-3:] = wrench
+            self.stepper.inputs = ScheduledInputs(
+                [t for t, _ in self.pending_wrenches], [u, *later]
+            )
+        else:
+            self.stepper.inputs = (lambda t: u) if u.any() else None
+
+    def _take_due_wrenches(self) -> None:
+        """The pending hub wrenches the model has reached become the one held."""
+        due = [item for item in self.pending_wrenches if item[0] <= self.stepper.t + 1e-9]
+        if due:
+            self.hub_wrench = due[-1][1]
+            self.pending_wrenches = self.pending_wrenches[len(due) :]
+            self._use_loads()
 
     def substeps(self) -> int:
         """Equal sub-steps a moving grid step needs now (`SailStepper.step_limit`)."""
@@ -198,6 +231,8 @@ class Simulation:
             return False
         self.step_times.add(time.perf_counter() - started)
         self.steps += 1
+        if self.pending_wrenches:
+            self._take_due_wrenches()
         return self._within_range()
 
     def _within_range(self) -> bool:
@@ -231,6 +266,8 @@ class Simulation:
         self.policy = config.policy
         self.pressures, self.tip_forces = np.zeros(4), np.zeros(4)
         self.hub_wrench = np.zeros(3)
+        self.pending_wrenches = []
+        self.commanded_until = -math.inf
         self._use_loads()
 
     def set_solar_pressure(self, pressure: float) -> None:
@@ -262,9 +299,10 @@ class Simulation:
         """
         return self._counted(lambda: self.apply_motion(self.plan_trajectory(trajectory)))
 
-    def wrench(self, message, frame_id: str):
-        """Apply a `sail/hub_wrench_cmd` (see `plan_hub_wrench`) from `t_model` on; returns
-        the `LoadChange`.
+    def wrench(self, message, frame_id: str, at: float | None = None):
+        """Apply a `sail/hub_wrench_cmd` (see `plan_hub_wrench`) from `t_model` on, or from
+        `at` [s] (its stamp's simulation time) if that is later: a later command replaces
+        those still to act at or after its time; returns the `LoadChange`.
 
         Raises:
             CommandError: why (counted in `rejected`); the wrench is unchanged.
@@ -272,11 +310,19 @@ class Simulation:
 
         def apply():
             self._refuse_when_stopped()
-            change = plan_hub_wrench(message, self.rules, frame_id, self.model.free_hub)
-            self.hub_wrench = change.values
+            change = plan_hub_wrench(
+                message, self.rules, frame_id, self.model.free_hub, self.t_model, at
+            )
+            start = self.t_model if change.t_start is None else change.t_start
+            self.pending_wrenches = [item for item in self.pending_wrenches if item[0] < start]
+            if change.t_start is None:
+                self.hub_wrench = change.values
+            else:
+                self.pending_wrenches.append((start, change.values))
             self._use_loads()
+            self.commanded_until = max(self.commanded_until, start)
             self.accepted += 1
-            self.last_command, self.last_command_start = change.summary, self.t_model
+            self.last_command, self.last_command_start = change.summary, start
             return change
 
         return self._counted(apply)

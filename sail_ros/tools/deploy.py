@@ -8,7 +8,9 @@ docs/scenarios.md). Prints the boom-tip deflections against time and the true
 peaks of each boom's tip deflection and root moment with their times (taken
 inside every integration step, not from the printed times); a free hub's
 heave, tilts and their rates beside them, its true peaks and the peak
-reactions of its in-plane and spin holds; `--convergence`
+reactions of its in-plane and spin holds; a scenario with a `controller:`
+section closes the loop with the hub's controller (docs/control.md) and says
+how it compares with the open loop; `--convergence`
 reruns with more modes and says how far each peak moves; `--json` prints it
 all as one JSON object. Writes an MCAP log with the live simulator's topics
 (`--mcap`) and figures (`--figures`).
@@ -44,8 +46,8 @@ from sail_ros.analysis.scenario import (
     scenario_from_dict,
 )
 from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailModel
-from sail_ros.model.stepper import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
@@ -62,6 +64,7 @@ from sail_ros.tools.common import (
 LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
 FIGURES = ("deployment_snapshots.png", "tip_deflections.png", "boom_lengths.png")
 HUB_FIGURE = "hub_attitude.png"  # with a free hub: its tilt, heave and hold reactions
+CLOSED_LOOP_FIGURE = "closed_loop.png"  # with a controller: open against closed loop
 EXAMPLES = (
     "sail-ros deploy --summary",
     "sail-ros deploy --convergence",
@@ -71,6 +74,7 @@ EXAMPLES = (
     "--figures out/staggered",
     "sail-ros deploy --scenario config/scenario_loaded.yaml --set max_tip_force=0.5",
     "sail-ros deploy --scenario config/scenario_free_hub.yaml --summary --figures out/free_hub",
+    "sail-ros deploy --scenario config/scenario_free_hub_control.yaml --figures out/control",
 )
 NOTES = """The limits are the simulator's (min_length, max_length, max_rate, max_acceleration,
 max_pressure, max_tip_force, tip_error_fraction; --set NAME=VALUE changes them): a
@@ -80,7 +84,7 @@ simulator's alarm, writes what it computed up to there and exits with 1."""
 WRITES = (
     "--mcap FILE: a .mcap file, or a bag folder FILE/ with FILE_0.mcap and metadata.yaml; "
     f"--figures DIR: {', '.join('DIR/' + name for name in FIGURES)} (and DIR/{HUB_FIGURE} "
-    "with a free hub). Each output is "
+    f"with a free hub, DIR/{CLOSED_LOOP_FIGURE} with a controller). Each output is "
     "written whole or not at all (built under a temporary name)."
 )
 
@@ -180,7 +184,8 @@ def build_parser() -> ToolParser:
         type=Path,
         metavar="DIR",
         help=f"write {', '.join('DIR/' + name for name in FIGURES)} (and DIR/{HUB_FIGURE} "
-        "with a free hub: its tilt, heave and hold reactions)",
+        f"with a free hub: its tilt, heave and hold reactions; DIR/{CLOSED_LOOP_FIGURE} with a "
+        "controller: the open and the closed loop and the commands)",
     )
     output.add_argument(
         "--snapshots",
@@ -536,11 +541,21 @@ def _deploy(args) -> int:
     except ValueError as error:
         raise ValueError(f"{args.scenario or 'the reference deployment'}: {error}") from None
     config.check(check_scenario, scenario, model, policy)
-    with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
-        result = run_deployment(
-            model, scenario, t_eval, args.max_step, lambda t: bar.update(t - bar.n),
-            policy=policy, rtol=args.rtol or None,
-        )  # fmt: skip
+    closed = open_loop = None
+    if scenario.controller is not None:
+        if args.convergence is not None:
+            raise ValueError(
+                "--convergence reruns the open loop; a scenario with a controller section "
+                "runs closed (raise n_boom_modes and n_membrane_modes with --set instead)"
+            )
+        closed, open_loop = _closed_loop(args, model, scenario, policy, t_eval)
+        result = closed.run
+    else:
+        with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
+            result = run_deployment(
+                model, scenario, t_eval, args.max_step, lambda t: bar.update(t - bar.n),
+                policy=policy, rtol=args.rtol or None,
+            )  # fmt: skip
     if result.warning:
         print(
             f"warning: {result.warning} (the simulator's diagnostics turn WARN here)",
@@ -566,14 +581,24 @@ def _deploy(args) -> int:
     holds = None
     if model.free_hub:  # over the time the run reached
         holds = hold_peaks(model, scenario.profile, float(result.t[-1]))
+    numbers = None
+    if closed is not None:
+        from sail_ros.analysis.closed_loop import summary, summary_lines
+
+        numbers = summary(closed, open_loop)
     if args.json:
         report = _json_report(result, config, description, convergence, holds)
+        if numbers is not None:
+            report["controller"] = numbers
         print(json.dumps(report, indent=2))
     elif args.summary or not (args.mcap or args.figures):
         _print_table(result, table_times, description, config)
         _print_peaks(result.peaks, model, convergence)
         if holds is not None:
             _print_hub_peaks(result.peaks.hub, holds)
+        if numbers is not None:
+            print()
+            print("\n".join(summary_lines(numbers)))
     warning = _convergence_warning(convergence, params) if convergence is not None else ""
     if warning:
         print(warning, file=sys.stderr)
@@ -583,7 +608,7 @@ def _deploy(args) -> int:
         from sail_ros.bag import BagWriteError
 
         try:
-            written.append(_write_log(args, model, result, grid, scenario, policy))
+            written.append(_write_log(args, model, result, grid, scenario, policy, closed))
         except BagWriteError as error:  # named by the output, not its temporary name
             reason = error.error.strerror or error.error
             print(f"error: --mcap {args.mcap}: cannot write: {reason}; nothing written",
@@ -591,6 +616,8 @@ def _deploy(args) -> int:
             return 1
     if args.figures:
         written += _write_figures(args.figures, model, result, snapshots, scenario, description)
+        if closed is not None:
+            written.append(_closed_loop_figure(args.figures, closed, open_loop, description))
     if not args.json:
         print_written(written)
     if stopped:
@@ -600,8 +627,53 @@ def _deploy(args) -> int:
     return 0
 
 
-def _write_log(args, model, result, grid, scenario, policy) -> Path:
-    """The run at the grid's times as an MCAP log at --mcap (whole or not at all)."""
+def _closed_loop(args, model, scenario, policy, t_eval):
+    """The scenario with its controller (`analysis.closed_loop`), and without it on the
+    output times `t_eval` for the comparison."""
+    from sail_ros.analysis.closed_loop import run_closed_loop
+
+    design = scenario.controller
+    ratio = design.state_rate_hz / args.rate
+    if args.mcap and abs(ratio - round(ratio)) > 1e-9:
+        raise ValueError(
+            f"--rate {args.rate:g} Hz: the log of a closed loop takes every state sample's "
+            f"multiple; it must divide the controller's state_rate_hz = "
+            f"{design.state_rate_hz:g} Hz"
+        )
+    runs = []
+    for what in ("closed loop", "open loop"):
+        with tqdm(total=scenario.duration, unit="s sim", desc=what, disable=None, leave=False,
+                  file=sys.stderr) as bar:  # fmt: skip
+            progress = lambda t, bar=bar: bar.update(t - bar.n)  # noqa: E731
+            if what == "closed loop":
+                runs.append(run_closed_loop(
+                    model, scenario, design, policy, progress=progress, max_step=args.max_step,
+                    rtol=args.rtol or None,
+                ))  # fmt: skip
+            else:
+                runs.append(run_deployment(
+                    model, scenario, t_eval, args.max_step, progress, policy=policy,
+                    rtol=args.rtol or None,
+                ))  # fmt: skip
+    return runs
+
+
+def _closed_loop_figure(folder: Path, closed, open_loop, description) -> Path:
+    from sail_ros.plots.control import closed_loop_figure
+
+    run = closed.run
+    return closed_loop_figure(
+        (open_loop.t, open_loop.hub),
+        (run.t, run.hub),
+        (run.t, closed.commands, closed.inputs, closed.limits),
+        folder / CLOSED_LOOP_FIGURE,
+        description,
+    )
+
+
+def _write_log(args, model, result, grid, scenario, policy, closed=None) -> Path:
+    """The run at the grid's times as an MCAP log at --mcap (whole or not at all); a closed
+    loop's commands with it."""
     from sail_ros.analysis.log_export import simulator_parameters, write_deployment_log
 
     logged = result.subset(np.isin(result.t, grid))
@@ -631,7 +703,10 @@ def _write_log(args, model, result, grid, scenario, policy) -> Path:
             shape_every=shape_every,
             shape_divisions=args.shape_divisions,
             progress=lambda t: bar.update(t - bar.n),
-        )
+            commands=None if closed is None else (
+                result.t, closed.commands, closed.schedule.delay, closed.inputs
+            ),
+        )  # fmt: skip
     return args.mcap
 
 

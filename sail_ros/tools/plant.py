@@ -11,6 +11,14 @@ boom's tip deflection and root moment (with a free hub also its force to its hea
 and its torques to its tilts). The matrices load into python-control
 with their names as `control.ss(A, B, C, D, inputs=list(input_names),
 outputs=list(output_names))`.
+
+With --controller, the hub's controller (docs/control.md) closes the loop on the
+plant, every mode of it included: the discrete loop with its period and loop delay,
+frozen at the lengths and rates given, or at every --every seconds of the deployment
+of --scenario (whose `controller:` section is the design, changed by --set); it
+prints the largest real part of the closed-loop poles at each and exits 1 when one is
+in the right half-plane. --gains writes the controller's gain schedule for the node
+`sail_control` (its parameter gains_file).
 """
 
 from __future__ import annotations
@@ -45,12 +53,16 @@ from sail_ros.tools.common import (
 
 EXAMPLES = (
     "sail-ros plant --lengths 30",
+    "sail-ros plant --controller --scenario config/scenario_free_hub_control.yaml",
+    "sail-ros plant --controller --lengths 16 16 16 12 --set free_hub=true --set state_rate_hz=50",
+    "sail-ros plant --controller --set free_hub=true --gains out/gains.npz",
     "sail-ros plant --lengths 20 22 20 22 --rates 0.1 --set mass_damping=0.02",
     "sail-ros plant --lengths 30 --npz out/plant.npz --mat out/plant.mat --figure out/bode.png",
 )
 WRITES = (
     "--npz FILE and --mat FILE (A, B, C, D with the names and units of states, inputs and "
-    "outputs), --figure PNG (the Bode figure); each whole or not at all."
+    "outputs), --figure PNG (the Bode figure), --gains FILE (the controller's gain "
+    "schedule, .npz); each whole or not at all."
 )
 
 
@@ -89,10 +101,36 @@ def build_parser() -> ToolParser:
         help="Bode frequency band [Hz] (default: a decade below the first pole to a decade "
         "above the listed ones, and on past a resonance there)",
     )
+    loop = parser.add_argument_group("closed loop (docs/control.md)")
+    loop.add_argument(
+        "--controller", action="store_true",
+        help="close the loop with the hub's controller (free hub) and print the largest real "
+        "part of its poles; --set takes the controller's fields too (weight_tilt=1e5, "
+        "state_rate_hz=50, ...)",
+    )  # fmt: skip
+    loop.add_argument(
+        "--scenario", type=Path, metavar="YAML",
+        help="with --controller: check at every --every seconds of this scenario's deployment "
+        "(its sail and controller sections apply)",
+    )  # fmt: skip
+    loop.add_argument(
+        "--every", type=float, default=0.25, help="with --scenario: the spacing of the checked "
+        "times [s] (0.25)",
+    )  # fmt: skip
+    loop.add_argument(
+        "--gains", type=Path, metavar="FILE", help="with --controller: write the gain schedule "
+        "(.npz) for sail_control's gains_file",
+    )  # fmt: skip
     return parser
 
 
 def _plant(args) -> int:
+    if args.controller:
+        from sail_ros.tools.loop_check import check_loop
+
+        return check_loop(args)
+    if args.scenario or args.gains:
+        raise ValueError("--scenario and --gains go with --controller")
     config = configuration(args)
     params = config.sail
     lengths = config.per_boom(args.lengths or [params.full_boom_length], "--lengths")

@@ -9,7 +9,9 @@ up to its last complete record) and writes into `--out`:
   record's (`sail_ros.model.record`: a_boom_length_m, a_tip_deflection_m, ...);
 - with a free hub (/sail/hub_state): its heave, tilts and their rates in
   states.csv, hub_attitude.png (tilt, heave and, for a `sail-ros deploy` log,
-  the reactions of the in-plane and spin holds), its peaks in peaks.csv;
+  the reactions of the in-plane and spin holds), its peaks in peaks.csv; with hub
+  wrench commands (/sail/hub_wrench_cmd: a controller's), hub_commands.png draws
+  each hub axis's state against the command on it;
 - energies.csv, modal_energies.png: mechanical energy per boom and per
   quadrant coordinate group and in all, with `M` and `K` built from the sail
   parameters recorded in the log (`sail_sim_parameters`);
@@ -105,7 +107,8 @@ EXAMPLES = (
 WRITES = (
     "into --out DIR: states.csv, tip_deflections.png, root_moments.png, boom_lengths.png, "
     "energies.csv, modal_energies.png, real_time_factor.csv, real_time_factor.png, "
-    "hub_attitude.png (those the log has data for), parameter_changes.csv, peaks.csv; the "
+    "hub_attitude.png, hub_commands.png (those the log has data for), parameter_changes.csv, "
+    "peaks.csv; the "
     "folder is built under a temporary name and moved into place when all is written (an "
     "existing folder keeps its other files)."
 )
@@ -236,6 +239,8 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
         )
     if log.hub is not None:
         _hub(log, out / HUB_FIGURE, time_label, title)
+    if log.hub is not None and log.hub_commands is not None:
+        _hub_commands(log, out / COMMANDS_FIGURE, time_label, title)
     _write_states(log, out / "states.csv")
     _parameter_changes(args, log, out / "parameter_changes.csv", time_label)
     stopped = _peaks(args, log, out, given)
@@ -245,6 +250,27 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
 
 
 HUB_FIGURE = "hub_attitude.png"
+COMMANDS_FIGURE = "hub_commands.png"
+
+
+def _hub_commands(log, path: Path, time_label: str, title: str) -> Path:
+    """The hub wrench commands in one line and the figure of states against commands;
+    the commands at the stamps of the samples they answer (a zero wrench of a stale or
+    stopping controller, which answers none, at the last sample's)."""
+    from sail_ros.plots.control import commands_figure
+
+    stamps, hub = log.hub
+    command_stamps, _, wrench = log.hub_commands
+    answered = command_stamps > 0
+    peak = np.abs(wrench).max(axis=0)
+    print(
+        f"  hub wrench commands: {len(wrench)}, peak |F_z| {peak[0]:.4g} N, |tau_x| "
+        f"{peak[1]:.4g} N m, |tau_y| {peak[2]:.4g} N m"
+    )
+    return commands_figure(
+        log.seconds(stamps), hub, log.seconds(command_stamps[answered]), wrench[answered],
+        path, title=title, time_label=time_label,
+    )  # fmt: skip
 
 
 def _hub(log, path: Path, time_label: str, title: str) -> Path:
@@ -465,7 +491,13 @@ def _scenario_rerun(log, model: SailModel, policy: Policy):
                 carried_over(values, carried_from, model)
                 for values in scenario.initial_state(carried_from)
             )
-        run = run_deployment(model, scenario, t, step, initial=initial, policy=policy)
+        if scenario.controller is not None:  # the recorded loop, closed again
+            from sail_ros.analysis.closed_loop import run_closed_loop
+
+            closed = run_closed_loop(model, scenario, scenario.controller, policy, max_step=step)
+            run = closed.run.subset(np.isin(np.round(closed.run.t, 6), np.round(t, 6)))
+        else:
+            run = run_deployment(model, scenario, t, step, initial=initial, policy=policy)
         if run.alarm:
             raise OutOfRangeError(run.alarm)
         logged = log.tips.position

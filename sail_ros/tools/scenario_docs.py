@@ -3,7 +3,8 @@
 docs/scenarios.md is prose around generated blocks, each between
 `<!-- BEGIN generated: NAME -->` and `<!-- END generated: NAME -->`; the blocks come
 from the sections of the scenario and study readers (`analysis.scenario`,
-`analysis.montecarlo`) and the field tables of the sail and the policy. A test
+`analysis.montecarlo`) and the field tables of the sail, the policy and the
+controller's design. A test
 checks that the page holds what this module makes; after a change of a table,
 
     python -m sail_ros.tools.scenario_docs docs/scenarios.md
@@ -18,6 +19,7 @@ import sys
 from pathlib import Path
 
 from sail_ros.analysis import montecarlo, scenario
+from sail_ros.control.settings import DesignSettings
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import fields_of, markdown_table
 from sail_ros.policy import Policy
@@ -41,6 +43,7 @@ def blocks() -> dict[str, str]:
         "scenario": _sections(scenario.SECTIONS),
         "sail": markdown_table((f.name, f) for f in fields_of(SailParameters)),
         "limits": markdown_table((f.name, f) for f in fields_of(Policy)),
+        "controller": markdown_table((f.name, f) for f in fields_of(DesignSettings)),
         "study": _sections(montecarlo.SECTIONS),
     }
 

@@ -15,9 +15,8 @@ import numpy as np
 import sail_ros.model
 from sail_ros.analysis.modes import modal_analysis
 from sail_ros.analysis.plant import linear_plant
-from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
+from sail_ros.model import CycloidalProfile, SailModel, SailParameters, SailStepper, StaticProfile
 from sail_ros.model.loads import LoadSchedule
-from sail_ros.model.stepper import SailStepper
 
 # The time histories in the fixed steps of the code before the free hub (its default
 # max_step 0.05 s): a tree with error-controlled stepping takes them with rtol None (its

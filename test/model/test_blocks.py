@@ -5,10 +5,10 @@ form the stepper uses."""
 import numpy as np
 import pytest
 
+from sail_ros.integrate import system as system_module
+from sail_ros.integrate.rational import PADE_POLES, STEP_MATRICES
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
-from sail_ros.model import stepper as stepper_module
 from sail_ros.model.blocks import DenseMatrices
-from sail_ros.model.rational import PADE_POLES, STEP_MATRICES
 
 pytestmark = pytest.mark.model
 
@@ -66,7 +66,7 @@ def test_moving_steps_by_blocks_and_in_full_agree(monkeypatch, hub):
         loads += ([0.5, 0.1, -0.2],)
     runs = []
     for threshold in (model.n, model.n + 1):  # by blocks, then in full
-        monkeypatch.setattr(stepper_module, "BLOCK_SOLVE_MIN_COORDINATES", threshold)
+        monkeypatch.setattr(system_module, "BLOCK_SOLVE_MIN_COORDINATES", threshold)
         runs.append(model.simulate(profile, 8.0, q0=model.mode_state("a", 0.1), loads=loads)[1:])
     (q_blocks, qd_blocks), (q_full, qd_full) = runs
     assert np.abs(q_full).max() > 0

@@ -720,7 +720,7 @@ def test_stability_leaves_out_the_six_rigid_eigenvalues_while_booms_move():
     +0.0159 1/s (the hub's mass shrinks), above every elastic mode (+0.0067): the
     stability studies judge the elastic ones. At rest they are stable."""
     from sail_ros.analysis.stability import growth
-    from sail_ros.model.sail_model import without_rigid
+    from sail_ros.model.linear import without_rigid
 
     params = SailParameters(free_hub=True, **SMALL_MODES)
     model = SailModel(params)

@@ -15,9 +15,9 @@ from skfem.helpers import dot, grad
 
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.basis import cantilever_roots, triangle_modes
+from sail_ros.model.linear import modal_eigenvalues
 from sail_ros.model.loads import INPUT_NAMES, OUTPUT_NAMES
 from sail_ros.model.profiles import BoomMotion
-from sail_ros.model.sail_model import _modal_eigenvalues
 
 pytestmark = pytest.mark.model
 
@@ -278,7 +278,7 @@ def test_strongly_damped_followed_modes_leave_every_state_finite():
     within a step; between steps they are the end's vibration turned back, whose growth
     (`fast_modes.TURN_BACK_EXPONENT`) must keep their underflowed 0 a 0: every output
     state and every sample the peaks are searched on finite (18 of 200 states were nan)."""
-    from sail_ros.model.peaks import OutputPeaks
+    from sail_ros.integrate.peaks import OutputPeaks
 
     params = SailParameters(
         n_boom_modes=20, n_membrane_modes=20, mass_damping=0.02, stiffness_damping=2e-4
@@ -372,11 +372,11 @@ def test_modes_that_the_damping_couples_go_to_the_general_eigensolver():
     X = rng.standard_normal((6, 6))
     M, K = X @ X.T + 6 * np.eye(6), np.diag(np.arange(1.0, 7.0))
     C = 0.1 * M + 0.01 * K
-    proportional = _modal_eigenvalues(M, C, K)
+    proportional = modal_eigenvalues(M, C, K)
     general = np.linalg.eigvals(np.block([[-np.linalg.solve(M, C), -np.linalg.solve(M, K)],
                                           [np.eye(6), np.zeros((6, 6))]]))  # fmt: skip
     assert np.allclose(np.sort_complex(proportional), np.sort_complex(general), rtol=1e-12)
     C[0, 1] = C[1, 0] = 0.05  # no longer diagonal in the modes
-    assert _modal_eigenvalues(M, C, K) is None
+    assert modal_eigenvalues(M, C, K) is None
     K[0, 1] = 1e-3  # not symmetric
-    assert _modal_eigenvalues(M, 0.1 * M, K) is None
+    assert modal_eigenvalues(M, 0.1 * M, K) is None

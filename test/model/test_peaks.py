@@ -6,10 +6,10 @@ import pytest
 import scipy.linalg
 from harness import SMALL
 
+from sail_ros.integrate.peaks import PEAK_ERROR, OutputPeaks, PeakSearch
+from sail_ros.integrate.rational import Curves
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.loads import LoadSchedule
-from sail_ros.model.peaks import PEAK_ERROR, OutputPeaks, PeakSearch
-from sail_ros.model.rational import Curves
 
 pytestmark = pytest.mark.model
 

@@ -408,3 +408,65 @@ def test_a_tilt_beyond_its_limit_stops_the_run(model):
     assert "beyond tilt_error_rad 0.1: out of the small-angle range" in run.sim.error
     warned = [text for severity, text in outputs.lines if "tilt_warn_rad" in text]
     assert warned, outputs.lines
+
+
+def stamped(run, t, **values):
+    """A hub wrench stamped to act at simulation time `t` [s] of `run`."""
+    command = wrench(**values)
+    command.header.stamp = topics.stamp(topics.stamp_ns(run.epoch_ns, t))
+    return command
+
+
+def test_a_hub_wrench_stamped_ahead_acts_from_its_stamp(model):
+    """Wrenches stamped ahead of the model are held until their times: the run is the
+    one whose commands came at those times unstamped (to round-off), the answers say
+    when; a later command replaces those still to act from its own time on; a stamp more
+    than a second ahead (another clock) is rejected."""
+    free = SailModel(config_from_values(FREE).sail)
+    run, clock, outputs, _ = make_run(free, **FREE)
+    advance(run, clock, 0.1)
+    run.submit(topics.HUB_WRENCH_CMD, stamped(run, 0.16, force_z=0.5), info(0))
+    run.submit(topics.HUB_WRENCH_CMD, stamped(run, 0.24, force_z=0.8), info(1))
+    run.submit(topics.HUB_WRENCH_CMD, stamped(run, 0.2, force_z=0.4), info(2))  # replaces 0.24
+    advance(run, clock, 0.02)
+    answers = outputs.answered[-3:]
+    assert [a.outcome for a in answers] == [commands_msg.ACCEPTED] * 3
+    assert [float(a.values["t_start_s"]) for a in answers] == pytest.approx([0.16, 0.24, 0.2])
+    assert run.sim.inputs()[8] == 0.0  # not yet
+    advance(run, clock, 0.28)  # to t = 0.4
+    assert run.sim.inputs()[8] == 0.4 and not run.sim.pending_wrenches
+    twin, twin_clock, twin_outputs, _ = make_run(free, **FREE)
+    advance(twin, twin_clock, 0.16)
+    twin.submit(topics.HUB_WRENCH_CMD, wrench(force_z=0.5), info(0))
+    advance(twin, twin_clock, 0.04)
+    twin.submit(topics.HUB_WRENCH_CMD, wrench(force_z=0.4), info(1))
+    advance(twin, twin_clock, 0.2)
+    assert [float(a.values["t_start_s"]) for a in twin_outputs.answered] == pytest.approx(
+        [0.16, 0.2]
+    )
+    assert outputs.states[-1][1].hub == pytest.approx(twin_outputs.states[-1][1].hub, rel=1e-12)
+    run.submit(topics.HUB_WRENCH_CMD, stamped(run, 1.5, force_z=0.1), info(3))
+    advance(run, clock, 0.02)
+    assert "1.1 s ahead of the simulation" in outputs.answered[-1].message
+
+
+def test_with_command_wait_a_step_waits_for_its_command_and_the_clock_with_it(model):
+    """`command_wait_s`: the simulation goes no further than a sample period past the
+    latest hub wrench command's time, waiting with the clock held; a command lets it
+    on (and asks for a tick at once); a wait of the whole `command_wait_s` lets one step
+    go without, counted."""
+    free = SailModel(config_from_values(FREE).sail)
+    run, clock, outputs, _ = make_run(free, **FREE, command_wait_s=0.5)
+    advance(run, clock, 0.1)
+    assert run.sim.t == pytest.approx(0.0) and run.waiting  # no command yet: waits
+    assert run.submit(topics.HUB_WRENCH_CMD, stamped(run, 0.0, force_z=0.2), info(0))  # wake
+    advance(run, clock, 0.2)
+    assert run.sim.t == pytest.approx(0.02)  # one sample, then waits again
+    run.submit(topics.HUB_WRENCH_CMD, stamped(run, 0.02, force_z=0.2), info(1))
+    advance(run, clock, 0.02)
+    assert run.sim.t == pytest.approx(0.04) and run.missed_commands == 0
+    assert run.overruns == 0  # waiting is no overrun: the clock held
+    advance(run, clock, 0.6)  # longer than command_wait_s: one step goes without
+    assert run.missed_commands >= 1 and run.sim.t > 0.04
+    run.publish_status()
+    assert outputs.statuses[-1][key.MISSED_COMMANDS] == run.missed_commands

@@ -6,11 +6,11 @@ import pytest
 import scipy.linalg
 from harness import SMALL
 
+from sail_ros.integrate.rational import PADE_POLES, PADE_WEIGHTS, extension_weights
+from sail_ros.integrate.sampling import GridSampler
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.assembly import GYROSCOPIC, MASS, STIFFNESS_CANONICAL
 from sail_ros.model.loads import inputs
-from sail_ros.model.rational import PADE_POLES, PADE_WEIGHTS, extension_weights
-from sail_ros.model.sampling import GridSampler
 
 pytestmark = pytest.mark.model
 

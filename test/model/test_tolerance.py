@@ -8,11 +8,11 @@ import scipy.integrate
 import scipy.linalg
 from harness import SMALL
 
+from sail_ros.integrate.control import DEFAULT_RTOL, WHOLE_STEP_PHASE
+from sail_ros.integrate.sampling import GridSampler
 from sail_ros.model import BoomMotion, CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.assembly import DAMPING, MASS, STIFFNESS_EQ
 from sail_ros.model.loads import LoadSchedule, input_function
-from sail_ros.model.sampling import GridSampler
-from sail_ros.model.stepper import DEFAULT_RTOL, WHOLE_STEP_PHASE
 
 pytestmark = pytest.mark.model
 

@@ -28,11 +28,11 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
 from sail_ros.bag import BagReader
+from sail_ros.integrate.control import DEFAULT_MAX_STEP
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion, SwitchedProfile
-from sail_ros.model.stepper import DEFAULT_MAX_STEP
 from sail_ros.policy import Policy
 from sail_ros.runtime.commands import BoomState, Rules, plan_deploy, plan_trajectory
 from sail_ros.runtime.config import config_from_values
@@ -495,7 +495,13 @@ def test_the_stall_of_allowed_values_is_refused_and_the_simulator_stays_answerin
     assert sim.stop(signal.SIGINT, timeout=2.0) == 0, sim.log()
 
     short = {"max_substep_rate": 1e7, "min_length": 0.007, "initial_lengths": [0.007]}
-    refused_start = processes("sim", parameters=short)
+    counts = {"sail.n_boom_modes": 4, "sail.n_membrane_modes": 6}
+    refused_start = processes("sim", parameters={**short, **counts})
     assert refused_start.process.wait(30.0) == 2
     (line,) = [text for text in refused_start.log().splitlines() if "ERROR" in text]
     assert "min_length = 0.007 m would need " in line and "Traceback" not in refused_start.log()
+    # at the automatic count the model such a start needs is refused before it is built
+    refused_start = processes("sim", parameters=short)
+    assert refused_start.process.wait(30.0) == 2
+    (line,) = [text for text in refused_start.log().splitlines() if "ERROR" in text]
+    assert "initial_lengths = [0.007, 0.007, 0.007, 0.007] m: the automatic membrane " in line

@@ -12,3 +12,10 @@ pytestmark = pytest.mark.model
 def test_the_simulator_parameter_table_is_the_generated_one():
     text = (ROOT / "msg_docs/README.md").read_text()
     assert markdown_table(PARAMETERS.items(), writable=True) in text
+
+
+def test_the_controller_parameter_table_is_the_generated_one():
+    from sail_ros.control.settings import NODE_PARAMETERS
+
+    text = (ROOT / "msg_docs/control.md").read_text()
+    assert markdown_table(NODE_PARAMETERS.items(), writable=True) in text

@@ -69,6 +69,7 @@ def every_key_document() -> dict:
             "loads": [{"at": 0.0, "pressures": 1e-3, "tip_forces": [0.0, 0.01, 0.0, 0.0]}],
         },
         "sail": {"n_boom_modes": 2, "n_membrane_modes": 2},
+        "controller": {"weight_tilt": 1e5},
     }
 
 
@@ -95,6 +96,7 @@ def test_every_documented_scenario_key_is_read():
     assert q0[model.coordinate_names.index("membrane_ab_mode_2_1")] == 0.01
     assert qd0[model.coordinate_names.index("boom_b_mode_1")] == 0.001
     assert read.loads(1.0)[0].tolist() == [1e-3] * 4
+    assert read.controller.weight_tilt == 1e5
 
 
 def test_documented_defaults_are_the_ones_applied():

@@ -13,9 +13,9 @@ from sensor_msgs.msg import JointState
 from sail_ros import topics
 from sail_ros.analysis.scenario import load_scenario, reference_scenario
 from sail_ros.bag import BagReader
+from sail_ros.integrate.peaks import MAX_SPACING_S, PEAK_ERROR
 from sail_ros.messages import hub as hub_msg
 from sail_ros.model import SailModel, SailParameters
-from sail_ros.model.peaks import MAX_SPACING_S, PEAK_ERROR
 from sail_ros.nodes.recorder import PARAMETERS_METADATA
 from sail_ros.policy import Policy
 from sail_ros.runtime.config import PARAMETERS, config_from_values
@@ -328,7 +328,7 @@ def test_a_batched_range_check_stops_where_a_check_after_every_step_does(monkeyp
     further on. A batch spaces its samples by the largest values before it, so the
     samples, and the times of the warning and the stop, may differ by a sample spacing;
     the peaks by their error."""
-    import sail_ros.model.peaks as peaks_module
+    import sail_ros.integrate.peaks as peaks_module
     from sail_ros.analysis.deployment import run_deployment
     from sail_ros.analysis.scenario import scenario_from_dict
 

@@ -21,9 +21,9 @@ from math import factorial
 import numpy as np
 import scipy.linalg
 
+from sail_ros.integrate.fast_modes import TURN_BACK_EXPONENT, oscillation, turning
 from sail_ros.model.assembly import CANONICAL_DAMPING, GYROSCOPIC, MASS, STIFFNESS_CANONICAL
 from sail_ros.model.blocks import DenseMatrices
-from sail_ros.model.fast_modes import TURN_BACK_EXPONENT, oscillation, turning
 
 # the matrices one moving step needs, in this order (`moving_step`)
 STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)

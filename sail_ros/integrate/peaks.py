@@ -29,8 +29,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sail_ros.model.exact_step import Rest, rest_states
-from sail_ros.model.rational import Curves
+from sail_ros.integrate.rational import Curves
+from sail_ros.integrate.rest import Rest, rest_states
 
 PEAK_PHASE = 0.5  # rad of the slow part's highest frequency between two samples of a step
 # the cubic Hermite's error over a sine sampled every PEAK_PHASE rad, of its amplitude

@@ -110,11 +110,14 @@ def modal_propagator(lam, d, tau):
     tau = np.asarray(tau, dtype=float)
     if not np.any(d):
         root = np.sqrt(np.abs(lam))
-        c = np.where(lam >= 0, np.cos(root * tau), np.cosh(root * tau))
+        # the hyperbolic branch only where a mode is buckled: a stiff mode's cosh would
+        # overflow in the branch np.where discards
+        grow = np.where(lam < 0, root * tau, 0.0)
+        c = np.where(lam >= 0, np.cos(root * tau), np.cosh(grow))
         s = np.where(
             lam >= 0,
             tau * np.sinc(root * tau / np.pi),
-            np.sinh(root * tau) / np.where(root > 0, root, 1.0),
+            np.sinh(grow) / np.where(root > 0, root, 1.0),
         )
         return c, s, -lam * s, c
     half = np.sqrt((0.25 * d * d - lam).astype(complex))

@@ -27,8 +27,8 @@ from __future__ import annotations
 import math
 from collections import deque
 
+from sail_ros.integrate.stepper import SailStepper
 from sail_ros.model.record import StepperState
-from sail_ros.model.stepper import STATIC_MARGIN, SailStepper
 
 # the state at a grid time: t [s], boom lengths [m] and rates [m/s], q, qd
 GridPoint = StepperState
@@ -78,46 +78,12 @@ class GridSampler:
         return GridPoint(stepper.t, lengths, rates, stepper.q, stepper.qd)
 
     def _step(self) -> None:
-        stepper, h = self.stepper, self.spacing
         start = self.point  # the stepper's state: nothing is ahead
-        is_static = getattr(stepper.profile, "is_static", None)
-        limit = stepper.step_limit()
-        intervals = max(1, math.floor(limit / h + 1e-9))
-        if (
-            intervals == 1
-            and stepper.rtol is not None
-            and stepper.proposal >= h
-            and stepper.bound() >= 2 * h * (1 - 1e-9)
-        ):
-            # the error allows a whole interval: try two (steps of one interval propose
-            # 1.5 intervals at most, which would keep them at one for ever)
-            intervals = 2
-        margin = STATIC_MARGIN * h
-        if is_static is not None and is_static(start.t + margin, start.t + h - margin):
-            stepper.step(h)  # exact at any length
-            self._ahead.append(self._exact())
-            return
-        # not past the next switch of the loads or the motion (`SailStepper.next_switch`)
-        switch = stepper.next_switch()
-        if math.isfinite(switch):  # a switch within STATIC_MARGIN of a grid time is on it
-            before = math.floor((switch - start.t) / h + STATIC_MARGIN)
-            intervals = max(1, min(intervals, before))
-        # the longest whole number of intervals the tolerance accepts (each refusal
-        # shortens the stepper's proposal, so the limit falls)
-        while intervals > 1:
-            if stepper.rtol is None:
-                stepper.step(intervals * h)
-                break
-            if stepper.try_step(intervals * h):
-                break
-            intervals = min(intervals - 1, max(1, math.floor(stepper.step_limit() / h + 1e-9)))
+        intervals = self.stepper.advance_grid(self.spacing)
         if intervals > 1:
             self._ahead.extend(self._between(start, self._exact(), intervals))
-            return
-        count = self.substeps(limit)
-        for _ in range(count):
-            stepper.step(h / count)
-        self._ahead.append(self._exact())
+        else:
+            self._ahead.append(self._exact())
 
     def _between(self, start: GridPoint, end: GridPoint, intervals: int) -> list[GridPoint]:
         """The grid points after `start` up to `end` (included, exact), from the step's

@@ -1,0 +1,167 @@
+"""The step-size controller: the only place a step is chosen.
+
+The step is chosen to meet a tolerance on the outputs users read (tips, root moments,
+their rates; `rtol` of each one's peak so far, `atol` floors): a moving step's error is
+estimated (`moving.attempt`) and the next step is `h (SAFETY / error)^(1/3)` (the
+midpoint rule's local error goes as `h^3`). `max_step` and `WHOLE_STEP_PHASE` rad of the
+resolved frequency bound it from above; `rtol=None` takes fixed steps under `max_step`
+and `PHASE_PER_STEP` rad alone. No step passes the inputs' or the profile's switches
+(`stops`); the live sampler's steps are whole grid intervals (`grid_intervals`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sail_ros.model.profiles import SWITCH_RESOLUTION
+
+# A stretch of time whose motion starts or ends within this fraction of it from its ends
+# counts as at rest (the booms move for a microsecond at zero rate): whether a motion that
+# starts at a step's end makes that step exact then does not hang on round-off in the
+# motion's times (a command logged to the nanosecond replays the same steps).
+STATIC_MARGIN = 1e-4
+# rad: omega_r * h of one fixed rational step. The (4,4) Padé lags a mode by ~4e-8
+# (omega h)^9 rad per step: 2e-5 at 2 rad.
+PHASE_PER_STEP = 2.0
+# rad: omega_r * h of an error-controlled step, the estimate's whole rational step (its
+# halves turn 1.5 rad each): there the Padé lags 5.9e-4 rad, which the estimate reads as
+# 2e-4 of the resolved mode's amplitude, a fifth of the default tolerance; a longer whole
+# step would be read as the halves' error and refused wherever that mode rings.
+WHOLE_STEP_PHASE = 3.0
+# The longest step [s]: the phase bound allows 0.35 s at 10 m, this bounds longer booms'.
+DEFAULT_MAX_STEP = 0.5
+# Local error allowed per step on each output, relative to its peak so far (tips,
+# tip rates, root moments, their rates), chosen so that whole runs stay within 0.2 % of
+# peak on tips and root moments (model.md §11).
+DEFAULT_RTOL = 1e-3
+# Absolute floors per output [m, m/s, N m, N m/s]: the tolerance of a sail at rest.
+DEFAULT_ATOL = {"tips": 1e-6, "tip_rates": 1e-5, "root_moments": 1e-4, "root_moment_rates": 1e-3}
+OUTPUT_KINDS = tuple(DEFAULT_ATOL)
+# the next step is h (SAFETY / err)^(1/3), grown at most GROWTH-fold, shrunk at most to SHRINK
+SAFETY, GROWTH, SHRINK = 0.8, 1.5, 0.2
+
+
+def time_slack(t: float) -> float:
+    """Within this [s] of each other, two times near `t` [s] are one: the round-off of
+    a time reached by summing steps (plain floats: it is asked every step)."""
+    return 1e-12 * max(1.0, abs(t))
+
+
+def largest(rows, q, qd) -> np.ndarray:
+    """The largest magnitude of each output kind (`OUTPUT_KINDS`) in `rows q` and `rows qd`
+    (`rows`: tips then root moments, 4 each)."""
+    y = np.abs(rows @ np.array([q, qd]).T)  # (8, 2): q, qd
+    return y.reshape(2, 4, 2).max(axis=1).ravel()  # tips (q, qd), moments (q, qd)
+
+
+class StepControl:
+    """The tolerance, the bounds and the next step, with the error estimate accumulated.
+
+    Args:
+        max_step: largest step [s].
+        resolved_frequency: highest angular frequency [rad/s] a step must resolve, or
+            None for the system's own at the current lengths.
+        rtol: local error allowed per moving step on each output relative to its peak
+            so far; None: fixed steps with no estimate.
+        atol: absolute floors per output kind (`OUTPUT_KINDS`), overriding `DEFAULT_ATOL`.
+    """
+
+    def __init__(self, max_step, resolved_frequency, rtol, atol):
+        if not (math.isfinite(max_step) and max_step > 0):
+            raise ValueError(f"max_step must be finite and > 0, got {max_step!r}")
+        if resolved_frequency is not None and not (
+            math.isfinite(resolved_frequency) and resolved_frequency > 0
+        ):
+            raise ValueError(
+                f"resolved_frequency must be finite and > 0, got {resolved_frequency!r}"
+            )
+        if rtol is not None and not (math.isfinite(rtol) and 0 < rtol < 1):
+            raise ValueError(f"rtol must be None or in (0, 1), got {rtol!r}")
+        floors = dict(DEFAULT_ATOL)
+        for name, value in dict(atol or {}).items():
+            if name not in floors:
+                raise ValueError(f"atol: unknown output {name!r}; outputs are {', '.join(floors)}")
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"atol[{name!r}] must be finite and > 0, got {value!r}")
+            floors[name] = float(value)
+        self.max_step = float(max_step)
+        self.rtol = None if rtol is None else float(rtol)
+        self.atol = floors
+        self.floors = np.array([floors[k] for k in OUTPUT_KINDS])
+        self.restart()
+
+    def restart(self) -> None:
+        """No proposal yet (inf), the estimate and the peaks at 0."""
+        self.proposal = math.inf
+        self.estimate = np.zeros(len(OUTPUT_KINDS))
+        self.peaks = np.zeros(len(OUTPUT_KINDS))
+
+    def bound(self, resolved: float) -> float:
+        """The longest step [s] whatever the error: `max_step` and `PHASE_PER_STEP` rad of
+        `resolved` [rad/s] per fixed step, `WHOLE_STEP_PHASE` per error-controlled one."""
+        phase = PHASE_PER_STEP if self.rtol is None else WHOLE_STEP_PHASE
+        return min(self.max_step, phase / resolved)
+
+    def limit(self, resolved: float) -> float:
+        """The longest step [s] allowed now: `bound` and the proposal."""
+        return min(self.bound(resolved), self.proposal)
+
+    @staticmethod
+    def equal_step(remaining: float, limit: float) -> float:
+        """A step [s] of equal steps to a target `remaining` [s] away, none above `limit`:
+        an abrupt change of step size costs the midpoint rule accuracy."""
+        return remaining / max(1, math.ceil(remaining / limit - 1e-9))
+
+    def grid_intervals(self, spacing: float, limit: float, bound: float, until_stop: float) -> int:
+        """How many grid intervals of `spacing` [s] the next moving step tries: as many as
+        `limit` [s] allows, two where one is allowed and the error and `bound` would allow
+        two (steps of one interval propose 1.5 at most, which would keep them at one for
+        ever), never past the next stop `until_stop` [s] away (a stop within
+        `STATIC_MARGIN` of a grid time is on it)."""
+        intervals = max(1, math.floor(limit / spacing + 1e-9))
+        if (
+            intervals == 1
+            and self.rtol is not None
+            and self.proposal >= spacing
+            and bound >= 2 * spacing * (1 - 1e-9)
+        ):
+            intervals = 2
+        if math.isfinite(until_stop):
+            before = math.floor(until_stop / spacing + STATIC_MARGIN)
+            intervals = max(1, min(intervals, before))
+        return intervals
+
+    def error(self, estimate, outputs) -> float:
+        """The estimate's largest ratio to the tolerance (<= 1 meets it): `atol` floors and
+        `rtol` of each output's peak so far or at the step's end."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            scale = self.floors + self.rtol * np.maximum(self.peaks, outputs)
+            error = float((estimate / scale).max())
+        return error if math.isfinite(error) else math.inf
+
+    def accepted(self, h: float, trial) -> None:
+        """A moving step of `h` [s] was taken: its estimate added, the next step proposed."""
+        if self.rtol is None:
+            return
+        self.estimate += trial.estimate
+        self.proposal = h * min(GROWTH, SAFETY * max(trial.error, 1e-12) ** (-1.0 / 3.0))
+        self.peaks = np.maximum(self.peaks, trial.outputs)
+
+    def refused(self, h: float, error: float) -> None:
+        """A moving step of `h` [s] missed the tolerance by `error`: a shorter proposal."""
+        self.proposal = h * max(SHRINK, SAFETY * error ** (-1.0 / 3.0))
+
+    def observe(self, outputs) -> None:
+        """The outputs' magnitudes at a state (their peaks so far grow)."""
+        if self.rtol is not None:
+            self.peaks = np.maximum(self.peaks, outputs)
+
+    @staticmethod
+    def next_stop(t: float, *sources) -> float:
+        """The next time [s] after `t` where one of `sources` (the inputs, the profile)
+        switches (`switch_times`), which no step passes; inf if none."""
+        times = [s for source in sources for s in getattr(source, "switch_times", ())]
+        later = [s for s in times if s > t + SWITCH_RESOLUTION]
+        return min(later, default=math.inf)

@@ -1,0 +1,134 @@
+"""The moving step: two exponential-midpoint steps of `h / 2` with the rational
+approximant, one of `h` for the error estimate, and the high modes followed.
+
+In canonical variables `x = [q; p]`, `p = M qd + G q`, Eq. 2 with damping and the
+inputs' generalised forces reads `xd = B(t) x + f`; each step applies
+`x1 = R(h B) x0 + h phi_R(h B) f`, `B` and `f` at the step's middle (second-order Magnus,
+`rational.moving_step`). The modes a midpoint step does not resolve are followed in
+their frozen modes instead (`fast_modes`). The error of the two halves is estimated as a
+third of their difference from the whole on the outputs (the rule is of order 2).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from sail_ros.integrate.control import largest
+from sail_ros.integrate.fast_modes import (
+    FreeVibration,
+    follow,
+    follow_floor,
+    followed,
+    forcing_of,
+    slow_part,
+)
+from sail_ros.integrate.rational import moving_step
+from sail_ros.integrate.system import potrs
+
+
+class Trial(NamedTuple):
+    """One attempted moving step: the state at its end, its error against the tolerance
+    (<= 1 meets it), the estimated error per output (`OUTPUT_KINDS`, their units), and
+    what dense output needs: the rational steps' extensions and the followed modes."""
+
+    h: float
+    q: np.ndarray
+    p: np.ndarray
+    qd: np.ndarray | None
+    error: float
+    estimate: np.ndarray
+    extensions: tuple
+    vibration: tuple  # (FreeVibration at the start, at the end) or ()
+    middle: object = None  # the whole step's matrices (`STEP_MATRICES`), at its middle
+    outputs: np.ndarray | None = None  # the end's largest outputs (`control.largest`)
+    # [rad/s] the highest frozen mode the rational steps carry at the start (not followed)
+    carried_frequency: float = math.inf
+
+
+def rational_step(at, force_at, t0, q0, p0, h, mats=None):
+    """One exponential-midpoint step of `h` [s] from `(q0, p0)` at `t0` with the rational
+    approximant: `(q1, p1, extension)`; `at` the `SystemAt`, `force_at(t, lengths)` the
+    inputs' generalised force (or None), `mats` the matrices at the middle if at hand."""
+    t_mid = t0 + 0.5 * h
+    lengths = at.motion(t_mid)[0]
+    force = force_at(t_mid, lengths)
+    if mats is None:
+        (mats,) = at.step_matrices((t_mid,))
+    return moving_step(q0, p0, mats, h, force)
+
+
+def fixed(at, force_at, t0, q0, p0, h) -> Trial:
+    """One rational step of `h` [s], no estimate (fixed steps)."""
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
+        q, p, extension = rational_step(at, force_at, t0, q0, p0, h)
+    return Trial(h, q, p, None, 0.0, np.zeros(4), (extension,), ())
+
+
+def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of) -> Trial:
+    """The moving step of `h` [s] from `(q0, p0)` (velocities `qd0`) at `t0`: two rational
+    steps of `h / 2` and one of `h`, the high modes followed over the step in both
+    results; `input_at(t)` the inputs (None without), `error_of(estimate, outputs)` the
+    controller's error (`StepControl.error`)."""
+    half, t1 = t0 + 0.5 * h, t0 + h
+    # the three rational steps' middles, as `rational_step` finds them
+    mats = at.step_matrices((t0 + 0.5 * (0.5 * h), half + 0.5 * (0.5 * h), half))
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
+        qh, ph, first = rational_step(at, force_at, t0, q0, p0, 0.5 * h, mats[0])
+        q2, p2, second = rational_step(at, force_at, half, qh, ph, 0.5 * h, mats[1])
+        q1, p1, _ = rational_step(at, force_at, t0, q0, p0, h, mats[2])
+        lengths0, lengths1 = at.motion(t0)[0], at.motion(t1)[0]
+        C1, K_extra1, _, M1, G1 = at.matrices(t1)
+        factor, _ = at.mass_factor(t1)
+        # (n, 2) in LAPACK's column order: no copy on the way in
+        qd2, qd1 = potrs(factor, np.array([p2 - G1 @ q2, p1 - G1 @ q1]).T)[0].T
+    vibration = ()
+    modes0 = at.modes(t0)
+    floor = follow_floor(0.5 * h, at.resolved(lengths0), at.relative_rate(t0, h))
+    count = followed(modes0, floor)
+    if count:
+        modes1 = at.modes(t1, modes0, count)
+        u = input_at(t0 + 0.5 * h)
+        C0, K_extra0, _, _, _ = at.matrices(t0)
+        start = FreeVibration.of(
+            modes0,
+            count,
+            q0,
+            qd0,
+            forcing_of(modes0, count, at.held(u, lengths0), (C0, K_extra0), q0, qd0),
+        )
+        # the end's slow part is the rational steps' (the halves' and the whole's agree
+        # there to the error estimated)
+        forcing = forcing_of(modes1, count, at.held(u, lengths1), (C1, K_extra1), q2, qd2)
+        end = follow(start, modes1, h, forcing)
+        # the whole step's followed modes are the halves': they leave the estimate
+        dq, dqd = slow_part(modes1, count, q2 - q1), slow_part(modes1, count, qd2 - qd1)
+        q2, qd2 = end.replace_in(q2, qd2)
+        p2 = M1 @ qd2 + G1 @ q2
+        vibration = (start, end)
+    else:
+        dq, dqd = q2 - q1, qd2 - qd1
+    rows = at.rows(lengths1)
+    estimate = largest(rows, dq, dqd) / 3.0
+    outputs = largest(rows, q2, qd2)
+    # the highest mode not followed: the next below those followed, or, when a set
+    # carried on (the highest modes only) is followed whole, below its lowest
+    if count < modes0.omega.size:
+        carried = float(modes0.omega[-count - 1])
+    else:
+        carried = float(modes0.omega[0]) if modes0.omega.size < at.system.n else 0.0
+    return Trial(
+        h,
+        q2,
+        p2,
+        qd2,
+        error_of(estimate, outputs),
+        estimate,
+        (first, second),
+        vibration,
+        mats[2],
+        outputs,
+        carried,
+    )

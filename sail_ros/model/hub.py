@@ -1,0 +1,114 @@
+"""A free hub's momenta and the holds' reactions (model.md §13.3, §13.5): functions of a
+`SailModel`, whose methods of the same names call them."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+from sail_ros.model.assembly import GYROSCOPIC, MASS
+from sail_ros.model.layout import BOOM_DIRECTIONS, QUADRANTS, hub_tilt_axis, per_boom
+from sail_ros.model.loads import N_INPUTS
+from sail_ros.model.parameters import SailParameters
+
+
+def in_plane_momenta(params: SailParameters, lengths, rates, accelerations):
+    """`(P, Pd, H_z, Hd_z)` of the deploying material (model.md §13.3): in-plane momentum
+    `P` (2,) [kg m/s] in the `sail` frame and its rate [N], spin momentum about z `H_z`
+    [kg m^2/s] (the film's; booms carry none) and its rate [N m]."""
+    rho_b, rho_m = params.boom_linear_density, params.membrane_areal_density
+    L, Ld, Ldd = lengths, rates, accelerations
+    P = rho_b * (L * Ld) @ BOOM_DIRECTIONS
+    Pd = rho_b * (Ld**2 + L * Ldd) @ BOOM_DIRECTIONS
+    spin = spin_rate = 0.0
+    for _, a, b in QUADRANTS:
+        e_a, e_b = BOOM_DIRECTIONS[a], BOOM_DIRECTIONS[b]
+        area = L[a] * L[b]
+        velocity = Ld[a] * e_a + Ld[b] * e_b
+        P = P + rho_m * 0.5 * area * velocity
+        Pd = Pd + rho_m * (
+            0.5 * (Ld[a] * L[b] + L[a] * Ld[b]) * velocity
+            + 0.5 * area * (Ldd[a] * e_a + Ldd[b] * e_b)
+        )
+        spin += rho_m * area * (L[a] * Ld[b] - L[b] * Ld[a]) / 6.0
+        spin_rate += (rho_m / 6.0) * (
+            L[a] ** 2 * (Ld[b] ** 2 + L[b] * Ldd[b]) - L[b] ** 2 * (Ld[a] ** 2 + L[a] * Ldd[a])
+        )
+    return P, Pd, spin, spin_rate
+
+
+def hold_loads(model, lengths, rates=0.0, accelerations=0.0) -> np.ndarray:
+    """`(F_x [N], F_y [N], tau_z [N m])` the holds of a free hub supply (model.md
+    §13.3): the force in the inertial x-y plane at the hub centre, the rate of the
+    in-plane momentum `P` of the deploying material, and the torque about body z,
+    the rate of its spin momentum `H_z`. Zero for point-symmetric motion."""
+    motion = (
+        model._lengths(lengths),
+        per_boom(rates, "rates"),
+        per_boom(accelerations, "accelerations"),
+    )
+    _, force, _, torque = in_plane_momenta(model.params, *motion)
+    return np.array([force[0], force[1], torque])
+
+
+def momenta(model, q, qd, lengths, rates=0.0) -> tuple[float, float, float]:
+    """`(p_z [kg m/s], H_x [kg m^2/s], H_y [kg m^2/s])`: the linear momentum along
+    inertial z and the angular momentum about the inertial x, y axes of hub,
+    stowed and deployed material (model.md §13.5, first order):
+    `p_z = (M qd + G q)_z`, `H_x = (M qd + G q)_thx - z_h P_y + theta_y H_z`,
+    `H_y = (M qd + G q)_thy + z_h P_x - theta_x H_z`.
+
+    Raises:
+        ValueError: the hub is clamped.
+    """
+    model._require_free_hub()
+    lengths, rates = model._lengths(lengths), per_boom(rates, "rates")
+    M, G = model.assemble((MASS, GYROSCOPIC), lengths, rates, np.zeros(4))
+    q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+    canonical = (M @ qd + G @ q)[model.hub_slice]
+    z, theta_x, theta_y = q[model.hub_slice]
+    P, _, spin, _ = in_plane_momenta(model.params, lengths, rates, np.zeros(4))
+    return (
+        float(canonical[0]),
+        float(canonical[1] - z * P[1] + theta_y * spin),
+        float(canonical[2] + z * P[0] - theta_x * spin),
+    )
+
+
+def free_modes(model, M: np.ndarray, K: np.ndarray):
+    """`(omega^2, V)` of a free sail from `M` and `K` (`SailModel.modes_of`): the three
+    rigid-body modes, `omega^2 = 0.0` exactly, `V = [0; L^-T]` with `M_hh = L L^T`; the
+    others solve `K_qq v = omega^2 M_r,qq v` and are lifted to `(v, -M_hh^-1 M_hq v)`
+    (model.md §13.6)."""
+    e, h = slice(0, model.n_elastic), model.hub_slice
+    factor = scipy.linalg.cho_factor(M[h, h])
+    lift = scipy.linalg.cho_solve(factor, M[h, e])  # M_hh^-1 M_hq
+    reduced = M[e, e] - M[e, h] @ lift
+    omega2, elastic = scipy.linalg.eigh(K[e, e], 0.5 * (reduced + reduced.T))
+    V = np.zeros((model.n, model.n))
+    lower = np.linalg.cholesky(M[h, h])
+    V[h, :3] = np.linalg.inv(lower).T
+    V[e, 3:] = elastic
+    V[h, 3:] = -lift @ elastic
+    return np.concatenate([np.zeros(3), omega2]), V
+
+
+def with_hub_inputs(model, elastic: np.ndarray, lengths) -> np.ndarray:
+    """`B_u` (n, 11) of a free sail from its elastic part `elastic` (n, 8) at 4 checked
+    `lengths` [m]: the pressures and tip forces push and tilt the hub too (virtual work
+    on the absolute deflection, model.md §13.5), and the hub wrench acts on it alone."""
+    matrix = np.zeros((model.n, N_INPUTS + 3))
+    matrix[:, :N_INPUTS] = elastic
+    hub = matrix[model.hub_slice]  # rows z_h, theta_x, theta_y (a view)
+    area = np.array([lengths[q.first] * lengths[q.second] for q in QUADRANTS])
+    hub[0, :4] = 0.5 * area
+    hub[0, 4:8] = 1.0
+    hub[:, 8:] = np.eye(3)
+    for j, quadrant in enumerate(QUADRANTS):
+        for boom in (quadrant.first, quadrant.second):  # the arm: that boom's length
+            axis, sign = hub_tilt_axis(boom)
+            hub[1 + axis, j] += sign * area[j] * lengths[boom] / 6.0
+    for k in range(4):
+        axis, sign = hub_tilt_axis(k)
+        hub[1 + axis, 4 + k] = sign * lengths[k]
+    return matrix
