@@ -20,6 +20,7 @@ from sail_ros.plots.sail3d import (
     colour_bar,
     draw_sail,
     exaggeration_for,
+    label_axes,
     lay_out_panels,
     resolving_divisions,
     symmetric_norm,
@@ -108,11 +109,7 @@ def snapshots_figure(
             zoom=ZOOM,
         )
         ax.set_title(f"t = {t:.1f} s, {_lengths_text(li)}", pad=0)
-        ax.set_xlabel("x [m]", labelpad=-7)
-        ax.set_ylabel("y [m]", labelpad=-7)
-        ax.set_zlabel("w [mm]", labelpad=-5)
-        ax.set_zticks(_z_ticks(z_limit_mm))
-        ax.tick_params(axis="z", pad=-1)
+        label_axes(ax, "w [mm]", _z_ticks(z_limit_mm))
     for ax in axes.flat[len(times) :]:
         ax.set_visible(False)
     heading = f"{title}\n" if title else ""

@@ -20,7 +20,9 @@ from pathlib import Path
 import numpy as np
 from matplotlib.collections import PolyCollection
 from matplotlib.legend import Legend
+from matplotlib.path import Path as MplPath
 from matplotlib.text import Text
+from matplotlib.transforms import Bbox
 
 from sail_ros import outputs
 
@@ -70,7 +72,8 @@ class FigureCheck:
         size_px: (width, height) of the PNG [pixels].
         clipped: texts, legends and panels that reach outside the figure.
         overlaps: pairs of texts (titles, labels, tick labels, legends) drawn over
-            each other, or a text over another panel's plotting area.
+            each other, a text over another panel's plotting area, or a 3-D panel's
+            axis label over one of its tick values.
         duplicates: pairs of lines of one panel whose data are equal (within
             `EQUAL_DATA` of the larger's largest value) drawn as two lines: one curve
             with two legend entries, one of which shows nothing.
@@ -161,6 +164,10 @@ def inspect(fig, path, dpi: float) -> FigureCheck:
         for ax in panels:
             if ax is not owner and ax.name != "3d" and _overlap(bbox, ax.bbox):
                 overlaps.append((name, f"{names[ax]}: plotting area"))
+    for ax in panels:
+        if ax.name == "3d":
+            overlaps += [(f"{names[ax]}: {a}", f"{names[ax]}: {b}") for a, b in
+                         _labels_over_ticks(ax, renderer)]  # fmt: skip
 
     duplicates, hidden, jumps, covered, unitless, described = [], [], [], [], [], {}
     for ax in panels:
@@ -252,6 +259,46 @@ def _axes_texts(ax, renderer):
     legend = ax.get_legend()
     if legend is not None and legend.get_visible():
         yield None, "legend", legend.get_window_extent(renderer)
+
+
+def _labels_over_ticks(ax, renderer):
+    """(label, tick label) pairs of a 3-D panel where an axis label, drawn along its
+    axis (slanted), lies over a tick value of any of the panel's axes: measured on the
+    label's slanted outline, not its upright box, which covers the ticks beside it."""
+    axes = [("x", ax.xaxis), ("y", ax.yaxis), ("z", ax.zaxis)]
+    ticks = [
+        (f"{letter} tick label {label.get_text()!r}", label.get_window_extent(renderer))
+        for letter, axis in axes
+        if axis.get_visible()
+        for tick in axis.majorTicks
+        for label in (tick.label1,)
+        if label.get_visible() and label.get_text().strip()
+    ]
+    for letter, axis in axes:
+        if not (axis.get_visible() and axis.label.get_visible() and axis.label.get_text()):
+            continue
+        outline = _outline(axis.label, renderer)
+        for name, box in ticks:
+            inner = Bbox(box.get_points() + [[1.0, 1.0], [-1.0, -1.0]])  # `_overlap`'s slack
+            if outline.intersects_bbox(inner, filled=True):
+                yield f"{letter} label", name
+
+
+def _outline(text, renderer) -> MplPath:
+    """The outline of a rotated text on the page: its upright box turned about the
+    centre of its drawn box (the centre of a turned rectangle's bounding box is its own)."""
+    drawn = text.get_window_extent(renderer)
+    angle = text.get_rotation()
+    text.set_rotation(0.0)
+    upright = text.get_window_extent(renderer)
+    text.set_rotation(angle)
+    half_w, half_h = 0.5 * upright.width, 0.5 * upright.height
+    corners = np.array([[-half_w, -half_h], [half_w, -half_h], [half_w, half_h],
+                        [-half_w, half_h], [-half_w, -half_h]])  # fmt: skip
+    c, s = np.cos(np.radians(angle)), np.sin(np.radians(angle))
+    turned = corners @ np.array([[c, s], [-s, c]])
+    return MplPath(turned + [0.5 * (drawn.x0 + drawn.x1), 0.5 * (drawn.y0 + drawn.y1)],
+                   closed=True)  # fmt: skip
 
 
 def _inside(bbox, page, slack: float = 0.5) -> bool:

@@ -21,7 +21,14 @@ from matplotlib.collections import LineCollection
 
 from sail_ros.model.shape import SailSurface
 from sail_ros.plots.common import figure, fit_width, save, styled
-from sail_ros.plots.sail3d import CMAP, colour_bar, draw_sail, lay_out_panels, symmetric_norm
+from sail_ros.plots.sail3d import (
+    CMAP,
+    colour_bar,
+    draw_sail,
+    label_axes,
+    lay_out_panels,
+    symmetric_norm,
+)
 
 VIEWS = ("map", "3d")
 BOX_HEIGHT = 0.4  # 3d view: drawn height of the +-1 range relative to the plane's width
@@ -111,11 +118,7 @@ def mode_shapes_figure(
                 box_height=BOX_HEIGHT,
                 zoom=0.85,
             )
-            ax.set_xlabel("x [m]", labelpad=-6)
-            ax.set_ylabel("y [m]", labelpad=-6)
-            ax.set_zlabel("w [-]", labelpad=-5)
-            ax.set_zticks([-1, 0, 1])
-            ax.tick_params(axis="z", pad=-1)
+            label_axes(ax, "w [-]", [-1, 0, 1])
         else:
             vertices[:, 2] /= peak
             booms[:, :, 2] /= peak

@@ -79,6 +79,17 @@ def draw_sail(
     ax.view_init(elev=28, azim=-55)
 
 
+def label_axes(ax, z_label: str, z_ticks) -> None:
+    """Axis labels of a sail panel drawn by `draw_sail`: x and y [m], and `z_label` at
+    `z_ticks`; the labels as close to the box as keeps them clear of the tick values
+    (nearer, the slanted x label lies over the middle tick "0")."""
+    ax.set_xlabel("x [m]", labelpad=0)
+    ax.set_ylabel("y [m]", labelpad=0)
+    ax.set_zlabel(z_label, labelpad=-5)
+    ax.set_zticks(z_ticks)
+    ax.tick_params(axis="z", pad=-1)
+
+
 def resolving_divisions(model, least: int = 12) -> int:
     """Mesh subdivisions of a quadrant edge that sample the model's highest membrane
     mode `sin(m pi xi)` at four points or more per wave (`least` at the fewest)."""

@@ -67,6 +67,32 @@ def test_the_check_finds_clipped_overlapping_and_hidden_artists(tmp_path, figure
         assert_figure(tmp_path / "bad.png", figure_checks, 100, 100)
 
 
+def test_the_check_finds_a_slanted_3d_axis_label_over_a_tick_value(tmp_path):
+    """A 3-D panel's x label pulled onto its axis lies over the middle tick value "0";
+    measured on the slanted label, not its upright box, which covers the ticks beside
+    it: the labels of a sail panel as the tools draw it touch no tick value."""
+    from matplotlib.tri import Triangulation
+
+    from sail_ros.plots.sail3d import draw_sail, label_axes, symmetric_norm
+
+    def overlaps(pad):
+        fig, ax = figure(3.6, 3.0, subplot_kw={"projection": "3d"})
+        x, y = (v.ravel() for v in np.meshgrid(np.linspace(-50, 50, 9), np.linspace(-50, 50, 9)))
+        vertices = np.column_stack([x, y, np.sin(x / 20.0)])
+        booms = np.zeros((4, 2, 3))
+        booms[:, 1, :2] = [[50, 0], [0, 50], [-50, 0], [0, -50]]
+        draw_sail(ax, vertices, Triangulation(x, y).triangles, booms, z_factor=1.0,
+                  norm=symmetric_norm(1.0), extent=52.0, z_limit=1.0, box_height=0.4,
+                  zoom=0.85)  # fmt: skip
+        label_axes(ax, "w [-]", [-1, 0, 1])
+        if pad is not None:
+            ax.set_xlabel("x [m]", labelpad=pad)
+        return inspect(fig, tmp_path / "panel.png", DPI).overlaps
+
+    assert ("panel 0: x label", "panel 0: x tick label '0'") in overlaps(-9.0)
+    assert overlaps(None) == ()
+
+
 def test_a_long_title_wraps_inside_the_figure(tmp_path, figure_checks):
     fig, ax = figure(4.0, 3.0)
     ax.plot([0, 1], [0, 1])
