@@ -24,16 +24,34 @@ from pathlib import Path
 # called with (built path, final path) for every file moved into place (the tests'
 # figure checks follow their figures there)
 MOVED: list[Callable[[Path, Path], None]] = []
+# the outermost folder each `make_folder` created (absolute), until `made_for` names it
+# beside the output written into it
+CREATED: list[Path] = []
 
 
 def make_folder(folder: Path, what: str = "") -> None:
-    """Create `folder` and its parents; ValueError naming the file that stands in the way."""
+    """Create `folder` and its parents (the outermost of those created is kept in
+    `CREATED`); ValueError naming the file that stands in the way."""
     folder = Path(folder)
     for place in (folder, *folder.parents):
         if place.exists() and not place.is_dir():
             prefix = f"{what} " if what else ""
             raise ValueError(f"cannot write {prefix}'{folder}': '{place}' is a file, not a folder")
+    missing = [place for place in (folder, *folder.parents) if not place.exists()]
     folder.mkdir(parents=True, exist_ok=True)
+    if missing:
+        CREATED.append(Path(os.path.abspath(missing[-1])))
+
+
+def made_for(path) -> Path | None:
+    """The folder made for the output `path` (one of `CREATED` that holds it), taken off
+    the list so that it is named once; None when its folder was there."""
+    path = Path(os.path.abspath(path))
+    for folder in CREATED:
+        if folder in path.parents:
+            CREATED.remove(folder)
+            return folder
+    return None
 
 
 @contextlib.contextmanager

@@ -296,15 +296,18 @@ def assert_png(path, min_width=400, min_height=250, min_drawn=0.03):
 
 def assert_figure(path, checks, min_width=400, min_height=250, min_drawn=0.03):
     """`assert_png`, and the figure as drawn (`figure_checks`): no text or panel
-    outside it, no text over text or over another panel, no line hidden under
-    another or under the legend, no vertical stroke in a line drawn against x.
-    Returns its FigureCheck."""
+    outside it, no text over text or over another panel, no curve drawn twice, no
+    line hidden under another, no data under the legend or an annotation, no
+    vertical stroke in a line drawn against x, a unit on every axis that shows
+    values. Returns its FigureCheck."""
     size = assert_png(Path(path), min_width, min_height, min_drawn)
     check = checks[Path(path)]
     assert check.size_px == size
     assert not check.clipped, f"{path}: outside the figure: {check.clipped}"
     assert not check.overlaps, f"{path}: drawn over each other: {check.overlaps}"
+    assert not check.duplicates, f"{path}: one curve drawn as two lines: {check.duplicates}"
     assert not check.hidden, f"{path}: lines hidden under others: {check.hidden}"
     assert not check.jumps, f"{path}: vertical strokes: {check.jumps}"
-    assert not check.covered, f"{path}: lines under the legend: {check.covered}"
+    assert not check.covered, f"{path}: data under a text: {check.covered}"
+    assert not check.unitless, f"{path}: axes without a unit: {check.unitless}"
     return check

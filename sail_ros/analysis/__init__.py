@@ -13,4 +13,5 @@ the others need nothing beyond the model.
 - `energy`: mechanical energy per boom and per quadrant coordinate group.
 - `log_export`, `log_series`: deployment runs into MCAP logs with the live
   simulator's topics, and logs back into time series.
+- `load_changes`: when a run's loads change, in words for its figures.
 """

@@ -64,8 +64,8 @@ def rerun_log(log: LogSeries, model: SailModel, carried_from: SailModel | None =
     lengths, rates = log.boom.position[boom_rows], log.boom.velocity[boom_rows]
     q_logged, qd_logged = log.modal.position[modal_rows], log.modal.velocity[modal_rows]
     tip_rows = _paired(log.boom.stamp_ns[boom_rows], log.tips.stamp_ns)
-    commands = _applied_loads(log)
-    solar = _solar_pressure(log)
+    commands = applied_loads(log)
+    solar = solar_pressure(log)
     tips, found = np.empty((t.size, 4)), []
     for part in _runs(t):
         times = t[part]
@@ -121,7 +121,7 @@ def _runs(t) -> list[slice]:
     return [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
 
 
-def _applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:
+def applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:
     """`(simulation time, topic, the four values then held)` of every load command the
     simulator accepted, from its answers on sail/command_status (the recorder takes them
     from the start, where a command's short-lived publisher may come and go unseen)."""
@@ -150,7 +150,7 @@ def _applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:
     return sorted(applied, key=lambda item: item[0])
 
 
-def _solar_pressure(log: LogSeries) -> float:
+def solar_pressure(log: LogSeries) -> float:
     """The `solar_pressure` parameter [Pa] recorded with the log (0 if absent)."""
     text = (log.parameters or {}).get("solar_pressure")
     return float(load_yaml(text)) if text is not None else 0.0

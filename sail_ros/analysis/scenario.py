@@ -255,12 +255,23 @@ def reference_scenario() -> Scenario:
     return scenario_from_dict(REFERENCE)
 
 
+def _what(document) -> str:
+    """What a document that is no scenario holds, in a few words: its top-level keys (a
+    study file: 'study'), or its type."""
+    if isinstance(document, dict):
+        keys = ", ".join(repr(key) for key in list(document)[:5])
+        more = ", ..." if len(document) > 5 else ""
+        hint = " (a study file: sail-ros montecarlo runs it)" if "study" in document else ""
+        return f"a mapping of {keys}{more}{hint}" if document else "an empty mapping"
+    return f"a {type(document).__name__}"
+
+
 def scenario_from_dict(document, labels: dict | None = None, check_points=None) -> Scenario:
     """Validate a scenario document (the YAML structure above); `labels` as
     `Scenario.labels`. `check_points(count, what)` (`Policy.check_points`), if given,
     checks the number of each waypoint profile's points before anything is made of them."""
     if not isinstance(document, dict) or not isinstance(document.get("scenario"), dict):
-        raise ValueError(f"expected a mapping with a 'scenario' section, got {document!r}")
+        raise ValueError(f"expected a mapping with a 'scenario' section, got {_what(document)}")
     TOP.check_keys(document, "top level")
     body = SCENARIO.check_keys(document["scenario"], "scenario")
     duration = SCENARIO.number(body, "duration", "scenario")

@@ -232,8 +232,14 @@ class Replay(Node):
                 break
             if not self.config["loop"]:
                 break
+        playing_s = time.monotonic() - started
         self._wait_for_acknowledgements(stop)
-        logger.info(f"played {self._published} messages in {time.monotonic() - started:.2f} s")
+        waited_s = time.monotonic() - started - playing_s
+        logger.info(
+            f"played {self._published} messages in {playing_s:.2f} s"
+            + (f", then {waited_s:.2f} s until the subscribers acknowledged them"
+               if waited_s >= 0.005 else "")
+        )  # fmt: skip
         return code
 
     def _wait_for_subscribers(self, stop: threading.Event) -> bool:

@@ -1,5 +1,8 @@
 """Saving figures, and the look shared by all of them: the style, long titles
-wrapped to the figure, lines broken where time repeats."""
+wrapped to the figure, lines broken where time repeats, and no line hidden under
+another: a line drawn over most of an earlier one (`figure_check.hidden_under`:
+two booms that move alike for a while, not exactly) is drawn dashed when the
+figure is saved, its legend entry too, so that both show."""
 
 from __future__ import annotations
 
@@ -14,11 +17,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from sail_ros.outputs import staged  # noqa: E402
-from sail_ros.plots.figure_check import record  # noqa: E402
+from sail_ros.plots.figure_check import (  # noqa: E402
+    HIDDEN_SHARE,
+    data_lines,
+    hidden_under,
+    record,
+)
 
 BOOM_COLOURS = {"a": "tab:blue", "b": "tab:orange", "c": "tab:green", "d": "tab:red"}
 QUADRANT_COLOURS = {"ab": "tab:purple", "bc": "tab:brown", "cd": "tab:olive", "da": "tab:cyan"}
 DPI = 150
+REVEALING = (0, (3.0, 1.5))  # the dashes of a line drawn over most of an earlier one
 
 STYLE = {
     "font.size": 9,
@@ -54,11 +63,14 @@ def figure(width_in: float, height_in: float, **subplots):
 
 def fit_width(text, fraction: float = 0.96) -> None:
     """Break the lines of a text artist (a title) at spaces so that each spans at most
-    `fraction` of its figure's width: a long scenario description wraps instead of
-    running off the page."""
+    `fraction` of the figure's width about the text's centre (a panel's title beside a
+    legend has less room than the figure's): a long scenario description wraps instead
+    of running off the page."""
     fig = text.get_figure(root=True)
     renderer = fig.canvas.get_renderer()
-    limit = fraction * fig.bbox.width
+    box = text.get_window_extent(renderer)
+    middle = 0.5 * (box.x0 + box.x1)
+    limit = fraction * 2.0 * min(middle - fig.bbox.x0, fig.bbox.x1 - middle)
 
     def width(line: str) -> float:
         text.set_text(line)
@@ -66,16 +78,39 @@ def fit_width(text, fraction: float = 0.96) -> None:
 
     lines = []
     for line in text.get_text().split("\n"):
-        words = line.split(" ")
-        current = words[0]
-        for word in words[1:]:
-            if width(f"{current} {word}") <= limit:
-                current = f"{current} {word}"
+        pieces = _pieces(line, lambda piece: width(piece) > limit)
+        current = pieces[0]
+        for piece in pieces[1:]:
+            joined = current + piece if current.endswith("/") else f"{current} {piece}"
+            if width(joined) <= limit:
+                current = joined
             else:
                 lines.append(current)
-                current = word
+                current = piece
         lines.append(current)
     text.set_text("\n".join(lines))
+
+
+def _pieces(line: str, too_wide) -> list[str]:
+    """The words of a line; a word too wide for a line alone (a path) in pieces after
+    each "/" (a piece ending in "/" joins the next without a space)."""
+    pieces = []
+    for word in line.split(" "):
+        if "/" in word and too_wide(word):
+            parts = word.split("/")
+            pieces += [part + "/" for part in parts[:-1]] + ([parts[-1]] if parts[-1] else [])
+        else:
+            pieces.append(word)
+    return pieces
+
+
+def titled_layout(fig, ax, title: str) -> None:
+    """`ax`'s title, wrapped to the room about its centre, and the figure laid out
+    (`tight_layout`) around it: twice, since the layout moves the panel's centre."""
+    for _ in range(2):
+        ax.set_title(title)
+        fit_width(ax.title)
+        fig.tight_layout()
 
 
 def break_lines(t, *columns):
@@ -93,11 +128,37 @@ def break_lines(t, *columns):
     return tuple(result)
 
 
+def reveal_hidden(fig) -> None:
+    """Draw dashed each line that would cover more than `HIDDEN_SHARE` of an earlier
+    line of its panel, and its legend entry, so that the earlier one shows between the
+    dashes. Measured on the figure as laid out (it is drawn once)."""
+    if not any(len(data_lines(ax)) > 1 for ax in fig.axes):
+        return
+    fig.canvas.draw()
+    for ax in fig.axes:
+        lines = sorted(data_lines(ax), key=lambda line: line.get_zorder())  # as drawn
+        dashed = [
+            over
+            for k, over in enumerate(lines)
+            if any(hidden_under(under, over) > HIDDEN_SHARE for under in lines[:k])
+        ]
+        for line in dashed:
+            line.set_linestyle(REVEALING)
+        legend = ax.get_legend()
+        if dashed and legend is not None:
+            labels = {line.get_label() for line in dashed}
+            for handle, text in zip(legend.legend_handles, legend.texts, strict=True):
+                if text.get_text() in labels:
+                    handle.set_linestyle(REVEALING)
+
+
 def save(fig, path) -> Path:
     """Write `fig` as PNG to `path` (folders created; whole or not at all:
-    `outputs.staged`) and release it."""
+    `outputs.staged`) and release it; lines that would hide others are dashed first
+    (`reveal_hidden`)."""
     path = Path(path)
     try:
+        reveal_hidden(fig)
         record(fig, path, DPI)  # measured for the tests when they ask (figure_check.checking)
         with staged(path) as building:
             fig.savefig(building, dpi=DPI, format="png", metadata={"Software": "sail_ros"})

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from sail_ros.plots.common import break_lines, figure, save, styled
-from sail_ros.plots.histories import TIME_LABEL, _set_title
+from sail_ros.plots.histories import TIME_LABEL, _heading
 
 COMMAND_COLOURS = ("tab:green", "tab:blue", "tab:orange", "tab:red", "tab:purple",
                    "tab:brown", "tab:olive")  # fmt: skip
@@ -60,15 +60,14 @@ def closed_loop_figure(open_loop, closed_loop, commands, path, title: str = ""):
         label, unit = COMMAND_UNITS.get(name, (name, "N"))
         axes[2].plot(t, u[:, j], color=COMMAND_COLOURS[j], lw=0.9,
                      label=f"{label} [{unit}] (limit {limits[j]:g})")  # fmt: skip
-    axes[2].set_ylabel("command")
+    axes[2].set_ylabel("command [N, N m]")
     largest = float(np.max(limits)) if len(limits) else 1.0
     axes[2].set_ylim(-1.25 * largest, 1.8 * largest)  # the legend above the limit
     axes[2].legend(ncols=3, loc="upper center", frameon=False)
     for ax in axes:
         ax.margins(x=0)
     axes[-1].set_xlabel(TIME_LABEL)
-    _set_title(axes[0], "Free hub: open and closed loop", title)
-    fig.tight_layout()
+    _heading(fig, axes[0], "Free hub: open and closed loop", title)
     return save(fig, path)
 
 
@@ -105,6 +104,5 @@ def commands_figure(t, hub, command_t, wrench, path, title: str = "", time_label
         twin.grid(False)
         ax.margins(x=0)
     axes[-1].set_xlabel(time_label)
-    _set_title(axes[0], "Free hub: states (black) and commands (red)", title)
-    fig.tight_layout()
+    _heading(fig, axes[0], "Free hub: states (black) and commands (red)", title)
     return save(fig, path)

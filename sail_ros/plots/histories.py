@@ -1,7 +1,11 @@
 """Time histories: boom-tip deflections, boom lengths and rates, energies, real-time factor.
 
 Shared by `sail-ros deploy` (a run in memory) and `sail-ros report` (a log
-read back); every function takes arrays and a time axis label.
+read back); every function takes arrays and a time axis label. Booms (and
+quadrants) whose series are equal share one line and one legend entry
+(`equal_groups`); legends stand beside the panels, clear of the data; a run's
+load changes (`loads`: `(t, what)` pairs) are dotted lines through the panels,
+named along the top, and the loads it starts with are named in the title.
 """
 
 from __future__ import annotations
@@ -13,9 +17,9 @@ from sail_ros.plots.common import (
     QUADRANT_COLOURS,
     break_lines,
     figure,
-    fit_width,
     save,
     styled,
+    titled_layout,
 )
 
 TIME_LABEL = "simulation time t [s]"
@@ -23,8 +27,10 @@ BOOMS = tuple(BOOM_COLOURS)
 
 
 @styled
-def tip_deflections_figure(t, tips, path, title: str = "", time_label: str = TIME_LABEL):
-    """Boom-tip deflections [m, drawn in mm] of booms a..d against time [s]; tips (k, 4)."""
+def tip_deflections_figure(t, tips, path, title: str = "", time_label: str = TIME_LABEL,
+                           loads=()):  # fmt: skip
+    """Boom-tip deflections [m, drawn in mm] of booms a..d against time [s]; tips (k, 4);
+    `loads`: the run's load changes, `(t [s], what)`."""
     fig, ax = figure(6.4, 3.4)
     groups = equal_groups(tips)
     t, tips = break_lines(t, tips)
@@ -38,19 +44,18 @@ def tip_deflections_figure(t, tips, path, title: str = "", time_label: str = TIM
         )
     ax.set_xlabel(time_label)
     ax.set_ylabel("tip deflection [mm]")
-    _set_title(ax, "Boom-tip deflections", title)
-    ax.legend(ncols=4, loc="upper right", frameon=False)
     ax.margins(x=0)
-    _headroom(ax)
-    fig.tight_layout()
+    _legend_beside(ax)
+    _heading(fig, ax, "Boom-tip deflections", _with_loads(title, t, loads, [ax]))
     return save(fig, path)
 
 
 @styled
 def root_moments_figure(t, moments, path, title: str = "", time_label: str = TIME_LABEL,
-                        n_boom_modes: int | None = None):  # fmt: skip
+                        n_boom_modes: int | None = None, loads=()):  # fmt: skip
     """Root bending moments [N m] of booms a..d against time [s]; moments (k, 4). The
-    moment series converges slowly with n_B, so the title states it when known."""
+    moment series converges slowly with n_B, so the title states it when known;
+    `loads`: the run's load changes, `(t [s], what)`."""
     fig, ax = figure(6.4, 3.4)
     groups = equal_groups(moments)
     t, moments = break_lines(t, moments)
@@ -59,12 +64,10 @@ def root_moments_figure(t, moments, path, title: str = "", time_label: str = TIM
         ax.plot(t, moments[:, group[0]], color=colour, lw=1.2, label=_boom_label(group))
     ax.set_xlabel(time_label)
     ax.set_ylabel("root bending moment [N m]")
-    modes = f" (n_B = {n_boom_modes})" if n_boom_modes else ""
-    _set_title(ax, f"Boom root moments{modes}", title)
-    ax.legend(ncols=4, loc="upper right", frameon=False)
     ax.margins(x=0)
-    _headroom(ax)
-    fig.tight_layout()
+    modes = f" (n_B = {n_boom_modes})" if n_boom_modes else ""
+    _legend_beside(ax)
+    _heading(fig, ax, f"Boom root moments{modes}", _with_loads(title, t, loads, [ax]))
     return save(fig, path)
 
 
@@ -83,17 +86,16 @@ def boom_lengths_figure(t, lengths, rates, path, title: str = "", time_label: st
     top.set_ylabel("boom length L [m]")
     bottom.set_ylabel("extension rate [m/s]")
     bottom.set_xlabel(time_label)
-    _set_title(top, "Boom lengths and extension rates", title)
     for ax in (top, bottom) if groups[0] != groups[1] else (top,):
-        ax.legend(ncols=2, loc="best", frameon=False)
+        _legend_beside(ax, ncols=1)
     top.margins(x=0)
-    fig.tight_layout()
+    _heading(fig, top, "Boom lengths and extension rates", title)
     return save(fig, path)
 
 
 @styled
 def energies_figure(
-    t, booms, quadrants, total, path, title: str = "", time_label: str = TIME_LABEL
+    t, booms, quadrants, total, path, title: str = "", time_label: str = TIME_LABEL, loads=()
 ):
     """Mechanical energy [J] per boom and per quadrant group, and in all, against time [s].
 
@@ -105,6 +107,7 @@ def energies_figure(
         path: output file.
         title: figure title.
         time_label: label of the time axis.
+        loads: the run's load changes, `(t [s], what)`.
     """
     fig, axes = figure(6.4, 6.0, nrows=3, sharex=True)
     boom_groups, quadrant_groups = equal_groups(booms), equal_groups(quadrants)
@@ -135,11 +138,12 @@ def energies_figure(
             ax.set_yscale("log")
     for ax in axes:
         ax.set_ylabel("energy [J]")
-        ax.legend(ncols=4, loc="best", frameon=False, fontsize=7)
         ax.margins(x=0)
+        _legend_beside(ax, ncols=1, fontsize=7)
     axes[2].set_xlabel(time_label)
-    _set_title(axes[0], "Mechanical energy by coordinate group (log) and in total (linear)", title)
-    fig.tight_layout()
+    detail = _with_loads(title, t, loads, axes)
+    _heading(fig, axes[0], "Mechanical energy by coordinate group (log) and in total (linear)",
+             detail)  # fmt: skip
     return save(fig, path)
 
 
@@ -168,7 +172,6 @@ def real_time_factor_figure(
             ax.plot([], [], ls="", label="time scale <= 0: as fast as possible")
     ax.set_xlabel(time_label)
     ax.set_ylabel("real-time factor [-]")
-    _set_title(ax, "Achieved real-time factor (from /diagnostics)", title)
     values = np.concatenate([np.ravel(v) for v in shown])
     values = values[np.isfinite(values)]
     if values.size:
@@ -180,14 +183,15 @@ def real_time_factor_figure(
     ax.ticklabel_format(axis="y", useOffset=False)
     ax.legend(loc="upper right", ncols=2, frameon=False)
     ax.margins(x=0)
-    fig.tight_layout()
+    _heading(fig, ax, "Achieved real-time factor (from /diagnostics)", title)
     return save(fig, path)
 
 
 @styled
 def hub_attitude_figure(t, hub, holds, path, title: str = "", time_label: str = TIME_LABEL):
-    """A free hub against time [s]: its tilts theta_x, theta_y [rad, drawn in deg], its
-    heave z_h [m, drawn in mm] and what its in-plane and spin holds supply.
+    """A free hub against time [s]: its tilts theta_x, theta_y [rad, drawn in mrad as the
+    tools print them], its heave z_h [m, drawn in mm] and what its in-plane and spin
+    holds supply.
 
     Args:
         t: times [s], (k,).
@@ -200,12 +204,12 @@ def hub_attitude_figure(t, hub, holds, path, title: str = "", time_label: str = 
     rows = 3 if holds is not None else 2
     fig, axes = figure(6.4, 2.0 + 1.6 * rows, nrows=rows, sharex=True)
     t, hub, *rest = break_lines(t, hub, *(() if holds is None else (holds,)))
-    tilts = np.degrees(hub[:, 1:3])
+    tilts = 1e3 * hub[:, 1:3]
     axes[0].plot(t, tilts[:, 0], color="tab:blue", lw=1.2, label="theta_x (about boom a)")
     axes[0].plot(t, tilts[:, 1], color="tab:orange", lw=1.2, label="theta_y (about boom b)")
     tilt = np.hypot(tilts[:, 0], tilts[:, 1])
     axes[0].plot(t, tilt, color="k", lw=0.9, ls="--", label="tilt |theta|")
-    axes[0].set_ylabel("hub tilt [deg]")
+    axes[0].set_ylabel("hub tilt [mrad]")
     axes[1].plot(t, 1e3 * hub[:, 0], color="k", lw=1.2, label="heave z_h")
     axes[1].set_ylabel("hub heave [mm]")
     if holds is not None:
@@ -228,8 +232,7 @@ def hub_attitude_figure(t, hub, holds, path, title: str = "", time_label: str = 
     for ax in axes:
         ax.margins(x=0)
     axes[-1].set_xlabel(time_label)
-    _set_title(axes[0], "Free hub: attitude, heave and hold reactions", title)
-    fig.tight_layout()
+    _heading(fig, axes[0], "Free hub: attitude, heave and hold reactions", title)
     return save(fig, path)
 
 
@@ -242,16 +245,39 @@ def _zero_note(values, group) -> str:
     return " (0 J throughout)"
 
 
-def _set_title(ax, what: str, detail: str) -> None:
-    """`what`, and `detail` (the run) on the next line, wrapped to the figure's width."""
-    ax.set_title(f"{what}\n{detail}" if detail else what)
-    fit_width(ax.title)
+def _heading(fig, ax, what: str, detail: str) -> None:
+    """`what`, and `detail` (the run) on the next line, over `ax`, wrapped to the room
+    about the panel's centre, and the figure laid out."""
+    titled_layout(fig, ax, f"{what}\n{detail}" if detail else what)
 
 
-def _headroom(ax, fraction: float = 0.2) -> None:
-    """Extra space above the data for a legend inside the axes."""
-    low, high = ax.get_ylim()
-    ax.set_ylim(low, high + fraction * (high - low))
+def _legend_beside(ax, ncols: int = 1, **options) -> None:
+    """The panel's legend to the right of its plotting area, clear of every curve and
+    mark (`fig.tight_layout` makes room for it)."""
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, ncols=ncols,
+              frameon=False, **options)  # fmt: skip
+
+
+def _with_loads(title: str, t, loads, axes) -> str:
+    """Mark a run's load changes (`(t [s], what)`) after its first time as dotted lines
+    through `axes`, named along the top of the first; the title with the loads the run
+    starts with."""
+    finite = np.asarray(t, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    start = float(finite[0]) if finite.size else 0.0
+    first = [what for when, what in loads if when <= start]
+    later = [(when, what) for when, what in loads if when > start]
+    for ax in axes:
+        for when, _ in later:
+            ax.axvline(when, color="0.4", lw=0.8, ls=":", zorder=1)
+    if later:
+        top = axes[0].secondary_xaxis("top")
+        top.set_xticks([when for when, _ in later], [what for _, what in later], fontsize=7)
+        top.tick_params(length=2, pad=1)
+    if first:
+        title = f"{title}; " if title else ""
+        title += "loads from the start: " + ", ".join(first)
+    return title
 
 
 def equal_groups(columns) -> list[list[int]]:

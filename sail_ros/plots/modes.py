@@ -21,10 +21,18 @@ from matplotlib.collections import LineCollection
 
 from sail_ros.model.shape import SailSurface
 from sail_ros.plots.common import figure, fit_width, save, styled
-from sail_ros.plots.sail3d import CMAP, draw_sail, symmetric_norm
+from sail_ros.plots.sail3d import (
+    CMAP,
+    colour_bar,
+    draw_sail,
+    label_axes,
+    lay_out_panels,
+    symmetric_norm,
+)
 
 VIEWS = ("map", "3d")
 BOX_HEIGHT = 0.4  # 3d view: drawn height of the +-1 range relative to the plane's width
+CELL_3D = 3.2  # 3d view: width of a panel's cell [in]
 LEVELS = np.linspace(-1.0, 1.0, 21)  # map view: contour levels of w / max|w|
 
 
@@ -87,9 +95,11 @@ def mode_shapes_figure(
     options = (
         {"subplot_kw": {"projection": "3d"}} if view == "3d" else {"sharex": True, "sharey": True}
     )
+    cell, height = (CELL_3D, 2.9) if view == "3d" else (2.45, 2.45)  # [in]
     fig, axes = figure(
-        2.45 * columns + 0.9, 2.45 * rows + 0.6, nrows=rows, ncols=columns, squeeze=False, **options
-    )
+        cell * columns + 1.0, height * rows + 0.7, nrows=rows, ncols=columns, squeeze=False,
+        **options,
+    )  # fmt: skip
     norm = symmetric_norm(1.0)
     for ax, (_, first, multiplicity, omega, vector) in zip(axes.flat, shapes, strict=False):
         vertices = surface.vertices(vector, lengths)
@@ -106,10 +116,9 @@ def mode_shapes_figure(
                 extent=extent,
                 z_limit=1.0,
                 box_height=BOX_HEIGHT,
+                zoom=0.85,
             )
-            ax.set_xlabel("x [m]", labelpad=-6)
-            ax.set_ylabel("y [m]", labelpad=-6)
-            ax.set_zticks([-1, 0, 1], labels=[])
+            label_axes(ax, "w [-]", [-1, 0, 1])
         else:
             vertices[:, 2] /= peak
             booms[:, :, 2] /= peak
@@ -129,22 +138,19 @@ def mode_shapes_figure(
         else "L = " + ", ".join(f"{v:.4g}" for v in lengths) + " m (a, b, c, d)"
     )
     what = "booms as strips, seen from +z" if view == "map" else "booms black"
-    fit_width(
-        fig.suptitle(
-            f"First {len(shapes)} distinct mode shapes, {shown}\n{what}; "
-            "w normalised to max |w| = 1",
-            fontsize=10,
-        )
+    title = fig.suptitle(
+        f"First {len(shapes)} distinct mode shapes, {shown}\n{what}; w normalised to max |w| = 1",
+        fontsize=10,
     )
+    fit_width(title)
     if view == "3d":
-        fig.subplots_adjust(left=0.02, right=0.86, bottom=0.03, top=0.84, wspace=0.15, hspace=0.18)
+        lay_out_panels(fig, list(axes.flat), columns, cell, title)
+        colour_bar(fig, norm, "w / max|w| [-]", columns * cell)
     else:
         fig.subplots_adjust(left=0.1, right=0.86, bottom=0.1, top=0.82, wspace=0.15, hspace=0.3)
-    bar = fig.colorbar(
-        cm.ScalarMappable(norm=norm, cmap=CMAP),
-        ax=axes.ravel().tolist(),
-        shrink=0.7,
-        pad=0.07 if view == "3d" else 0.03,  # clear of the last column's z axis
-    )
-    bar.set_label("w / max|w|")
+        bar = fig.colorbar(
+            cm.ScalarMappable(norm=norm, cmap=CMAP), ax=axes.ravel().tolist(), shrink=0.7,
+            pad=0.03,
+        )  # fmt: skip
+        bar.set_label("w / max|w| [-]")
     return save(fig, path)

@@ -10,17 +10,18 @@ from matplotlib import cm
 from matplotlib.colors import LogNorm
 from matplotlib.lines import Line2D
 
+from sail_ros.analysis.stability import INSTABILITY_RTOL
 from sail_ros.plots.common import figure, fit_width, save, styled
 
 RATE_CMAP = "viridis"
 LOCI_CMAP = "plasma"
 
 
-def _linthresh(values) -> float:
-    """Linear range of a symlog axis: a decade below the smallest |value| that
-    is not round-off (> 1e-12)."""
+def _linthresh(values, round_off=1e-12) -> float:
+    """Linear range of a symlog axis: a decade below the smallest |value| that is not
+    round-off (above `round_off`, a number or one per value)."""
     values = np.abs(np.asarray(values, dtype=float))
-    values = values[values > 1e-12]
+    values = values[values > round_off]
     return 10.0 ** math.floor(math.log10(values.min())) if values.size else 1e-6
 
 
@@ -49,7 +50,12 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
         3.6 * columns + 2.0, 3.4 * rows + 0.6, nrows=rows, ncols=columns, squeeze=False, sharey=True
     )
     colours = _rate_colours([s.rate for s in sweeps])
-    threshold = _linthresh(np.concatenate([s.max_real for s in sweeps]))
+    # a real part within the instability criterion's tolerance of 0 is round-off: drawn
+    # in the linear range about 0, not given decades of its own
+    threshold = _linthresh(
+        np.concatenate([s.max_real for s in sweeps]),
+        np.concatenate([INSTABILITY_RTOL * s.max_abs for s in sweeps]),
+    )
     for ax, length in zip(axes.flat, lengths, strict=False):
         for sweep in (s for s in sweeps if s.length == length):
             if sweep.rate == 0:
@@ -87,7 +93,7 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
         ax.set_title(f"L = {length:.4g} m")
         ax.set_xlabel("membrane prestress $\\sigma$ [Pa]")
     for ax in axes[:, 0]:
-        ax.set_ylabel("max Re($\\lambda$) [1/s]  (symlog)")
+        ax.set_ylabel(f"max Re($\\lambda$) [1/s]  (symlog, linear within $\\pm${threshold:g})")
     for ax in axes.flat[len(lengths) :]:
         ax.set_visible(False)
     handles = [
@@ -115,14 +121,29 @@ def max_real_figure(sweeps, path, sail_prestress: float | None = None):
     return save(fig, path)
 
 
+def _rate_edges(ax, rates) -> np.ndarray:
+    """Edges of the rates' cells on `ax`'s (symlog) x axis: halfway between neighbours
+    in the drawn coordinate, the outer ones as far out as the inner gaps."""
+    scale = ax.xaxis.get_transform()
+    drawn = scale.transform(np.asarray(rates, dtype=float))
+    gaps = np.diff(drawn) if drawn.size > 1 else np.array([2.0])
+    inner = 0.5 * (drawn[1:] + drawn[:-1])
+    edges = np.concatenate([[drawn[0] - 0.5 * gaps[0]], inner, [drawn[-1] + 0.5 * gaps[-1]]])
+    return scale.inverted().transform(edges)
+
+
 @styled
 def map_figure(sweeps, path, sail_prestress: float | None = None):
     """Stable and unstable regions over rate x prestress, one panel per length, with
-    the critical prestress curve (deployment) and the sail's prestress."""
+    the critical prestress curve (deployment) and the sail's prestress. The rate axis is
+    symmetric-logarithmic (linear within the smallest |rate| given, logarithmic beyond),
+    a cell per rate of the grid centred on it."""
     from sail_ros.analysis.stability import critical_curves
 
     lengths = sorted({s.length for s in sweeps})
     rates = sorted({s.rate for s in sweeps})
+    speeds = [abs(r) for r in rates if r != 0]
+    linear = min(speeds, default=1.0)
     columns = min(len(lengths), 3)
     rows = math.ceil(len(lengths) / columns)
     fig, axes = figure(
@@ -131,11 +152,12 @@ def map_figure(sweeps, path, sail_prestress: float | None = None):
     )  # fmt: skip
     curves = critical_curves(sweeps)
     for ax, length in zip(axes.flat, lengths, strict=False):
+        ax.set_xscale("symlog", linthresh=linear, linscale=1.0)
         here = {s.rate: s for s in sweeps if s.length == length}
         prestress = next(iter(here.values())).prestress
         unstable = np.array([here[r].unstable for r in rates], dtype=float).T
         ax.pcolormesh(
-            np.arange(len(rates) + 1) - 0.5,
+            _rate_edges(ax, rates),
             np.concatenate(
                 [prestress[:1] / 1.2, np.sqrt(prestress[1:] * prestress[:-1]), prestress[-1:] * 1.2]
             ),  # fmt: skip
@@ -147,14 +169,15 @@ def map_figure(sweeps, path, sail_prestress: float | None = None):
         )
         points = curves.get(length, [])
         if points:
-            ax.plot([rates.index(r) for r, _ in points], [c for _, c in points], "k-o", ms=3,
-                    lw=1.2, label="critical prestress")  # fmt: skip
+            ax.plot([r for r, _ in points], [c for _, c in points], "k-o", ms=3, lw=1.2,
+                    label="critical prestress")  # fmt: skip
         if sail_prestress is not None:
             ax.axhline(sail_prestress, color="0.3", lw=1.0, ls="--", label="sail")
         ax.set_yscale("log")
-        ax.set_xticks(range(len(rates)), [f"{r:g}" for r in rates], rotation=60)
+        ax.set_xticks(rates, [f"{r:g}" for r in rates], rotation=60)
+        ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         ax.set_title(f"L = {length:.4g} m")
-        ax.set_xlabel("extension rate [m/s]")
+        ax.set_xlabel(f"extension rate [m/s] (symlog, linear within $\\pm${linear:g})")
     for ax in axes[:, 0]:
         ax.set_ylabel("membrane prestress $\\sigma$ [Pa]")
     for ax in axes.flat[len(lengths) :]:
@@ -203,7 +226,8 @@ def loci_figure(
             linewidths=0,
         )
     ax.axvline(0.0, color="k", lw=0.6)
-    ax.set_xscale("symlog", linthresh=_linthresh(real), linscale=0.5)
+    size = np.concatenate([np.abs(e) for e in eigenvalues])
+    ax.set_xscale("symlog", linthresh=_linthresh(real, INSTABILITY_RTOL * size), linscale=0.5)
     ax.set_yscale("symlog", linthresh=0.01, linscale=0.5)
     top = max(float(np.max([e.imag.max() for e in eigenvalues])), 0.01)
     ax.set_ylim(0.0, 1.5 * top)

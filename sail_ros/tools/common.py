@@ -18,13 +18,14 @@ import signal
 import sys
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from sail_ros import topics
 from sail_ros.cli import nearest
 from sail_ros.model import SailParameters, yaml_values
 from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH
-from sail_ros.outputs import staged
+from sail_ros.outputs import CREATED, made_for, staged
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.runtime.config import PARAMETERS
 
@@ -243,6 +244,7 @@ def run(main_body, args) -> int:
     the reader of stdout goes away (`sail-ros report ... | head`) the tool ends
     as Unix tools do on SIGPIPE: no message, exit code 141.
     """
+    CREATED.clear()  # folders made by an earlier tool run in this process are not this one's
     try:
         return main_body(args) or 0
     except BrokenPipeError:
@@ -296,29 +298,52 @@ def write_text(path: Path, text: str) -> Path:
 
 
 def print_written(paths) -> None:
-    """Tell the user which files a tool wrote."""
+    """Tell the user which files a tool wrote, and in the line of the first written into
+    it, the folder made for them (`outputs.made_for`)."""
     for path in paths:
-        print(f"wrote {path}")
+        folder = made_for(path)
+        print(f"wrote {path}" + (f" (made the folder {folder})" if folder else ""))
 
 
-def print_peak_table(peaks, changes=None, indent: str = "  ") -> None:
+def refine_hint(params: SailParameters) -> str:
+    """How to give a run more modes than `params` keep: the membrane band when the count
+    is automatic, else the counts."""
+    if params.n_membrane_modes:
+        return "raise n_membrane_modes (and n_boom_modes) with --set"
+    return "raise membrane_band (--set)"
+
+
+def print_peak_table(peaks, convergence=None, indent: str = "  ") -> None:
     """Each boom's peak |tip deflection| [mm] and |root moment| [N m] with its time, and
-    with `changes = (label, tip, moment)` their relative changes [%] (e.g. with more
-    modes) under each."""
-    lines = [
+    with a `Convergence` (`analysis.convergence`) each one's change [%] against its
+    finest rerun: over the largest peak of its kind, and over the boom's own."""
+    tips = [
         ("|tip deflection| [mm]", 1e3 * peaks.tip_deflection.value, "12.4f"),
         ("  at t [s]", peaks.tip_deflection.time_s, "12.3f"),
+    ]
+    moments = [
         ("|root moment| [N m]", peaks.root_moment.value, "12.5g"),
         ("  at t [s]", peaks.root_moment.time_s, "12.3f"),
     ]
-    if changes is not None:
-        label, tip, moment = changes
-        lines[1:1] = [(label, 100 * tip, "+12.3f")]
-        lines.append((label, 100 * moment, "+12.3f"))
+    if convergence is not None:
+        finest, change = convergence.finest, convergence.change
+        against = f"against ({finest.n_boom_modes}, {finest.n_membrane_modes}) modes"
+        for rows, largest, own in ((tips, change.tips, change.tips_own),
+                                   (moments, change.moments, change.moments_own)):  # fmt: skip
+            rows.append((f"  change {against}, % of the largest", 100 * largest, "+12.3f"))
+            rows.append((f"  change {against}, % of its own peak", 100 * own, "+12.3f"))
+    lines = tips + moments  # a peak of 0 (the output never moved) has no time: a dash
     width = max(len(label) for label, _, _ in lines) + 2
     print(f"{indent}{'':{width}}" + "".join(f"{'boom ' + b:>12}" for b in "abcd"))
     for label, values, spec in lines:
-        print(f"{indent}{label:<{width}}" + "".join(f"{v:>{spec}}" for v in values))
+        print(f"{indent}{label:<{width}}" + "".join(_cell(v, spec) for v in values))
+
+
+def _cell(value: float, spec: str) -> str:
+    """`value` as `spec`, or a dash in its place when it is not a number (the time of a
+    peak that is 0)."""
+    width = int(spec.lstrip("+").split(".")[0])
+    return f"{value:>{spec}}" if np.isfinite(value) else f"{'-':>{width}}"
 
 
 def print_hub_peak_table(hub, indent: str = "  ") -> None:
@@ -327,4 +352,4 @@ def print_hub_peak_table(hub, indent: str = "  ") -> None:
     labels = ("|z_h| [mm]", "|theta_x| [mrad]", "|theta_y| [mrad]", "|theta| [mrad]")
     print(f"{indent}{'':12}" + "".join(f"{label:>18}" for label in labels))
     print(f"{indent}{'peak':<12}" + "".join(f"{1e3 * v:18.4f}" for v in hub.value))
-    print(f"{indent}{'  at t [s]':<12}" + "".join(f"{v:18.3f}" for v in hub.time_s))
+    print(f"{indent}{'  at t [s]':<12}" + "".join(_cell(v, "18.3f") for v in hub.time_s))

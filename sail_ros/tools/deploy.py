@@ -57,6 +57,7 @@ from sail_ros.tools.common import (
     print_hub_peak_table,
     print_peak_table,
     print_written,
+    refine_hint,
     run,
 )
 
@@ -271,12 +272,17 @@ def _print_table(run_result, table_times, description, config) -> None:
     print(_policy_line(config.policy, *config.policy.length_range(config.sail),
                        config.sail.free_hub))  # fmt: skip
     print()
-    label = "L [m]" if equal else "L_a [m]"
-    print(f"  {'t [s]':>7}{label:>9}   tip deflection [mm]: {'a':>9}{'b':>10}{'c':>10}{'d':>10}")
+    # one length column when the booms are alike, else one per boom
+    booms = (0,) if equal else range(4)
+    labels = ["L [m]"] if equal else [f"L_{b} [m]" for b in "abcd"]
+    print(f"  {'t [s]':>7}" + "".join(f"{label:>9}" for label in labels)
+          + f"   tip deflection [mm]: {'a':>9}{'b':>10}{'c':>10}{'d':>10}")  # fmt: skip
     for i in rows:
         tips = run_result.tips[i]
         print(
-            f"  {run_result.t[i]:7.2f}{run_result.lengths[i, 0]:9.3f}   {'':21}"
+            f"  {run_result.t[i]:7.2f}"
+            + "".join(f"{run_result.lengths[i, k]:9.3f}" for k in booms)
+            + f"   {'':21}"
             + "".join(f"{1e3 * v:10.3f}" for v in tips)
         )
     if run_result.hub is not None:
@@ -336,15 +342,7 @@ def _print_peaks(peaks, model, convergence=None) -> None:
         f"  peaks over the whole run, per boom (taken inside every integration step; "
         f"n_B = {model.n_boom_modes}, n_M = {model.n_membrane_modes}):"
     )
-    changes = None
-    if convergence is not None:
-        finest = convergence.finest
-        label = (
-            f"  change against ({finest.n_boom_modes}, {finest.n_membrane_modes}) modes, "
-            "% of the largest peak"
-        )
-        changes = (label, convergence.change.tips, convergence.change.moments)
-    print_peak_table(peaks, changes)
+    print_peak_table(peaks, convergence)
     if convergence is not None:
         for level in convergence.levels:
             print(
@@ -359,14 +357,18 @@ def _print_hub_peaks(hub, holds) -> None:
     print()
     print("  free hub peaks over the whole run (taken inside every integration step):")
     print_hub_peak_table(hub)
+
+    def when(value: float, time_s: float) -> str:
+        return f"at t = {time_s:.3f} s" if value else "throughout"
+
     print(
         f"  hold reactions (of the boom motion, every {1e3 * holds.spacing_s:g} ms): in-plane "
-        f"|F| {holds.force:.4g} N at t = {holds.force_time_s:.3f} s, spin |tau_z| "
-        f"{holds.torque:.4g} N m at t = {holds.torque_time_s:.3f} s"
+        f"|F| {holds.force:.4g} N {when(holds.force, holds.force_time_s)}, spin |tau_z| "
+        f"{holds.torque:.4g} N m {when(holds.torque, holds.torque_time_s)}"
     )
 
 
-def _convergence_warning(convergence) -> str:
+def _convergence_warning(convergence, params) -> str:
     """One line when the run's peaks are not within the bar of the finest rerun's, or the
     reruns did not settle ("" if both hold)."""
     moved = [
@@ -384,8 +386,7 @@ def _convergence_warning(convergence) -> str:
         parts.append(
             f"peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
             f"{finest.n_membrane_modes}) they are off by more than {100 * convergence.bar:g} % "
-            f"of the largest of their kind ({', '.join(moved)}); raise membrane_band "
-            "(--set) or give the finer counts"
+            f"of the largest of their kind ({', '.join(moved)}); {refine_hint(params)}"
         )
     if convergence.stopped:
         parts.append(f"the reruns did not settle: {convergence.stopped}")
@@ -397,7 +398,7 @@ def _hub_json(hub, holds) -> dict:
     names = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")
     report = {f"peak_{name}": float(v) for name, v in zip(names, hub.value, strict=True)}
     report |= {
-        f"peak_{name.rsplit('_', 1)[0]}_time_s": float(v)
+        f"peak_{name.rsplit('_', 1)[0]}_time_s": _number(v)
         for name, v in zip(names, hub.time_s, strict=True)
     }
     report |= {
@@ -410,11 +411,18 @@ def _hub_json(hub, holds) -> dict:
     return report
 
 
+def _number(value) -> float | None:
+    """A float for JSON; None for NaN (the time of a peak that is 0), which JSON lacks."""
+    return float(value) if math.isfinite(value) else None
+
+
 def _json_report(result, config, description, convergence, holds=None) -> dict:
     def per_boom(values):
-        return dict(zip("abcd", (float(v) for v in values), strict=True))
+        return dict(zip("abcd", (_number(v) for v in values), strict=True))
 
     params, peaks = config.sail, result.peaks
+    limits = dataclasses.asdict(config.policy)  # the lengths as in force (max_length 0: full)
+    limits["min_length"], limits["max_length"] = config.policy.length_range(params)
     report = {
         "description": description,
         "duration_s": float(result.t[-1] - result.t[0]),
@@ -425,12 +433,16 @@ def _json_report(result, config, description, convergence, holds=None) -> dict:
         "n_boom_modes": params.n_boom_modes,
         "n_membrane_modes": params.membrane_modes,
         "parameters": params.to_dict(),
-        "limits": dataclasses.asdict(config.policy),
+        "limits": limits,
         "wall_time_s": result.wall_seconds,
         "rtol": result.accuracy.rtol,
         "steps": result.accuracy.steps,
-        "relative_error_estimate": result.accuracy.relative_error,
-        "error_estimate": result.accuracy.error,
+        "relative_error_estimate": {  # null where nothing moved (0 of a peak of 0)
+            name: _number(value) for name, value in result.accuracy.relative_error.items()
+        },
+        "error_estimate": {
+            name: _number(value) for name, value in (result.accuracy.error or {}).items()
+        },
         "accuracy_warning": result.accuracy.warning,
         "warning": result.warning,
         "alarm": result.alarm,
@@ -592,7 +604,7 @@ def _deploy(args) -> int:
         if numbers is not None:
             print()
             print("\n".join(summary_lines(numbers)))
-    warning = _convergence_warning(convergence) if convergence is not None else ""
+    warning = _convergence_warning(convergence, params) if convergence is not None else ""
     if warning:
         print(warning, file=sys.stderr)
 
@@ -704,6 +716,7 @@ def _write_log(args, model, result, grid, scenario, policy, closed=None) -> Path
 
 
 def _write_figures(folder: Path, model, result, snapshots, scenario, description) -> list[Path]:
+    from sail_ros.analysis.load_changes import schedule_changes
     from sail_ros.plots.deployment import snapshots_figure
     from sail_ros.plots.histories import (
         boom_lengths_figure,
@@ -711,6 +724,7 @@ def _write_figures(folder: Path, model, result, snapshots, scenario, description
         tip_deflections_figure,
     )
 
+    loads = [(change.t_s, change.text) for change in schedule_changes(scenario.loads)]
     rows = [result.index_of(t) for t in snapshots if t <= result.t[-1] + 1e-9] or [0]
     snapshots_path, tips_path, lengths_path = (folder / name for name in FIGURES)
     hub = []
@@ -728,7 +742,7 @@ def _write_figures(folder: Path, model, result, snapshots, scenario, description
             snapshots_path,
             title=f"Deployment snapshots: {description}",
         ),
-        tip_deflections_figure(result.t, result.tips, tips_path, title=description),
+        tip_deflections_figure(result.t, result.tips, tips_path, title=description, loads=loads),
         boom_lengths_figure(
             result.t, result.lengths, result.rates, lengths_path, title=description
         ),

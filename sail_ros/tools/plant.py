@@ -7,7 +7,8 @@ deflections [m], 4 root moments [N m]; with a free hub 11 inputs and 14
 outputs: the hub force [N] and torques [N m], the hub's heave [m], tilts
 [rad] and their rates, which hold double integrators) with their names to
 `.npz` and MATLAB `.mat`, and a Bode figure of each tip force to its own
-boom's tip deflection and root moment. The matrices load into python-control
+boom's tip deflection and root moment (with a free hub also its force to its heave
+and its torques to its tilts). The matrices load into python-control
 with their names as `control.ss(A, B, C, D, inputs=list(input_names),
 outputs=list(output_names))`.
 
@@ -28,13 +29,15 @@ from pathlib import Path
 import numpy as np
 
 from sail_ros.analysis.plant import (
+    bode_band,
+    bode_grid,
+    bode_pairs,
     frequency_response,
     hub_note,
-    imaginary_axis_poles,
     linear_plant,
     poles,
-    rigid_poles,
     undamped_note,
+    undamped_shown,
 )
 from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
@@ -96,7 +99,7 @@ def build_parser() -> ToolParser:
         nargs=2,
         metavar=("F_MIN", "F_MAX"),
         help="Bode frequency band [Hz] (default: a decade below the first pole to a decade "
-        "above the listed ones)",
+        "above the listed ones, and on past a resonance there)",
     )
     loop = parser.add_argument_group("closed loop (docs/control.md)")
     loop.add_argument(
@@ -186,26 +189,26 @@ def _plant(args) -> int:
     if args.figure:
         from sail_ros.plots.plant import bode_figure  # matplotlib only when drawing
 
-        if args.band:
-            low, high = args.band
-        else:
-            rigid = rigid_poles(plant)
-            oscillating = [p.hertz for p in listed if p.omega > 0 and p not in rigid]
-            low = 0.1 * min(oscillating, default=0.01)
-            high = 10.0 * max(oscillating, default=1.0)
-        omega = 2 * np.pi * np.geomspace(low, high, 600)
+        pairs = bode_pairs(plant)
+        low, high = args.band or bode_band(plant, pairs, listed)
+        omega = bode_grid(plant, pairs, low, high)
+        undamped = undamped_shown(plant, pairs, low, high)
+        count = len({f for found in undamped.values() for f in found})
         title = (
             f"lengths {', '.join(f'{v:.4g}' for v in plant.lengths)} m, n_B = "
             f"{params.n_boom_modes}, n_M = {params.membrane_modes}, alpha = "
             f"{params.mass_damping:g} 1/s, beta = {params.stiffness_damping:g} s"
         )
-        if note:
+        if count:
             title += (
-                f"\nundamped: {len(imaginary_axis_poles(plant))} modes with poles on the "
-                "imaginary axis, |G| unbounded at them"
+                f"\nundamped: {count} poles that show here (v, along the top) lie on the "
+                "imaginary axis, where |G| is unbounded: the lines are drawn to within 1e-4 of "
+                "them and break there"
             )
         written.append(
-            bode_figure(omega, frequency_response(plant, omega), plant, args.figure, title)
+            bode_figure(
+                omega, frequency_response(plant, omega), plant, args.figure, title, marked=undamped
+            )  # fmt: skip
         )
     print_written(written)
     return 0

@@ -26,8 +26,10 @@ up to its last complete record) and writes into `--out`:
   Hermite), with what the sampling cannot follow; then the true peaks of a
   rerun (of a `sail-ros deploy` log's recorded scenario; of a live log's logged
   motion, loads and state, `analysis.log_rerun`) and, unless
-  `--no-convergence`, of a rerun with twice the modes (a warning when a peak
-  moves by more than 1 %).
+  `--no-convergence`, of a rerun on a finer model (`analysis.convergence`: four more
+  boom modes, the membrane band 1.25 times wider), each change against the largest
+  peak of its kind and against the boom's own (a warning when a peak moves by more
+  than 1 % of the largest of its kind).
 
 `--config`/`--set` describe the sail only for a log without recorded parameters; the
 limits of a rerun are those the log recorded, changed by `--set`. A log that holds more
@@ -52,6 +54,7 @@ from sail_ros.analysis.deployment import (
     run_deployment,
 )
 from sail_ros.analysis.energy import group_energies
+from sail_ros.analysis.load_changes import log_changes, run_description
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE, log_peaks
 from sail_ros.analysis.log_rerun import rerun_log
 from sail_ros.analysis.log_series import read_log
@@ -79,6 +82,7 @@ from sail_ros.tools.common import (
     print_hub_peak_table,
     print_peak_table,
     print_written,
+    refine_hint,
     run,
     set_values,
 )
@@ -133,7 +137,7 @@ def build_parser() -> ToolParser:
     parser.add_argument(
         "--no-convergence",
         action="store_true",
-        help="for a `sail-ros deploy` log: skip the rerun with twice the modes",
+        help="skip the rerun on a finer model that says how converged the peaks are",
     )
     add_sail_options(parser)  # used only when the log has no recorded parameters
     return parser
@@ -191,6 +195,8 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
         )
     for topic, count in sorted(log.topic_counts.items()):
         print(f"  {topic}: {count} messages")
+    title = run_description(log)
+    loads = [(change.t_s, change.text) for change in log_changes(log)]
 
     if log.tips is not None:
         t = log.seconds(log.tips.stamp_ns)
@@ -202,8 +208,9 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
             t,
             log.tips.position,
             out / "tip_deflections.png",
-            title=args.log.name,
+            title=title,
             time_label=time_label,
+            loads=loads,
         )
     if log.moments is not None and log.moments.effort.size:
         t = log.seconds(log.moments.stamp_ns)
@@ -216,9 +223,10 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
             t,
             log.moments.effort,
             out / "root_moments.png",
-            title=args.log.name,
+            title=title,
             time_label=time_label,
             n_boom_modes=params.n_boom_modes if params else None,
+            loads=loads,
         )
     if log.boom is not None:
         t = log.seconds(log.boom.stamp_ns)
@@ -228,18 +236,18 @@ def _write_report(args, log, out: Path, given: SailParameters) -> str:
             log.boom.position,
             log.boom.velocity,
             out / "boom_lengths.png",
-            title=args.log.name,
+            title=title,
             time_label=time_label,
         )
     if log.hub is not None:
-        _hub(log, out / HUB_FIGURE, time_label, args.log.name)
+        _hub(log, out / HUB_FIGURE, time_label, title)
     if log.hub is not None and log.hub_commands is not None:
-        _hub_commands(log, out / COMMANDS_FIGURE, time_label, args.log.name)
+        _hub_commands(log, out / COMMANDS_FIGURE, time_label, title)
     _write_states(log, out / "states.csv")
     _parameter_changes(args, log, out / "parameter_changes.csv", time_label)
     stopped = _peaks(args, log, out, given)
-    _energies(log, out, time_label, given)
-    _real_time_factor(log, out, time_label, args.log.name)
+    _energies(log, out, time_label, given, title, loads)
+    _real_time_factor(log, out, time_label, title)
     return stopped
 
 
@@ -327,7 +335,7 @@ PEAK_COLUMNS = [
 
 def _peaks(args, log, out: Path, given: SailParameters) -> str:
     """Each boom's peaks: from the log's samples, and for a deploy log from reruns of its
-    scenario (the same mode counts, then twice as many); one row each in peaks.csv.
+    scenario (the same mode counts, then a finer model); one row each in peaks.csv.
     Returns the alarm of a rerun that left the linear range ("" if none did)."""
     params = _recorded_parameters(log) or given
     model = SailModel(params)
@@ -396,7 +404,7 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
     """The log run again (a deploy log's recorded scenario, within the limits it recorded;
     a live log's logged motion, loads and state, `analysis.log_rerun`): its true peaks,
     how well it reproduces the logged tips, and unless --no-convergence how its peaks
-    move with twice the modes. The rows, and the alarm of a rerun that left the linear
+    move on a finer model. The rows, and the alarm of a rerun that left the linear
     range ("")."""
     what, rerun = "the logged motion, loads and state", rerun_log
     if log.scenario is not None:  # refused by the limits: ValueError, exit 2
@@ -430,11 +438,7 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
         print_peak_table(peaks, indent="    ")
         return rows, str(error)
     finest, change = convergence.finest, convergence.change
-    label = (
-        f"  change against ({finest.n_boom_modes}, {finest.n_membrane_modes}) modes, % of the "
-        "largest peak"
-    )
-    print_peak_table(peaks, (label, change.tips, change.moments), indent="    ")
+    print_peak_table(peaks, convergence, indent="    ")
     _print_rerun_hub(peaks)
     finer_params = model.params.replace(
         n_boom_modes=finest.n_boom_modes, n_membrane_modes=finest.n_membrane_modes
@@ -444,7 +448,7 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
         print(
             f"warning: peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
             f"{finest.n_membrane_modes}) they are off by up to {100 * change.largest():.3g} % "
-            "of the largest of their kind; raise membrane_band (--set)",
+            f"of the largest of their kind; {refine_hint(model.params)}",
             file=sys.stderr,
         )
     return rows, ""
@@ -540,7 +544,8 @@ def _write_states(log, path: Path) -> Path:
     return _write_csv(path, header, columns)
 
 
-def _energies(log, out: Path, time_label: str, given: SailParameters) -> list[Path]:
+def _energies(log, out: Path, time_label: str, given: SailParameters, title: str,
+              loads) -> list[Path]:  # fmt: skip
     if log.modal is None:
         print("  no /sail/modal_state: energies not available")
         return []
@@ -597,8 +602,9 @@ def _energies(log, out: Path, time_label: str, given: SailParameters) -> list[Pa
             energies.quadrants,
             energies.total,
             out / "modal_energies.png",
-            title=log.path.name,
+            title=title,
             time_label=time_label,
+            loads=loads,
         ),
     ]
 

@@ -1,8 +1,9 @@
 """`sail-ros watch`: the running simulator at a glance, refreshed in place.
 
 Boom lengths and rates, tip deflections, state, simulation time, real-time
-factor, mechanical energy, a free hub's heave and tilt, the last command,
-rejections and the last answer, from the simulator's topics. `--once` prints
+factor, mechanical energy, a free hub's heave and tilt, the commands by outcome
+(accepted, superseded, rejected, ignored), the last command, rejection and
+answer, from the simulator's topics. `--once` prints
 one sample and exits; `--json` prints JSON (one object per refresh, one line
 each) for scripts. Ctrl-C stops.
 """
@@ -84,7 +85,9 @@ def snapshot(client: SimClient) -> dict:
         key.LOAD_POWER: float(values.get(key.LOAD_POWER, "nan")),
         key.DISSIPATION: float(values.get(key.DISSIPATION, "nan")),
         key.ACCEPTED: int(values.get(key.ACCEPTED, "0")),
+        key.SUPERSEDED: int(values.get(key.SUPERSEDED, "0")),
         key.REJECTED: int(values.get(key.REJECTED, "0")),
+        key.IGNORED: int(values.get(key.IGNORED, "0")),
         key.LAST_COMMAND: values.get(key.LAST_COMMAND, ""),
         key.LAST_REJECTION: values.get(key.LAST_REJECTION, ""),
         "last_answer": f"{answer.outcome}: {answer.message}" if answer else "",
@@ -119,7 +122,9 @@ def table(view: dict) -> str:
             *hub,
             f"  load power {view[key.LOAD_POWER]:.4g} W, damping dissipation "
             f"{view[key.DISSIPATION]:.4g} W",
-            f"  commands: {view[key.ACCEPTED]} accepted, {view[key.REJECTED]} rejected",
+            f"  commands: {view[key.ACCEPTED]} accepted, {view[key.SUPERSEDED]} superseded "
+            f"(a newer one came before they started), {view[key.REJECTED]} rejected, "
+            f"{view[key.IGNORED]} ignored",
             f"  last command: {view[key.LAST_COMMAND] or '-'}",
             f"  last rejection: {view[key.LAST_REJECTION] or '-'}",
             f"  last answer: {view['last_answer'] or '-'}",

@@ -10,6 +10,7 @@ published. Run as a script, this file is that publisher:
 import argparse
 import functools
 import os
+import re
 import select
 import signal
 import struct
@@ -468,6 +469,11 @@ def test_replay_republishes_with_recorded_values_and_timing(recording, ros_env, 
     code, _, err = finish(replay)
     assert code == 0, err
     assert f"playing {len(expected)} messages (from {offset_s:g} s on)" in err
+    # the time spent playing: the messages' span at `rate`, the wait for their
+    # acknowledgements apart
+    played = re.search(r"played (\d+) messages in ([0-9.]+) s", err)
+    span = (expected[-1].log_time_ns - expected[0].log_time_ns) / 1e9 / rate
+    assert int(played[1]) == len(expected) and span <= float(played[2]) < span + 0.5, err
     for topic in STREAMS:
         got = listener.received[topic]
         want = [m for m in expected if m.topic == topic]

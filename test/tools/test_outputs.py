@@ -186,3 +186,20 @@ def test_moved_outputs_are_followed_by_the_figure_checks(tmp_path):
         tip_deflections_figure([0.0, 1.0], [[0.0] * 4, [1e-3] * 4], building / "t.png", "t")
     assert list(checks) == [tmp_path / "out" / "t.png"]
     assert not outputs.MOVED  # the listener left with the block
+
+
+def test_the_line_naming_a_file_says_which_folders_were_made_for_it(tmp_path, capsys):
+    """`modes --csv a/b/x.csv` makes a/b; the line that names the file says so (once),
+    the files written into a folder that was there do not."""
+    from sail_ros.tools import modes
+
+    small = ["--set", "n_boom_modes=2", "--set", "n_membrane_modes=2"]
+    target = tmp_path / "new" / "deeper" / "x.csv"
+    assert (
+        modes.main([*small, "--csv", str(target), "--json", str(target.with_suffix(".json"))]) == 0
+    )
+    written = [line for line in capsys.readouterr().out.splitlines() if line.startswith("wrote")]
+    assert written == [f"wrote {target} (made the folder {tmp_path / 'new'})",
+                       f"wrote {target.with_suffix('.json')}"]  # fmt: skip
+    assert modes.main([*small, "--csv", str(target)]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == f"wrote {target}"

@@ -241,3 +241,18 @@ def test_watch_shows_the_time_of_the_state_it_shows():
     latest[topics.BOOM_STATE].header.stamp = topics.stamp(epoch - 5 * 10**9)
     view = watch.snapshot(SimpleNamespace(latest=latest, sim_name="/sail_sim"))
     assert view[key.SIM_TIME] == 2.0
+
+
+def test_watch_counts_the_commands_by_every_outcome():
+    """Superseded commands (a newer one came before they started) and ignored ones are
+    counted beside the accepted and rejected: together, every command received."""
+    counts = {key.ACCEPTED: 3, key.SUPERSEDED: 40, key.REJECTED: 2, key.IGNORED: 1}
+    status = DiagnosticStatus(
+        values=[KeyValue(key=name, value=str(value)) for name, value in counts.items()]
+    )
+    latest = {"diagnostics": status, "diagnostics_stamp_ns": 0}
+    view = watch.snapshot(SimpleNamespace(latest=latest, sim_name="/sail_sim"))
+    assert {name: view[name] for name in counts} == counts
+    line = next(row for row in watch.table(view).splitlines() if "commands:" in row)
+    assert line.strip().startswith("commands: 3 accepted, 40 superseded")
+    assert line.endswith("2 rejected, 1 ignored")

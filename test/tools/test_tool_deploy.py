@@ -167,7 +167,7 @@ def test_figures_of_the_loaded_scenario_fit_its_description_and_show_every_boom(
     assert lengths.lines == ("boom a", "boom b", "boom c", "boom d")
     assert rates.lines == ("booms a, b", "boom c", "boom d")
     (tips,) = checks["tip_deflections"].panels.values()
-    assert tips.lines == ("boom a", "boom b", "boom c", "boom d")
+    assert tips.lines == ("boom a", "boom b", "boom c", "boom d", "", "")  # and 2 load changes
     assert tips.ylabel == "tip deflection [mm]" and rates.ylabel == "extension rate [m/s]"
 
 
@@ -385,8 +385,11 @@ def test_json_gives_true_peaks_per_boom_and_their_convergence(capsys):
     argv = ["--t-end", "6", "--set", "n_boom_modes=4", "--set", "n_membrane_modes=3"]
     assert deploy.main([*argv, "--json", "--convergence", "4", "10"]) == 0
     captured = capsys.readouterr()
-    report = json.loads(captured.out)
+    report = json.loads(captured.out, parse_constant=strict_json)
     assert report["n_boom_modes"] == 4 and report["n_membrane_modes"] == 3
+    # the limits in force: max_length 0 stands for the full boom length
+    assert report["limits"]["max_length"] == pytest.approx(100.0 / np.sqrt(2.0))
+    assert report["limits"]["min_length"] == 5.0
     assert report["parameters"]["n_membrane_modes"] == 3 and report["wall_time_s"] > 0
     scenario = deploy._scenario(deploy.build_parser().parse_args(argv))[0]
     model = SailModel(SailParameters(n_boom_modes=4, n_membrane_modes=3))
@@ -409,6 +412,75 @@ def test_json_gives_true_peaks_per_boom_and_their_convergence(capsys):
     changes = [convergence["root_moment_change"][b] for b in "abcd"]
     assert max(map(abs, changes)) > 0.01 and convergence["converged"] is False
     assert "warning: peaks not converged" in captured.err and "moment b" in captured.err
+
+
+def strict_json(constant: str):
+    """A `json.loads` hook for NaN and Infinity, which JSON does not have."""
+    raise AssertionError(f"{constant} in the JSON")
+
+
+def test_the_convergence_table_gives_each_change_against_the_largest_and_its_own_peak(capsys):
+    """Under each peak and its time, its change against the finest rerun: over the
+    largest peak of its kind and over the boom's own, the numbers of --json."""
+    import json
+
+    argv = ["--t-end", "2", "--set", "n_boom_modes=2", "--set", "n_membrane_modes=2",
+            "--convergence", "2", "4"]  # fmt: skip
+    assert deploy.main([*argv, "--json"]) == 0
+    convergence = json.loads(capsys.readouterr().out)["convergence"]
+    assert deploy.main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    start = lines.index(next(line for line in lines if line.startswith("  peaks over")))
+    labels = [" ".join(line.split()[:-4]) for line in lines[start + 2 : start + 10]]
+    assert labels == [
+        "|tip deflection| [mm]", "at t [s]",
+        "change against (2, 4) modes, % of the largest",
+        "change against (2, 4) modes, % of its own peak",
+        "|root moment| [N m]", "at t [s]",
+        "change against (2, 4) modes, % of the largest",
+        "change against (2, 4) modes, % of its own peak",
+    ]  # fmt: skip
+    for row, key in ((4, "tip_deflection_change"), (5, "tip_deflection_change_own"),
+                     (8, "root_moment_change"), (9, "root_moment_change_own")):  # fmt: skip
+        printed = [float(v) for v in lines[start + row].split()[-4:]]
+        assert printed == pytest.approx([100 * convergence[key][b] for b in "abcd"], abs=6e-4)
+
+
+def test_a_run_where_nothing_moves_has_peaks_of_zero_and_no_times(tmp_path, capsys):
+    """A peak of 0 has no time: the table prints a dash for it, --json null (JSON has
+    no NaN)."""
+    import json
+
+    path = tmp_path / "still.yaml"
+    path.write_text("scenario: {duration: 1.0, profile: {type: static, lengths: 12.0}}\n")
+    argv = [*SMALL_SET, "--scenario", str(path)]
+    assert deploy.main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    times = [line.split() for line in lines if line.strip().startswith("at t [s]")]
+    assert times == [["at", "t", "[s]", "-", "-", "-", "-"]] * 2
+    assert deploy.main([*argv, "--json"]) == 0
+    report = json.loads(capsys.readouterr().out, parse_constant=strict_json)
+    assert report["peak_tip_deflection_m"] == dict.fromkeys("abcd", 0.0)
+    assert report["peak_tip_deflection_time_s"] == dict.fromkeys("abcd", None)
+
+
+def test_unequal_booms_each_have_their_length_in_the_table(capsys):
+    """config/scenario_loaded.yaml's booms start at 10, 11, 10 and 12 m: a column each."""
+    argv = [*SMALL_SET, "--scenario", str(CONFIG / "scenario_loaded.yaml"), "--every", "6"]
+    assert deploy.main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    header = next(line for line in lines if line.strip().startswith("t [s]"))
+    assert header.split()[:10] == ["t", "[s]", "L_a", "[m]", "L_b", "[m]", "L_c", "[m]",
+                                   "L_d", "[m]"]  # fmt: skip
+    first = lines[lines.index(header) + 1].split()
+    assert first[:5] == ["0.00", "10.000", "11.000", "10.000", "12.000"]
+
+
+def test_a_study_file_given_as_a_scenario_is_named_in_one_short_line(capsys):
+    assert deploy.main(["--scenario", str(CONFIG / "study_reference.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and len(err) < 200, err
+    assert "got a mapping of 'study' (a study file: sail-ros montecarlo runs it)" in err
 
 
 def test_convergence_needs_more_modes(capsys):
@@ -491,7 +563,7 @@ def test_a_free_hub_deployment_prints_its_attitude_peaks_and_hold_reactions(
     force = np.hypot(holds[:, 0], holds[:, 1])
     assert np.all(holds[:, 2] == 0.0) and force.max() > 2 * force[-1]
     hold_line = next(line for line in lines if line.startswith("  hold reactions"))
-    assert "spin |tau_z| 0 N m" in hold_line
+    assert "spin |tau_z| 0 N m throughout" in hold_line  # no time for a torque of 0
 
     assert deploy.main([*argv, "--json"]) == 0
     report = json.loads(capsys.readouterr().out)["hub"]

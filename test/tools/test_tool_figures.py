@@ -5,11 +5,12 @@ import dataclasses
 
 import numpy as np
 import pytest
-from harness import CONFIG, SMALL, assert_figure, assert_png
+from harness import CONFIG, SMALL, SMALL_SET, assert_figure, assert_png
 
 from sail_ros.analysis.montecarlo import input_unit, load_study, run_sample, summarize
 from sail_ros.model import SailParameters
-from sail_ros.plots.common import break_lines, figure, fit_width, save
+from sail_ros.plots.common import DPI, break_lines, figure, save, titled_layout
+from sail_ros.plots.figure_check import inspect
 from sail_ros.plots.histories import equal_groups, tip_deflections_figure
 from sail_ros.plots.sail3d import exaggeration_for, true_box_height
 
@@ -29,32 +30,74 @@ def test_the_check_finds_clipped_overlapping_and_hidden_artists(tmp_path, figure
     t = np.linspace(0.0, 1.0, 50)
     left.plot(t, np.sin(t), label="first")
     left.plot(t, np.sin(t) + 1e-9, label="second")  # within half a pixel everywhere
+    left.plot(t, np.sin(t) + 1e-14, label="third")  # the first's data, drawn again
     left.plot([0.0, 0.5, 0.5, 1.0], [0.0, 0.0, 1.0, 1.0], label="step")  # a vertical stroke
+    left.axvline(0.2, color="k")  # through the legend
     left.legend(loc="upper left")  # over the step's last points
-    left.set_ylabel("a label far longer than the three inches of this figure " * 2)
+    left.set_ylabel("a label far longer than the three inches of this figure [m] " * 2)
+    left.set_xlabel("t [s]")
+    right.set_xlabel("t [s]")  # and its y axis without a unit
     right.tick_params(axis="y", pad=30)  # the tick labels into the left panel
     fig.suptitle("a title far wider than the four inches of this figure " * 3)
-    check = figure_checks[save(fig, tmp_path / "bad.png")]
+    fig.subplots_adjust(bottom=0.2)
+    check = inspect(fig, tmp_path / "bad.png", DPI)  # as drawn, before `save` dashes
     assert "panel 0: y label" in check.clipped and "panel 1" not in check.clipped
     assert any("a title far wider" in name for name in check.clipped)
     assert ("panel 1: y tick label '0.4'", "panel 0: plotting area") in check.overlaps
     assert ("panel 0: y label", "figure a title far wider than the four inches o") in (
         check.overlaps
     )
-    assert check.hidden == (("panel 0: first", "panel 0: second"),)
+    assert check.duplicates == (("panel 0: first", "panel 0: third"),)
+    assert ("panel 0: first", "panel 0: second") in check.hidden
     assert check.jumps == ("panel 0: step",)
-    assert "panel 0: step" in check.covered
-    assert check.panels["panel 0"].lines == ("first", "second", "step")
+    assert "panel 0: step under legend" in check.covered
+    assert "panel 0:  under legend" in check.covered  # the vertical line, no label
+    assert check.unitless == ("panel 1: y axis",)
+    assert check.panels["panel 0"].lines == ("first", "second", "third", "step", "")
+    # saved, a line over most of an earlier one is dashed, in the legend too
+    save(fig, tmp_path / "bad.png")
+    saved = figure_checks[tmp_path / "bad.png"]
+    assert not any("second" in pair[1] for pair in saved.hidden)
+    second = left.get_lines()[1]
+    assert (
+        second.get_linestyle() == "--"
+        and left.get_legend().legend_handles[1].get_linestyle() == "--"
+    )
     with pytest.raises(AssertionError, match="outside the figure"):
         assert_figure(tmp_path / "bad.png", figure_checks, 100, 100)
 
 
-def test_fit_width_wraps_a_long_title_inside_the_figure(tmp_path, figure_checks):
+def test_the_check_finds_a_slanted_3d_axis_label_over_a_tick_value(tmp_path):
+    """A 3-D panel's x label pulled onto its axis lies over the middle tick value "0";
+    measured on the slanted label, not its upright box, which covers the ticks beside
+    it: the labels of a sail panel as the tools draw it touch no tick value."""
+    from matplotlib.tri import Triangulation
+
+    from sail_ros.plots.sail3d import draw_sail, label_axes, symmetric_norm
+
+    def overlaps(pad):
+        fig, ax = figure(3.6, 3.0, subplot_kw={"projection": "3d"})
+        x, y = (v.ravel() for v in np.meshgrid(np.linspace(-50, 50, 9), np.linspace(-50, 50, 9)))
+        vertices = np.column_stack([x, y, np.sin(x / 20.0)])
+        booms = np.zeros((4, 2, 3))
+        booms[:, 1, :2] = [[50, 0], [0, 50], [-50, 0], [0, -50]]
+        draw_sail(ax, vertices, Triangulation(x, y).triangles, booms, z_factor=1.0,
+                  norm=symmetric_norm(1.0), extent=52.0, z_limit=1.0, box_height=0.4,
+                  zoom=0.85)  # fmt: skip
+        label_axes(ax, "w [-]", [-1, 0, 1])
+        if pad is not None:
+            ax.set_xlabel("x [m]", labelpad=pad)
+        return inspect(fig, tmp_path / "panel.png", DPI).overlaps
+
+    assert ("panel 0: x label", "panel 0: x tick label '0'") in overlaps(-9.0)
+    assert overlaps(None) == ()
+
+
+def test_a_long_title_wraps_inside_the_figure(tmp_path, figure_checks):
     fig, ax = figure(4.0, 3.0)
     ax.plot([0, 1], [0, 1])
-    ax.set_title("Boom-tip deflections\n" + "a long scenario description " * 6)
-    fit_width(ax.title)
-    fig.tight_layout()
+    ax.set(xlabel="t [s]", ylabel="tip deflection [mm]")
+    titled_layout(fig, ax, "Boom-tip deflections\n" + "a long scenario description " * 6)
     save(fig, tmp_path / "wrapped.png")
     assert ax.title.get_text().count("\n") >= 3  # broken at spaces, first line kept
     assert ax.title.get_text().startswith("Boom-tip deflections\na long")
@@ -94,6 +137,26 @@ def test_true_box_height_draws_the_stated_exaggeration():
     assert true_box_height(0.1, 15.0, 50.0) == pytest.approx(2 * 5.0 / 30.0)
 
 
+def test_snapshots_keep_their_exaggeration_unless_the_sail_would_stand_taller_than_wide():
+    from sail_ros.plots.deployment import EXAGGERATION, shown_exaggeration
+
+    # +-0.2 m drawn 20x: 8 m on a 30 m wide plane
+    assert shown_exaggeration(0.2, 15.0, EXAGGERATION) == EXAGGERATION
+    # +-1 m drawn 20x would stand 40 m tall: 5x draws 10 m, the round factor below 7.5x
+    assert shown_exaggeration(1.0, 15.0, EXAGGERATION) == 5.0
+
+
+def test_the_snapshots_mesh_samples_the_highest_membrane_mode_four_times_a_wave():
+    from sail_ros.model import SailModel
+    from sail_ros.model.layout import triangle_mode_indices
+    from sail_ros.plots.sail3d import resolving_divisions
+
+    model = SailModel(SailParameters(n_boom_modes=2, n_membrane_modes=181))
+    highest = max(m for m, _ in triangle_mode_indices(181))  # sin(m pi xi): m half-waves
+    assert resolving_divisions(model) >= 2 * highest > 12
+    assert resolving_divisions(SailModel(SMALL)) == 12  # a coarse model: the least
+
+
 def test_equal_groups_merge_identical_series_only():
     t = np.linspace(0, 1, 50)
     columns = np.column_stack([np.sin(t), np.cos(t), np.sin(t), np.cos(t) + 1e-3])
@@ -115,11 +178,12 @@ def test_montecarlo_figures_count_whole_samples_and_give_the_input_unit(tmp_path
     # five dots on the scatter: fewer pixels drawn than a page of lines
     checks = {p.stem: assert_figure(p, figure_checks, min_drawn=0.02) for p in paths}
     for panel in checks["peaks"].panels.values():
-        assert panel.ylabel == "samples" and panel.yticks
+        assert panel.ylabel == "samples [-]" and panel.yticks
         assert all(tick == round(tick) for tick in panel.yticks), panel.yticks
     (influence,) = checks["influence"].panels.values()
     name = summary.influence[0][0]
-    assert influence.xlabel == f"{name} [{input_unit(name)}]"
+    unit = "mm" if input_unit(name) == "m" else input_unit(name)  # a length as the peaks
+    assert influence.xlabel == f"{name} [{unit}]"
     assert all(panel.lines == ("median",) for panel in checks["envelopes"].panels.values())
 
 
@@ -167,3 +231,123 @@ def test_the_free_hub_scenario_draws_its_attitude_heave_and_holds(tmp_path, figu
     path = hub_attitude_figure(run.t, run.hub, holds, tmp_path / "hub.png", scenario.description)
     check = assert_figure(path, figure_checks)
     assert len(check.panels) >= 3
+    tilt = next(iter(check.panels.values()))  # in mrad, as the tools print it
+    assert tilt.ylabel == "hub tilt [mrad]" and tilt.ylim[1] > 1e3 * abs(tilt_x[-1])
+
+
+def _short_scenario(tmp_path, name: str, duration: float):
+    """config/scenario_<name>.yaml cut to `duration` [s] (its snapshots within it)."""
+    import yaml
+
+    document = yaml.safe_load((CONFIG / f"scenario_{name}.yaml").read_text())
+    body = document["scenario"]
+    body["duration"] = duration
+    body["snapshots"] = [t for t in body["snapshots"] if t <= duration]
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(document))
+    return path
+
+
+def test_booms_that_move_nearly_alike_each_show_in_the_staggered_figures(tmp_path, figure_checks):
+    """config/scenario_staggered.yaml: booms a and c deploy alike from the same state but
+    beside different quadrants, so their tips stay within a pixel of each other without
+    being equal: both are drawn, the later one dashed over the earlier (in its legend
+    entry too), in deploy's figures and in the report of its log; the report's titles
+    give the scenario, not the file."""
+    from sail_ros.tools import deploy, report
+
+    scenario, log = _short_scenario(tmp_path, "staggered", 12.0), tmp_path / "run.mcap"
+    argv = [*SMALL_SET, "--scenario", str(scenario), "--rate", "10", "--mcap", str(log),
+            "--figures", str(tmp_path / "deploy")]  # fmt: skip
+    assert deploy.main(argv) == 0
+    assert report.main([str(log), "--out", str(tmp_path / "report"), "--no-convergence"]) == 0
+    for folder in ("deploy", "report"):
+        (tips,) = assert_figure(
+            tmp_path / folder / "tip_deflections.png", figure_checks
+        ).panels.items()
+        title, panel = tips
+        assert "staggered deployment, one profile per boom" in title and "run.mcap" not in title
+        assert panel.lines == ("boom a", "boom b", "boom c", "boom d")
+        assert panel.styles[0] == "-" and panel.styles[2] == "--"  # c over a
+    for name in ("root_moments", "boom_lengths", "modal_energies"):
+        assert_figure(tmp_path / "report" / f"{name}.png", figure_checks)
+    snapshots = assert_figure(tmp_path / "deploy" / "deployment_snapshots.png", figure_checks)
+    assert {panel.zlabel for panel in snapshots.panels.values() if panel.zlabel} == {"w [mm]"}
+
+
+def test_a_runs_load_changes_are_marked_and_its_first_loads_named(tmp_path, figure_checks):
+    """config/scenario_loaded.yaml: 2 and 1 mPa on quadrants ab and cd from the start,
+    0.05 N at boom b's tip from 3 to 7 s: the pressures in the titles, the force's on and
+    off as dotted lines named along the top of the time histories, of deploy and of the
+    report of its log."""
+    from sail_ros.analysis.load_changes import LoadChange, schedule_changes
+    from sail_ros.analysis.scenario import load_scenario
+    from sail_ros.tools import deploy, report
+
+    changes = schedule_changes(load_scenario(CONFIG / "scenario_loaded.yaml").loads)
+    assert changes == [LoadChange(0.0, "p_ab 2 mPa, p_cd 1 mPa"),
+                       LoadChange(3.0, "F_b 0.05 N"), LoadChange(7.0, "F_b off")]  # fmt: skip
+    log = tmp_path / "loaded.mcap"
+    argv = [*SMALL_SET, "--scenario", str(CONFIG / "scenario_loaded.yaml"), "--rate", "10",
+            "--mcap", str(log), "--figures", str(tmp_path / "deploy")]  # fmt: skip
+    assert deploy.main(argv) == 0
+    assert report.main([str(log), "--out", str(tmp_path / "report"), "--no-convergence"]) == 0
+    for path in (tmp_path / "deploy" / "tip_deflections.png",
+                 tmp_path / "report" / "tip_deflections.png",
+                 tmp_path / "report" / "root_moments.png",
+                 tmp_path / "report" / "modal_energies.png"):  # fmt: skip
+        title, panel = next(iter(assert_figure(path, figure_checks).panels.items()))
+        assert title.endswith("loads from the start: p_ab 2 mPa, p_cd 1 mPa"), title
+        assert panel.marks == ("F_b 0.05 N", "F_b off")
+
+
+def test_a_free_hub_plants_figure_draws_its_hub_inputs_and_counts_every_mode(
+    tmp_path, capsys, figure_checks
+):
+    """With a free hub the Bode figure adds the hub's force to its heave and torques to
+    its tilts; undamped, the warning counts the modes as the coordinates (the three
+    rigid-body modes among them), and the figure marks the undamped poles."""
+    from sail_ros.tools import plant
+
+    png = tmp_path / "bode.png"
+    assert plant.main([*SMALL_SET, "--set", "free_hub=true", "--lengths", "30",
+                       "--figure", str(png)]) == 0  # fmt: skip
+    err = capsys.readouterr().err
+    assert err.startswith("warning: 40 of the 43 modes (the other 3: the hub's rigid-body modes")
+    check = assert_figure(png, figure_checks)
+    titles = [name for name in check.panels if not name.startswith("panel")]
+    assert titles == ["tip force -> tip deflection (same boom)", "tip force -> root moment "
+        "(same boom)", "hub force -> hub heave", "hub torque -> hub tilt (same axis)"]  # fmt: skip
+    assert check.panels["hub force -> hub heave"].ylabel == "|G| [m/N]"
+    assert check.panels["hub torque -> hub tilt (same axis)"].lines == (
+        "tau_x -> theta_x, tau_y -> theta_y",
+    )
+
+
+def test_the_stability_figures_state_their_scales(tmp_path, figure_checks):
+    """The three figures of `sail-ros stability` from a serial sweep: the rate axis of the
+    map is a symmetric-log one, a cell centred on each rate, and says so; the real parts'
+    axis says where it is linear (round-off at rest within it)."""
+    from sail_ros.analysis.stability import eigenvalue_loci, stability_sweep
+    from sail_ros.plots.stability import loci_figure, map_figure, max_real_figure
+
+    params = SailParameters(n_boom_modes=2, n_membrane_modes=3)
+    prestress = np.logspace(-1, 4, 11)
+    sweeps = stability_sweep(params, [20.0, 40.0], [-0.1, 0.0, 0.1, 1.0], prestress)
+    paths = [
+        max_real_figure(sweeps, tmp_path / "stability.png", params.membrane_prestress),
+        map_figure(sweeps, tmp_path / "stability_map.png", params.membrane_prestress),
+        loci_figure(
+            prestress,
+            eigenvalue_loci(params, 20.0, 1.0, prestress),
+            20.0,
+            1.0,
+            tmp_path / "loci.png",
+        ),  # fmt: skip
+    ]
+    real, stability_map, _ = (assert_figure(path, figure_checks) for path in paths)
+    assert all("linear within" in p.ylabel for p in real.panels.values() if p.ylabel)
+    rates = [p for name, p in stability_map.panels.items() if name.startswith("L = ")]
+    assert rates and all(
+        p.xlabel == "extension rate [m/s] (symlog, linear within $\\pm$0.1)" for p in rates
+    )

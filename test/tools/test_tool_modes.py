@@ -60,8 +60,11 @@ def test_three_d_view_and_unequal_lengths(tmp_path, figure_checks):
         )
         == 0
     )
-    # two columns: the colour bar clears the right column's z axis
-    assert_figure(tmp_path / "mode_shapes.png", figure_checks)
+    # two columns: the colour bar clears the right column's z axis; z has its values and
+    # its label
+    check = assert_figure(tmp_path / "mode_shapes.png", figure_checks)
+    shapes = [panel for panel in check.panels.values() if panel.zlabel]
+    assert len(shapes) == 4 and {panel.zlabel for panel in shapes} == {"w [-]"}
 
 
 def test_representative_of_a_double_mode_is_a_mode_with_boom_a_tip_up():

@@ -14,6 +14,7 @@ from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.bag import BagWriter
 from sail_ros.bag.recording import ParameterChange, changes_record_of
+from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import state as state_msg
 from sail_ros.messages import status as key
@@ -86,7 +87,8 @@ def test_report_of_a_log_cut_at_60_percent(deploy_log, tmp_path, capsys):
     assert len(_rows(out / "energies.csv")) == len(states)
 
 
-def _live_style_log(path, params, count=30, reset_at=None, time_scale=None, history=None):
+def _live_style_log(path, params, count=30, reset_at=None, time_scale=None, history=None,
+                    tip_force_at=None):  # fmt: skip
     """What the recorder writes from a live simulator: stamps from a wall-clock
     epoch, /diagnostics with the integrator status, no parameters record.
 
@@ -98,7 +100,9 @@ def _live_style_log(path, params, count=30, reset_at=None, time_scale=None, hist
     With `reset_at` (a sample index) boom c's deflection grows by 2 % a sample and a
     reset at that sample sets it back: a fresh sample with the stamp of the one
     before, as a live simulator publishes it. With `time_scale`, /diagnostics says so
-    every 5 samples, with the measurement window (0 before the first measurement)."""
+    every 5 samples, with the measurement window (0 before the first measurement). With
+    `tip_force_at` (a sample index) the simulator's answer to a tip force of 0.05 N on
+    boom b, applied at that sample."""
     model = SailModel(params)
     epoch = 1_700_000_000_000_000_000
     q0 = model.mode_state("c", 0.02)
@@ -113,6 +117,7 @@ def _live_style_log(path, params, count=30, reset_at=None, time_scale=None, hist
             (topics.absolute(topics.MODAL_STATE), "sensor_msgs/msg/JointState"),
             (topics.absolute(topics.TIP_DEFLECTION), "sensor_msgs/msg/JointState"),
             (topics.DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray"),
+            (topics.absolute(topics.COMMAND_STATUS), "diagnostic_msgs/msg/DiagnosticArray"),
         ):
             bag.add_topic(topic, kind)
         if history is not None:
@@ -146,6 +151,14 @@ def _live_style_log(path, params, count=30, reset_at=None, time_scale=None, hist
                         values[key.REAL_TIME_FACTOR] = 0.0  # not measured yet
                 message = diagnostics_msg.diagnostics(stamp, "OK", "running", values)
                 messages.append((topics.DIAGNOSTICS, message))
+            if n == tip_force_at:
+                answer = commands_msg.CommandAnswer(
+                    topics.absolute(topics.TIP_FORCE_CMD), commands_msg.ACCEPTED, "held", 0, 1,
+                    {"t_start_s": str(0.1 * i), commands_msg.LOADS_HELD: "[0.0, 0.05, 0.0, 0.0]"},
+                )  # fmt: skip
+                messages.append(
+                    (topics.COMMAND_STATUS, commands_msg.command_status(stamp, [answer]))
+                )
             for topic, message in messages:
                 bag.write(topics.absolute(topic), serialize_message(message), log_time_ns=stamp)
 
@@ -234,7 +247,7 @@ def test_report_of_a_live_log_with_a_reset_and_a_time_scale(tmp_path, capsys, fi
     only, on a y-range that shows their 0.2 % variation."""
     params = SailParameters(n_boom_modes=2, n_membrane_modes=3)
     log = tmp_path / "live.mcap"
-    _live_style_log(log, params, reset_at=15, time_scale=2.0)
+    _live_style_log(log, params, reset_at=15, time_scale=2.0, tip_force_at=5)
     out = tmp_path / "report"
     argv = [str(log), "--out", str(out), "--set", "n_boom_modes=2", "--set", "n_membrane_modes=3"]
     assert report.main(argv) == 0
@@ -242,14 +255,18 @@ def test_report_of_a_live_log_with_a_reset_and_a_time_scale(tmp_path, capsys, fi
     assert "min 1.99, max 2 over 6 diagnostics messages" in capsys.readouterr().out
 
     tips = assert_figure(out / "tip_deflections.png", figure_checks)
-    (panel,) = tips.panels.values()
-    assert panel.lines == ("booms a, b, d", "boom c") and panel.segments == (2, 2)
+    ((title, panel),) = tips.panels.items()
+    assert panel.lines[:2] == ("booms a, b, d", "boom c") and panel.segments[:2] == (2, 2)
+    # a live run by its log's name; the tip force from 0.5 s, until the reset zeroes it
+    assert title == "Boom-tip deflections live run, live.mcap"
+    assert panel.marks == ("F_b 0.05 N", "F_b off")
     energies = assert_figure(out / "modal_energies.png", figure_checks)
     for panel in energies.panels.values():
-        assert set(panel.segments) == {2}, panel
+        drawn = [k for k, label in enumerate(panel.lines) if label]  # not the load marks
+        assert {panel.segments[k] for k in drawn} == {2}, panel
     # zeros cannot be drawn on the log axis: the legend says so
     booms = next(iter(energies.panels.values()))
-    assert booms.lines == ("booms a, b, d (0 J throughout)", "boom c")
+    assert booms.lines[:2] == ("booms a, b, d (0 J throughout)", "boom c")
     assert_figure(out / "boom_lengths.png", figure_checks)
 
     rtf = assert_figure(out / "real_time_factor.png", figure_checks, min_height=200)
