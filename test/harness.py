@@ -32,10 +32,10 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.cli import TOOLS
 from sail_ros.messages import diagnostics as diagnostics_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailParameters
 from sail_ros.ros.commanding import command_publisher
 from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often

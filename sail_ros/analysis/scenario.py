@@ -47,7 +47,6 @@ from sail_ros.analysis.schema import (
     check_times,
     key,
 )
-from sail_ros.cli import nearest
 from sail_ros.control.settings import DesignSettings
 from sail_ros.model import (
     CycloidalProfile,
@@ -59,6 +58,7 @@ from sail_ros.model import (
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion, JammedProfile
 from sail_ros.policy import Policy
+from sail_ros.spelling import did_you_mean
 
 BOOMS = BOOM_NAMES
 POSITIVE = {"minimum": 0.0, "above_minimum": True}
@@ -316,8 +316,7 @@ def controller_settings(section) -> DesignSettings | None:
     known = DesignSettings.field_names()
     for name in section:
         if name not in known:
-            close = nearest(str(name), known)
-            hint = f" (did you mean {close!r}?)" if close else ""
+            hint = did_you_mean(str(name), known)
             raise ValueError(f"controller: unknown key {name!r}{hint}")
     try:
         return DesignSettings(**section)

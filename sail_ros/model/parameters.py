@@ -8,7 +8,6 @@ seed's validation setting of no boom axial load.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from pathlib import Path
 
@@ -16,6 +15,7 @@ import yaml
 
 import sail_ros.model.yaml_values as yaml_values
 from sail_ros.model.fields import check_fields, setting, spec_of
+from sail_ros.spelling import did_you_mean
 
 MAX_BOOM_MODES = 30  # beyond, the cantilever functions' evaluation and the integrals cost more
 # than the model is worth; the membrane's integrals take about 10 s and 1 GiB at 400 modes
@@ -247,8 +247,7 @@ class SailParameters:
 
 def _with_nearest(name: str) -> str:
     """`'name'`, and the field it was most likely meant to be, if one is close."""
-    close = difflib.get_close_matches(name, SailParameters.field_names(), n=1, cutoff=0.6)
-    return repr(name) + (f" (did you mean {close[0]!r}?)" if close else "")
+    return repr(name) + did_you_mean(name, SailParameters.field_names())
 
 
 def _find_sail_section(document, path: Path, node: str) -> dict:

@@ -58,6 +58,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.serialization import deserialize_message, serialize_message
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import message_definition
 from sail_ros.bridging.clients import ClientBook, command_refusal
@@ -69,8 +70,6 @@ from sail_ros.bridging.protocol import (
     service_schema,
 )
 from sail_ros.bridging.sockets import disconnect, release_freed_memory
-from sail_ros.messages import status as key
-from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.commanding import command_publisher, decode
 from sail_ros.ros.parameters import (
     ConfigError,
@@ -80,6 +79,7 @@ from sail_ros.ros.parameters import (
     node_options,
     overrides,
 )
+from sail_ros.ros.program import bounded_teardown, run_node, serve_until_stopped
 
 NODE_NAME = "sail_bridge"
 # Every topic it may serve, with its type: the simulator's (topics.TOPICS) and ROS's record

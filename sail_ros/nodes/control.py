@@ -48,8 +48,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
+from sail_ros import status as key
 from sail_ros import topics
-from sail_ros.cli import PHYSICS_DOC
 from sail_ros.control.agreement import SIMULATOR_PARAMETERS, disagreement
 from sail_ros.control.design import command_limits, require_free_hub
 from sail_ros.control.loop import DiscreteController, StaleWatch
@@ -58,13 +58,13 @@ from sail_ros.control.settings import NODE_PARAMETERS, DesignSettings, NodeSetti
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import hub as hub_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, fields_of
+from sail_ros.options import PHYSICS_DOC
 from sail_ros.policy import Policy
-from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.commanding import command_publisher
 from sail_ros.ros.parameters import ParamSpec, declare, node_options
+from sail_ros.ros.program import bounded_teardown, run_node, serve_until_stopped
 
 NODE_NAME = topics.CONTROLLER_NODE
 ENABLE_SERVICE = topics.CONTROL_ENABLE_SERVICE

@@ -54,7 +54,6 @@ from sail_ros.bag import (
 )
 from sail_ros.bag.recording import Recording
 from sail_ros.messages.parameters import parameter_update, yaml_texts
-from sail_ros.ros.cli import StopSignals, bounded_teardown, message_class, run_node
 from sail_ros.ros.parameters import (
     ConfigError,
     ParamSpec,
@@ -63,7 +62,9 @@ from sail_ros.ros.parameters import (
     node_options,
     overrides,
 )
-from sail_ros.ros.taking import Repeats, take_waiting
+from sail_ros.ros.program import StopSignals, bounded_teardown, message_class, run_node
+from sail_ros.ros.taking import take_waiting
+from sail_ros.runtime.intake import Repeats
 from sail_ros.topics import (
     COMMAND_TOPICS,
     HUB_WRENCH_CMD,

@@ -30,7 +30,6 @@ from rosgraph_msgs.msg import Clock
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, DamagedBagError, qos
-from sail_ros.ros.cli import bounded_teardown, message_class, run_node
 from sail_ros.ros.parameters import (
     ConfigError,
     ParamSpec,
@@ -39,6 +38,7 @@ from sail_ros.ros.parameters import (
     node_options,
     overrides,
 )
+from sail_ros.ros.program import bounded_teardown, message_class, run_node
 
 NODE_NAME = "sail_replay"
 ACK_POLL_S = 0.1  # s: how often the wait for acknowledgements looks at a stop

@@ -44,17 +44,17 @@ from rclpy.task import Future
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
-from sail_ros.cli import PHYSICS_DOC
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import state as state_msg
 from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
-from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
+from sail_ros.options import PHYSICS_DOC
 from sail_ros.ros.commanding import decode
 from sail_ros.ros.discovery import subscriptions_of
 from sail_ros.ros.parameters import ConfigError, ParamSpec, declare, node_options
+from sail_ros.ros.program import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.taking import take_waiting
 from sail_ros.runtime.affordable import StepCost
 from sail_ros.runtime.config import PARAMETERS, config_from_values

@@ -30,7 +30,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
 from sail_ros.model.fields import ConfigError, Spec, check_value, range_text, spec_of
-from sail_ros.ros.cli import suggestion
+from sail_ros.spelling import did_you_mean
 
 _SCALAR_TYPES = {
     bool: Parameter.Type.BOOL,
@@ -303,7 +303,7 @@ def reject_unknown(node) -> None:
         known = list(node._parameters)
         raise ConfigError(
             f"unknown parameter(s) of {node.get_name()}: "
-            + ", ".join(f"{name!r}{suggestion(name, known)}" for name in unknown)
+            + ", ".join(f"{name!r}{did_you_mean(name, known)}" for name in unknown)
         )
 
 
@@ -314,7 +314,7 @@ def refuse_unknown_changes(node) -> None:
     def check(parameters) -> SetParametersResult:
         for parameter in parameters:
             if not node.has_parameter(parameter.name):
-                reason = f"unknown parameter {parameter.name!r}" + suggestion(
+                reason = f"unknown parameter {parameter.name!r}" + did_you_mean(
                     parameter.name, list(node._parameters)
                 )
                 return SetParametersResult(successful=False, reason=reason)

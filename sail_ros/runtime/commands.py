@@ -31,10 +31,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sail_ros import topics
 from sail_ros.model import CycloidalProfile, SailParameters, WaypointProfile
+from sail_ros.names import BOOM_JOINTS, LOAD_NAMES, PRESSURE_CMD
 from sail_ros.policy import TOLERANCE, Policy
-from sail_ros.topics import BOOM_JOINTS
 
 # Candidate durations of a deployment that starts while the booms move:
 # T_rest * GROWTH**k, k = -DURATION_STEPS_DOWN .. DURATION_STEPS_UP.
@@ -315,8 +314,8 @@ def plan_load(topic: str, message, current: np.ndarray, rules: Rules) -> LoadCha
     Raises:
         CommandError: why the command is refused; nothing changes.
     """
-    known = topics.LOAD_NAMES[topic]
-    pressure = topic == topics.PRESSURE_CMD
+    known = LOAD_NAMES[topic]
+    pressure = topic == PRESSURE_CMD
     unit = "Pa" if pressure else "N"
     names, values = list(message.name), list(message.effort)
     if not names:

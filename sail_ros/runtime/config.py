@@ -25,8 +25,8 @@ from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, check_fields, default_of, fields_of, setting
 from sail_ros.model.layout import per_boom
 from sail_ros.model.parameters import MAX_MEMBRANE_MODES
+from sail_ros.names import SAIL_PREFIX
 from sail_ros.policy import Policy
-from sail_ros.topics import SAIL_PREFIX
 
 
 @dataclasses.dataclass(frozen=True)

@@ -23,6 +23,7 @@ import numpy as np
 from sail_ros.integrate.sampling import GridSampler
 from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
 from sail_ros.model.record import StateSample
+from sail_ros.names import PRESSURE_CMD
 from sail_ros.runtime.commands import (
     BoomState,
     CommandError,
@@ -34,7 +35,6 @@ from sail_ros.runtime.commands import (
     plan_trajectory,
 )
 from sail_ros.runtime.config import SimConfig
-from sail_ros.topics import PRESSURE_CMD
 
 RUNNING, PAUSED, ERROR = "running", "paused", "error"
 

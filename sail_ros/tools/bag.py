@@ -27,7 +27,7 @@ import tempfile
 from pathlib import Path
 
 from sail_ros.bag import BagReader, BagWriteError, BagWriter, DefinitionNotFoundError
-from sail_ros.cli import PHYSICS_DOC
+from sail_ros.options import PHYSICS_DOC
 from sail_ros.tools.common import run
 
 OWN_RECORDS = ("rosbag2",)  # written anew by the writer

@@ -45,9 +45,9 @@ from sail_ros.analysis.scenario import (
     load_scenario,
     scenario_from_dict,
 )
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailModel
+from sail_ros.options import ToolParser, help_epilog
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (

@@ -27,15 +27,15 @@ import numpy as np
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.analysis.log_series import read_log
 from sail_ros.bag import BagReader
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.integrate.control import DEFAULT_MAX_STEP
 from sail_ros.messages import commands as commands_msg
-from sail_ros.messages import status as key
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
-from sail_ros.ros.cli import bounded_teardown
+from sail_ros.options import ToolParser, help_epilog
+from sail_ros.ros.program import bounded_teardown
 from sail_ros.tools.client import NoAnswerError, SimClient, init_context
 from sail_ros.tools.common import run
 from sail_ros.tools.domains import DomainLease

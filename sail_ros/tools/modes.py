@@ -23,8 +23,8 @@ from sail_ros.analysis.modes import (
     modal_analysis,
     representative_shapes,
 )
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
+from sail_ros.options import ToolParser, help_epilog
 from sail_ros.tools.common import (
     add_sail_options,
     configuration,

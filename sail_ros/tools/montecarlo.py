@@ -37,7 +37,7 @@ from sail_ros.analysis.montecarlo import (
     study_sail,
     summarize,
 )
-from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.options import ToolParser, help_epilog
 from sail_ros.outputs import staged
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client

@@ -36,8 +36,8 @@ from sail_ros.analysis.plant import (
     rigid_poles,
     undamped_note,
 )
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
+from sail_ros.options import ToolParser, help_epilog
 from sail_ros.outputs import staged
 from sail_ros.tools.common import (
     LIMITS_NOTE,

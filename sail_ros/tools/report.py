@@ -44,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sail_ros import status as key
 from sail_ros.analysis.convergence import converge
 from sail_ros.analysis.deployment import (
     carried_over,
@@ -56,10 +57,9 @@ from sail_ros.analysis.log_rerun import rerun_log
 from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
-from sail_ros.cli import ToolParser, help_epilog
-from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, record, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
+from sail_ros.options import ToolParser, help_epilog
 from sail_ros.outputs import staged
 from sail_ros.plots.histories import (
     boom_lengths_figure,

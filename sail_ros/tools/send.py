@@ -17,9 +17,9 @@ from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import hub as hub_msg
+from sail_ros.options import ToolParser, help_epilog
 from sail_ros.policy import Policy
 from sail_ros.tools.client import NoAnswerError, SimClient, add_domain_option, run_client
 

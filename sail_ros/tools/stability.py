@@ -27,7 +27,7 @@ from sail_ros.analysis.stability import (
     growth,
     stability_sweep,
 )
-from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.options import ToolParser, help_epilog
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
 from sail_ros.tools.common import (

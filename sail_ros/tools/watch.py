@@ -14,12 +14,12 @@ import math
 import sys
 import time
 
+from sail_ros import status as key
 from sail_ros import topics
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.messages import state as state_msg
-from sail_ros.messages import status as key
 from sail_ros.model import record
 from sail_ros.model.record import HUB_COMPONENTS
+from sail_ros.options import ToolParser, help_epilog
 from sail_ros.tools.client import SimClient, add_domain_option, run_client
 
 CLEAR = "\033[H\033[2J"  # cursor home, clear screen

@@ -12,8 +12,8 @@ from std_msgs.msg import Float64
 from tornado.httpclient import HTTPRequest
 from tornado.websocket import websocket_connect
 
+from sail_ros import status as key
 from sail_ros import topics
-from sail_ros.messages import status as key
 from sail_ros.nodes.bridge import SERVABLE, Bridge, main
 from sail_ros.ros.parameters import ConfigError
 

@@ -24,11 +24,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import hub as hub_msg
-from sail_ros.messages import status as key
 from sail_ros.model.fields import ConfigError
 from sail_ros.nodes import sim as sim_node
 from sail_ros.nodes.sim import SPECS, SimNode, main

@@ -38,10 +38,10 @@ from std_msgs.msg import Float64
 from tornado.httpclient import HTTPRequest
 from tornado.websocket import WebSocketClosedError, websocket_connect
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import BagReader, bag_files
 from sail_ros.messages import diagnostics as diagnostics_msg
-from sail_ros.messages import status as key
 from sail_ros.nodes import bridge
 
 pytestmark = pytest.mark.multiprocess
@@ -235,7 +235,7 @@ def test_foxglove_client_sees_the_log_and_commands_the_sail(processes, js_reader
 
 
 def _type(type_name: str):
-    from sail_ros.ros.cli import message_class
+    from sail_ros.ros.program import message_class
 
     return message_class(type_name)
 

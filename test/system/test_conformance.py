@@ -53,7 +53,7 @@ from std_msgs.msg import Float64
 from sail_ros import topics
 from sail_ros.analysis.log_series import read_log
 from sail_ros.bag import BagReader, bag_files
-from sail_ros.ros.cli import message_class
+from sail_ros.ros.program import message_class
 from sail_ros.tools import bag as bag_tool
 from sail_ros.tools import deploy
 

@@ -29,10 +29,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.messages import commands as commands_msg
-from sail_ros.messages import status as key
 
 pytestmark = pytest.mark.multiprocess
 

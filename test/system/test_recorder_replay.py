@@ -758,7 +758,7 @@ def test_unwritable_output_and_bad_parameters_exit_with_a_clear_error(ros_env, t
                 "/sail/boom_state", serialize_message(stream_message("/sail/boom_state", i)), i
             )
     # five participants that leave at the same moment: each discovers no other, for Fast
-    # DDS can deadlock removing one while others leave (`ros.cli.bounded_teardown`)
+    # DDS can deadlock removing one while others leave (`ros.program.bounded_teardown`)
     alone = {**ros_env, "ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF"}
     unwritable = start_tool("recorder", ["-o", str(blocker / "bag")], alone)
     occupied = tmp_path / "occupied"  # a folder that holds files: a bad argument

@@ -26,11 +26,11 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.integrate.control import DEFAULT_MAX_STEP
 from sail_ros.messages import diagnostics as diagnostics_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion, SwitchedProfile
 from sail_ros.policy import Policy

@@ -12,7 +12,7 @@ from sail_ros import topics
 from sail_ros.model import SailParameters
 from sail_ros.nodes import bridge
 from sail_ros.policy import Policy
-from sail_ros.ros.cli import message_class
+from sail_ros.ros.program import message_class
 
 pytestmark = pytest.mark.model
 
