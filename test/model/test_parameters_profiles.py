@@ -14,6 +14,7 @@ from sail_ros.model import (
     StaticProfile,
     WaypointProfile,
 )
+from sail_ros.policy import Policy
 
 pytestmark = pytest.mark.model
 
@@ -116,8 +117,8 @@ def test_cycloidal_profile_closed_form():
 
 
 def test_cycloidal_within_limits():
-    profile = CycloidalProfile.within_limits(
-        10.0, [20.0, 15.0, 10.0, 12.0], max_rate=0.5, max_acceleration=0.02
+    profile = Policy(max_rate=0.5, max_acceleration=0.02).fastest_cycloid(
+        10.0, [20.0, 15.0, 10.0, 12.0]
     )
     t = np.linspace(0, profile.duration, 2001)
     rates = np.array([profile(ti)[1] for ti in t])

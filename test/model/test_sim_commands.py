@@ -32,7 +32,7 @@ from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion
 from sail_ros.model.shape import SailSurface
 from sail_ros.nodes.sim import SPECS
-from sail_ros.policy import Policy
+from sail_ros.policy import TOLERANCE, Policy
 from sail_ros.runtime.commands import BoomState, CommandError, Rules, plan_deploy, plan_trajectory
 from sail_ros.runtime.config import DEFAULTS, ConfigError, config_from_values
 from sail_ros.runtime.intake import CommandQueue
@@ -182,6 +182,30 @@ def test_deploy_duration_is_honoured_or_rejected():
         plan_deploy(15.0, REST, RULES, duration=4.0)
 
 
+def test_every_motion_check_draws_the_line_at_the_one_slack():
+    """The policy's rate and motion checks and the deploy planners compare with the limits
+    in one place (`Policy.motion_excess`): within its slack a motion passes, beyond it
+    every one of them refuses."""
+    policy, sail = RULES.policy, RULES.sail
+    within, beyond = 1.0 + TOLERANCE / 2, 1.0 + 4 * TOLERANCE
+    rate, acceleration = policy.max_rate, policy.max_acceleration
+    assert not any(policy.motion_excess(10.0, 10.0, rate * within, acceleration * within, sail))
+    assert policy.motion_excess(10.0, 10.0, rate * beyond, 0.0, sail) == (
+        False, False, True, False
+    )  # fmt: skip
+    assert policy.motion_excess(10.0, 10.0, 0.0, math.nan, sail)[3]
+    policy.check_rate(rate * within, "rate")
+    with pytest.raises(ValueError, match="max_rate"):
+        policy.check_rate(rate * beyond, "rate")
+    fastest = policy.fastest_cycloid(10.0, 15.0).duration
+    plan = plan_deploy(15.0, REST, RULES, duration=fastest)
+    policy.check_motion(plan.profile, sail)
+    with pytest.raises(CommandError, match="needs"):
+        plan_deploy(15.0, REST, RULES, duration=fastest / beyond)
+    with pytest.raises(ValueError, match="above max_"):
+        policy.check_motion(CycloidalProfile(10.0, 15.0, fastest / beyond), sail)
+
+
 @pytest.mark.parametrize(
     ("target", "reason"),
     [
@@ -270,7 +294,9 @@ def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
     assert sim.t == pytest.approx(6.0, abs=1e-12)
     assert sim.accepted == 1 and sim.last_command_start == pytest.approx(1.0)
     # the same motion offline, sampled as the simulator does: agreement to round-off
-    profile = CycloidalProfile.within_limits(10.0, 12.0, 1.0, 0.5, t0=sim.last_command_start)
+    profile = Policy(max_rate=1.0, max_acceleration=0.5).fastest_cycloid(
+        10.0, 12.0, t0=sim.last_command_start
+    )
     run = model.simulate_on_grid(
         profile, 6.0, 0.01, model.initial_coordinates([0.1, 0, 0, 0]),
         max_step=config.max_model_step, rtol=config.model_rtol,
