@@ -70,7 +70,6 @@ ROOT_JOINTS = tuple(f"{name}_root" for name in BOOM_JOINTS)
 QUADRANT_SURFACES = ("quadrant_ab", "quadrant_bc", "quadrant_cd", "quadrant_da")
 # the load commands: which names each takes (JointState.name, its value in .effort)
 LOAD_NAMES = {PRESSURE_CMD: QUADRANT_SURFACES, TIP_FORCE_CMD: BOOM_JOINTS}
-HARDWARE_ID = SIM_NODE
 
 
 def integrator_status_name(node: str = SIM_NODE) -> str:
@@ -80,7 +79,6 @@ def integrator_status_name(node: str = SIM_NODE) -> str:
     return f"{node.lstrip('/')}: integrator"
 
 
-DIAGNOSTIC_NAME = integrator_status_name()
 CONTROLLER_NODE = "sail_control"  # the free hub's controller (nodes.control)
 
 
@@ -96,8 +94,6 @@ SIM_COMMANDS_NODE = SIM_NODE + "_commands"
 STATE_TOPICS = (BOOM_STATE, MODAL_STATE, TIP_DEFLECTION, ROOT_MOMENT)
 # what the simulator takes commands on (and HUB_WRENCH_CMD with a free hub)
 COMMAND_TOPICS = (BOOM_LENGTH_CMD, DEPLOY_CMD, PRESSURE_CMD, TIP_FORCE_CMD)
-# what a free hub adds: its state with every state sample, its wrench command
-HUB_TOPICS = (HUB_STATE, HUB_WRENCH_CMD)
 # ROS's record of every parameter change, with its time and node (rcl_interfaces/ParameterEvent)
 PARAMETER_EVENTS = "/parameter_events"
 

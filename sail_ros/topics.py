@@ -44,12 +44,9 @@ from sail_ros.names import (  # noqa: F401  the names, re-exported with the tabl
     CONTROL_ENABLE_SERVICE,
     CONTROLLER_NODE,
     DEPLOY_CMD,
-    DIAGNOSTIC_NAME,
     DIAGNOSTICS,
     FRAME_ID,
-    HARDWARE_ID,
     HUB_STATE,
-    HUB_TOPICS,
     HUB_WRENCH_CMD,
     INERTIAL_FRAME_ID,
     LOAD_NAMES,
@@ -170,7 +167,6 @@ TOPICS = {
         Topic(DIAGNOSTICS, DiagnosticArray, "diagnostic_msgs/msg/DiagnosticArray", DIAGNOSTICS_QOS),
     )
 }
-TOPIC_QOS = {name: topic.qos for name, topic in TOPICS.items()}
 # what a recorder of the simulator takes by default: everything in the table, and
 # the parameter changes
 RECORDED_TOPICS = (*TOPICS, PARAMETER_EVENTS)

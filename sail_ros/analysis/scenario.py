@@ -250,11 +250,6 @@ def load_scenario(path, check_points=None) -> Scenario:
         raise ValueError(f"{path}: {error}") from None
 
 
-def reference_scenario() -> Scenario:
-    """The reference deployment of model.md §9 (= config/scenario_reference.yaml)."""
-    return scenario_from_dict(REFERENCE)
-
-
 def scenario_from_dict(document, labels: dict | None = None, check_points=None) -> Scenario:
     """Validate a scenario document (the YAML structure above); `labels` as
     `Scenario.labels`. `check_points(count, what)` (`Policy.check_points`), if given,

@@ -11,8 +11,6 @@ import dataclasses
 import math
 from pathlib import Path
 
-import yaml
-
 import sail_ros.model.yaml_values as yaml_values
 from sail_ros.model.fields import check_fields, setting, spec_of
 from sail_ros.spelling import did_you_mean
@@ -182,17 +180,6 @@ class SailParameters:
         """N0 = sigma h [N/m]."""
         return self.membrane_prestress * self.membrane_thickness
 
-    @property
-    def total_mass(self) -> float:
-        """Hub, four full booms and the whole film [kg]: `m_h + 4 rho_B L_f + 2 rho_M L_f^2`
-        (the free hub's constant `M[z, z]` with stowed material on the hub)."""
-        full = self.full_boom_length
-        return (
-            self.hub_mass
-            + 4.0 * self.boom_linear_density * full
-            + 2.0 * self.membrane_areal_density * full**2
-        )
-
     # (de)serialisation --------------------------------------------------
     @classmethod
     def unit(cls, name: str) -> str:
@@ -239,10 +226,6 @@ class SailParameters:
         """As `from_yaml`, from the file's document already read (`path` names it in
         errors); an empty document gives the defaults."""
         return cls.from_dict(_find_sail_section(document or {}, Path(path), node))
-
-    def to_yaml(self, path) -> None:
-        with open(path, "w") as stream:
-            yaml.safe_dump({"sail": self.to_dict()}, stream, sort_keys=False)
 
 
 def _with_nearest(name: str) -> str:

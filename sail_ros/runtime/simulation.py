@@ -282,23 +282,6 @@ class Simulation:
         """What a command must respect now: the policy, for this sail."""
         return Rules(self.policy, self.model.params)
 
-    def deploy(self, target: float, duration: float = 0.0) -> Plan:
-        """All booms to `target` [m] (see `plan_deploy`), starting at `t_model`.
-
-        Raises:
-            CommandError: why (counted in `rejected`); the motion is unchanged.
-        """
-        return self._counted(lambda: self.apply_motion(self.plan_deploy(target, duration)))
-
-    def follow(self, trajectory) -> Plan:
-        """The named booms along a JointTrajectory-like command (see
-        `plan_trajectory`), starting at `t_model`.
-
-        Raises:
-            CommandError: why (counted in `rejected`); the motion is unchanged.
-        """
-        return self._counted(lambda: self.apply_motion(self.plan_trajectory(trajectory)))
-
     def wrench(self, message, frame_id: str, at: float | None = None):
         """Apply a `sail/hub_wrench_cmd` (see `plan_hub_wrench`) from `t_model` on, or from
         `at` [s] (its stamp's simulation time) if that is later: a later command replaces

@@ -24,7 +24,7 @@ import pytest
 import rclpy
 import yaml
 from geometry_msgs.msg import Point
-from harness import DOMAIN_ID, ROOT
+from harness import DOMAIN_ID, ROOT, private_context, wait_until
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -144,13 +144,11 @@ def publish_main(argv) -> int:
 @pytest.fixture(scope="module")
 def listener_node(ros_env):
     """A live subscriber in this process (its own context) on the test's domain."""
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=DOMAIN_ID)
-    node = Listener(context)
-    yield node
-    node.spinner.shutdown()
-    node.destroy_node()
-    rclpy.shutdown(context=context)
+    with private_context() as context:
+        node = Listener(context)
+        yield node
+        node.spinner.shutdown()
+        node.destroy_node()
 
 
 @pytest.fixture
@@ -216,10 +214,7 @@ class Listener(Node):
             messages.clear()
 
     def spin_until(self, condition, timeout: float, what: str):
-        deadline = time.monotonic() + timeout
-        while not condition():
-            assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
-            self.spin_some()
+        wait_until(condition, timeout, what, between=self.spin_some)
 
     def publisher_counts(self, prefix="") -> dict[str, int]:
         return {t: len(self.get_publishers_info_by_topic(prefix + t)) for t in STREAMS}
