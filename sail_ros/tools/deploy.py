@@ -664,11 +664,11 @@ def _closed_loop_figure(folder: Path, closed, open_loop, description) -> Path:
 def _write_log(args, model, result, grid, scenario, policy, closed=None) -> Path:
     """The run at the grid's times as an MCAP log at --mcap (whole or not at all); a closed
     loop's commands with it."""
-    from sail_ros.analysis.log_export import simulator_parameters, write_deployment_log
+    from sail_ros.analysis.log_export import recorded_parameters, write_deployment_log
 
     logged = result.subset(np.isin(result.t, grid))
     shape_every = round(args.rate / args.shape_rate) if args.shape_rate > 0 else 0
-    parameters = simulator_parameters(
+    parameters = recorded_parameters(
         model,
         logged,
         state_rate_hz=args.rate,
