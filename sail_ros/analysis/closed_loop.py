@@ -16,6 +16,7 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import time
+import warnings
 
 import numpy as np
 
@@ -27,6 +28,7 @@ from sail_ros.control.schedule import GainSchedule, design_schedule
 from sail_ros.control.settings import DesignSettings
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.integrate.driver import run
+from sail_ros.integrate.errors import AccuracyWarning
 from sail_ros.integrate.observers import RangeWatch
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.loads import input_function
@@ -152,13 +154,15 @@ def run_closed_loop(
             progress(t)
 
     started = time.perf_counter()
-    result = run(stepper, times, scenario.duration, (watch,), at_outputs=sample)
+    with warnings.catch_warnings():  # said by the run's `accuracy.warning`
+        warnings.simplefilter("ignore", AccuracyWarning)
+        result = run(stepper, times, scenario.duration, (watch,), at_outputs=sample)
     wall = time.perf_counter() - started
     t, q, qd = result
     kept = t.size
     lengths, rates, _ = motion_over(scenario.profile, t)
     states = model.sample(t, lengths, rates, q, qd)
-    accuracy = Accuracy(result.rtol, result.relative_error_estimate, result.steps, result.rejected)
+    accuracy = Accuracy.of(result)
     run_ = DeploymentRun(states, wall, watch.peaks.peaks, watch.warning, result.alarm, accuracy)
     return ClosedLoopRun(
         run_, commands[:kept], demands[:kept], saturated[:kept], schedule.inputs, schedule, limits

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+import warnings
 from typing import NamedTuple
 
 import numpy as np
@@ -20,6 +21,7 @@ import numpy as np
 from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.integrate.driver import run
+from sail_ros.integrate.errors import AccuracyWarning
 from sail_ros.integrate.observers import RangeWatch
 from sail_ros.integrate.peaks import Peaks
 from sail_ros.model import SailModel
@@ -32,13 +34,22 @@ from sail_ros.policy import OutOfRangeError, Policy
 class Accuracy(NamedTuple):
     """How a run was stepped: the tolerance `rtol` asked (None: fixed steps), the
     achieved error estimate relative to each output's peak (`SailStepper.
-    relative_error_estimate`: tips, tip_rates, root_moments, root_moment_rates), the
-    steps taken and refused."""
+    relative_error_estimate`: tips, tip_rates, root_moments, root_moment_rates) and in
+    the outputs' units (`error`), the steps taken and refused, and one line when the
+    estimate exceeds twice the run's tolerance (`warning`, "" if not)."""
 
     rtol: float | None
     relative_error: dict
     steps: int
     rejected: int
+    error: dict | None = None
+    warning: str = ""
+
+    @classmethod
+    def of(cls, run) -> Accuracy:
+        """Of a `driver.Run`."""
+        return cls(run.rtol, run.relative_error_estimate, run.steps, run.rejected,
+                   run.error_estimate, run.accuracy_warning)  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -180,14 +191,16 @@ def run_deployment(
         inputs=input_function(scenario.loads, model.free_hub),
     )  # fmt: skip
     started = time.perf_counter()
-    result = run(stepper, t_eval, scenario.duration, (watch,), rates, states, progress)
+    with warnings.catch_warnings():  # said by the run's `accuracy.warning`
+        warnings.simplefilter("ignore", AccuracyWarning)
+        result = run(stepper, t_eval, scenario.duration, (watch,), rates, states, progress)
     wall = time.perf_counter() - started
     t, q, qd = result
     lengths, rates, _ = motion_over(scenario.profile, t)
     sampled = model.sample(t, lengths, rates, q, qd)
     if watch.tips is not None:
         sampled = sampled._replace(tips=watch.tips[: t.size])
-    accuracy = Accuracy(result.rtol, result.relative_error_estimate, result.steps, result.rejected)
+    accuracy = Accuracy.of(result)
     return DeploymentRun(sampled, wall, watch.peaks.peaks, watch.warning, result.alarm, accuracy)
 
 

@@ -124,6 +124,7 @@ OUTPUTS = (
     "peak_tip_m",
     "final_energy_J",
     "stability_margin_1_s",
+    "error_estimate",  # the run's, relative to peak, the larger of tips and root moments
 )
 # with a free hub: its peak heave and tilt (OutputPeaks) and the holds' peak reactions
 # (`hold_peaks`), columns only when a sample has them
@@ -410,6 +411,10 @@ def run_sample(case) -> dict:
             row[f"peak_root_moment_{boom}_time_s"] = float(moments.time_s[k])
         row["peak_tip_m"] = float(tips.value.max())
         row["final_energy_J"] = float(energy)
+        row["error_estimate"] = max(
+            run.accuracy.relative_error["tips"], run.accuracy.relative_error["root_moments"]
+        )
+        row["_accuracy_warning"] = run.accuracy.warning
         row["stability_margin_1_s"] = margin
         if run.peaks.hub is not None:
             hub = run.peaks.hub  # z_h, theta_x, theta_y, tilt

@@ -137,5 +137,7 @@ class MovingDense:
                 q_free, qd_free = ext.free(k, local)
                 q_part = ext.kept(q_part, k) + q_free
                 qd_part = ext.kept(qd_part, k) + qd_free
+                if rates == "exact" and self.at.invariant is not None:
+                    qd_part = self.at.velocities(times, q_part, p, qd_part)
             q[inside], qd[inside] = q_part, qd_part
         return q, qd

@@ -14,11 +14,12 @@ through here.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
-from sail_ros.integrate.control import time_slack
-from sail_ros.integrate.errors import IntegrationError, StopError
+from sail_ros.integrate.control import accuracy_warning, time_slack
+from sail_ros.integrate.errors import AccuracyWarning, IntegrationError, StopError
 from sail_ros.integrate.sampling import GridSampler
 from sail_ros.integrate.stepper import SailStepper
 from sail_ros.integrate.system import LinearSystem
@@ -33,7 +34,9 @@ class Run(tuple):
     `rtol`, `atol` (the tolerance asked), `error_estimate` and `relative_error_estimate`
     (per output kind, `SailStepper.error_estimate`), `steps` and `rejected` (steps taken
     and refused); `alarm`, why the run stopped before the end ("" if it did not), and
-    `stopped_at` [s], from when (inf: none)."""
+    `stopped_at` [s], from when (inf: none); `accuracy_warning`, one line when the error
+    estimate exceeds twice the run's tolerance ("" if not; the run warns it too,
+    `errors.AccuracyWarning`)."""
 
     def __new__(cls, t, q, qd, stepper: SailStepper, alarm: str = "", stopped_at=math.inf):
         run = super().__new__(cls, (t, q, qd))
@@ -42,6 +45,7 @@ class Run(tuple):
         run.relative_error_estimate = stepper.relative_error_estimate
         run.steps, run.rejected = stepper.steps_taken, stepper.steps_rejected
         run.alarm, run.stopped_at = alarm, stopped_at
+        run.accuracy_warning = accuracy_warning(run.rtol, run.relative_error_estimate)
         return run
 
 
@@ -125,7 +129,10 @@ def run(
             if states and before > kept:  # inside the last step
                 q[kept:before], qd[kept:before] = stepper.states_at(t_eval[kept:before], rates)
             kept = before
-    return Run(t_eval[:kept].copy(), q[:kept], qd[:kept], stepper, alarm, stopped_at)
+    result = Run(t_eval[:kept].copy(), q[:kept], qd[:kept], stepper, alarm, stopped_at)
+    if result.accuracy_warning:
+        warnings.warn(result.accuracy_warning, AccuracyWarning, stacklevel=2)
+    return result
 
 
 def _outputs(stepper, t_eval, done, q, qd, rates, states, at_outputs) -> int:
@@ -175,14 +182,8 @@ def simulate(system: LinearSystem, profile, t_end: float, q0=None, qd0=None, t_e
     observers = () if observer is None else (_Observer(observer),)
     # fixed steps end at the output times
     return run(stepper, t_eval, t_end, observers, progress=progress,
-               stop_at_outputs=stepper.rtol is None or _switches_unknown(inputs),
+               stop_at_outputs=stepper.rtol is None,
                keep_on_error=False)  # fmt: skip
-
-
-def _switches_unknown(inputs) -> bool:
-    """Inputs whose jumps are not known in advance (a plain callable): steps end at the
-    output times, where such a caller puts its switches."""
-    return inputs is not None and not hasattr(inputs, "switch_times")
 
 
 class _Observer:

@@ -12,3 +12,7 @@ class StopError(RuntimeError):
     def __init__(self, message: str, at: float = float("inf")):
         super().__init__(message)
         self.at = at
+
+
+class AccuracyWarning(UserWarning):
+    """A run's error estimate exceeds twice the accuracy its tolerance asks for."""

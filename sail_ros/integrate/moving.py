@@ -25,7 +25,7 @@ from sail_ros.integrate.fast_modes import (
     forcing_of,
     slow_part,
 )
-from sail_ros.integrate.rational import moving_step
+from sail_ros.integrate.rational import extension_weights, moving_step
 from sail_ros.integrate.system import potrs
 
 
@@ -46,9 +46,13 @@ class Trial(NamedTuple):
     outputs: np.ndarray | None = None  # the end's largest outputs (`control.largest`)
     # [rad/s] the highest frozen mode the rational steps carry at the start (not followed)
     carried_frequency: float = math.inf
+    # the run of local extrapolations at the step's end (`attempt`): (q, p, qd)
+    companion: tuple | None = None
+    # the continuous extension's error inside the step per output kind (`attempt`)
+    interpolation: np.ndarray | None = None
 
 
-def rational_step(at, force_at, t0, q0, p0, h, mats=None):
+def rational_step(at, force_at, t0, q0, p0, h, mats=None, companion=None):
     """One exponential-midpoint step of `h` [s] from `(q0, p0)` at `t0` with the rational
     approximant: `(q1, p1, extension)`; `at` the `SystemAt`, `force_at(t, lengths)` the
     inputs' generalised force (or None), `mats` the matrices at the middle if at hand."""
@@ -57,7 +61,21 @@ def rational_step(at, force_at, t0, q0, p0, h, mats=None):
     force = force_at(t_mid, lengths)
     if mats is None:
         (mats,) = at.step_matrices((t_mid,))
-    return moving_step(q0, p0, mats, h, force)
+    return moving_step(q0, p0, mats, h, force, companion)
+
+
+def _replaced(end, q, qd, p, M, G, factor, invariant):
+    """`(q, qd, p)` with the followed modes' part replaced by their vibration `end`; the
+    canonical momenta on `invariant` (a free hub's coordinates: cyclic, their momenta
+    linear invariants, which the rational step keeps exactly) kept as they were, the
+    velocities made to agree (the followed modes are frozen modes, blind to the
+    gyroscopic coupling that carries momentum to the hub while the booms move)."""
+    q, qd = end.replace_in(q, qd)
+    p_new = M @ qd + G @ q
+    if invariant is None:
+        return q, qd, p_new
+    p_new[invariant] = p[invariant]
+    return q, potrs(factor, p_new - G @ q)[0], p_new
 
 
 def fixed(at, force_at, t0, q0, p0, h) -> Trial:
@@ -67,23 +85,40 @@ def fixed(at, force_at, t0, q0, p0, h) -> Trial:
     return Trial(h, q, p, None, 0.0, np.zeros(4), (extension,), ())
 
 
-def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of) -> Trial:
+def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None) -> Trial:
     """The moving step of `h` [s] from `(q0, p0)` (velocities `qd0`) at `t0`: two rational
     steps of `h / 2` and one of `h`, the high modes followed over the step in both
     results; `input_at(t)` the inputs (None without), `error_of(estimate, outputs)` the
-    controller's error (`StepControl.error`)."""
+    controller's error (`StepControl.error`).
+
+    `companion` `(q, p)`: a run beside the steps' whose every step end is moved by the
+    step's local error estimate (the run of local extrapolations): stepped with the
+    halves' factorisations, its difference from the steps' run is their local errors
+    carried to the step's end, the run's error estimate (`Trial.companion`).
+    `Trial.interpolation`: the extension's error inside the step, from the whole step's
+    extension at its middle against the halves' state there, over `2^5` (the extension
+    matches `exp` to order 4)."""
     half, t1 = t0 + 0.5 * h, t0 + h
     # the three rational steps' middles, as `rational_step` finds them
     mats = at.step_matrices((t0 + 0.5 * (0.5 * h), half + 0.5 * (0.5 * h), half))
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
-        qh, ph, first = rational_step(at, force_at, t0, q0, p0, 0.5 * h, mats[0])
-        q2, p2, second = rational_step(at, force_at, half, qh, ph, 0.5 * h, mats[1])
-        q1, p1, _ = rational_step(at, force_at, t0, q0, p0, h, mats[2])
+        if companion is None:
+            qh, ph, first = rational_step(at, force_at, t0, q0, p0, 0.5 * h, mats[0])
+            q2, p2, second = rational_step(at, force_at, half, qh, ph, 0.5 * h, mats[1])
+            qc, pc = q2, p2
+        else:
+            qh, ph, first, middle = rational_step(
+                at, force_at, t0, q0, p0, 0.5 * h, mats[0], companion
+            )
+            q2, p2, second, (qc, pc) = rational_step(
+                at, force_at, half, qh, ph, 0.5 * h, mats[1], middle
+            )
+        q1, p1, whole = rational_step(at, force_at, t0, q0, p0, h, mats[2])
         lengths0, lengths1 = at.motion(t0)[0], at.motion(t1)[0]
         C1, K_extra1, _, M1, G1 = at.matrices(t1)
         factor, _ = at.mass_factor(t1)
-        # (n, 2) in LAPACK's column order: no copy on the way in
-        qd2, qd1 = potrs(factor, np.array([p2 - G1 @ q2, p1 - G1 @ q1]).T)[0].T
+        # (n, 3) in LAPACK's column order: no copy on the way in
+        qd2, qd1, qdc = potrs(factor, np.array([p2 - G1 @ q2, p1 - G1 @ q1, pc - G1 @ qc]).T)[0].T
     vibration = ()
     modes0 = at.modes(t0)
     floor = follow_floor(0.5 * h, at.resolved(lengths0), at.relative_rate(t0, h))
@@ -105,13 +140,24 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of) -> Trial:
         end = follow(start, modes1, h, forcing)
         # the whole step's followed modes are the halves': they leave the estimate
         dq, dqd = slow_part(modes1, count, q2 - q1), slow_part(modes1, count, qd2 - qd1)
-        q2, qd2 = end.replace_in(q2, qd2)
-        p2 = M1 @ qd2 + G1 @ q2
+        q2, qd2, p2 = _replaced(end, q2, qd2, p2, M1, G1, factor, at.invariant)
+        if companion is not None:  # the companion takes the same followed modes
+            qc, qdc, pc = _replaced(end, qc, qdc, pc, M1, G1, factor, at.invariant)
         vibration = (start, end)
     else:
         dq, dqd = q2 - q1, qd2 - qd1
+    if companion is not None:  # the halves' error is a third of their difference
+        qc, qdc = qc + dq / 3.0, qdc + dqd / 3.0
+        pc_new = M1 @ qdc + G1 @ qc
+        if at.invariant is not None:  # a free hub's momenta: exact in every run
+            pc_new[at.invariant] = pc[at.invariant]
+            qdc = potrs(factor, pc_new - G1 @ qc)[0]
+        pc = pc_new
     rows = at.rows(lengths1)
     estimate = largest(rows, dq, dqd) / 3.0
+    c, w = extension_weights(np.array([0.5]))
+    whole_middle = c[0] * q0 + 2.0 * (w[0] @ whole[1]).real
+    interpolation = largest(rows, whole_middle - qh, np.zeros_like(qh)) / 2.0**5
     outputs = largest(rows, q2, qd2)
     # the highest mode not followed: the next below those followed, or, when a set
     # carried on (the highest modes only) is followed whole, below its lowest
@@ -131,4 +177,6 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of) -> Trial:
         mats[2],
         outputs,
         carried,
+        None if companion is None else (qc, pc, qdc),
+        interpolation,
     )

@@ -374,10 +374,12 @@ _POWER_SERIES = np.vstack([_POWER_WEIGHTS, _POWER_SLOPES])
 _SIGNS = np.array([2.0, -2.0] * PADE_POLES.size)[:, None]
 
 
-def moving_step(q0, p0, mats, h, force):
+def moving_step(q0, p0, mats, h, force, companion=None):
     """One step of `h` [s] from `(q0, p0)` with the matrices `mats` (`STEP_MATRICES`) at
     its middle and the generalised force `force` [N] (or None) held over it: `(q1, p1,
-    extension)`, `extension` what `Extension` needs of it.
+    extension)`, `extension` what `Extension` needs of it; with a `companion` start
+    `(q, p)`, its step too, solved with the same factorisations: `(q1, p1, extension,
+    (q, p) at the end)`.
 
     x1 = R(h B) x0 + h phi_R(h B) f with R the (4,4) Padé approximant of exp and
     phi_R(z) = (R(z) - 1) / z, by partial fractions:
@@ -394,14 +396,31 @@ def moving_step(q0, p0, mats, h, force):
     _, _, Kq, Gq = mats.matvec(q0)
     if force is not None:  # x_p = p0 + tau f
         Kq = Kq - force
-    u = mats.solve_shifted(taus, (p0 - Gq) - taus[:, None] * Kq)
+    rhs = (p0 - Gq) - taus[:, None] * Kq
+    if companion is not None:
+        _, _, Kc, Gc = mats.matvec(companion[0])
+        if force is not None:
+            Kc = Kc - force
+        both = mats.solve_shifted(
+            taus, np.stack([rhs, (companion[1] - Gc) - taus[:, None] * Kc], axis=-1)
+        )
+        u, u_c = both[..., 0], both[..., 1]
+    else:
+        u = mats.solve_shifted(taus, rhs)
     weighted = PADE_WEIGHTS[:, None] * u
     v = weighted.sum(axis=0).real
     s = _PADE_WEIGHT_SUM * q0 + (taus[:, None] * weighted).sum(axis=0).real
     # y_q,k, u_k and the matrices at the middle: for the continuous extension
     extension = (q0, q0 + taus[:, None] * u, u, v, p0, mats)
     p1 = _PADE_CONSTANT * p0 + 2.0 * _products(mats, v, s)
-    return _PADE_CONSTANT * q0 + 2.0 * s, p1, extension
+    if companion is None:
+        return _PADE_CONSTANT * q0 + 2.0 * s, p1, extension
+    qc, pc = companion
+    weighted_c = PADE_WEIGHTS[:, None] * u_c
+    v_c = weighted_c.sum(axis=0).real
+    s_c = _PADE_WEIGHT_SUM * qc + (taus[:, None] * weighted_c).sum(axis=0).real
+    end_c = (_PADE_CONSTANT * qc + 2.0 * s_c, _PADE_CONSTANT * pc + 2.0 * _products(mats, v_c, s_c))
+    return _PADE_CONSTANT * q0 + 2.0 * s, p1, extension, end_c
 
 
 def _products(mats, v: np.ndarray, s: np.ndarray) -> np.ndarray:

@@ -106,6 +106,7 @@ class SailStepper:
         self._q = q
         self._p = self.at.momentum(self._t, q, qd)
         self._qd = (self._t, qd.copy())  # the velocity at a time, kept
+        self._companion = (q.copy(), self._p.copy())  # the run of whole steps
         self._last = None  # (t0, q0, qd0, dense output) of the last step
         self.control.restart()
         self.control.observe(self._outputs(self._t, q, qd))
@@ -162,10 +163,8 @@ class SailStepper:
     @profile.setter
     def profile(self, profile):
         """Replace the boom motion from now on, keeping `q` and `qd` continuous."""
-        qd = self.qd
-        self.at.new_piece(self._t, profile)
+        self._new_piece(profile)
         self._last = None
-        self._p = self.at.momentum(self._t, self._q, qd)
 
     def energy(self) -> float:
         """Mechanical energy `1/2 qd^T M qd + 1/2 q^T K q` [J] now."""
@@ -188,6 +187,11 @@ class SailStepper:
         smallest = 1e-6 * max(1.0, abs(target))
         while True:
             h = self.control.equal_step(target - self._t, self.step_limit())
+            if self.inputs is not None and not hasattr(self.inputs, "switch_times"):
+                jump = self.control.locate_jump(self._input, self._t, self._t + h)
+                if jump is not None and jump < self._t + h - SWITCH_RESOLUTION:
+                    target = jump  # steps end where a plain callable's inputs jump
+                    continue
             if self._is_static(h) or self.rtol is None or h <= smallest:
                 self.step(h)
                 return
@@ -245,8 +249,10 @@ class SailStepper:
             t_mid = self._t + 0.5 * h
             lengths = self.at.motion(t_mid)[0]
             force = self._force(t_mid, lengths)
+            propagator = self.at.propagator(lengths, h)
             with np.errstate(over="ignore", invalid="ignore"):
-                q, p, rest = rest_step(self.at.propagator(lengths, h), self._q, self._p, h, force)
+                q, p, rest = rest_step(propagator, self._q, self._p, h, force)
+                self._companion = rest_step(propagator, *self._companion, h, force)[:2]
             self._commit(h, q, p, RestDense(rest))
             return
         if self.rtol is None:
@@ -268,7 +274,8 @@ class SailStepper:
 
     def _attempt(self, h: float) -> moving.Trial:
         return moving.attempt(self.at, self._force, self._input_or_none, self._t, self._q,
-                              self._p, self.qd, h, self.control.error)  # fmt: skip
+                              self._p, self.qd, h, self.control.error,
+                              self._companion if self.rtol is not None else None)  # fmt: skip
 
     def _commit(self, h, q, p, taken) -> None:
         """Take the step's end `(q, p)` as the state (`taken`: a moving step's `Trial` or
@@ -285,9 +292,28 @@ class SailStepper:
             if taken.qd is not None:
                 self._qd = (self._t, taken.qd)
             self.control.accepted(h, taken)
+            self._account(taken, dense)
         self._enter_switch()
         if self.on_step is not None:
             self.on_step(self)
+
+    def _account(self, trial, dense) -> None:
+        """The run's error estimate (`StepControl.account`) after the moving step `trial`:
+        the halves' run against the companion's at its end; inside it the extension's
+        error and half the jump of the followed modes' representation at its middle (the
+        start's turned on, the end's turned back: the state lies between)."""
+        if trial.companion is None:  # fixed steps: no estimate
+            self._companion = (self._q, self._p)
+            return
+        q_c, p_c, qd_c = trial.companion
+        self._companion = (q_c, p_c)
+        rows = self.at.rows(self.at.motion(self._t)[0])
+        inside = trial.interpolation.copy()
+        if trial.vibration:
+            y, _ = dense.extension.curve(np.array([0.5 - 1e-9, 0.5]), rows)
+            jump = np.abs(y[1] - y[0]).reshape(2, 4).max(axis=1)
+            inside[[0, 2]] += 0.5 * jump
+        self.control.account(largest(rows, self._q - q_c, trial.qd - qd_c), inside)
 
     def _enter_switch(self) -> None:
         """At a switch of a piecewise profile (`profiles.SwitchedProfile`), the next piece
@@ -297,9 +323,17 @@ class SailStepper:
         entered = self.at.entered
         if not any(entered < s and abs(self._t - s) <= SWITCH_RESOLUTION for s in times):
             return
+        self._new_piece()
+
+    def _new_piece(self, profile=None) -> None:
+        """A new motion (or the profile's next piece) from now on: `q` and `qd` (and the
+        companion run's) kept, the momenta recomputed with the new piece's matrices."""
         qd = self.qd  # at the end of the piece left
-        self.at.new_piece(self._t)
+        q_c = self._companion[0]
+        qd_c = self.at.velocity(self._t, q_c, self._companion[1])
+        self.at.new_piece(self._t, profile)
         self._p = self.at.momentum(self._t, self._q, qd)
+        self._companion = (q_c, self.at.momentum(self._t, q_c, qd_c))
         self._qd = (self._t, qd)
 
     def _input_or_none(self, t):

@@ -59,6 +59,8 @@ class LinearSystem(Protocol):
         """(8, n): the tip deflections [m] (4 rows) and root moments [N m] (4 rows) per
         unit coordinate at `lengths` (4 checked values); applied to `qd`, their rates."""
 
+    hub_slice: slice | None  # the cyclic coordinates (a free hub's), or None
+
     def modes_of(self, M: np.ndarray, K: np.ndarray):
         """`(lam, V)`: eigenvalues `omega^2` and `M`-orthonormal modes of `(K, M)` at rest
         (`scipy.linalg.eigh(K, M)` for a structure held in place); rigid-body modes, if
@@ -172,6 +174,9 @@ class SystemAt:
         self.resolved_frequency = resolved_frequency
         self.entered = -math.inf
         self.rayleigh = rayleigh_of(system)  # alpha [1/s], beta [s]
+        # coordinates whose canonical momenta no step may change but through the loads (a
+        # free hub's: `LinearSystem.hub_slice`), or None
+        self.invariant = getattr(system, "hub_slice", None)
         self._cache = Cache()
 
     def new_piece(self, entered: float, profile=None) -> None:
@@ -331,12 +336,20 @@ class SystemAt:
         # G = 0 at rest, and M depends on the lengths alone
         return cho_solve(self.rest_factor(lengths), p)
 
-    def velocities(self, times, q, p) -> np.ndarray:
+    def velocities(self, times, q, p, qd_guess=None) -> np.ndarray:
         """`qd = M^-1 (p - G q)` (m, n) with `M`, `G` at each of `times` [s] (m,): the
-        matrices of all m assembled in one pass, each `M` factored by Cholesky."""
+        matrices of all m assembled in one pass, each `M` factored by Cholesky. With
+        `qd_guess`, the momenta are those of `q`, `qd_guess` but on `invariant`, where they
+        are `p`'s (the followed modes put in at samples, `moving._replaced`)."""
         motions = [self.motion(float(t)) for t in times]
         stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
         matrices = self.system.assemble((MASS, GYROSCOPIC), *stacked)
+        if qd_guess is not None:
+            kept = p
+            p = np.einsum("mij,mj->mi", matrices[:, 0], qd_guess)
+            p += np.einsum("mij,mj->mi", matrices[:, 1], q)
+            if self.invariant is not None:
+                p[:, self.invariant] = kept[:, self.invariant]
         qd = p - np.einsum("mij,mj->mi", matrices[:, 1], q)
         for M, row in zip(matrices[:, 0], qd, strict=True):
             factor, _ = potrf(M, lower=True, overwrite_a=True, clean=False)

@@ -143,25 +143,31 @@ class BlockMatrices:
 
     def solve_shifted(self, taus: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """`u_j = (A_0 + tau_j A_1 + tau_j^2 A_2)^-1 rhs_j` for complex `taus` (p,) and
-        `rhs` (p, n): the membrane blocks eliminated quadrant by quadrant, then the
-        boom coordinates solved; with a border, its columns are solved for alongside
-        the right-hand side (one factorisation), and the border from the small system
-        left, `(Z - F S^-1 E) u_b = r_b - F S^-1 r`; returns (p, n) complex."""
+        `rhs` (p, n), or (p, n, m) for m right-hand sides at once: the membrane blocks
+        eliminated quadrant by quadrant, then the boom coordinates solved; with a border,
+        its columns are solved for alongside the right-hand side (one factorisation), and
+        the border from the small system left, `(Z - F S^-1 E) u_b = r_b - F S^-1 r`;
+        returns complex, the shape of `rhs`."""
+        single = rhs.ndim == 2
+        rhs = rhs[..., None] if single else rhs
+        m = rhs.shape[-1]
         powers = taus[:, None] ** _POWERS  # (p, 3): 1, tau, tau^2
         booms = _combine(powers, self.booms[:3])  # (p, 4, n_B, n_B)
         quadrants = _combine(powers, self.quadrants[:3])  # (p, 4, n~, n~)
         if self.border is None:
-            return self._solve_blocks(booms, quadrants, rhs[..., None])[..., 0]
+            out = self._solve_blocks(booms, quadrants, rhs)
+            return out[..., 0] if single else out
         n_e = self.where.n_elastic
         columns, rows, corner, border_rhs = self._border(powers, rhs)  # E, F, Z, r_b
         solved = self._solve_blocks(
-            booms, quadrants, np.concatenate([rhs[:, :n_e, None], columns], axis=-1)
+            booms, quadrants, np.concatenate([rhs[:, :n_e], columns], axis=-1)
         )
         u_border = np.linalg.solve(
-            corner - rows @ solved[..., 1:], border_rhs[..., None] - rows @ solved[..., :1]
+            corner - rows @ solved[..., m:], border_rhs - rows @ solved[..., :m]
         )
-        u_elastic = solved[..., :1] - solved[..., 1:] @ u_border
-        return np.concatenate([u_elastic[..., 0], u_border[:, :3, 0]], axis=1)
+        u_elastic = solved[..., :m] - solved[..., m:] @ u_border
+        out = np.concatenate([u_elastic, u_border[:, :3]], axis=1)
+        return out[..., 0] if single else out
 
     def _solve_blocks(self, booms, quadrants, rhs):
         """`S^-1 rhs` on the elastic coordinates, `rhs` (p, n_e, m): each quadrant's
@@ -203,7 +209,7 @@ class BlockMatrices:
         """The border of the shifted matrices: its columns on the elastic rows
         (p, n_e, b), its rows on the elastic columns (p, b, n_e), the corner
         (p, b, b) and its right-hand side (p, b): b = 3 (the hub's rows) or 6 (and
-        the low-rank part's three)."""
+        the low-rank part's three), with `rhs` (p, n, m)."""
         p, n_e = powers.shape[0], self.where.n_elastic
         shifted = Border(_combine(powers, self.border.flat[:3]), self.where.n, n_e)
         hub_rows, columns = shifted.rows, shifted.columns  # (p, 3, n), (p, n_e, 3)
@@ -221,7 +227,7 @@ class BlockMatrices:
                 ],
                 axis=1,
             )
-            border_rhs = np.concatenate([border_rhs, np.zeros((p, 3))], axis=1)
+            border_rhs = np.concatenate([border_rhs, np.zeros((p, 3, rhs.shape[-1]))], axis=1)
         return columns, rows, corner, border_rhs
 
 

@@ -167,7 +167,7 @@ class BridgeSettings:
 
 SPECS = settings_of(BridgeSettings)
 # the bridge's status on /diagnostics (msg_docs/bridge.md)
-STATUS_SUFFIX = ": websocket"  # its name: the node's, then this; keys in messages.status
+STATUS_SUFFIX = ": websocket"  # its name: the node's, then this; keys in sail_ros.status
 
 
 class Bridge(Node):

@@ -324,9 +324,8 @@ def _accuracy_line(accuracy) -> str:
         return f"  {steps} of fixed length: no error estimate"
     error = accuracy.relative_error
     return (
-        f"  {steps} at rtol {accuracy.rtol:g}; error bound (the steps' local estimates "
-        f"summed, 10-20x the error made): tips {100 * error['tips']:.2g} %, root moments "
-        f"{100 * error['root_moments']:.2g} % of peak"
+        f"  {steps} at rtol {accuracy.rtol:g}; error estimate: tips "
+        f"{100 * error['tips']:.2g} %, root moments {100 * error['root_moments']:.2g} % of peak"
     )
 
 
@@ -431,6 +430,8 @@ def _json_report(result, config, description, convergence, holds=None) -> dict:
         "rtol": result.accuracy.rtol,
         "steps": result.accuracy.steps,
         "relative_error_estimate": result.accuracy.relative_error,
+        "error_estimate": result.accuracy.error,
+        "accuracy_warning": result.accuracy.warning,
         "warning": result.warning,
         "alarm": result.alarm,
     }
@@ -551,6 +552,8 @@ def _deploy(args) -> int:
             f"warning: {result.warning} (the simulator's diagnostics turn WARN here)",
             file=sys.stderr,
         )
+    if result.accuracy.warning:
+        print(f"warning: {result.accuracy.warning}", file=sys.stderr)
     convergence, stopped = None, result.alarm
     if args.convergence is not None and not stopped:
 

@@ -104,6 +104,15 @@ def _montecarlo(args) -> int:
     summary = summarize(study, rows, base_sail, WORST)
     text = _summary_text(study, summary, config.policy)
     print(text)
+    warned = [row for row in rows if row.get("_accuracy_warning")]
+    if warned:
+        worst = max(warned, key=lambda row: row["error_estimate"])
+        print(
+            f"warning: {len(warned)} of {len(rows)} samples' error estimates exceed twice "
+            f"their tolerance, the largest sample {worst['sample']}: "
+            f"{worst['_accuracy_warning']}",
+            file=sys.stderr,
+        )
     with staged(out, "--out") as folder:
         folder.mkdir()
         (folder / "samples.csv").write_text(csv_text(study, rows))

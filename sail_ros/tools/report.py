@@ -40,6 +40,7 @@ from __future__ import annotations
 import csv
 import functools
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -57,6 +58,7 @@ from sail_ros.analysis.log_rerun import rerun_log
 from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
+from sail_ros.integrate.errors import AccuracyWarning
 from sail_ros.model import SailModel, SailParameters, record, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
 from sail_ros.options import ToolParser, help_epilog
@@ -400,7 +402,11 @@ def _rerun_peaks(args, log, model) -> tuple[list[list], str]:
     if log.scenario is not None:  # refused by the limits: ValueError, exit 2
         what, rerun = "the recorded scenario", _scenario_rerun(log, model, _rerun_policy(args, log))
     try:
-        peaks, agreement, runs = rerun(log, model)
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always", AccuracyWarning)
+            peaks, agreement, runs = rerun(log, model)
+        for warning in {str(w.message) for w in said if w.category is AccuracyWarning}:
+            print(f"warning: the rerun: {warning}", file=sys.stderr)
     except OutOfRangeError as error:
         return [], f"the rerun of {what}: {error}"
     except ValueError as error:
@@ -496,6 +502,8 @@ def _scenario_rerun(log, model: SailModel, policy: Policy):
             run = run_deployment(model, scenario, t, step, initial=initial, policy=policy)
         if run.alarm:
             raise OutOfRangeError(run.alarm)
+        if run.accuracy.warning:  # said once by the report
+            warnings.warn(run.accuracy.warning, AccuracyWarning, stacklevel=1)
         logged = log.tips.position
         agreement = np.abs(run.tips - logged).max() / max(float(np.abs(logged).max()), 1e-300)
         return run.peaks, float(agreement), 1

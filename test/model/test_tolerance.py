@@ -233,3 +233,131 @@ def test_tolerance_options_are_checked(options, message):
     model = SailModel(SMALL)
     with pytest.raises(ValueError, match=message):
         model.stepper(CycloidalProfile(10.0, 12.0, 4.0), **options)
+
+
+# -- inputs a plain callable gives: their jumps found, not assumed at output times -------
+
+
+def switched_force(times, force=2e-3, boom=2):
+    """Loads whose tip force on `boom` toggles at each of `times` [s] (on at the first),
+    with constant pressures: a plain callable, its switches unknown to the stepper."""
+    pressures = np.array([3e-5, 1.5e-5, 3e-5, 1.5e-5])
+
+    def loads(t):
+        forces = np.zeros(4)
+        forces[boom] = force * (np.searchsorted(times, t, "right") % 2)
+        return pressures, forces
+
+    return loads
+
+
+CALLABLE_CASES = {
+    # the issue's run: a damped, loaded deployment, the force on from 5 s to 11 s, the
+    # outputs every 4 s (both switches between them)
+    "jumps between outputs": (switched_force([5.0, 11.0]), [5.0, 11.0]),
+    # three switches inside what would be one step
+    "jumps inside a step": (switched_force([5.0, 5.1, 5.25, 11.0]), [5.0, 5.1, 5.25, 11.0]),
+}
+
+
+# the estimate of these runs reads about three times their error (the companion's whole
+# steps lag the resolved modes more than the rule's order says): some warn
+@pytest.mark.filterwarnings("ignore::sail_ros.integrate.errors.AccuracyWarning")
+@pytest.mark.parametrize("case", [*CALLABLE_CASES, "smooth"])
+def test_a_plain_callables_inputs_keep_the_bar_between_output_times(case):
+    """Inputs given by a plain callable, output every 4 s: the stepper finds where they
+    jump (`StepControl.locate_jump`) and ends its steps there, as it does at a
+    `LoadSchedule`'s switch times; a smooth input (a sinusoid) needs no stop. Tips and
+    root moments within 0.2 % of peak, the estimate at least the error made."""
+    model = SailModel(SailParameters(n_boom_modes=5, n_membrane_modes=6, mass_damping=0.02,
+                                     stiffness_damping=5e-4))  # fmt: skip
+    profile = CycloidalProfile(12.0, 20.0, 20.0)
+    q0 = model.initial_coordinates([0.1, 0.0, 0.0, 0.0])
+    t_out = np.arange(0.0, 20.001, 4.0)
+    if case == "smooth":
+
+        def loads(t):
+            return [3e-5 * (1 + np.sin(0.7 * t)), 0, 0, 0], [0, 0, 2e-3 * np.sin(1.3 * t), 0]
+
+        expected = smooth_reference(model, profile, loads, q0, t_out)
+    else:
+        loads, breaks = CALLABLE_CASES[case]
+        expected = tight_reference(model, profile, loads, q0, t_out, breaks)
+    run = model.simulate(profile, 20.0, q0=q0, t_eval=t_out, loads=loads)
+    tips, moments = errors(model, profile, t_out, run[1], expected)
+    assert tips < BAR and moments < BAR, (tips, moments)
+    estimate = run.relative_error_estimate
+    assert estimate["tips"] >= tips and estimate["root_moments"] >= moments, estimate
+
+
+def smooth_reference(model, profile, loads, q0, t_out):
+    """`q` at `t_out` by DOP853 at rtol 1e-10 with the inputs evaluated where the
+    integrator asks (no breaks)."""
+    n, u_of = model.n, input_function(loads)
+
+    def rhs(t, x):
+        lengths, rates, accelerations = (np.broadcast_to(v, (4,)) for v in profile(t))
+        M, C, K = model.assemble((MASS, DAMPING, STIFFNESS_EQ), lengths, rates, accelerations)
+        force = model.assemble_inputs(lengths) @ u_of(t)
+        return np.concatenate([x[n:], np.linalg.solve(M, force - C @ x[n:] - K @ x[:n])])
+
+    x0 = np.concatenate([q0, np.zeros(n)])
+    solution = scipy.integrate.solve_ivp(
+        rhs, (0.0, t_out[-1]), x0, method="DOP853", rtol=1e-10, atol=1e-13, t_eval=t_out
+    )
+    return solution.y[:n].T
+
+
+def test_a_jump_is_located_to_the_switch_resolution_and_a_smooth_change_is_none():
+    from sail_ros.integrate.control import StepControl
+    from sail_ros.model.profiles import SWITCH_RESOLUTION
+
+    def step(t):
+        return np.array([1.0, 0.3 if t >= 2.123456789 else 0.0])
+
+    found = StepControl.locate_jump(step, 2.0, 2.5)
+    assert 2.123456789 <= found <= 2.123456789 + SWITCH_RESOLUTION
+    assert StepControl.locate_jump(step, 2.2, 2.5) is None  # after it: nothing
+    assert StepControl.locate_jump(lambda t: np.array([np.sin(40 * t)]), 0.0, 0.5) is None
+    assert StepControl.locate_jump(lambda t: np.array([abs(t - 0.3)]), 0.0, 0.5) is None  # a kink
+    two = StepControl.locate_jump(lambda t: np.array([float(t > 0.31) + float(t > 0.33)]), 0, 0.5)
+    assert 0.31 <= two <= 0.31 + SWITCH_RESOLUTION  # the first of two
+
+
+def test_a_run_whose_estimate_exceeds_twice_its_tolerance_warns():
+    """Absolute floors so loose that the steps meet them whatever their error: the run's
+    estimate passes twice its tolerance (`control.RUN_TOLERANCE` rtol of peak) and the
+    run says so (`AccuracyWarning`, with the figures); at the defaults (mode counts
+    too) the reference deployment is quiet."""
+    import warnings
+
+    from sail_ros.integrate.errors import AccuracyWarning
+
+    model = SailModel(SMALL)
+    profile = CycloidalProfile(10.0, 15.0, 15.0)
+    q0 = model.initial_coordinates([0.1, 0.0, 0.0, 0.0])
+    floors = {"tips": 1.0, "tip_rates": 10.0, "root_moments": 1e3, "root_moment_rates": 1e4}
+    with pytest.warns(AccuracyWarning, match=r"error estimate is [0-9.]+ % of peak on tips"):
+        loose = model.simulate(profile, 15.0, q0=q0, atol=floors)
+    assert loose.accuracy_warning
+    model = SailModel(SailParameters())
+    q0 = model.initial_coordinates([0.1, 0.0, 0.0, 0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AccuracyWarning)
+        quiet = model.simulate(profile, 15.0, q0=q0)
+    assert quiet.accuracy_warning == ""
+
+
+def test_the_estimate_bounds_the_error_on_drawn_deployments_it_was_not_chosen_on():
+    """The run's estimate (`StepControl.estimate`: 1.5 times the local errors carried to
+    a step's end plus its dense output's) bounds the error at every output time, inside
+    steps too, on deployments drawn with other seeds than those its margin was measured
+    on."""
+    for label, model, profile, loads, breaks, duration, rng in drawn_deployments(3, seed=101):
+        q0 = model.initial_coordinates(rng.uniform(-0.1, 0.1, 4))
+        t_out = np.linspace(0.0, duration, 121)
+        run = model.simulate(profile, duration, q0=q0, t_eval=t_out, loads=loads)
+        expected = tight_reference(model, profile, loads, q0, t_out, breaks)
+        tips, moments = errors(model, profile, t_out, run[1], expected)
+        estimate = run.relative_error_estimate
+        assert estimate["tips"] >= tips and estimate["root_moments"] >= moments, (label, estimate)
