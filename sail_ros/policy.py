@@ -132,6 +132,10 @@ class Policy:
         """`[min_length, max_length]` [m] for `sail` (max_length 0: its full length)."""
         return self.min_length, self.max_length or sail.full_boom_length
 
+    def for_sail(self, sail: SailParameters) -> Policy:
+        """These limits with max_length 0 resolved: `sail`'s full length [m]."""
+        return self.replace(max_length=self.length_range(sail)[1])
+
     def check_sail(self, sail: SailParameters) -> None:
         """The range of lengths must be one the sail and the integration can have: below
         the longest, and not so short that its booms' sub-steps cost more than

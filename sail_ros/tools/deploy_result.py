@@ -1,0 +1,280 @@
+"""What `sail-ros deploy` found, as one object that renders its text and its JSON from the
+same fields (`DeploymentReport`), so the two cannot disagree."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import io
+
+import numpy as np
+
+from sail_ros.policy import Policy
+from sail_ros.tools.common import describe_parameters, print_hub_peak_table, print_peak_table
+
+
+@dataclasses.dataclass
+class DeploymentReport:
+    """A deployment run and what was asked of it.
+
+    Attributes:
+        result: the run (`analysis.deployment.DeploymentRun`).
+        config: its sail and limits (`tools.common.Configuration`).
+        description: the scenario in words.
+        model: the `SailModel` it ran on.
+        table_times: the times [s] of the text's table.
+        convergence: the reruns with more modes (`analysis.convergence`), or None.
+        holds: a free hub's hold reactions (`analysis.deployment.HoldPeaks`), or None.
+        controller: the closed loop's summary (`analysis.closed_loop.summary`), or None.
+    """
+
+    result: object
+    config: object
+    description: str
+    model: object
+    table_times: np.ndarray
+    convergence: object = None
+    holds: object = None
+    controller: dict | None = None
+
+    def text(self) -> str:
+        """The table of tip deflections, the peaks and their convergence, a free hub's
+        peaks and the closed loop's summary, as printed."""
+        with contextlib.redirect_stdout(io.StringIO()) as out:
+            _print_table(self.result, self.table_times, self.description, self.config)
+            _print_peaks(self.result.peaks, self.model, self.convergence)
+            if self.holds is not None:
+                _print_hub_peaks(self.result.peaks.hub, self.holds)
+            if self.controller is not None:
+                from sail_ros.analysis.closed_loop import summary_lines
+
+                print()
+                print("\n".join(summary_lines(self.controller)))
+        return out.getvalue()
+
+    def to_json(self) -> dict:
+        """The same as one JSON object (`--json`)."""
+        report = _json_report(
+            self.result, self.config, self.description, self.convergence, self.holds
+        )
+        if self.controller is not None:
+            report["controller"] = self.controller
+        return report
+
+    def convergence_warning(self) -> str:
+        """One line when the peaks did not converge ("" if they did, or none was asked)."""
+        return _convergence_warning(self.convergence) if self.convergence is not None else ""
+
+
+def _policy_line(policy: Policy, low: float, high: float, free_hub: bool = False) -> str:
+    line = (
+        f"  limits (simulator's)    L in [{low:g}, {high:.4g}] m, |rate| <= {policy.max_rate:g} "
+        f"m/s, |accel.| <= {policy.max_acceleration:g} m/s^2, |tip| < "
+        f"{policy.tip_error_fraction:g} L (warning {policy.tip_warn_fraction:g} L)"
+    )
+    if free_hub:
+        line += (
+            f"\n{'':26}hub tilt < {policy.tilt_error_rad:g} rad (warning "
+            f"{policy.tilt_warn_rad:g} rad)"
+        )
+    return line
+
+
+def _print_table(run_result, table_times, description, config) -> None:
+    rows = [run_result.index_of(t) for t in table_times if t <= run_result.t[-1] + 1e-9]
+    lengths = run_result.lengths[rows]
+    equal = np.allclose(lengths, lengths[:, :1])
+    print(f"Deployment: {description}")
+    print(describe_parameters(config.sail))
+    print(_policy_line(config.policy, *config.policy.length_range(config.sail),
+                       config.sail.free_hub))  # fmt: skip
+    print()
+    label = "L [m]" if equal else "L_a [m]"
+    print(f"  {'t [s]':>7}{label:>9}   tip deflection [mm]: {'a':>9}{'b':>10}{'c':>10}{'d':>10}")
+    for i in rows:
+        tips = run_result.tips[i]
+        print(
+            f"  {run_result.t[i]:7.2f}{run_result.lengths[i, 0]:9.3f}   {'':21}"
+            + "".join(f"{1e3 * v:10.3f}" for v in tips)
+        )
+    if run_result.hub is not None:
+        _print_hub_table(run_result, rows)
+    print()
+    simulated, wall = float(run_result.t[-1]), run_result.wall_seconds
+    print(
+        f"  {simulated:g} s simulated in {wall:.3f} s wall "
+        f"({simulated / max(wall, 1e-9):.0f}x real time)"
+    )
+    print(_accuracy_line(run_result.accuracy))
+
+
+HUB_COLUMNS = (  # (header, scale from SI) of a free hub's six values (`StateSample.hub`)
+    ("z_h [mm]", 1e3),
+    ("theta_x [mrad]", 1e3),
+    ("theta_y [mrad]", 1e3),
+    ("zd_h [mm/s]", 1e3),
+    ("thd_x [mrad/s]", 1e3),
+    ("thd_y [mrad/s]", 1e3),
+)
+
+
+def _print_hub_table(run_result, rows) -> None:
+    """A free hub's heave, tilts, tilt magnitude and rates at the table's rows."""
+    print()
+    print(
+        "  free hub: heave z_h, tilts theta_x (about boom a) and theta_y (about boom b), "
+        "tilt |theta|, their rates"
+    )
+    headers = [h for h, _ in HUB_COLUMNS[:3]] + ["|theta| [mrad]"]
+    headers += [h for h, _ in HUB_COLUMNS[3:]]
+    print(f"  {'t [s]':>7}" + "".join(f"{h:>15}" for h in headers))
+    for i in rows:
+        hub = run_result.hub[i]
+        values = [scale * v for (_, scale), v in zip(HUB_COLUMNS, hub, strict=True)]
+        values.insert(3, 1e3 * float(np.hypot(hub[1], hub[2])))
+        print(f"  {run_result.t[i]:7.2f}" + "".join(f"{v:15.3f}" for v in values))
+
+
+def _accuracy_line(accuracy) -> str:
+    """The tolerance, the steps and the achieved error estimate, in one line."""
+    steps = f"{accuracy.steps} steps ({accuracy.rejected} refused)"
+    if accuracy.rtol is None:
+        return f"  {steps} of fixed length: no error estimate"
+    error = accuracy.relative_error
+    return (
+        f"  {steps} at rtol {accuracy.rtol:g}; error estimate: tips "
+        f"{100 * error['tips']:.2g} %, root moments {100 * error['root_moments']:.2g} % of peak"
+    )
+
+
+def _print_peaks(peaks, model, convergence=None) -> None:
+    """Each boom's peak |tip| and |root moment| with its time, and their convergence."""
+    print()
+    print(
+        f"  peaks over the whole run, per boom (taken inside every integration step; "
+        f"n_B = {model.n_boom_modes}, n_M = {model.n_membrane_modes}):"
+    )
+    changes = None
+    if convergence is not None:
+        finest = convergence.finest
+        label = (
+            f"  change against ({finest.n_boom_modes}, {finest.n_membrane_modes}) modes, "
+            "% of the largest peak"
+        )
+        changes = (label, convergence.change.tips, convergence.change.moments)
+    print_peak_table(peaks, changes)
+    if convergence is not None:
+        for level in convergence.levels:
+            print(
+                f"  rerun at (n_B, n_M) = ({level.n_boom_modes}, {level.n_membrane_modes}): "
+                f"the peaks before it move by {100 * level.change_before.largest():.2g} % "
+                "of the largest of their kind"
+            )
+
+
+def _print_hub_peaks(hub, holds) -> None:
+    """A free hub's true peaks (`Peaks.hub`) and its holds' peak reactions (`HoldPeaks`)."""
+    print()
+    print("  free hub peaks over the whole run (taken inside every integration step):")
+    print_hub_peak_table(hub)
+    print(
+        f"  hold reactions (of the boom motion, every {1e3 * holds.spacing_s:g} ms): in-plane "
+        f"|F| {holds.force:.4g} N at t = {holds.force_time_s:.3f} s, spin |tau_z| "
+        f"{holds.torque:.4g} N m at t = {holds.torque_time_s:.3f} s"
+    )
+
+
+def _convergence_warning(convergence) -> str:
+    """One line when the run's peaks are not within the bar of the finest rerun's, or the
+    reruns did not settle ("" if both hold)."""
+    moved = [
+        f"{what} {boom} {100 * change:+.2f} %"
+        for what, changes in (
+            ("tip", convergence.change.tips),
+            ("moment", convergence.change.moments),
+        )
+        for boom, change in zip("abcd", changes, strict=True)
+        if abs(change) > convergence.bar
+    ]
+    parts = []
+    if moved:
+        finest = convergence.finest
+        parts.append(
+            f"peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
+            f"{finest.n_membrane_modes}) they are off by more than {100 * convergence.bar:g} % "
+            f"of the largest of their kind ({', '.join(moved)}); raise membrane_band "
+            "(--set) or give the finer counts"
+        )
+    if convergence.stopped:
+        parts.append(f"the reruns did not settle: {convergence.stopped}")
+    return f"warning: {'; '.join(parts)}" if parts else ""
+
+
+def _hub_json(hub, holds) -> dict:
+    """A free hub's true peaks and its holds' peak reactions, for --json."""
+    names = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")
+    report = {f"peak_{name}": float(v) for name, v in zip(names, hub.value, strict=True)}
+    report |= {
+        f"peak_{name.rsplit('_', 1)[0]}_time_s": float(v)
+        for name, v in zip(names, hub.time_s, strict=True)
+    }
+    report |= {
+        "peak_hold_force_N": holds.force,
+        "peak_hold_force_time_s": holds.force_time_s,
+        "peak_hold_torque_N_m": holds.torque,
+        "peak_hold_torque_time_s": holds.torque_time_s,
+        "hold_spacing_s": holds.spacing_s,
+    }
+    return report
+
+
+def _json_report(result, config, description, convergence, holds=None) -> dict:
+    def per_boom(values):
+        return dict(zip("abcd", (float(v) for v in values), strict=True))
+
+    params, peaks = config.sail, result.peaks
+    report = {
+        "description": description,
+        "duration_s": float(result.t[-1] - result.t[0]),
+        "peak_tip_deflection_m": per_boom(peaks.tip_deflection.value),
+        "peak_tip_deflection_time_s": per_boom(peaks.tip_deflection.time_s),
+        "peak_root_moment_Nm": per_boom(peaks.root_moment.value),
+        "peak_root_moment_time_s": per_boom(peaks.root_moment.time_s),
+        "n_boom_modes": params.n_boom_modes,
+        "n_membrane_modes": params.membrane_modes,
+        "parameters": params.to_dict(),
+        # max_length 0 stands for the sail's full length: the JSON says it, as the text
+        "limits": dataclasses.asdict(config.policy.for_sail(params)),
+        "wall_time_s": result.wall_seconds,
+        "rtol": result.accuracy.rtol,
+        "steps": result.accuracy.steps,
+        "relative_error_estimate": result.accuracy.relative_error,
+        "error_estimate": result.accuracy.error,
+        "accuracy_warning": result.accuracy.warning,
+        "warning": result.warning,
+        "alarm": result.alarm,
+    }
+    if peaks.hub is not None:
+        report["hub"] = _hub_json(peaks.hub, holds)
+    if convergence is not None:
+        change = convergence.change
+        report["convergence"] = {
+            "bar": convergence.bar,
+            "levels": [
+                {
+                    "n_boom_modes": level.n_boom_modes,
+                    "n_membrane_modes": level.n_membrane_modes,
+                    "peak_tip_deflection_m": per_boom(level.peaks.tip_deflection.value),
+                    "peak_root_moment_Nm": per_boom(level.peaks.root_moment.value),
+                    "change_before": level.change_before.largest(),
+                }
+                for level in convergence.levels
+            ],
+            "tip_deflection_change": per_boom(change.tips),
+            "root_moment_change": per_boom(change.moments),
+            "tip_deflection_change_own": per_boom(change.tips_own),
+            "root_moment_change_own": per_boom(change.moments_own),
+            "converged": convergence.converged and change.largest() <= convergence.bar,
+            "stopped": convergence.stopped,
+        }
+    return report
