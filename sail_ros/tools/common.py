@@ -231,6 +231,17 @@ def describe_parameters(params: SailParameters) -> str:
     )
 
 
+def tool_main(build_parser, body):
+    """A tool's `main(argv=None)`: the options of `build_parser()` read from `argv`
+    (default: the command line), then `body(args)` under `run`; returns the exit code."""
+
+    def main(argv=None) -> int:
+        args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
+        return run(body, args)
+
+    return main
+
+
 def run(main_body, args) -> int:
     """Run a tool body and return its exit code.
 

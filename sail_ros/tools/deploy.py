@@ -54,7 +54,7 @@ from sail_ros.tools.common import (
     add_sail_options,
     configuration,
     print_written,
-    run,
+    tool_main,
 )
 from sail_ros.tools.deploy_result import DeploymentReport
 
@@ -370,7 +370,7 @@ def _deploy(args) -> int:
     if args.json:
         print(json.dumps(found.to_json(), indent=2))
     elif args.summary or not (args.mcap or args.figures):
-        print(found.text(), end="")
+        found.print_text()
     warning = found.convergence_warning()
     if warning:
         print(warning, file=sys.stderr)
@@ -515,10 +515,4 @@ def _write_figures(folder: Path, model, result, snapshots, scenario, description
     ]
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_deploy, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _deploy)

@@ -1,11 +1,9 @@
-"""What `sail-ros deploy` found, as one object that renders its text and its JSON from the
-same fields (`DeploymentReport`), so the two cannot disagree."""
+"""What `sail-ros deploy` found, as one object that prints its text and gives its JSON
+from the same fields (`DeploymentReport`), so the two cannot disagree."""
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import io
 
 import numpy as np
 
@@ -37,20 +35,19 @@ class DeploymentReport:
     holds: object = None
     controller: dict | None = None
 
-    def text(self) -> str:
+    def print_text(self) -> None:
         """The table of tip deflections, the peaks and their convergence, a free hub's
-        peaks and the closed loop's summary, as printed."""
-        with contextlib.redirect_stdout(io.StringIO()) as out:
-            _print_table(self.result, self.table_times, self.description, self.config)
-            _print_peaks(self.result.peaks, self.model, self.convergence)
-            if self.holds is not None:
-                _print_hub_peaks(self.result.peaks.hub, self.holds)
-            if self.controller is not None:
-                from sail_ros.analysis.closed_loop import summary_lines
+        peaks and the closed loop's summary, printed line by line (a reader that goes
+        away ends the tool at once)."""
+        _print_table(self.result, self.table_times, self.description, self.config)
+        _print_peaks(self.result.peaks, self.model, self.convergence)
+        if self.holds is not None:
+            _print_hub_peaks(self.result.peaks.hub, self.holds)
+        if self.controller is not None:
+            from sail_ros.analysis.closed_loop import summary_lines
 
-                print()
-                print("\n".join(summary_lines(self.controller)))
-        return out.getvalue()
+            print()
+            print("\n".join(summary_lines(self.controller)))
 
     def to_json(self) -> dict:
         """The same as one JSON object (`--json`)."""

@@ -37,7 +37,7 @@ from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.options import ToolParser, help_epilog
 from sail_ros.ros.program import bounded_teardown
 from sail_ros.tools.client import NoAnswerError, SimClient, init_context
-from sail_ros.tools.common import run
+from sail_ros.tools.common import tool_main
 from sail_ros.tools.domains import DomainLease
 
 START, END, DURATION, TIP = 10.0, 15.0, 15.0, 0.1  # m, m, s, m (model.md §9)
@@ -94,11 +94,6 @@ def build_parser() -> ToolParser:
         help="simulation seconds per wall second (default 2.0)",
     )
     return parser
-
-
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_demo, args)
 
 
 def _demo(args) -> int:
@@ -283,3 +278,6 @@ def summarise(output: Path, t_start: float) -> None:
         f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
         f"{statuses[key.OVERRUNS][-1]}; rejected commands: {statuses[key.REJECTED][-1]}"
     )
+
+
+main = tool_main(build_parser, _demo)

@@ -11,7 +11,6 @@ with `--fem` compares the frequencies with the independent finite-element model
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +29,7 @@ from sail_ros.tools.common import (
     configuration,
     describe_parameters,
     print_written,
-    run,
+    tool_main,
     write_csv_rows,
     write_text,
 )
@@ -428,10 +427,4 @@ def _modes(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_modes, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _modes)

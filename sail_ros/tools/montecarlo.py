@@ -41,7 +41,7 @@ from sail_ros.options import ToolParser, help_epilog
 from sail_ros.outputs import staged
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
-from sail_ros.tools.common import add_sail_options, configuration, print_written, run
+from sail_ros.tools.common import add_sail_options, configuration, print_written, tool_main
 
 WORST = 5
 FIGURES = ("envelopes.png", "peaks.png", "influence.png")
@@ -210,10 +210,4 @@ def _figures(study, rows, summary, out: Path) -> list[Path]:
     return written
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_montecarlo, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _montecarlo)

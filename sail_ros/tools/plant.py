@@ -45,7 +45,7 @@ from sail_ros.tools.common import (
     configuration,
     describe_parameters,
     print_written,
-    run,
+    tool_main,
 )
 
 EXAMPLES = (
@@ -211,10 +211,4 @@ def _plant(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_plant, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _plant)

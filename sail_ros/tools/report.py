@@ -79,8 +79,8 @@ from sail_ros.tools.common import (
     print_hub_peak_table,
     print_peak_table,
     print_written,
-    run,
     set_values,
+    tool_main,
 )
 
 # first columns of real_time_factor.csv; any other status values follow by name
@@ -641,10 +641,4 @@ def _real_time_factor(log, out: Path, time_label: str, title: str) -> list[Path]
     ]
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_report, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _report)

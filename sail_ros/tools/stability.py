@@ -36,7 +36,7 @@ from sail_ros.tools.common import (
     configuration,
     describe_parameters,
     print_written,
-    run,
+    tool_main,
     write_csv_rows,
 )
 
@@ -263,10 +263,4 @@ def _stability(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_stability, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _stability)
