@@ -114,7 +114,7 @@ def test_parameters_are_described_over_the_parameter_services(ros):
     for spec in SPECS:
         descriptor = by_name[spec.name]
         assert descriptor.description == spec.description
-        assert descriptor.read_only == spec.read_only
+        assert descriptor.read_only == spec.spec.read_only
     assert by_name["sail.boom_bending_stiffness"].read_only
     assert by_name["max_rate"].floating_point_range[0].from_value == pytest.approx(1e-6)
     assert by_name["sail.n_boom_modes"].integer_range[0].to_value == 30
