@@ -34,6 +34,15 @@ class ToolParser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = NEGATIVE_NUMBER
 
+    @classmethod
+    def for_tool(cls, tool: str, description: str, examples, writes: str = "", notes: str = ""):
+        """The parser of `sail-ros <tool>`, its `--help` ending as `help_epilog` makes it."""
+        return cls(
+            prog=f"sail-ros {tool}",
+            description=description,
+            epilog=help_epilog(examples, writes, notes),
+        )
+
     def parse_args(self, args=None, namespace=None):
         return parse_arguments(self, sys.argv[1:] if args is None else args, namespace)
 
@@ -68,6 +77,13 @@ def _option_strings(parser: argparse.ArgumentParser, parsed) -> set[str]:
             if chosen is not None:
                 found |= _option_strings(chosen, parsed)
     return found
+
+
+def paragraphs(text: str, *indices: int) -> str:
+    """The paragraphs of `text` at `indices`, joined again: a tool's `--help` description
+    from its module docstring."""
+    parts = text.split("\n\n")
+    return "\n\n".join(parts[i] for i in indices)
 
 
 def help_epilog(examples, writes: str = "", notes: str = "") -> str:

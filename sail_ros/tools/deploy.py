@@ -47,7 +47,7 @@ from sail_ros.analysis.scenario import (
 )
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailModel
-from sail_ros.options import ToolParser, help_epilog
+from sail_ros.options import ToolParser
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
@@ -87,11 +87,7 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros deploy",
-        description=__doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
-    )
+    parser = ToolParser.for_tool("deploy", __doc__.split("\n\n")[1], EXAMPLES, WRITES, NOTES)
     add_sail_options(parser)
     parser.add_argument(
         "--scenario",

@@ -34,7 +34,7 @@ from sail_ros.bag import BagReader
 from sail_ros.integrate.control import DEFAULT_MAX_STEP
 from sail_ros.messages import commands as commands_msg
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
-from sail_ros.options import ToolParser, help_epilog
+from sail_ros.options import ToolParser
 from sail_ros.ros.program import bounded_teardown
 from sail_ros.tools.client import NoAnswerError, SimClient, init_context
 from sail_ros.tools.common import tool_main
@@ -79,11 +79,7 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros demo",
-        description=__doc__.split("\n\n")[0],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
-    )
+    parser = ToolParser.for_tool("demo", __doc__.split("\n\n")[0], EXAMPLES, WRITES, NOTES)
     parser.add_argument(
         "-o", "--output", type=Path, help="bag folder to create (default: out/demo_<UTC time>)"
     )

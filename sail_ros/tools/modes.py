@@ -23,7 +23,7 @@ from sail_ros.analysis.modes import (
     representative_shapes,
 )
 from sail_ros.model import SailModel
-from sail_ros.options import ToolParser, help_epilog
+from sail_ros.options import ToolParser
 from sail_ros.tools.common import (
     add_sail_options,
     configuration,
@@ -269,11 +269,7 @@ def _fem_csv_rows(check) -> list[dict]:
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros modes",
-        description=__doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
-    )
+    parser = ToolParser.for_tool("modes", __doc__.split("\n\n")[1], EXAMPLES, WRITES, NOTES)
     add_sail_options(parser)
     parser.add_argument(
         "--lengths",

@@ -37,7 +37,7 @@ from sail_ros.analysis.montecarlo import (
     study_sail,
     summarize,
 )
-from sail_ros.options import ToolParser, help_epilog
+from sail_ros.options import ToolParser, paragraphs
 from sail_ros.outputs import staged
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
@@ -64,10 +64,12 @@ whose run leaves the linear range, is a row with its error."""
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros montecarlo",
-        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
+    parser = ToolParser.for_tool(
+        "montecarlo",
+        paragraphs(__doc__, 0, 1),
+        EXAMPLES,
+        WRITES,
+        NOTES,
     )
     parser.add_argument("study", type=Path, metavar="STUDY.yaml", help="the study file")
     parser.add_argument("--out", type=Path, help="output folder (default: <study>_results)")

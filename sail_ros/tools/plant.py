@@ -37,7 +37,7 @@ from sail_ros.analysis.plant import (
     undamped_note,
 )
 from sail_ros.model import SailModel
-from sail_ros.options import ToolParser, help_epilog
+from sail_ros.options import ToolParser, paragraphs
 from sail_ros.outputs import staged
 from sail_ros.tools.common import (
     LIMITS_NOTE,
@@ -64,10 +64,12 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros plant",
-        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, LIMITS_NOTE),
+    parser = ToolParser.for_tool(
+        "plant",
+        paragraphs(__doc__, 0, 1),
+        EXAMPLES,
+        WRITES,
+        LIMITS_NOTE,
     )
     add_sail_options(parser)
     parser.add_argument(

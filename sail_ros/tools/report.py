@@ -61,7 +61,7 @@ from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
 from sail_ros.integrate.errors import AccuracyWarning
 from sail_ros.model import SailModel, SailParameters, record, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
-from sail_ros.options import ToolParser, help_epilog
+from sail_ros.options import ToolParser
 from sail_ros.outputs import staged
 from sail_ros.plots.histories import (
     boom_lengths_figure,
@@ -113,10 +113,8 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros report",
-        description=__doc__.split("\n\n")[0],
-        epilog=help_epilog(EXAMPLES, WRITES, __doc__.split("\n\n", 1)[1]),
+    parser = ToolParser.for_tool(
+        "report", __doc__.split("\n\n")[0], EXAMPLES, WRITES, __doc__.split("\n\n", 1)[1]
     )
     parser.add_argument("log", type=Path, help="MCAP file or rosbag2 folder")
     parser.add_argument(

@@ -27,7 +27,7 @@ from sail_ros.analysis.stability import (
     growth,
     stability_sweep,
 )
-from sail_ros.options import ToolParser, help_epilog
+from sail_ros.options import ToolParser
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
 from sail_ros.tools.common import (
@@ -60,10 +60,8 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros stability",
-        description=__doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, LIMITS_NOTE),
+    parser = ToolParser.for_tool(
+        "stability", __doc__.split("\n\n")[1], EXAMPLES, WRITES, LIMITS_NOTE
     )
     add_sail_options(parser)
     grid = parser.add_argument_group("grid")
