@@ -46,9 +46,9 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.messages import diagnostics as diagnostics_msg
-from sail_ros.messages import status as key
 from sail_ros.ros.commanding import command_publisher
 
 COUNTS = (key.ACCEPTED, key.SUPERSEDED, key.REJECTED, key.IGNORED)

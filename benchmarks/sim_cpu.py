@@ -38,7 +38,7 @@ from std_msgs.msg import Float64
 from sail_ros import topics
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.ros.commanding import command_publisher
-from sail_ros.topics import TOPIC_QOS
+from sail_ros.topics import TOPICS
 
 SETTINGS = [
     ("default (n_B 8, automatic n_M, 50 Hz state, 5 Hz shape), real time", {}),
@@ -125,7 +125,7 @@ class Observer(Node):
             package, _, kind = type_name.split("/")
             module = __import__(f"{package}.msg", fromlist=[kind])
             self.create_subscription(
-                getattr(module, kind), name, self._count, TOPIC_QOS[name], raw=True
+                getattr(module, kind), name, self._count, TOPICS[name].qos, raw=True
             )
         self.create_subscription(
             DiagnosticArray, topics.DIAGNOSTICS, self._on_status, topics.DIAGNOSTICS_QOS

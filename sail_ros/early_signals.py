@@ -4,7 +4,7 @@ A program started as a background job of a script (`sail-ros sim &`) begins with
 SIGINT ignored, so a `kill -INT` during its second of imports would be lost and the
 program would run on. The entry points (`sail_ros.cli`) call `keep_early_sigint`
 before they import anything heavy: in that case (SIGINT ignored, main thread) the
-signal is noted in `RECEIVED`, and the tools' `StopSignals` (`sail_ros.ros.cli`) act
+signal is noted in `RECEIVED`, and the tools' `StopSignals` (`sail_ros.ros.program`) act
 on it once they start. Importing this module changes nothing.
 """
 

@@ -22,6 +22,7 @@ import numpy as np
 
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import check_fields, setting
+from sail_ros.model.layout import per_boom
 
 TOLERANCE = 1e-9  # relative slack on the limits, for round-off in the profiles
 BOOMS = "abcd"
@@ -131,6 +132,10 @@ class Policy:
         """`[min_length, max_length]` [m] for `sail` (max_length 0: its full length)."""
         return self.min_length, self.max_length or sail.full_boom_length
 
+    def for_sail(self, sail: SailParameters) -> Policy:
+        """These limits with max_length 0 resolved: `sail`'s full length [m]."""
+        return self.replace(max_length=self.length_range(sail)[1])
+
     def check_sail(self, sail: SailParameters) -> None:
         """The range of lengths must be one the sail and the integration can have: below
         the longest, and not so short that its booms' sub-steps cost more than
@@ -182,7 +187,7 @@ class Policy:
 
     def check_rate(self, rate: float, what: str) -> float:
         """A constant extension rate [m/s] within [-max_rate, max_rate]."""
-        if not abs(rate) <= self.max_rate * (1.0 + TOLERANCE):
+        if self.motion_excess(None, None, abs(rate), 0.0, None)[2]:
             raise ValueError(
                 f"{what} = {rate:g} m/s is outside [-max_rate, max_rate] = "
                 f"[{-self.max_rate:g}, {self.max_rate:g}] m/s"
@@ -199,31 +204,65 @@ class Policy:
                 f"{self.max_trajectory_points}"
             )
 
+    def motion_excess(self, low, high, rate, acceleration, sail: SailParameters | None):
+        """Where a motion leaves the limits, from its extremes (arrays of one shape, or
+        numbers): `(below min_length, above max_length, above max_rate, above
+        max_acceleration)`, each True where it does (a NaN counts as outside). The one
+        comparison of a motion with the limits, with the one slack TOLERANCE for round-off
+        in the profiles; `sail` None leaves the lengths unchecked (False)."""
+        slack = 1.0 + TOLERANCE
+        if sail is None:
+            short = long = False
+        else:
+            shortest, longest = self.length_range(sail)
+            short = np.logical_not(np.asarray(low) >= shortest / slack)
+            long = np.logical_not(np.asarray(high) <= longest * slack)
+        fast = np.logical_not(np.asarray(rate) <= self.max_rate * slack)
+        sharp = np.logical_not(np.asarray(acceleration) <= self.max_acceleration * slack)
+        as_python = (lambda v: bool(v)) if np.ndim(fast) == 0 else (lambda v: v)
+        return tuple(as_python(v) for v in (short, long, fast, sharp))
+
+    def motion_fits(self, low, high, rate, acceleration, sail: SailParameters | None):
+        """Whether a motion of these extremes keeps within the limits (`motion_excess`),
+        element by element."""
+        short, long, fast, sharp = self.motion_excess(low, high, rate, acceleration, sail)
+        return ~(np.asarray(short) | long | fast | sharp)
+
     def check_motion(self, profile, sail: SailParameters, booms=range(4), what: str = "") -> None:
         """A motion (a profile with `extremes()`) of the booms at indices `booms`: its
         lengths, |rates| and |accelerations| everywhere within the limits."""
         low, high, rate, acceleration = profile.extremes()
+        short, long, fast, sharp = self.motion_excess(low, high, rate, acceleration, sail)
         shortest, longest = self.length_range(sail)
-        slack = 1.0 + TOLERANCE
         prefix = f"{what}: " if what else ""
         for k in booms:
             name = f"boom_{BOOMS[k]}"
-            if low[k] < shortest / slack or high[k] > longest * slack:
-                reached = low[k] if low[k] < shortest / slack else high[k]
+            if short[k] or long[k]:
+                reached = low[k] if short[k] else high[k]
                 raise ValueError(
                     f"{prefix}{name} would pass through {reached:.4g} m on the way, outside "
                     f"[min_length, max_length] = [{shortest:g}, {longest:g}] m"
                 )
-            if rate[k] > self.max_rate * slack:
+            if fast[k]:
                 raise ValueError(
                     f"{prefix}{name} would move at {rate[k]:.4g} m/s, above max_rate "
                     f"{self.max_rate:g} m/s"
                 )
-            if acceleration[k] > self.max_acceleration * slack:
+            if sharp[k]:
                 raise ValueError(
                     f"{prefix}{name} would accelerate at {acceleration[k]:.4g} m/s^2, above "
                     f"max_acceleration {self.max_acceleration:g} m/s^2"
                 )
+
+    def fastest_cycloid(self, start, end, t0: float = 0.0):
+        """The fastest cycloidal move [m] from `start` to `end` (4 each, or one number)
+        from `t0` [s] whose rate and acceleration stay within max_rate and
+        max_acceleration (`CycloidalProfile.shortest_duration`)."""
+        from sail_ros.model.profiles import CycloidalProfile  # as in check_sail
+
+        travel = float(np.max(np.abs(per_boom(end, "end") - per_boom(start, "start"))))
+        duration = CycloidalProfile.shortest_duration(travel, self.max_rate, self.max_acceleration)
+        return CycloidalProfile(start, end, duration, t0)
 
     # -- loads -----------------------------------------------------------------------------
 

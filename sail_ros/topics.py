@@ -34,85 +34,49 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from sail_ros.model import SailParameters, yaml_values
-from sail_ros.model.parameters import SIMULATOR_NODE
-
-# -- names ------------------------------------------------------------------------------------
-# Relative, so a node's namespace (`--ros-args -r __ns:=/sat2`) moves them all;
-# /clock and /diagnostics are global, as ROS expects.
-
-BOOM_STATE = "sail/boom_state"
-MODAL_STATE = "sail/modal_state"
-TIP_DEFLECTION = "sail/tip_deflection"
-ROOT_MOMENT = "sail/root_moment"
-SHAPE = "sail/shape"
-HUB_STATE = "sail/hub_state"  # a free hub only
-DIAGNOSTICS = "/diagnostics"
-CLOCK = "/clock"
-BOOM_LENGTH_CMD = "sail/boom_length_cmd"
-DEPLOY_CMD = "sail/deploy_cmd"
-PRESSURE_CMD = "sail/pressure_cmd"
-TIP_FORCE_CMD = "sail/tip_force_cmd"
-HUB_WRENCH_CMD = "sail/hub_wrench_cmd"  # a free hub only
-COMMAND_STATUS = "sail/command_status"
-RESET_SERVICE = "sail/reset"
-PAUSE_SERVICE = "sail/pause"
-CONTROL_ENABLE_SERVICE = "sail/control/enable"  # the hub controller's switch
-SIM_NODE = SIMULATOR_NODE  # the node whose params-file section holds the sail
-
-
-def sail_namespaces(recorded_topics) -> list[str]:
-    """The namespaces ("/", "/sat2", ...) in which a log holds a sail's boom state."""
-    suffix = "/" + BOOM_STATE
-    return sorted(
-        (topic[: -len(suffix)] or "/") for topic in recorded_topics if topic.endswith(suffix)
-    )
-
-
-def moved(topic: str, source: str, target: str) -> str:
-    """`topic` of a sail recorded in namespace `source`, played in namespace `target`:
-    "/sat1/sail/boom_state" from "/sat1" to "/sat2" is "/sat2/sail/boom_state"; a topic
-    outside `source` (/clock, /diagnostics) stays as it is."""
-    prefix = source.rstrip("/") + "/"
-    if not topic.startswith(prefix):
-        return topic
-    return absolute(topic[len(prefix) :], target)
-
-
-def absolute(name: str, namespace: str = "/") -> str:
-    """`name` resolved in `namespace` ("/" or "/sat2"): "sail/boom_state" ->
-    "/sat2/sail/boom_state"; an absolute name stays as it is."""
-    if name.startswith("/"):
-        return name
-    return f"{namespace.rstrip('/')}/{name}"
-
-
-FRAME_ID = "sail"  # default body frame (model.md §1)
-INERTIAL_FRAME_ID = "sail_inertial"  # default inertial frame of a free hub (model.md §13)
-BOOM_JOINTS = ("boom_a", "boom_b", "boom_c", "boom_d")
-TIP_JOINTS = tuple(f"{name}_tip" for name in BOOM_JOINTS)
-ROOT_JOINTS = tuple(f"{name}_root" for name in BOOM_JOINTS)
-QUADRANT_SURFACES = ("quadrant_ab", "quadrant_bc", "quadrant_cd", "quadrant_da")
-# the load commands: which names each takes (JointState.name, its value in .effort)
-LOAD_NAMES = {PRESSURE_CMD: QUADRANT_SURFACES, TIP_FORCE_CMD: BOOM_JOINTS}
-HARDWARE_ID = SIM_NODE
-
-
-def integrator_status_name(node: str = SIM_NODE) -> str:
-    """The /diagnostics status name of the simulator node `node` (its fully qualified
-    name, or a name in the root namespace): "sail_sim: integrator",
-    "sat2/sail_sim: integrator"; /diagnostics is global, the name tells sails apart."""
-    return f"{node.lstrip('/')}: integrator"
-
-
-DIAGNOSTIC_NAME = integrator_status_name()
-CONTROLLER_NODE = "sail_control"  # the free hub's controller (nodes.control)
-
-
-def controller_status_name(node: str = CONTROLLER_NODE) -> str:
-    """The /diagnostics status name of the controller node `node` (its fully qualified
-    name): "sail_control: controller"."""
-    return f"{node.lstrip('/')}: controller"
-
+from sail_ros.names import (  # noqa: F401  the names, re-exported with the table
+    BOOM_JOINTS,
+    BOOM_LENGTH_CMD,
+    BOOM_STATE,
+    CLOCK,
+    COMMAND_STATUS,
+    COMMAND_TOPICS,
+    CONTROL_ENABLE_SERVICE,
+    CONTROLLER_NODE,
+    DEPLOY_CMD,
+    DIAGNOSTICS,
+    FRAME_ID,
+    HUB_STATE,
+    HUB_WRENCH_CMD,
+    INERTIAL_FRAME_ID,
+    LOAD_NAMES,
+    MODAL_STATE,
+    PARAMETER_CHANGES_METADATA,
+    PARAMETER_EVENTS,
+    PARAMETERS_METADATA,
+    PAUSE_SERVICE,
+    PRESSURE_CMD,
+    QUADRANT_SURFACES,
+    RESET_SERVICE,
+    ROOT_JOINTS,
+    ROOT_MOMENT,
+    SAIL_PREFIX,
+    SCENARIO_METADATA,
+    SHAPE,
+    SIM_COMMANDS_NODE,
+    SIM_NODE,
+    STATE_TOPICS,
+    TIP_DEFLECTION,
+    TIP_FORCE_CMD,
+    TIP_JOINTS,
+    absolute,
+    controller_status_name,
+    integrator_status_name,
+    moved,
+    sail_namespaces,
+    stamp_ns,
+    stamp_ns_of,
+)
 
 # -- QoS --------------------------------------------------------------------------------------
 # Everything is reliable: a recorder or a slow subscriber gets every sample
@@ -179,9 +143,6 @@ class Topic:
     qos: QoSProfile
 
 
-# the simulator's node that takes the commands (`nodes.sim`): a sender waits for it
-SIM_COMMANDS_NODE = SIM_NODE + "_commands"
-
 TOPICS = {
     topic.name: topic
     for topic in (
@@ -206,26 +167,9 @@ TOPICS = {
         Topic(DIAGNOSTICS, DiagnosticArray, "diagnostic_msgs/msg/DiagnosticArray", DIAGNOSTICS_QOS),
     )
 }
-TOPIC_QOS = {name: topic.qos for name, topic in TOPICS.items()}
-# what the simulator publishes at every state sample (and /clock with them when it runs one)
-STATE_TOPICS = (BOOM_STATE, MODAL_STATE, TIP_DEFLECTION, ROOT_MOMENT)
-# what the simulator takes commands on (and HUB_WRENCH_CMD with a free hub)
-COMMAND_TOPICS = (BOOM_LENGTH_CMD, DEPLOY_CMD, PRESSURE_CMD, TIP_FORCE_CMD)
-# what a free hub adds: its state with every state sample, its wrench command
-HUB_TOPICS = (HUB_STATE, HUB_WRENCH_CMD)
-# ROS's record of every parameter change, with its time and node (rcl_interfaces/ParameterEvent)
-PARAMETER_EVENTS = "/parameter_events"
 # what a recorder of the simulator takes by default: everything in the table, and
 # the parameter changes
 RECORDED_TOPICS = (*TOPICS, PARAMETER_EVENTS)
-
-# -- metadata records ---------------------------------------------------------------------------
-
-PARAMETERS_METADATA = "sail_sim_parameters"  # the simulator's parameters, name -> YAML text
-# one record per parameter event that changed them: node, times, {name, old, new} list
-PARAMETER_CHANGES_METADATA = "sail_sim_parameter_changes"
-SCENARIO_METADATA = "sail_deploy_scenario"  # an offline run: its scenario (YAML) and epoch_ns
-SAIL_PREFIX = "sail."  # the simulator's parameter `sail.<field>` is SailParameters.<field>
 
 
 def yaml_value(value) -> str:
@@ -293,17 +237,7 @@ def sail_parameters_from_record(record: Mapping[str, str]) -> SailParameters | N
 # -- stamps -----------------------------------------------------------------------------------
 
 
-def stamp(stamp_ns: int) -> Time:
-    """`builtin_interfaces/Time` of `stamp_ns` [ns since the Unix epoch]."""
-    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+def stamp(ns: int) -> Time:
+    """`builtin_interfaces/Time` of `ns` [ns since the Unix epoch]."""
+    sec, nanosec = divmod(int(ns), 1_000_000_000)
     return Time(sec=sec, nanosec=nanosec)
-
-
-def stamp_ns_of(time: Time) -> int:
-    """[ns since the Unix epoch] of a `builtin_interfaces/Time` (`stamp`'s inverse)."""
-    return int(time.sec) * 1_000_000_000 + int(time.nanosec)
-
-
-def stamp_ns(epoch_ns: int, t: float) -> int:
-    """The stamp [ns] of simulation time `t` [s] on a run that started at `epoch_ns`."""
-    return int(epoch_ns) + round(t * 1e9)

@@ -2,14 +2,17 @@
 
 The tests live by tier, one folder each, every module marked with its tier:
 
-- `test/model/` (`model`): the model, the simulator's pure runtime and the message
-  bytes, against closed forms and independent readers (seconds);
+- `test/model/` (`model`): the model alone, against closed forms (seconds);
+- `test/runtime/` (`model`): the simulator without ROS: command planning, the stepping
+  core, pacing, the real-time run on an injected clock;
+- `test/bag/` (`model`): the message builders, their CDR bytes and the recording, read
+  back by independent readers;
 - `test/tools/` (`model`, and `lint`): the offline tools, the bag format, the docs,
   the layout and the launch file, in this process;
 - `test/nodes/` (`node`): nodes in this process, each test with a private rclpy context;
 - `test/system/` (`multiprocess`): the tools as separate processes over real DDS.
 
-`pytest -m model` runs the first two in about a minute. A test marked `slow` is the full
+`pytest -m model` runs the first four in about a minute. A test marked `slow` is the full
 size of a trial the suite runs CI-sized: it runs only with `--slow` (scripts/stress.sh).
 The test command runs two tests at a time (pytest-xdist, `-n 2`, a module on one worker
 when its tests share a module fixture, any other test wherever a worker is free); a
@@ -31,14 +34,15 @@ import time
 from pathlib import Path
 
 import pytest
-import rclpy
-from harness import DOMAIN_ID, JS, NODE_MAJOR, Operator, Tool, ros_value
+from harness import JS, NODE_MAJOR, Operator, Tool, private_context, ros_value
 
 from sail_ros.ros.discovery import CLIENT_PROFILE, PROFILE
 
 TIERS = ("model", "node", "multiprocess", "lint")
 FOLDER_TIERS = {
     "model": ("model",),
+    "runtime": ("model",),
+    "bag": ("model",),
     "tools": ("model", "lint"),
     "nodes": ("node",),
     "system": ("multiprocess",),
@@ -212,10 +216,8 @@ def figure_checks():
 @pytest.fixture
 def ros_context():
     """A private rclpy context on the test domain, shut down after the test."""
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=DOMAIN_ID)
-    yield context
-    rclpy.try_shutdown(context=context)
+    with private_context() as context:
+        yield context
 
 
 @pytest.fixture

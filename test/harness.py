@@ -11,6 +11,7 @@ take, `tools.domains.DomainLease`).
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import importlib
 import io
@@ -24,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from matplotlib.image import imread
 from rcl_interfaces.srv import SetParameters
@@ -32,10 +34,10 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.cli import TOOLS
 from sail_ros.messages import diagnostics as diagnostics_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailParameters
 from sail_ros.ros.commanding import command_publisher
 from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often
@@ -108,12 +110,38 @@ def spare_domain() -> DomainLease:
     return DomainLease()
 
 
-def spin_until(executor, condition, timeout: float, what: str, step: float = 0.01) -> None:
-    """Spin `executor` until `condition()`; fail naming `what` after `timeout` [s]."""
+def wait_until(
+    condition, timeout: float, what: str, *, executor=None, step=0.01, between=None, running=()
+) -> None:
+    """Until `condition()` holds; between two checks spin `executor` for up to `step` [s],
+    or call `between()`, or else sleep `step` [s]. Fails naming `what` after `timeout`
+    [s], or at once when one of the `running` tools (`Tool`) has exited. The tests' one
+    wait."""
     deadline = time.monotonic() + timeout
     while not condition():
+        for tool in running:
+            if tool.process.poll() is not None:
+                pytest.fail(f"{tool.log_path.stem} exited while waiting for {what}:\n{tool.log()}")
         assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
-        executor.spin_once(timeout_sec=step)
+        if executor is not None:
+            executor.spin_once(timeout_sec=step)
+        elif between is not None:
+            between()
+        else:
+            time.sleep(step)
+
+
+@contextlib.contextmanager
+def private_context(domain_id: int | None = None):
+    """A private rclpy context on `domain_id` (the test's domain by default), shut down at
+    the end: the one place the tests make a context (the `ros_context` fixture, the
+    module-wide listeners, a second participant)."""
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=DOMAIN_ID if domain_id is None else domain_id)
+    try:
+        yield context
+    finally:
+        rclpy.try_shutdown(context=context)
 
 
 class Tool:
@@ -185,7 +213,7 @@ class Operator(Node):
         self.published_ns.append(info["source_timestamp"])
 
     def spin_until(self, condition, timeout, what):
-        spin_until(self.spinner, condition, timeout, what)
+        wait_until(condition, timeout, what, executor=self.spinner)
 
     def spin_for(self, seconds):
         deadline = time.monotonic() + seconds

@@ -51,7 +51,7 @@ CHUNK_SECONDS = 1.0  # simulated time per MCAP chunk [s]
 LOGGED_TOPICS = (topics.CLOCK, *topics.STATE_TOPICS, topics.SHAPE)
 
 
-def simulator_parameters(
+def recorded_parameters(
     model: SailModel,
     run: DeploymentRun,
     *,
@@ -110,7 +110,7 @@ def write_deployment_log(
         path: output file or folder.
         model: the model of the run (coordinate names, shape basis).
         run: the states to write.
-        parameters: the `sail_sim_parameters` record (`simulator_parameters`).
+        parameters: the `sail_sim_parameters` record (`recorded_parameters`).
         scenario_document: the scenario as plain data.
         shape_every: write `/sail/shape` at every `shape_every`-th output time
             (0: never).

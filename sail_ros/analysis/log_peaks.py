@@ -22,8 +22,7 @@ import numpy as np
 from sail_ros.analysis.log_series import LogSeries
 from sail_ros.integrate.peaks import Peak, Peaks, PeakSearch, with_tilt
 from sail_ros.model import SailModel
-from sail_ros.model.basis import cantilever_roots
-from sail_ros.model.layout import BOOMS
+from sail_ros.model.sail_model import cantilever_frequencies
 
 RESOLVED_PHASE = 1.0  # rad of a mode between two samples that Hermite interpolation follows
 
@@ -124,23 +123,12 @@ def _unresolved(log: LogSeries, model: SailModel | None, spacing: float):
         return None, None, np.inf
     if not np.array_equal(log.modal.stamp_ns, log.boom.stamp_ns):
         return None, None, np.inf
-    nb = model.n_boom_modes
-    params = model.params
-    beta2 = cantilever_roots(nb) ** 2
     lengths = log.boom.position  # (k, 4)
     # bare-cantilever frequency of each boom mode at each sample [rad/s], (k, 4, nb)
-    omega = beta2 * np.sqrt(params.boom_bending_stiffness / params.boom_linear_density)
-    omega = omega[None, None, :] / lengths[:, :, None] ** 2
+    omega = cantilever_frequencies(model.params, lengths, model.n_boom_modes)
     unresolved = omega * spacing > RESOLVED_PHASE
-    q = log.modal.position
-    tip = np.zeros((q.shape[0], 4))
-    moment = np.zeros((q.shape[0], 4))
-    for k, boom in enumerate(BOOMS):
-        p = q[:, model.boom_slice(boom)]  # (k, nb)
-        tip[:, k] = np.sum(np.where(unresolved[:, k], p * model.boom_integrals.tip, 0.0), axis=1)
-        curvature = p * params.boom_bending_stiffness * model.boom_integrals.root_curvature
-        moment[:, k] = (
-            np.sum(np.where(unresolved[:, k], curvature, 0.0), axis=1) / lengths[:, k] ** 2
-        )
+    tips, moments = model.boom_mode_shares(log.modal.position, lengths)
+    tip = np.sum(np.where(unresolved, tips, 0.0), axis=2)
+    moment = np.sum(np.where(unresolved, moments, 0.0), axis=2)
     lowest = np.min(np.where(unresolved, omega, np.inf), initial=np.inf) / (2 * np.pi)
     return np.abs(tip).max(axis=0), np.abs(moment).max(axis=0), float(lowest)

@@ -26,11 +26,11 @@ from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.messages import hub as hub_msg
 from sail_ros.messages import state as state_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailParameters, yaml_values
 
 

@@ -47,7 +47,6 @@ from sail_ros.analysis.schema import (
     check_times,
     key,
 )
-from sail_ros.cli import nearest
 from sail_ros.control.settings import DesignSettings
 from sail_ros.model import (
     CycloidalProfile,
@@ -59,6 +58,7 @@ from sail_ros.model import (
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion, JammedProfile
 from sail_ros.policy import Policy
+from sail_ros.spelling import did_you_mean
 
 BOOMS = BOOM_NAMES
 POSITIVE = {"minimum": 0.0, "above_minimum": True}
@@ -250,11 +250,6 @@ def load_scenario(path, check_points=None) -> Scenario:
         raise ValueError(f"{path}: {error}") from None
 
 
-def reference_scenario() -> Scenario:
-    """The reference deployment of model.md §9 (= config/scenario_reference.yaml)."""
-    return scenario_from_dict(REFERENCE)
-
-
 def _what(document) -> str:
     """What a document that is no scenario holds, in a few words: its top-level keys (a
     study file: 'study'), or its type."""
@@ -327,8 +322,7 @@ def controller_settings(section) -> DesignSettings | None:
     known = DesignSettings.field_names()
     for name in section:
         if name not in known:
-            close = nearest(str(name), known)
-            hint = f" (did you mean {close!r}?)" if close else ""
+            hint = did_you_mean(str(name), known)
             raise ValueError(f"controller: unknown key {name!r}{hint}")
     try:
         return DesignSettings(**section)

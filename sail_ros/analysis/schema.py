@@ -15,8 +15,8 @@ import dataclasses
 
 import numpy as np
 
-from sail_ros.cli import nearest
 from sail_ros.model.fields import Spec, check_value, range_text, table_cell
+from sail_ros.spelling import did_you_mean
 
 REQUIRED = "required"
 BOOM_NAMES = ("a", "b", "c", "d")
@@ -77,8 +77,7 @@ class Section:
         known = [k.name for k in self.keys]
         unknown = [name for name in mapping if name not in known]
         if unknown:
-            close = nearest(str(unknown[0]), known)
-            hint = f" (did you mean {close!r}?)" if close else ""
+            hint = did_you_mean(str(unknown[0]), known)
             raise ValueError(
                 f"{where}: unknown key(s) {', '.join(map(repr, unknown))}{hint}; "
                 f"known: {', '.join(known)}"

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import threading
 
+from sail_ros import status as key
 from sail_ros.bridging.protocol import MESSAGE_ENCODING, full_type_or_none
-from sail_ros.messages import status as key
 
 COUNTED = (
     key.SERVED,

@@ -12,8 +12,8 @@ import time
 
 from foxglove import MessageSchema, Schema, ServiceSchema
 
+from sail_ros import status as key
 from sail_ros.bag.definitions import PRIMITIVE_TYPES, find_interface_file, full_type_name
-from sail_ros.messages import status as key
 
 MESSAGE_ENCODING = "cdr"
 SCHEMA_ENCODING = "ros2msg"

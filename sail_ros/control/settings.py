@@ -18,7 +18,14 @@ import dataclasses
 import math
 
 from sail_ros.model import SailParameters
-from sail_ros.model.fields import check_fields, default_of, fields_of, setting, spec_of
+from sail_ros.model.fields import (
+    Setting,
+    check_fields,
+    default_of,
+    fields_of,
+    setting,
+    spec_of,
+)
 from sail_ros.policy import Policy
 
 MAX_DELAY_PERIODS = 50  # a longer loop delay is no design this controller makes sense for
@@ -255,3 +262,4 @@ NODE_PARAMETERS = {
     **{f.name: _fixed(f) for f in fields_of(Policy) if f.name in LIMIT_NAMES},
     **{SAIL_PREFIX + f.name: f for f in fields_of(SailParameters)},
 }
+NODE_SETTINGS = [Setting.of(name, field) for name, field in NODE_PARAMETERS.items()]

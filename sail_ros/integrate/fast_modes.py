@@ -35,7 +35,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
+
+from sail_ros.model.lapack import potrs as _potrs
+from sail_ros.model.lapack import sygvd as _sygvd
 
 # A mode is followed when it lies above this multiple of the system's resolved
 # frequency (the first cantilever frequency of the shortest bare boom, above the
@@ -99,11 +101,6 @@ class FrozenModes:
         alpha, beta = damping
         omega, d = np.sqrt(lam), alpha + beta * lam
         return cls(omega, V, d, M, M @ V, _damped(omega, d), updates)
-
-
-# LAPACK without scipy's wrappers (the same calls as `scipy.linalg.eigh(K, M)` and
-# `cho_solve`), on matrices assembled from checked lengths
-_sygvd, _potrs = scipy.linalg.lapack.get_lapack_funcs(("sygvd", "potrs"), dtype=float)
 
 
 def _eigh(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

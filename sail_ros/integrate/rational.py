@@ -24,6 +24,7 @@ import scipy.linalg
 from sail_ros.integrate.fast_modes import TURN_BACK_EXPONENT, oscillation, turning
 from sail_ros.model.assembly import CANONICAL_DAMPING, GYROSCOPIC, MASS, STIFFNESS_CANONICAL
 from sail_ros.model.blocks import DenseMatrices
+from sail_ros.model.lapack import getrs as _getrs  # what `lu_solve` calls
 
 # the matrices one moving step needs, in this order (`moving_step`)
 STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
@@ -64,8 +65,6 @@ def _extension_system() -> np.ndarray:
 
 
 _EXTENSION_FACTORS = _extension_system()
-# LAPACK's solve with those factors, without scipy's checks (what `lu_solve` calls)
-_getrs = scipy.linalg.lapack.get_lapack_funcs("getrs", dtype=float)
 _EXTENSION_ORDERS = np.arange(2 * PADE_POLES.size + 1)
 _EXTENSION_FACTORIALS = np.array([factorial(m) for m in _EXTENSION_ORDERS], dtype=float)
 

@@ -29,6 +29,7 @@ from sail_ros.model.assembly import (
     STRUCTURAL_DAMPING,
 )
 from sail_ros.model.blocks import BlockMatrices, DenseMatrices
+from sail_ros.model.lapack import potrf, potrs  # `M` is positive definite
 from sail_ros.model.layout import per_boom
 
 
@@ -65,10 +66,6 @@ class LinearSystem(Protocol):
         (`scipy.linalg.eigh(K, M)` for a structure held in place); rigid-body modes, if
         any, with `lam` exactly 0 (a free hub, model.md §13.6)."""
 
-
-# Cholesky factorisation and solve without scipy's checks (`M` is assembled from checked
-# lengths and is positive definite)
-potrf, potrs = scipy.linalg.lapack.get_lapack_funcs(("potrf", "potrs"), dtype=float)
 
 # [bytes] what one stepper keeps of the structure at the times it asked about: the two
 # ends of a step and its middles at several hundred coordinates (a set of matrices is

@@ -4,12 +4,21 @@ answer to every command (`sail/command_status`)."""
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import NamedTuple
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 
-from sail_ros.topics import SIM_NODE, stamp
+from sail_ros.names import (  # noqa: F401  the answers' vocabulary, re-exported
+    ACCEPTED,
+    IGNORED,
+    LOADS_HELD,
+    REJECTED,
+    SIM_NODE,
+    SUBSCRIBERS,
+    SUPERSEDED,
+    CommandAnswer,
+)
+from sail_ros.topics import stamp
 
 
 def load_command(topic: str, values: Mapping[str, float]) -> JointState:
@@ -19,43 +28,12 @@ def load_command(topic: str, values: Mapping[str, float]) -> JointState:
     return message
 
 
-ACCEPTED, REJECTED, IGNORED = "accepted", "rejected", "ignored"
-SUPERSEDED = "superseded"  # a newer command replaced it before it started
-# value of an accepted load command's answer: the four values held from then on
-# ("[0.002, 0.0, 0.0, 0.0]", Pa or N), so a log tells every load from the answers alone
-LOADS_HELD = "loads_held"
-# value of every answer: how many subscriptions of the command's topic the simulator's
-# graph showed when it answered (its own two, a recorder's, ...); a sender keeps its
-# publisher until as many have the command (`SimClient.close`)
-SUBSCRIBERS = "subscribers"
 _OUTCOME_LEVELS = {
     ACCEPTED: DiagnosticStatus.OK,
     REJECTED: DiagnosticStatus.ERROR,
     IGNORED: DiagnosticStatus.WARN,
     SUPERSEDED: DiagnosticStatus.WARN,
 }
-
-
-class CommandAnswer(NamedTuple):
-    """What the simulator did with one command (`sail/command_status`).
-
-    Attributes:
-        topic: the command topic, as the simulator resolved it.
-        outcome: "accepted", "superseded" (a newer command replaced it before it
-            started), "rejected" or "ignored" (published before the simulator started).
-        message: the plan ("deploy to 12 m: ...") or the reason.
-        source_timestamp_ns: when its publisher wrote it [ns, the publisher's clock].
-        sequence: the publisher's sequence number of the command.
-        values: further key/value pairs (t_start_s, t_end_s of an accepted motion;
-            t_start_s and LOADS_HELD of an accepted load).
-    """
-
-    topic: str
-    outcome: str
-    message: str
-    source_timestamp_ns: int
-    sequence: int
-    values: dict[str, str]
 
 
 def command_status(stamp_ns_: int, answers: Sequence[CommandAnswer]) -> DiagnosticArray:

@@ -1,5 +1,5 @@
 """`/diagnostics`: the simulator's integrator status, and its values read back
-(keys in `messages.status`)."""
+(keys in `sail_ros.status`)."""
 
 from __future__ import annotations
 

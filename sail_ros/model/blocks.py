@@ -29,11 +29,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-import scipy.linalg
 
+from sail_ros.model.lapack import gesv_complex as _gesv
 from sail_ros.model.layout import QUADRANTS, Layout
-
-_gesv = scipy.linalg.lapack.get_lapack_funcs("gesv", dtype=complex)
 
 _POWERS = np.arange(3)
 _BOOMS = np.arange(4)

@@ -1,12 +1,14 @@
 """Configuration tables: every field declared once, with its unit, range and meaning.
 
-A configuration (`SailParameters`, the simulator's policy and settings) is a frozen
-dataclass whose fields are declared with `setting(default, unit, doc, ...)`. That one
-declaration gives the check of a value (`check_value`, the same for the model's
-constructor, the simulator's ROS parameters and the tools' `--set`), the text of the
-ROS parameter descriptor, the `--set` help and the documentation tables
-(`help_line`, `markdown_table`). Errors name the field, the value and the allowed
-range: `sail_side must be in (0, 10000] m, got 0.0`.
+A configuration (`SailParameters`, the simulator's policy and settings, the recorder's,
+replay's and bridge's parameters) is a frozen dataclass whose fields are declared with
+`setting(default, unit, doc, ...)`. A field under its name (a ROS parameter, a `--set`
+name) is a `Setting`, the one setting type: it checks a value (`Setting.check`, the same
+for the model's constructor, a node's parameters at start and at run time, and the
+tools' `--set`), and gives the text of the ROS parameter descriptor
+(`ros.parameters.descriptor`), the help lines (`option_help`, `parameter_help`) and the
+documentation tables (`markdown_table`). Errors name the field, the value and the
+allowed range: `sail_side must be in (0, 10000] m, got 0.0`.
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ class Spec:
         read_only: for a ROS parameter: fixed once the node has started.
         sizes: the allowed lengths of a list value.
         choices: the allowed values of a text.
+        short: a further command-line spelling of a node's option ("-o").
+        item_type: the type of each item of a list whose default is empty.
     """
 
     unit: str
@@ -42,6 +46,8 @@ class Spec:
     read_only: bool = True
     sizes: tuple[int, ...] = ()
     choices: tuple[str, ...] = ()
+    short: str | None = None
+    item_type: type = float
 
 
 def setting(default, unit: str, doc: str, **constraints) -> dataclasses.Field:
@@ -171,14 +177,86 @@ def check_fields(instance, prefix: str = "") -> None:
         object.__setattr__(instance, field.name, value)
 
 
-def help_line(name: str, field: dataclasses.Field) -> str:
-    """`name [unit] (default 0.1, range [0, 1]): doc` for --help texts."""
-    spec = spec_of(field)
-    unit = f" [{spec.unit}]" if spec.unit else ""
-    limits = range_text(spec)
-    within = f", {limits}" if limits else ""
-    choices = f", one of {', '.join(spec.choices)}" if spec.choices else ""
-    return f"{name}{unit} (default {default_of(field)!r}{within}{choices}): {spec.doc}"
+@dataclasses.dataclass(frozen=True)
+class Setting:
+    """A table's field under its name: a ROS parameter of a node, a `--set` name of a tool
+    (`sail.<field>` for the sail's fields in the simulator)."""
+
+    name: str
+    default: object
+    spec: Spec
+
+    @classmethod
+    def of(cls, name: str, field: dataclasses.Field) -> Setting:
+        return cls(name, default_of(field), spec_of(field))
+
+    @property
+    def description(self) -> str:
+        """The meaning, with the unit in brackets: a ROS descriptor's description."""
+        return self.spec.doc + (f" [{self.spec.unit}]" if self.spec.unit else "")
+
+    @property
+    def is_list(self) -> bool:
+        return isinstance(self.default, list)
+
+    @property
+    def element_type(self) -> type:
+        """The type of the value, or of each element of a list."""
+        if self.is_list:
+            return type(self.default[0]) if self.default else self.spec.item_type
+        return type(self.default)
+
+    @property
+    def options(self) -> list[str]:
+        """A node's command-line spellings: `--<name-with-dashes>` (and `short`)."""
+        long = "--" + self.name.replace("_", "-")
+        return [self.spec.short, long] if self.spec.short else [long]
+
+    def constraints(self) -> str:
+        """The constraints a range cannot say, as text: list sizes, choices."""
+        if self.spec.sizes:
+            limits = range_text(dataclasses.replace(self.spec, unit=""))
+            within = f", each {limits}" if limits else ""
+            booms = " (booms a, b, c, d)" if 4 in self.spec.sizes else ""
+            return f"{' or '.join(map(str, self.spec.sizes))} values{booms}{within}"
+        if self.spec.choices:
+            return "one of: " + ", ".join(self.spec.choices)
+        return ""
+
+    def limits(self) -> str:
+        """What the value may be, as text ("" for anything of its type)."""
+        plain = dataclasses.replace(self.spec, unit="")
+        return self.constraints() or range_text(plain, self.element_type is int)
+
+    def check(self, value):
+        """`value` as the setting's type, or ConfigError naming it, the value and what is
+        allowed (`check_value`)."""
+        default = self.default if self.default != [] else [self.spec.item_type()]
+        try:
+            return check_value(self.name, value, default, self.spec)
+        except ValueError as error:
+            raise ConfigError(str(error)) from None
+
+    def option_help(self) -> str:
+        """`name [unit] (default 0.1, range [0, 1]): doc`, a tool's `--set` help."""
+        spec = self.spec
+        unit = f" [{spec.unit}]" if spec.unit else ""
+        limits = range_text(spec)
+        within = f", {limits}" if limits else ""
+        choices = f", one of {', '.join(spec.choices)}" if spec.choices else ""
+        return f"{self.name}{unit} (default {self.default!r}{within}{choices}): {spec.doc}"
+
+    def parameter_help(self) -> str:
+        """`  name (default 0.1, read-only; limits): description`, a node's `--help`."""
+        flags = ", read-only" if self.spec.read_only else ""
+        limits = self.limits()
+        limits = f"; {limits}" if limits else ""
+        return f"  {self.name} (default {self.default!r}{flags}{limits}): {self.description}"
+
+
+def settings_of(table, prefix: str = "") -> list[Setting]:
+    """The settings of a table (its fields, each named `prefix` + its name)."""
+    return [Setting.of(prefix + field.name, field) for field in fields_of(table)]
 
 
 def table_cell(text: str) -> str:
@@ -186,22 +264,22 @@ def table_cell(text: str) -> str:
     return text.replace("|", "\\|")
 
 
-def markdown_table(named_fields, writable: bool = False) -> str:
-    """Fields as a Markdown table: name, default, unit, range, (writable,) meaning.
+def markdown_table(settings, writable: bool = False) -> str:
+    """Settings as a Markdown table: name, default, unit, range, (writable,) meaning.
 
     Args:
-        named_fields: `(name, field)` pairs, e.g. `((f.name, f) for f in fields_of(cls))`.
+        settings: `Setting`s, e.g. `settings_of(SailParameters)`.
         writable: add a column saying whether a ROS parameter may change at run time.
     """
     header = ["name", "default", "unit", "range", *(["writable"] if writable else []), "meaning"]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for name, field in named_fields:
-        spec = spec_of(field)
+    for setting_ in settings:
+        name, spec = setting_.name, setting_.spec
         limits = table_cell(range_text(spec))
         if spec.sizes:
             each = f", each {limits}" if limits else ""
             limits = f"{' or '.join(map(str, spec.sizes))} values{each}"
-        cells = [f"`{name}`", f"{default_of(field)!r}", spec.unit or "–", limits or "–"]
+        cells = [f"`{name}`", f"{setting_.default!r}", spec.unit or "–", limits or "–"]
         if writable:
             cells.append("no" if spec.read_only else "yes")
         cells.append(table_cell(spec.doc))

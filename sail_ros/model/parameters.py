@@ -8,14 +8,12 @@ seed's validation setting of no boom axial load.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from pathlib import Path
 
-import yaml
-
 import sail_ros.model.yaml_values as yaml_values
 from sail_ros.model.fields import check_fields, setting, spec_of
+from sail_ros.spelling import did_you_mean
 
 MAX_BOOM_MODES = 30  # beyond, the cantilever functions' evaluation and the integrals cost more
 # than the model is worth; the membrane's integrals take about 10 s and 1 GiB at 400 modes
@@ -182,17 +180,6 @@ class SailParameters:
         """N0 = sigma h [N/m]."""
         return self.membrane_prestress * self.membrane_thickness
 
-    @property
-    def total_mass(self) -> float:
-        """Hub, four full booms and the whole film [kg]: `m_h + 4 rho_B L_f + 2 rho_M L_f^2`
-        (the free hub's constant `M[z, z]` with stowed material on the hub)."""
-        full = self.full_boom_length
-        return (
-            self.hub_mass
-            + 4.0 * self.boom_linear_density * full
-            + 2.0 * self.membrane_areal_density * full**2
-        )
-
     # (de)serialisation --------------------------------------------------
     @classmethod
     def unit(cls, name: str) -> str:
@@ -240,15 +227,10 @@ class SailParameters:
         errors); an empty document gives the defaults."""
         return cls.from_dict(_find_sail_section(document or {}, Path(path), node))
 
-    def to_yaml(self, path) -> None:
-        with open(path, "w") as stream:
-            yaml.safe_dump({"sail": self.to_dict()}, stream, sort_keys=False)
-
 
 def _with_nearest(name: str) -> str:
     """`'name'`, and the field it was most likely meant to be, if one is close."""
-    close = difflib.get_close_matches(name, SailParameters.field_names(), n=1, cutoff=0.6)
-    return repr(name) + (f" (did you mean {close[0]!r}?)" if close else "")
+    return repr(name) + did_you_mean(name, SailParameters.field_names())
 
 
 def _find_sail_section(document, path: Path, node: str) -> dict:

@@ -94,21 +94,25 @@ class CycloidalProfile:
         self._ends = list(zip(self.start.tolist(), self.end.tolist(), strict=True))
         self._still = bool(np.array_equal(self.start, self.end))
 
+    @staticmethod
+    def peaks(travel, duration: float):
+        """`(rate [m/s], acceleration [m/s^2])`: the largest of a cycloidal move of
+        `travel` [m] (its magnitude) over `duration` [s], `2 |travel| / T` at mid-way and
+        `2 pi |travel| / T^2` at a quarter and three quarters."""
+        travel = np.abs(travel)
+        return 2.0 * travel / duration, 2.0 * math.pi * travel / duration**2
+
     @classmethod
-    def within_limits(cls, start, end, max_rate: float, max_acceleration: float, t0=0.0):
-        """The fastest cycloidal move from `start` to `end` that keeps
-        |rate| <= max_rate [m/s] and |acceleration| <= max_acceleration [m/s^2]."""
+    def shortest_duration(cls, travel: float, max_rate: float, max_acceleration: float) -> float:
+        """The shortest duration [s] of a cycloidal move of `travel` [m] whose peaks
+        (`peaks`) stay within `max_rate` [m/s] and `max_acceleration` [m/s^2]: the rate
+        falls like 1/T, the acceleration like 1/T^2; never below a millisecond."""
         if not (max_rate > 0 and max_acceleration > 0):
             raise ValueError(
                 f"max_rate and max_acceleration must be > 0, got {max_rate!r}, {max_acceleration!r}"
             )
-        travel = float(np.max(np.abs(per_boom(end, "end") - per_boom(start, "start"))))
-        duration = max(
-            2.0 * travel / max_rate,
-            math.sqrt(2.0 * math.pi * travel / max_acceleration),
-            1e-3,
-        )
-        return cls(start, end, duration, t0)
+        rate, acceleration = cls.peaks(travel, 1.0)
+        return max(rate / max_rate, math.sqrt(acceleration / max_acceleration), 1e-3)
 
     @property
     def t_end(self) -> float:
@@ -159,14 +163,13 @@ class CycloidalProfile:
         return t1 <= self.t0 or t0 >= self.t_end or self._still
 
     def extremes(self):
-        """As `StaticProfile.extremes`: peak rate `2 |Lf - L0| / T` at mid-way, peak
-        acceleration `2 pi |Lf - L0| / T^2` at a quarter and three quarters."""
-        travel = np.abs(self.end - self.start)
+        """As `StaticProfile.extremes`, the peaks of `peaks`."""
+        rate, acceleration = self.peaks(self.end - self.start, self.duration)
         return (
             np.minimum(self.start, self.end),
             np.maximum(self.start, self.end),
-            2.0 * travel / self.duration,
-            2.0 * math.pi * travel / self.duration**2,
+            rate,
+            acceleration,
         )
 
 

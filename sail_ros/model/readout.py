@@ -95,6 +95,15 @@ class Readout:
             raise ValueError(f"q must have {self.n} values per state, got shape {q.shape}")
         return self._bending_stiffness * (q @ self._curvature_rows.T) / lengths**2
 
+    def boom_mode_shares(self, q, lengths) -> tuple[np.ndarray, np.ndarray]:
+        """Each boom mode's share of the tip deflections [m] and of the root moments
+        [N m] of states `q` (k, n) at `lengths` (k, 4): two (k, 4, n_B) arrays whose sums
+        over the last axis are `tip_deflections` and `root_moments`."""
+        p = np.stack([np.asarray(q)[:, self.layout.boom_slots(k)] for k in range(4)], axis=1)
+        curvature = self._bending_stiffness * self.boom_integrals.root_curvature
+        lengths = np.asarray(lengths, dtype=float)[:, :, None]
+        return p * self.boom_integrals.tip, p * curvature / lengths**2
+
     def output_rows(self, lengths) -> np.ndarray:
         """(8, n): tip deflections [m] and root moments [N m] per unit coordinate at 4
         checked `lengths` (`loads.OUTPUT_NAMES`; `stepper.LinearSystem`)."""

@@ -65,11 +65,18 @@ def boom_frequency_bound(params: SailParameters, length: float) -> float:
 
 def cantilever_frequency(params: SailParameters, length: float) -> float:
     """First bending frequency [rad/s] of a bare boom of `length` [m] clamped at the
-    hub: `beta_1^2 sqrt(EI / rho_B) / L^2` (it grows like 1/L^2 as the boom shortens)."""
-    constant = float(cantilever_roots(1)[0] ** 2) * np.sqrt(
+    hub (`cantilever_frequencies`)."""
+    return float(cantilever_frequencies(params, float(length), 1)[0])
+
+
+def cantilever_frequencies(params: SailParameters, lengths, n_modes: int) -> np.ndarray:
+    """Bending frequencies [rad/s] of the first `n_modes` modes of bare booms of `lengths`
+    [m] (any shape) clamped at the hub, `beta_j^2 sqrt(EI / rho_B) / L^2` (they grow
+    like 1/L^2 as a boom shortens): shape `lengths.shape + (n_modes,)`."""
+    constant = cantilever_roots(n_modes) ** 2 * np.sqrt(
         params.boom_bending_stiffness / params.boom_linear_density
     )
-    return constant / float(length) ** 2
+    return constant / np.asarray(lengths, dtype=float)[..., None] ** 2
 
 
 class SailModel(Readout):

@@ -40,6 +40,7 @@ A port already in use: exit 1.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import ipaddress
 import sys
@@ -58,6 +59,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.serialization import deserialize_message, serialize_message
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import message_definition
 from sail_ros.bridging.clients import ClientBook, command_refusal
@@ -69,17 +71,16 @@ from sail_ros.bridging.protocol import (
     service_schema,
 )
 from sail_ros.bridging.sockets import disconnect, release_freed_memory
-from sail_ros.messages import status as key
-from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
+from sail_ros.model.fields import setting, settings_of
 from sail_ros.ros.commanding import command_publisher, decode
 from sail_ros.ros.parameters import (
     ConfigError,
-    ParamSpec,
     declare,
     make_parser,
     node_options,
     overrides,
 )
+from sail_ros.ros.program import bounded_teardown, run_node, serve_until_stopped
 
 NODE_NAME = "sail_bridge"
 # Every topic it may serve, with its type: the simulator's (topics.TOPICS) and ROS's record
@@ -111,61 +112,62 @@ SERVICES = {
     topics.RESET_SERVICE: (Trigger, "std_srvs/srv/Trigger"),
 }
 
-SPECS = [
-    ParamSpec(
-        "port",
+
+@dataclasses.dataclass(frozen=True)
+class BridgeSettings:
+    """The bridge's parameters (node `sail_bridge`)."""
+
+    port: int = setting(
         8765,
+        "",
         "TCP port of the WebSocket server (8765 is Foxglove's default); 0: any free port "
         "(the log says which)",
         minimum=0,
         maximum=65535,
-    ),
-    ParamSpec(
-        "address",
+    )
+    address: str = setting(
         "127.0.0.1",
+        "",
         "IP address the server listens on: 127.0.0.1 serves this machine only; any other "
         "(0.0.0.0: every interface) lets everyone who reaches the port watch the sail and "
         "command it, without authentication",
-    ),
-    ParamSpec(
-        "topics",
+    )
+    topics: list = setting(
         list(topics.RECORDED_TOPICS),
+        "",
         "topics served, among the simulator's topics and /parameter_events (relative names "
         "are in the bridge's namespace)",
-    ),
-    ParamSpec(
-        "client_publish",
+    )
+    client_publish: bool = setting(
         True,
+        "",
         "let clients publish on the command topics (deploy, boom length trajectory, "
         "pressures, tip forces, a free hub's wrench) and call sail/pause and sail/reset",
-    ),
-    ParamSpec(
-        "client_queue",
+    )
+    client_queue: int = setting(
         1024,
+        "",
         "messages queued for each client [messages]; a client that reads slower than the "
         "traffic loses its oldest queued messages (about 4 s of the default traffic)",
         minimum=16,
         maximum=1_000_000,
-    ),
-    ParamSpec(
-        "max_clients",
+    )
+    max_clients: int = setting(
         16,
+        "",
         "clients connected at once [clients]; one more is disconnected as it connects, "
         "logged and counted: with client_queue this bounds what the clients' queues hold",
         minimum=1,
         maximum=10_000,
-    ),
-    ParamSpec(
-        "diagnostics_period_s",
-        1.0,
-        "period of the bridge's status on /diagnostics [s]",
-        minimum=0.1,
-        maximum=3600.0,
-    ),
-]
+    )
+    diagnostics_period_s: float = setting(
+        1.0, "", "period of the bridge's status on /diagnostics [s]", minimum=0.1, maximum=3600.0
+    )
 
+
+SPECS = settings_of(BridgeSettings)
 # the bridge's status on /diagnostics (msg_docs/bridge.md)
-STATUS_SUFFIX = ": websocket"  # its name: the node's, then this; keys in messages.status
+STATUS_SUFFIX = ": websocket"  # its name: the node's, then this; keys in sail_ros.status
 
 
 class Bridge(Node):

@@ -48,30 +48,30 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
+from sail_ros import status as key
 from sail_ros import topics
-from sail_ros.cli import PHYSICS_DOC
 from sail_ros.control.agreement import SIMULATOR_PARAMETERS, disagreement
 from sail_ros.control.design import command_limits, require_free_hub
 from sail_ros.control.loop import DiscreteController, StaleWatch
 from sail_ros.control.schedule import GainSchedule, design_schedule
-from sail_ros.control.settings import NODE_PARAMETERS, DesignSettings, NodeSettings
+from sail_ros.control.settings import NODE_SETTINGS, DesignSettings, NodeSettings
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import hub as hub_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, fields_of
+from sail_ros.options import PHYSICS_DOC
 from sail_ros.policy import Policy
-from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.commanding import command_publisher
-from sail_ros.ros.parameters import ParamSpec, declare, node_options
+from sail_ros.ros.parameters import declare, node_options
+from sail_ros.ros.program import bounded_teardown, run_node, serve_until_stopped
 
 NODE_NAME = topics.CONTROLLER_NODE
 ENABLE_SERVICE = topics.CONTROL_ENABLE_SERVICE
 MIN_TICK_S = 0.005  # the simulator ticks at most this often: samples come at least so apart
 ACK_TIMEOUT_S = 1.0  # at shutdown, wait this long for the zero wrench to be acknowledged
 ASK_AGAIN_S = 2.0  # an unanswered parameter request is sent again after this long
-SPECS = [ParamSpec.of(name, field) for name, field in NODE_PARAMETERS.items()]
+SPECS = NODE_SETTINGS
 # newest samples only: a volatile subscription of the state (a late start does not replay
 # the simulator's kept history as commands)
 SAMPLE_QOS = QoSProfile(
@@ -482,7 +482,7 @@ def _text(value) -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    lines = [spec.help_line() for spec in SPECS]
+    lines = [spec.parameter_help() for spec in SPECS]
     return argparse.ArgumentParser(
         prog="sail-ros control",
         description=__doc__.split("\n\n")[0],

@@ -28,6 +28,7 @@ created.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import functools
 import sys
@@ -52,18 +53,20 @@ from sail_ros.bag import (
     message_definition,
     qos,
 )
+from sail_ros.bag.parameter_fetch import ASK, ASK_AGAIN, WARN_ABSENT, ParameterFetch
 from sail_ros.bag.recording import Recording
 from sail_ros.messages.parameters import parameter_update, yaml_texts
-from sail_ros.ros.cli import StopSignals, bounded_teardown, message_class, run_node
+from sail_ros.model.fields import setting, settings_of
 from sail_ros.ros.parameters import (
     ConfigError,
-    ParamSpec,
     declare,
     make_parser,
     node_options,
     overrides,
 )
-from sail_ros.ros.taking import Repeats, take_waiting
+from sail_ros.ros.program import StopSignals, bounded_teardown, message_class, run_node
+from sail_ros.ros.taking import take_waiting
+from sail_ros.runtime.intake import Repeats
 from sail_ros.topics import (
     COMMAND_TOPICS,
     HUB_WRENCH_CMD,
@@ -89,81 +92,87 @@ TAKE_BATCH = 1000
 # takes several (log times are DDS's reception times, so they do not change)
 GATHER_S = 0.01
 
-SPECS = [
-    ParamSpec(
-        "output",
+
+@dataclasses.dataclass(frozen=True)
+class RecorderSettings:
+    """The recorder's parameters (node `sail_recorder`)."""
+
+    output: str = setting(
+        "",
         "",
         "bag folder to create (must be absent or empty); holds "
         "<name>_<index>.mcap and metadata.yaml; empty: sail_<UTC time> in the "
         "working directory",
         short="-o",
-    ),
-    ParamSpec(
-        "topics",
+    )
+    topics: list = setting(
         list(RECORDED_TOPICS),
+        "",
         "topics to record; each is subscribed once a publisher of it appears, the "
         "simulator's command topics at once (ignored when all_topics is true)",
-    ),
-    ParamSpec(
-        "all_topics",
+    )
+    all_topics: bool = setting(
         False,
+        "",
         "record every topic with a publisher, except hidden ones "
         "(a name part starting with '_'), including topics that appear later",
-    ),
-    ParamSpec("compression", "zstd", "chunk compression", choices=tuple(COMPRESSIONS)),
-    ParamSpec(
-        "chunk_size_bytes",
+    )
+    compression: str = setting("zstd", "", "chunk compression", choices=tuple(COMPRESSIONS))
+    chunk_size_bytes: int = setting(
         1 << 20,
+        "",
         "close a chunk when its messages reach this size [bytes]",
         minimum=1024,
         maximum=1 << 30,
-    ),
-    ParamSpec(
-        "max_chunk_duration_s",
+    )
+    max_chunk_duration_s: float = setting(
         1.0,
+        "",
         "close a chunk at most this long after its first "
         "message [s]; a kill loses at most this much",
         minimum=0.01,
         maximum=3600.0,
-    ),
-    ParamSpec(
-        "max_file_size_bytes",
+    )
+    max_file_size_bytes: int = setting(
         0,
+        "",
         "start a new file when the current one reaches this size [bytes]; 0: never (else >= 1024)",
         minimum=0,
-    ),
-    ParamSpec(
-        "max_file_duration_s",
+    )
+    max_file_duration_s: float = setting(
         0.0,
+        "",
         "start a new file when the current one spans this much log time [s]; 0: never",
         minimum=0.0,
-    ),
-    ParamSpec(
-        "parameter_node",
+    )
+    parameter_node: str = setting(
         "sail_sim",
+        "",
         "node whose parameters are stored in each file "
         f"as metadata '{PARAMETERS_METADATA}', and each change of them with its time as "
         f"'{PARAMETER_CHANGES_METADATA}' (relative: in the recorder's namespace); "
         "empty: none",
-    ),
-    ParamSpec(
-        "queue_messages",
+    )
+    queue_messages: int = setting(
         10000,
+        "",
         "messages that may wait for the writer [messages]; beyond, when the disk is slower "
         f"than the traffic, messages are dropped, counted per topic and stored as metadata "
         f"'{DROPPED_METADATA}' (bounded memory)",
         minimum=10,
         maximum=10_000_000,
-    ),
-    ParamSpec(
-        "qos_depth",
+    )
+    qos_depth: int = setting(
         1000,
+        "",
         "history depth of each subscription [messages]: how many "
         "may wait while the recorder is busy (1000: 5 s of a 200 Hz topic)",
         minimum=1,
         maximum=100000,
-    ),
-]
+    )
+
+
+SPECS = settings_of(RecorderSettings)
 
 
 def default_output() -> str:
@@ -202,16 +211,12 @@ class Recorder(Node):
         self._publishers_seen: dict[str, int] = {}  # command topic -> publishers last polled
         self._ignored: set[str] = set()
         self._received = 0  # messages taken from DDS, for draining at shutdown
-        self._started = time.monotonic()
 
         # every check that can fail comes before the bag is created; the fetch's state is
         # this (the executor's) thread's: its answer goes to the writer thread as an event
         parameter_node = self.config["parameter_node"].rstrip("/")
         self._parameter_node = parameter_node
-        self._fetched = False  # the node's values, since it (last) appeared
-        self._fetches = 0
-        self._request_started: float | None = None
-        self._warned_absent = False
+        self._fetch = ParameterFetch(PARAMETER_WAIT_WARNING_S, SERVICE_TIMEOUT_S)
         full_name = None
         if parameter_node:
             full_name = self._create_parameter_clients(parameter_node)
@@ -306,7 +311,7 @@ class Recorder(Node):
         start = last_change = time.monotonic()
         last_count = self._received
         while time.monotonic() - start < DRAIN_MAX_S and (
-            time.monotonic() - last_change < DRAIN_QUIET_S or self._request_started is not None
+            time.monotonic() - last_change < DRAIN_QUIET_S or self._fetch.in_flight
         ):
             executor.spin_once(timeout_sec=0.02)
             if self._received != last_count:
@@ -527,30 +532,19 @@ class Recorder(Node):
         starts anew may have missed telling its declarations to this one); its events
         carry every later change."""
         ready = self._list_client.service_is_ready() and self._get_client.service_is_ready()
-        if not ready:  # gone, or not there yet: fetched (again) once it is there
-            self._fetched = False
-            self._request_started = None
-            if (
-                not self._warned_absent
-                and not self._fetches
-                and time.monotonic() - self._started > PARAMETER_WAIT_WARNING_S
-            ):
-                self._warned_absent = True
-                self.get_logger().warning(
-                    f"parameter node '{self._parameter_node}' not "
-                    "found yet; its parameters are stored once it appears"
-                )
-            return
-        if self._request_started is not None:
-            if time.monotonic() - self._request_started < SERVICE_TIMEOUT_S:
-                return
+        action = self._fetch.poll(ready)
+        if action == WARN_ABSENT:
+            self.get_logger().warning(
+                f"parameter node '{self._parameter_node}' not "
+                "found yet; its parameters are stored once it appears"
+            )
+        if action == ASK_AGAIN:
             self.get_logger().warning(
                 f"'{self._parameter_node}' did not answer a parameter "
                 f"request within {SERVICE_TIMEOUT_S} s; asking again"
             )
-        elif self._fetched:
+        if action not in (ASK, ASK_AGAIN):
             return
-        self._request_started = time.monotonic()
         future = self._list_client.call_async(ListParameters.Request(depth=0))  # 0: all
         future.add_done_callback(self._on_parameter_names)
 
@@ -562,12 +556,10 @@ class Recorder(Node):
         )
 
     def _on_parameter_values(self, names: list[str], future) -> None:
-        self._request_started = None
-        self._fetched = True
-        self._fetches += 1
+        fetches = self._fetch.answered()
         values = yaml_texts(names, future.result().values)
         self.bag.parameters_fetched(values, time.time_ns())
-        if self._fetches == 1:
+        if fetches == 1:
             self.get_logger().info(f"stored {len(values)} parameters of '{self._parameter_node}'")
         else:
             self.get_logger().info(

@@ -17,6 +17,7 @@ done unless `loop`.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import sys
 import threading
@@ -30,71 +31,79 @@ from rosgraph_msgs.msg import Clock
 
 from sail_ros import topics
 from sail_ros.bag import BagReader, DamagedBagError, qos
-from sail_ros.ros.cli import bounded_teardown, message_class, run_node
+from sail_ros.model.fields import setting, settings_of
 from sail_ros.ros.parameters import (
     ConfigError,
-    ParamSpec,
     declare,
     make_parser,
     node_options,
     overrides,
 )
+from sail_ros.ros.program import bounded_teardown, message_class, run_node
 
 NODE_NAME = "sail_replay"
 ACK_POLL_S = 0.1  # s: how often the wait for acknowledgements looks at a stop
 CLOCK_TOPIC = "/clock"
 
-SPECS = [
-    ParamSpec("bag", "", "MCAP file or bag folder to play (also the first positional argument)"),
-    ParamSpec(
-        "rate", 1.0, "playback speed factor: 2.0 plays twice as fast", minimum=0.001, maximum=1000.0
-    ),
-    ParamSpec(
-        "start_offset_s", 0.0, "start this far into the recording [s of log time]", minimum=0.0
-    ),
-    ParamSpec("loop", False, "play again from start_offset_s when done, until stopped"),
-    ParamSpec("topics", [], "topics to play; empty: every recorded topic"),
-    ParamSpec(
-        "clock",
+
+@dataclasses.dataclass(frozen=True)
+class ReplaySettings:
+    """The replay's parameters (node `sail_replay`)."""
+
+    bag: str = setting(
+        "", "", "MCAP file or bag folder to play (also the first positional argument)"
+    )
+    rate: float = setting(
+        1.0, "", "playback speed factor: 2.0 plays twice as fast", minimum=0.001, maximum=1000.0
+    )
+    start_offset_s: float = setting(
+        0.0, "", "start this far into the recording [s of log time]", minimum=0.0
+    )
+    loop: bool = setting(False, "", "play again from start_offset_s when done, until stopped")
+    topics: list = setting([], "", "topics to play; empty: every recorded topic", item_type=str)
+    clock: bool = setting(
         True,
+        "",
         f"publish {CLOCK_TOPIC} from the recorded log times (and skip the "
         f"recorded {CLOCK_TOPIC}); false: play the recorded {CLOCK_TOPIC} like any topic",
-    ),
-    ParamSpec(
-        "clock_frequency_hz",
+    )
+    clock_frequency_hz: float = setting(
         100.0,
+        "",
         f"rate of generated {CLOCK_TOPIC} messages [Hz of wall time]",
         minimum=1.0,
         maximum=10000.0,
-    ),
-    ParamSpec(
-        "qos_depth",
+    )
+    qos_depth: int = setting(
         100,
+        "",
         "history depth of a publisher whose recorded QoS has none [messages]",
         minimum=1,
         maximum=100000,
-    ),
-    ParamSpec(
-        "delay_s",
+    )
+    delay_s: float = setting(
         0.0,
+        "",
         "wait this long after creating the publishers, before the first message [s]",
         minimum=0.0,
-    ),
-    ParamSpec(
-        "wait_for_subscribers",
+    )
+    wait_for_subscribers: int = setting(
         0,
+        "",
         "before the first message, wait until every played "
         "topic has at least this many subscribers",
         minimum=0,
-    ),
-    ParamSpec(
-        "wait_for_all_acked_s",
+    )
+    wait_for_all_acked_s: float = setting(
         0.0,
+        "",
         "at the end, wait until every reliable subscriber acknowledged every message, "
         "at most this long [s]; 0: as long as it takes (a stop signal ends the wait)",
         minimum=0.0,
-    ),
-]
+    )
+
+
+SPECS = settings_of(ReplaySettings)
 
 
 class Replay(Node):

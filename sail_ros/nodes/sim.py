@@ -44,20 +44,20 @@ from rclpy.task import Future
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
-from sail_ros.cli import PHYSICS_DOC
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import state as state_msg
 from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
-from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
+from sail_ros.options import PHYSICS_DOC
 from sail_ros.ros.commanding import decode
 from sail_ros.ros.discovery import subscriptions_of
-from sail_ros.ros.parameters import ConfigError, ParamSpec, declare, node_options
+from sail_ros.ros.parameters import ConfigError, declare, node_options
+from sail_ros.ros.program import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.taking import take_waiting
 from sail_ros.runtime.affordable import StepCost
-from sail_ros.runtime.config import PARAMETERS, config_from_values
+from sail_ros.runtime.config import SETTINGS, config_from_values
 from sail_ros.runtime.intake import Undecodable
 from sail_ros.runtime.realtime import RealTimeRun
 from sail_ros.runtime.ticker import Ticker
@@ -79,7 +79,7 @@ STREAM_PAUSE_S = 0.001
 # are at most MAX_TICK_PERIOD_S apart, and one is called at once); what still finds the
 # queue full is rejected.
 QUEUE_WAIT_S = 0.1
-SPECS = [ParamSpec.of(name, field) for name, field in PARAMETERS.items()]
+SPECS = SETTINGS
 
 
 class SimNode(Node):
@@ -489,7 +489,7 @@ class CommandThread:
 
 
 def _parser() -> argparse.ArgumentParser:
-    lines = ["  " + spec.help_line() for spec in SPECS]
+    lines = ["  " + spec.parameter_help() for spec in SPECS]
     return argparse.ArgumentParser(
         prog="sail-ros sim",
         description=__doc__.split("\n\n")[0],

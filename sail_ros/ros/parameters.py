@@ -1,13 +1,13 @@
 """The ROS parameters of every node: one table entry each, one descriptor, one check.
 
-A node lists its parameters as `ParamSpec`s, made from the field tables
-(`ParamSpec.of`: the simulator's `runtime.config.PARAMETERS`) or written out
-(the recorder's and replay's). From a spec come the declared parameter (a
-`ParameterDescriptor` whose text carries the unit, the range, the array sizes
-or choices, and `read_only` where the value fixes the model or the time grid),
-the check of a value (`ParamSpec.check`: `model.fields.check_value`, the same at
-start-up, on every change at run time and in the offline tools), and for the
-tools the command-line option `--<name-with-dashes>` that overrides it.
+A node declares the settings of its tables (`model.fields.Setting`: the simulator's
+`runtime.config.PARAMETERS`, the controller's, the recorder's, replay's and bridge's
+settings). From a setting come the declared parameter (a `ParameterDescriptor` whose
+text carries the unit, the range, the array sizes or choices, and `read_only` where
+the value fixes the model or the time grid: `descriptor`), the check of a value
+(`Setting.check`, the same at start-up, on every change at run time and in the offline
+tools), and for the tools the command-line option `--<name-with-dashes>` that
+overrides it.
 
 A double parameter takes an integer value as ROS users type it
 (`-p time_scale:=2`): at declaration the override is read as a double, and at run
@@ -18,7 +18,6 @@ type.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -29,8 +28,8 @@ from rcl_interfaces.msg import (
 from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
-from sail_ros.model.fields import ConfigError, Spec, check_value, range_text, spec_of
-from sail_ros.ros.cli import suggestion
+from sail_ros.model.fields import ConfigError, Setting
+from sail_ros.spelling import did_you_mean
 
 _SCALAR_TYPES = {
     bool: Parameter.Type.BOOL,
@@ -41,134 +40,36 @@ _SCALAR_TYPES = {
 _ARRAY_TYPES = {float: Parameter.Type.DOUBLE_ARRAY, str: Parameter.Type.STRING_ARRAY}
 
 
-@dataclasses.dataclass(frozen=True)
-class ParamSpec:
-    """One ROS parameter.
+def kind(setting: Setting) -> Parameter.Type:
+    """The ROS parameter type of `setting`."""
+    if setting.is_list:
+        return _ARRAY_TYPES[setting.element_type]
+    return _SCALAR_TYPES[type(setting.default)]
 
-    `default` fixes the type: bool, int, float, str, or a list of float or str
-    (`item_type` says which for an empty default). `minimum`/`maximum` bound
-    the value (each element of a list of numbers); `sizes` are the allowed
-    list lengths; `choices` the allowed strings. Units belong in `description`.
-    """
 
-    name: str
-    default: object
-    description: str
-    read_only: bool = True
-    minimum: float | None = None
-    maximum: float | None = None
-    sizes: tuple[int, ...] = ()
-    choices: tuple[str, ...] = ()
-    short: str | None = None  # e.g. "-o", an extra command-line spelling
-    item_type: type = str  # of a list whose default is empty
-    above_minimum: bool = False  # the minimum itself excluded
-
-    @classmethod
-    def of(cls, name: str, field) -> ParamSpec:
-        """The ROS parameter `name` of a table field (`model.fields.setting`)."""
-        spec = spec_of(field)
-        default = field.default_factory() if callable(field.default_factory) else field.default
-        unit = f" [{spec.unit}]" if spec.unit else ""
-        return cls(
-            name,
-            default,
-            spec.doc + unit,
-            spec.read_only,
-            spec.minimum,
-            spec.maximum,
-            sizes=spec.sizes,
-            choices=spec.choices,
-            item_type=float,
-            above_minimum=spec.above_minimum,
-        )
-
-    @property
-    def spec(self) -> Spec:
-        return Spec(
-            "",
-            self.description,
-            self.minimum,
-            self.maximum,
-            self.above_minimum,
-            self.read_only,
-            self.sizes,
-            self.choices,
-        )
-
-    @property
-    def is_list(self) -> bool:
-        return isinstance(self.default, list)
-
-    @property
-    def element_type(self) -> type:
-        """The type of the value, or of each element of a list."""
-        if self.is_list:
-            return type(self.default[0]) if self.default else self.item_type
-        return type(self.default)
-
-    @property
-    def kind(self) -> Parameter.Type:
-        if self.is_list:
-            return _ARRAY_TYPES[self.element_type]
-        return _SCALAR_TYPES[type(self.default)]
-
-    @property
-    def options(self) -> list[str]:
-        long = "--" + self.name.replace("_", "-")
-        return [self.short, long] if self.short else [long]
-
-    def constraints(self) -> str:
-        """The constraints a range cannot say, as text."""
-        if self.sizes:
-            limits = range_text(self.spec)
-            within = f", each {limits}" if limits else ""
-            booms = " (booms a, b, c, d)" if 4 in self.sizes else ""
-            return f"{' or '.join(map(str, self.sizes))} values{booms}{within}"
-        if self.choices:
-            return "one of: " + ", ".join(self.choices)
-        return ""
-
-    def descriptor(self) -> ParameterDescriptor:
-        descriptor = ParameterDescriptor(
-            name=self.name,
-            type=self.kind.value,
-            description=self.description,
-            read_only=self.read_only,
-            additional_constraints=self.constraints(),
-        )
-        if self.minimum is not None or self.maximum is not None:  # of each element of a list
-            if self.element_type is int:
-                low = int(self.minimum if self.minimum is not None else -(2**63))
-                high = int(self.maximum if self.maximum is not None else 2**63 - 1)
-                descriptor.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
-            else:
-                low = float(self.minimum if self.minimum is not None else -1e308)
-                high = float(self.maximum if self.maximum is not None else 1e308)
-                descriptor.floating_point_range = [
-                    FloatingPointRange(from_value=low, to_value=high, step=0.0)
-                ]
-        return descriptor
-
-    def limits(self) -> str:
-        """What the value may be, as text ("" for anything of its type): the range, list
-        sizes or choices the node enforces."""
-        return self.constraints() or range_text(self.spec, self.element_type is int)
-
-    def help_line(self) -> str:
-        """One line for `--help`: name, default, read-only, what it may be, description."""
-        flags = ", read-only" if self.read_only else ""
-        limits = self.limits()
-        limits = f"; {limits}" if limits else ""
-        return f"  {self.name} (default {self.default!r}{flags}{limits}): {self.description}"
-
-    def check(self, value):
-        """`value` as the parameter's type, or ConfigError naming the parameter, the value
-        and what is allowed (`model.fields.check_value`)."""
-        default = self.default if self.default != [] else [self.item_type()]
-        try:
-            return check_value(self.name, value, default, self.spec)
-        except ValueError as error:
-            raise ConfigError(str(error)) from None
+def descriptor(setting: Setting) -> ParameterDescriptor:
+    """The ROS parameter descriptor of `setting`: its description with the unit, its
+    range (of each element of a list), list sizes or choices, and whether it is read-only."""
+    spec = setting.spec
+    found = ParameterDescriptor(
+        name=setting.name,
+        type=kind(setting).value,
+        description=setting.description,
+        read_only=spec.read_only,
+        additional_constraints=setting.constraints(),
+    )
+    if spec.minimum is not None or spec.maximum is not None:  # of each element of a list
+        if setting.element_type is int:
+            low = int(spec.minimum if spec.minimum is not None else -(2**63))
+            high = int(spec.maximum if spec.maximum is not None else 2**63 - 1)
+            found.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
+        else:
+            low = float(spec.minimum if spec.minimum is not None else -1e308)
+            high = float(spec.maximum if spec.maximum is not None else 1e308)
+            found.floating_point_range = [
+                FloatingPointRange(from_value=low, to_value=high, step=0.0)
+            ]
+    return found
 
 
 def node_options(parameter_overrides=(), context=None, namespace=None) -> dict:
@@ -183,8 +84,8 @@ def node_options(parameter_overrides=(), context=None, namespace=None) -> dict:
     }
 
 
-def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
-    """Declare `specs` on `node`, check their values and return them (lists as lists);
+def declare(node, specs: list[Setting]) -> dict[str, object]:
+    """Declare the settings `specs` on `node`, check their values and return them (lists as lists);
     from then on the node refuses, by name, any change of a parameter it lacks (create
     it with `allow_undeclared_parameters=True` so that rclpy lets it answer).
 
@@ -198,14 +99,14 @@ def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
     given = node._parameter_overrides
     for spec in specs:
         # an empty list would be declared as a byte array: declare the type instead
-        initial = spec.default if spec.default != [] else spec.kind
+        initial = spec.default if spec.default != [] else kind(spec)
         override = given.get(spec.name)
         ignore_override = False
         if override is not None and _as_double(spec, override) is not None:
             initial, ignore_override = _as_double(spec, override).value, True
         try:
             parameter = node.declare_parameter(
-                spec.name, initial, spec.descriptor(), ignore_override=ignore_override
+                spec.name, initial, descriptor(spec), ignore_override=ignore_override
             )
         except ParameterException as error:
             raise ConfigError(f"parameter {spec.name}: {error}") from None
@@ -222,7 +123,7 @@ def declare(node, specs: list[ParamSpec]) -> dict[str, object]:
     return values
 
 
-def _as_double(spec: ParamSpec | None, parameter: Parameter) -> Parameter | None:
+def _as_double(spec: Setting | None, parameter: Parameter) -> Parameter | None:
     """An integer (or integer array) given to a double parameter, as doubles; else None."""
     if spec is None or spec.element_type is not float:
         return None
@@ -234,7 +135,7 @@ def _as_double(spec: ParamSpec | None, parameter: Parameter) -> Parameter | None
     return None
 
 
-def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse.ArgumentParser:
+def make_parser(prog: str, description: str, specs: list[Setting]) -> argparse.ArgumentParser:
     """An argparse parser with one option per parameter (defaults None: unset)."""
     parser = argparse.ArgumentParser(
         prog=prog,
@@ -245,7 +146,7 @@ def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse
     )
     for spec in specs:
         limits = spec.limits()
-        limits = f"{limits}; " if limits and not spec.choices else ""
+        limits = f"{limits}; " if limits and not spec.spec.choices else ""
         help_text = f"{spec.description} ({limits}default: {spec.default!r})"
         if spec.element_type is bool:
             parser.add_argument(
@@ -271,19 +172,19 @@ def make_parser(prog: str, description: str, specs: list[ParamSpec]) -> argparse
                 dest=spec.name,
                 default=None,
                 type=spec.element_type,
-                choices=spec.choices or None,
+                choices=spec.spec.choices or None,
                 help=help_text,
             )
     return parser
 
 
-def overrides(namespace: argparse.Namespace, specs: list[ParamSpec]) -> list[Parameter]:
+def overrides(namespace: argparse.Namespace, specs: list[Setting]) -> list[Parameter]:
     """The parameters set on the command line, as node parameter overrides."""
     chosen = []
     for spec in specs:
         value = getattr(namespace, spec.name, None)
         if value is not None:
-            chosen.append(Parameter(spec.name, spec.kind, value))
+            chosen.append(Parameter(spec.name, kind(spec), value))
     return chosen
 
 
@@ -303,7 +204,7 @@ def reject_unknown(node) -> None:
         known = list(node._parameters)
         raise ConfigError(
             f"unknown parameter(s) of {node.get_name()}: "
-            + ", ".join(f"{name!r}{suggestion(name, known)}" for name in unknown)
+            + ", ".join(f"{name!r}{did_you_mean(name, known)}" for name in unknown)
         )
 
 
@@ -314,7 +215,7 @@ def refuse_unknown_changes(node) -> None:
     def check(parameters) -> SetParametersResult:
         for parameter in parameters:
             if not node.has_parameter(parameter.name):
-                reason = f"unknown parameter {parameter.name!r}" + suggestion(
+                reason = f"unknown parameter {parameter.name!r}" + did_you_mean(
                     parameter.name, list(node._parameters)
                 )
                 return SetParametersResult(successful=False, reason=reason)

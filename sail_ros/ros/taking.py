@@ -15,14 +15,10 @@ info (a callback taking `(message, info)` fails with "SystemError: null argument
 internal routine" in rclpy 7.1.5), and the recorder needs DDS's reception and
 source times. This is the one place that calls it; test_recorder_node checks it
 against the installed rclpy.
-
-`Repeats` recognises a sample taken twice, by two subscriptions of one topic.
 """
 
 from __future__ import annotations
 
-import collections
-import threading
 from collections.abc import Iterator
 
 
@@ -36,34 +32,3 @@ def take_waiting(subscription, limit: int) -> Iterator[tuple[object, dict]]:
         if taken is None:
             return
         yield taken
-
-
-class Repeats:
-    """Recognises a sample already taken: one that a transient-local and a volatile
-    subscription of the same topic both receive (`topics.COMMAND_QOS`), told by what
-    DDS says of it, its source timestamp and the publisher's sequence number.
-
-    Args:
-        memory: how many recent samples are remembered (a repeat arrives within the
-            same burst).
-    """
-
-    def __init__(self, memory: int = 256):
-        self._seen: collections.OrderedDict[tuple, None] = collections.OrderedDict()
-        self._memory = memory
-        self._lock = threading.Lock()
-
-    def seen(self, topic: str, info: dict) -> bool:
-        """Whether this sample of `topic` (rclpy's message info) was taken before; a
-        sample without a source timestamp never counts as seen. Thread-safe."""
-        source = int(info.get("source_timestamp") or 0)
-        if not source:
-            return False
-        key = (topic, source, int(info.get("publication_sequence_number") or 0))
-        with self._lock:
-            if key in self._seen:
-                return True
-            self._seen[key] = None
-            if len(self._seen) > self._memory:
-                self._seen.popitem(last=False)
-        return False

@@ -26,15 +26,13 @@ and nothing of it is used.
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import NamedTuple
 
 import numpy as np
 
-from sail_ros import topics
 from sail_ros.model import CycloidalProfile, SailParameters, WaypointProfile
-from sail_ros.policy import TOLERANCE, Policy
-from sail_ros.topics import BOOM_JOINTS
+from sail_ros.names import BOOM_JOINTS, LOAD_NAMES, PRESSURE_CMD
+from sail_ros.policy import Policy
 
 # Candidate durations of a deployment that starts while the booms move:
 # T_rest * GROWTH**k, k = -DURATION_STEPS_DOWN .. DURATION_STEPS_UP.
@@ -182,11 +180,9 @@ def plan_deploy(target: float, now: BoomState, rules: Rules, duration: float = 0
     if at_rest:
         if fixed:
             profile = CycloidalProfile(lengths, target, duration, t0=now.t)
-            travel = float(np.max(np.abs(target - lengths)))
-            peak_rate, peak_acceleration = 2 * travel / duration, 2 * math.pi * travel / duration**2
-            if peak_rate > policy.max_rate * (
-                1 + TOLERANCE
-            ) or peak_acceleration > policy.max_acceleration * (1 + TOLERANCE):
+            _, _, rates, accelerations = profile.extremes()
+            peak_rate, peak_acceleration = float(np.max(rates)), float(np.max(accelerations))
+            if not policy.motion_fits(None, None, peak_rate, peak_acceleration, None):
                 raise CommandError(
                     f"a {duration:g} s deployment to {target:g} m needs {peak_rate:.4g} m/s and "
                     f"{peak_acceleration:.4g} m/s^2; limits {policy.max_rate:g} m/s, "
@@ -194,9 +190,7 @@ def plan_deploy(target: float, now: BoomState, rules: Rules, duration: float = 0
                     "to 0 for the fastest allowed)"
                 )
         else:
-            profile = CycloidalProfile.within_limits(
-                lengths, target, policy.max_rate, policy.max_acceleration, t0=now.t
-            )
+            profile = policy.fastest_cycloid(lengths, target, t0=now.t)
         kind = "cycloidal"
     else:
         profile = _moving_deploy(target, now, rules, duration if fixed else None)
@@ -219,9 +213,7 @@ def _moving_deploy(target: float, now: BoomState, rules: Rules, duration: float 
         # the time to go there from rest, or to stop the fastest boom, sets the scale
         policy = rules.policy
         base = max(
-            CycloidalProfile.within_limits(
-                now.lengths, target, policy.max_rate, policy.max_acceleration
-            ).duration,
+            policy.fastest_cycloid(now.lengths, target).duration,
             2.0 * float(np.max(np.abs(now.rates))) / policy.max_acceleration,
         )
         candidates = [base * GROWTH**k for k in range(-DURATION_STEPS_DOWN, DURATION_STEPS_UP)]
@@ -258,8 +250,6 @@ def _cubic_fits(lengths, rates, target: float, durations, rules: Rules) -> np.nd
     a0, a1 = lengths[None, :], rates[None, :] * T
     a2 = 3.0 * (target - a0) - 2.0 * a1
     a3 = 2.0 * (a0 - target) + a1
-    policy = rules.policy
-    slack = 1.0 + TOLERANCE
     acceleration = np.maximum(np.abs(2 * a2), np.abs(2 * a2 + 6 * a3)) / T**2
     with np.errstate(divide="ignore", invalid="ignore"):
         vertex = np.where(a3 != 0, -a2 / (3 * a3), -1.0)
@@ -279,14 +269,7 @@ def _cubic_fits(lengths, rates, target: float, durations, rules: Rules) -> np.nd
             np.where(ok, np.minimum(low, value), low),
             np.where(ok, np.maximum(high, value), high),
         )
-    shortest, longest = policy.length_range(rules.sail)
-    fits = (
-        (low >= shortest / slack)
-        & (high <= longest * slack)
-        & (rate <= policy.max_rate * slack)
-        & (acceleration <= policy.max_acceleration * slack)
-    )
-    return fits.all(axis=1)
+    return rules.policy.motion_fits(low, high, rate, acceleration, rules.sail).all(axis=1)
 
 
 class LoadChange(NamedTuple):
@@ -315,8 +298,8 @@ def plan_load(topic: str, message, current: np.ndarray, rules: Rules) -> LoadCha
     Raises:
         CommandError: why the command is refused; nothing changes.
     """
-    known = topics.LOAD_NAMES[topic]
-    pressure = topic == topics.PRESSURE_CMD
+    known = LOAD_NAMES[topic]
+    pressure = topic == PRESSURE_CMD
     unit = "Pa" if pressure else "N"
     names, values = list(message.name), list(message.effort)
     if not names:

@@ -22,11 +22,18 @@ import numpy as np
 
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailParameters
-from sail_ros.model.fields import ConfigError, check_fields, default_of, fields_of, setting
+from sail_ros.model.fields import (
+    ConfigError,
+    Setting,
+    check_fields,
+    default_of,
+    fields_of,
+    setting,
+)
 from sail_ros.model.layout import per_boom
 from sail_ros.model.parameters import MAX_MEMBRANE_MODES
+from sail_ros.names import SAIL_PREFIX
 from sail_ros.policy import Policy
-from sail_ros.topics import SAIL_PREFIX
 
 
 @dataclasses.dataclass(frozen=True)
@@ -135,6 +142,7 @@ TABLES = (("", SimSettings), ("", Policy), (SAIL_PREFIX, SailParameters))
 # name -> dataclass field, in declaration order
 PARAMETERS = {prefix + field.name: field for prefix, table in TABLES for field in fields_of(table)}
 DEFAULTS = {name: default_of(field) for name, field in PARAMETERS.items()}
+SETTINGS = [Setting.of(name, field) for name, field in PARAMETERS.items()]  # for the node
 
 
 @dataclasses.dataclass(frozen=True)

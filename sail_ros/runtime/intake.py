@@ -29,8 +29,7 @@ import collections
 import threading
 from typing import NamedTuple
 
-from sail_ros import topics
-from sail_ros.ros.taking import Repeats
+from sail_ros.names import BOOM_JOINTS, BOOM_LENGTH_CMD, DEPLOY_CMD
 
 DUPLICATE, STALE = "duplicate", "stale"
 
@@ -54,6 +53,37 @@ class Undecodable(NamedTuple):
 
     def __str__(self) -> str:
         return f"{self.size} bytes are not a {self.type_name} in CDR ({self.reason})"
+
+
+class Repeats:
+    """Recognises a sample already taken: one that a transient-local and a volatile
+    subscription of the same topic both receive (`topics.COMMAND_QOS`), told by what
+    DDS says of it, its source timestamp and the publisher's sequence number.
+
+    Args:
+        memory: how many recent samples are remembered (a repeat arrives within the
+            same burst).
+    """
+
+    def __init__(self, memory: int = 256):
+        self._seen: collections.OrderedDict[tuple, None] = collections.OrderedDict()
+        self._memory = memory
+        self._lock = threading.Lock()
+
+    def seen(self, topic: str, info: dict) -> bool:
+        """Whether this sample of `topic` (rclpy's message info) was taken before; a
+        sample without a source timestamp never counts as seen. Thread-safe."""
+        source = int(info.get("source_timestamp") or 0)
+        if not source:
+            return False
+        key = (topic, source, int(info.get("publication_sequence_number") or 0))
+        with self._lock:
+            if key in self._seen:
+                return True
+            self._seen[key] = None
+            if len(self._seen) > self._memory:
+                self._seen.popitem(last=False)
+        return False
 
 
 class CommandIntake:
@@ -132,23 +162,23 @@ def booms_moved(pending: Pending) -> frozenset[int] | None:
     """The booms (indices, 0 = a) a motion command would move if accepted; None for a
     command that moves none (a load) or whose boom names are not all known and distinct
     (it can replace nothing: it will be rejected)."""
-    if pending.topic == topics.DEPLOY_CMD:
+    if pending.topic == DEPLOY_CMD:
         return frozenset(range(4))
-    if pending.topic != topics.BOOM_LENGTH_CMD:
+    if pending.topic != BOOM_LENGTH_CMD:
         return None
     names = list(getattr(pending.message, "joint_names", []))
     if not names or len(set(names)) != len(names):
         return None
-    if not all(name in topics.BOOM_JOINTS for name in names):
+    if not all(name in BOOM_JOINTS for name in names):
         return None
-    return frozenset(topics.BOOM_JOINTS.index(name) for name in names)
+    return frozenset(BOOM_JOINTS.index(name) for name in names)
 
 
 def split_batch(batch: list[Pending]) -> tuple[list[int], list[int], list[int]]:
     """The indices of a batch's (oldest first) undecodable commands, oldest first; of its
     motion commands, newest first; and of the other commands, oldest first: the order in
     which they are tried."""
-    motion_topics = (topics.DEPLOY_CMD, topics.BOOM_LENGTH_CMD)
+    motion_topics = (DEPLOY_CMD, BOOM_LENGTH_CMD)
     unread = [i for i, pending in enumerate(batch) if isinstance(pending.message, Undecodable)]
     read = [i for i in range(len(batch)) if i not in set(unread)]
     motion = [i for i in read if batch[i].topic in motion_topics]

@@ -21,9 +21,8 @@ import threading
 import time
 from typing import Protocol
 
-from sail_ros import topics
-from sail_ros.messages import commands as commands_msg
-from sail_ros.messages import status as key
+from sail_ros import names
+from sail_ros import status as key
 from sail_ros.model import SailModel
 from sail_ros.model.record import StateSample
 from sail_ros.runtime.commands import CommandError
@@ -60,7 +59,7 @@ class Outputs(Protocol):
     def status(self, stamp_ns: int, level: str, message: str, values: dict) -> None:
         """The integrator status (/diagnostics)."""
 
-    def answers(self, answers: list[commands_msg.CommandAnswer]) -> None:
+    def answers(self, answers: list[names.CommandAnswer]) -> None:
         """The answers to commands handled together, in that order (sail/command_status)."""
 
     def log(self, severity: str, text: str) -> None:
@@ -80,7 +79,7 @@ class CommandLog:
 
     def record(self, outcome: str, severity: str, text: str) -> None:
         self.roll()
-        if outcome == commands_msg.REJECTED:
+        if outcome == names.REJECTED:
             self._last_rejection = text
         if self._lines.get(outcome, 0) < COMMAND_LINES:
             self._lines[outcome] = self._lines.get(outcome, 0) + 1
@@ -97,7 +96,7 @@ class CommandLog:
         if self._held:
             counts = ", ".join(f"{count} {outcome}" for outcome, count in self._held.items())
             last = ""
-            if self._held.get(commands_msg.REJECTED):
+            if self._held.get(names.REJECTED):
                 last = f" (last rejection: {self._last_rejection})"
             self._log(
                 "warning",
@@ -236,18 +235,16 @@ class RealTimeRun:
         if why_not == STALE:
             self.ignored += 1
             text = "published before this simulator started; not run"
-            self.outputs.answers([self._answer(pending, commands_msg.IGNORED, text, {}, "warning")])
+            self.outputs.answers([self._answer(pending, names.IGNORED, text, {}, "warning")])
             return False
         if self.queue.offer(pending):
-            return self.sim.state != RUNNING or (self.waiting and topic == topics.HUB_WRENCH_CMD)
+            return self.sim.state != RUNNING or (self.waiting and topic == names.HUB_WRENCH_CMD)
         error = CommandError(
             f"{self.queue.capacity} commands were already waiting (max_queued_commands); not run"
         )
         with self.lock:
             self.sim.count_rejection(error)
-        self.outputs.answers(
-            [self._answer(pending, commands_msg.REJECTED, str(error), {}, "warning")]
-        )
+        self.outputs.answers([self._answer(pending, names.REJECTED, str(error), {}, "warning")])
         return False
 
     def _run_commands(self) -> None:
@@ -266,18 +263,16 @@ class RealTimeRun:
         for index in unread:
             error = CommandError(str(batch[index].message))
             sim.count_rejection(error)
-            answers.append(
-                self._answer(batch[index], commands_msg.REJECTED, str(error), {}, "warning")
-            )
+            answers.append(self._answer(batch[index], names.REJECTED, str(error), {}, "warning"))
         for index in motions:
             pending = batch[index]
             if covered(batch, index, plans):
                 self.superseded += 1
                 text = "replaced by a newer command before it started; not run"
-                answers.append(self._answer(pending, commands_msg.SUPERSEDED, text, {}, "info"))
+                answers.append(self._answer(pending, names.SUPERSEDED, text, {}, "info"))
                 continue
             try:
-                if pending.topic == topics.DEPLOY_CMD:
+                if pending.topic == names.DEPLOY_CMD:
                     plans[index] = sim.plan_deploy(
                         pending.message.data, self.config.deploy_duration
                     )
@@ -285,9 +280,7 @@ class RealTimeRun:
                     plans[index] = sim.plan_trajectory(pending.message)
             except CommandError as error:
                 sim.count_rejection(error)
-                answers.append(
-                    self._answer(pending, commands_msg.REJECTED, str(error), {}, "warning")
-                )
+                answers.append(self._answer(pending, names.REJECTED, str(error), {}, "warning"))
         for index in sorted(plans):
             plan = sim.apply_motion(plans[index])
             values = {"t_start_s": repr(plan.t_start), "t_end_s": repr(plan.t_end)}
@@ -295,35 +288,33 @@ class RealTimeRun:
         for index in loads:
             topic = batch[index].topic
             try:
-                if topic == topics.HUB_WRENCH_CMD:
-                    stamp = topics.stamp_ns_of(batch[index].message.header.stamp)
+                if topic == names.HUB_WRENCH_CMD:
+                    stamp = names.stamp_ns_of(batch[index].message.header.stamp)
                     at = (stamp - self.epoch_ns) / 1e9 if stamp else None
                     change = sim.wrench(batch[index].message, self.config.frame_id, at)
                 else:
                     change = sim.load(topic, batch[index].message)
             except CommandError as error:
                 answers.append(
-                    self._answer(batch[index], commands_msg.REJECTED, str(error), {}, "warning")
+                    self._answer(batch[index], names.REJECTED, str(error), {}, "warning")
                 )
                 continue
             # the loads now held, all of the kind: a log then tells the loads from the answers
             held = change.values
             start = sim.t_model if change.t_start is None else change.t_start
-            values = {"t_start_s": repr(start), commands_msg.LOADS_HELD: _numbers(held)}
+            values = {"t_start_s": repr(start), names.LOADS_HELD: _numbers(held)}
             answers.append(self._accepted(batch[index], change.summary, values))
         self.outputs.answers(answers)
 
-    def _accepted(self, pending: Pending, summary: str, values: dict) -> commands_msg.CommandAnswer:
+    def _accepted(self, pending: Pending, summary: str, values: dict) -> names.CommandAnswer:
         text = f"accepted at t = {self.sim.t_model:.6f} s: {summary}"
-        return self._answer(pending, commands_msg.ACCEPTED, summary, values, "info", text)
+        return self._answer(pending, names.ACCEPTED, summary, values, "info", text)
 
-    def _answer(
-        self, pending, outcome, text, values, severity, line=None
-    ) -> commands_msg.CommandAnswer:
+    def _answer(self, pending, outcome, text, values, severity, line=None) -> names.CommandAnswer:
         """The answer to `pending`, its line logged (`CommandLog`); the caller publishes."""
         topic = self.resolve(pending.topic)
         self._commands.record(outcome, severity, f"{topic} {line or f'{outcome}: {text}'}")
-        return commands_msg.CommandAnswer(
+        return names.CommandAnswer(
             topic=topic,
             outcome=outcome,
             message=text,
@@ -361,7 +352,7 @@ class RealTimeRun:
                 self._set_running()
                 self.outputs.log(
                     "error",
-                    f"integration stopped: {sim.error}; call {topics.RESET_SERVICE} to start again",
+                    f"integration stopped: {sim.error}; call {names.RESET_SERVICE} to start again",
                 )
                 self.publish_status()
                 return
@@ -488,7 +479,7 @@ class RealTimeRun:
 
     def stamp_ns(self) -> int:
         """The stamp of the latest sample [ns]: epoch + simulation time."""
-        return topics.stamp_ns(self.epoch_ns, self.sim.t)
+        return names.stamp_ns(self.epoch_ns, self.sim.t)
 
     def _start_sampling(self) -> None:
         """Publish the state now; later samples follow every so many steps from here

@@ -23,6 +23,7 @@ import numpy as np
 from sail_ros.integrate.sampling import GridSampler
 from sail_ros.model import BoomMotion, IntegrationError, SailModel, StaticProfile
 from sail_ros.model.record import StateSample
+from sail_ros.names import PRESSURE_CMD
 from sail_ros.runtime.commands import (
     BoomState,
     CommandError,
@@ -34,7 +35,6 @@ from sail_ros.runtime.commands import (
     plan_trajectory,
 )
 from sail_ros.runtime.config import SimConfig
-from sail_ros.topics import PRESSURE_CMD
 
 RUNNING, PAUSED, ERROR = "running", "paused", "error"
 
@@ -281,23 +281,6 @@ class Simulation:
     def rules(self) -> Rules:
         """What a command must respect now: the policy, for this sail."""
         return Rules(self.policy, self.model.params)
-
-    def deploy(self, target: float, duration: float = 0.0) -> Plan:
-        """All booms to `target` [m] (see `plan_deploy`), starting at `t_model`.
-
-        Raises:
-            CommandError: why (counted in `rejected`); the motion is unchanged.
-        """
-        return self._counted(lambda: self.apply_motion(self.plan_deploy(target, duration)))
-
-    def follow(self, trajectory) -> Plan:
-        """The named booms along a JointTrajectory-like command (see
-        `plan_trajectory`), starting at `t_model`.
-
-        Raises:
-            CommandError: why (counted in `rejected`); the motion is unchanged.
-        """
-        return self._counted(lambda: self.apply_motion(self.plan_trajectory(trajectory)))
 
     def wrench(self, message, frame_id: str, at: float | None = None):
         """Apply a `sail/hub_wrench_cmd` (see `plan_hub_wrench`) from `t_model` on, or from

@@ -27,8 +27,8 @@ import tempfile
 from pathlib import Path
 
 from sail_ros.bag import BagReader, BagWriteError, BagWriter, DefinitionNotFoundError
-from sail_ros.cli import PHYSICS_DOC
-from sail_ros.tools.common import run
+from sail_ros.options import PHYSICS_DOC
+from sail_ros.tools.common import tool_main
 
 OWN_RECORDS = ("rosbag2",)  # written anew by the writer
 
@@ -135,10 +135,4 @@ def _bag(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_bag, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _bag)

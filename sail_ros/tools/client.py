@@ -28,11 +28,11 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
-from sail_ros.messages import status as key
-from sail_ros.ros.cli import bounded_teardown, parse_command_line
 from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often, subscriptions_of
+from sail_ros.ros.program import bounded_teardown, parse_command_line
 from sail_ros.tools.common import stdout_closed
 from sail_ros.tools.domains import LAST_DOMAIN
 

@@ -22,12 +22,12 @@ import numpy as np
 import yaml
 
 from sail_ros import topics
-from sail_ros.cli import nearest
 from sail_ros.model import SailParameters, yaml_values
 from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH
 from sail_ros.outputs import CREATED, made_for, staged
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.runtime.config import PARAMETERS
+from sail_ros.spelling import did_you_mean
 
 # the --help note of the tools that take --lengths and --rates
 LIMITS_NOTE = """Lengths and rates are the simulator's (lengths within [min_length, max_length],
@@ -111,8 +111,7 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
     policy_names, sail_names = set(Policy.field_names()), set(SailParameters.field_names())
     for name in changes:
         if name not in policy_names | sail_names:
-            close = nearest(name, policy_names | sail_names)
-            hint = f" (did you mean {close!r}?)" if close else ""
+            hint = did_you_mean(name, policy_names | sail_names)
             raise ValueError(
                 f"--set: unknown parameter {name!r}{hint}; sail parameters: "
                 f"{', '.join(sorted(sail_names))}; limits: {', '.join(Policy.field_names())}"
@@ -176,8 +175,7 @@ def simulator_parameters(document, path) -> dict | None:
     if unknown:
         named = []
         for name in unknown:
-            close = nearest(name, known)
-            named.append(f"{name!r}" + (f" (did you mean {close!r}?)" if close else ""))
+            named.append(f"{name!r}{did_you_mean(name, known)}")
         raise ValueError(f"{path}: unknown parameter(s) of {node}: {', '.join(named)}")
     return given
 
@@ -232,6 +230,17 @@ def describe_parameters(params: SailParameters) -> str:
             *hub,
         ]
     )
+
+
+def tool_main(build_parser, body):
+    """A tool's `main(argv=None)`: the options of `build_parser()` read from `argv`
+    (default: the command line), then `body(args)` under `run`; returns the exit code."""
+
+    def main(argv=None) -> int:
+        args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
+        return run(body, args)
+
+    return main
 
 
 def run(main_body, args) -> int:

@@ -45,21 +45,18 @@ from sail_ros.analysis.scenario import (
     load_scenario,
     scenario_from_dict,
 )
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailModel
+from sail_ros.options import ToolParser
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
     add_sail_options,
     configuration,
-    describe_parameters,
-    print_hub_peak_table,
-    print_peak_table,
     print_written,
-    refine_hint,
-    run,
+    tool_main,
 )
+from sail_ros.tools.deploy_result import DeploymentReport
 
 LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
 FIGURES = ("deployment_snapshots.png", "tip_deflections.png", "boom_lengths.png")
@@ -90,11 +87,7 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros deploy",
-        description=__doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
-    )
+    parser = ToolParser.for_tool("deploy", __doc__.split("\n\n")[1], EXAMPLES, WRITES, NOTES)
     add_sail_options(parser)
     parser.add_argument(
         "--scenario",
@@ -249,230 +242,6 @@ def _scenario(args, limits=None):
         raise ValueError(f"the reference deployment of the options: {message}") from None
 
 
-def _policy_line(policy: Policy, low: float, high: float, free_hub: bool = False) -> str:
-    line = (
-        f"  limits (simulator's)    L in [{low:g}, {high:.4g}] m, |rate| <= {policy.max_rate:g} "
-        f"m/s, |accel.| <= {policy.max_acceleration:g} m/s^2, |tip| < "
-        f"{policy.tip_error_fraction:g} L (warning {policy.tip_warn_fraction:g} L)"
-    )
-    if free_hub:
-        line += (
-            f"\n{'':26}hub tilt < {policy.tilt_error_rad:g} rad (warning "
-            f"{policy.tilt_warn_rad:g} rad)"
-        )
-    return line
-
-
-def _print_table(run_result, table_times, description, config) -> None:
-    rows = [run_result.index_of(t) for t in table_times if t <= run_result.t[-1] + 1e-9]
-    lengths = run_result.lengths[rows]
-    equal = np.allclose(lengths, lengths[:, :1])
-    print(f"Deployment: {description}")
-    print(describe_parameters(config.sail))
-    print(_policy_line(config.policy, *config.policy.length_range(config.sail),
-                       config.sail.free_hub))  # fmt: skip
-    print()
-    # one length column when the booms are alike, else one per boom
-    booms = (0,) if equal else range(4)
-    labels = ["L [m]"] if equal else [f"L_{b} [m]" for b in "abcd"]
-    print(f"  {'t [s]':>7}" + "".join(f"{label:>9}" for label in labels)
-          + f"   tip deflection [mm]: {'a':>9}{'b':>10}{'c':>10}{'d':>10}")  # fmt: skip
-    for i in rows:
-        tips = run_result.tips[i]
-        print(
-            f"  {run_result.t[i]:7.2f}"
-            + "".join(f"{run_result.lengths[i, k]:9.3f}" for k in booms)
-            + f"   {'':21}"
-            + "".join(f"{1e3 * v:10.3f}" for v in tips)
-        )
-    if run_result.hub is not None:
-        _print_hub_table(run_result, rows)
-    print()
-    simulated, wall = float(run_result.t[-1]), run_result.wall_seconds
-    print(
-        f"  {simulated:g} s simulated in {wall:.3f} s wall "
-        f"({simulated / max(wall, 1e-9):.0f}x real time)"
-    )
-    print(_accuracy_line(run_result.accuracy))
-
-
-HUB_COLUMNS = (  # (header, scale from SI) of a free hub's six values (`StateSample.hub`)
-    ("z_h [mm]", 1e3),
-    ("theta_x [mrad]", 1e3),
-    ("theta_y [mrad]", 1e3),
-    ("zd_h [mm/s]", 1e3),
-    ("thd_x [mrad/s]", 1e3),
-    ("thd_y [mrad/s]", 1e3),
-)
-
-
-def _print_hub_table(run_result, rows) -> None:
-    """A free hub's heave, tilts, tilt magnitude and rates at the table's rows."""
-    print()
-    print(
-        "  free hub: heave z_h, tilts theta_x (about boom a) and theta_y (about boom b), "
-        "tilt |theta|, their rates"
-    )
-    headers = [h for h, _ in HUB_COLUMNS[:3]] + ["|theta| [mrad]"]
-    headers += [h for h, _ in HUB_COLUMNS[3:]]
-    print(f"  {'t [s]':>7}" + "".join(f"{h:>15}" for h in headers))
-    for i in rows:
-        hub = run_result.hub[i]
-        values = [scale * v for (_, scale), v in zip(HUB_COLUMNS, hub, strict=True)]
-        values.insert(3, 1e3 * float(np.hypot(hub[1], hub[2])))
-        print(f"  {run_result.t[i]:7.2f}" + "".join(f"{v:15.3f}" for v in values))
-
-
-def _accuracy_line(accuracy) -> str:
-    """The tolerance, the steps and the achieved error estimate, in one line."""
-    steps = f"{accuracy.steps} steps ({accuracy.rejected} refused)"
-    if accuracy.rtol is None:
-        return f"  {steps} of fixed length: no error estimate"
-    error = accuracy.relative_error
-    return (
-        f"  {steps} at rtol {accuracy.rtol:g}; error estimate: tips "
-        f"{100 * error['tips']:.2g} %, root moments {100 * error['root_moments']:.2g} % of peak"
-    )
-
-
-def _print_peaks(peaks, model, convergence=None) -> None:
-    """Each boom's peak |tip| and |root moment| with its time, and their convergence."""
-    print()
-    print(
-        f"  peaks over the whole run, per boom (taken inside every integration step; "
-        f"n_B = {model.n_boom_modes}, n_M = {model.n_membrane_modes}):"
-    )
-    print_peak_table(peaks, convergence)
-    if convergence is not None:
-        for level in convergence.levels:
-            print(
-                f"  rerun at (n_B, n_M) = ({level.n_boom_modes}, {level.n_membrane_modes}): "
-                f"the peaks before it move by {100 * level.change_before.largest():.2g} % "
-                "of the largest of their kind"
-            )
-
-
-def _print_hub_peaks(hub, holds) -> None:
-    """A free hub's true peaks (`Peaks.hub`) and its holds' peak reactions (`HoldPeaks`)."""
-    print()
-    print("  free hub peaks over the whole run (taken inside every integration step):")
-    print_hub_peak_table(hub)
-
-    def when(value: float, time_s: float) -> str:
-        return f"at t = {time_s:.3f} s" if value else "throughout"
-
-    print(
-        f"  hold reactions (of the boom motion, every {1e3 * holds.spacing_s:g} ms): in-plane "
-        f"|F| {holds.force:.4g} N {when(holds.force, holds.force_time_s)}, spin |tau_z| "
-        f"{holds.torque:.4g} N m {when(holds.torque, holds.torque_time_s)}"
-    )
-
-
-def _convergence_warning(convergence, params) -> str:
-    """One line when the run's peaks are not within the bar of the finest rerun's, or the
-    reruns did not settle ("" if both hold)."""
-    moved = [
-        f"{what} {boom} {100 * change:+.2f} %"
-        for what, changes in (
-            ("tip", convergence.change.tips),
-            ("moment", convergence.change.moments),
-        )
-        for boom, change in zip("abcd", changes, strict=True)
-        if abs(change) > convergence.bar
-    ]
-    parts = []
-    if moved:
-        finest = convergence.finest
-        parts.append(
-            f"peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
-            f"{finest.n_membrane_modes}) they are off by more than {100 * convergence.bar:g} % "
-            f"of the largest of their kind ({', '.join(moved)}); {refine_hint(params)}"
-        )
-    if convergence.stopped:
-        parts.append(f"the reruns did not settle: {convergence.stopped}")
-    return f"warning: {'; '.join(parts)}" if parts else ""
-
-
-def _hub_json(hub, holds) -> dict:
-    """A free hub's true peaks and its holds' peak reactions, for --json."""
-    names = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")
-    report = {f"peak_{name}": float(v) for name, v in zip(names, hub.value, strict=True)}
-    report |= {
-        f"peak_{name.rsplit('_', 1)[0]}_time_s": _number(v)
-        for name, v in zip(names, hub.time_s, strict=True)
-    }
-    report |= {
-        "peak_hold_force_N": holds.force,
-        "peak_hold_force_time_s": holds.force_time_s,
-        "peak_hold_torque_N_m": holds.torque,
-        "peak_hold_torque_time_s": holds.torque_time_s,
-        "hold_spacing_s": holds.spacing_s,
-    }
-    return report
-
-
-def _number(value) -> float | None:
-    """A float for JSON; None for NaN (the time of a peak that is 0), which JSON lacks."""
-    return float(value) if math.isfinite(value) else None
-
-
-def _json_report(result, config, description, convergence, holds=None) -> dict:
-    def per_boom(values):
-        return dict(zip("abcd", (_number(v) for v in values), strict=True))
-
-    params, peaks = config.sail, result.peaks
-    limits = dataclasses.asdict(config.policy)  # the lengths as in force (max_length 0: full)
-    limits["min_length"], limits["max_length"] = config.policy.length_range(params)
-    report = {
-        "description": description,
-        "duration_s": float(result.t[-1] - result.t[0]),
-        "peak_tip_deflection_m": per_boom(peaks.tip_deflection.value),
-        "peak_tip_deflection_time_s": per_boom(peaks.tip_deflection.time_s),
-        "peak_root_moment_Nm": per_boom(peaks.root_moment.value),
-        "peak_root_moment_time_s": per_boom(peaks.root_moment.time_s),
-        "n_boom_modes": params.n_boom_modes,
-        "n_membrane_modes": params.membrane_modes,
-        "parameters": params.to_dict(),
-        "limits": limits,
-        "wall_time_s": result.wall_seconds,
-        "rtol": result.accuracy.rtol,
-        "steps": result.accuracy.steps,
-        "relative_error_estimate": {  # null where nothing moved (0 of a peak of 0)
-            name: _number(value) for name, value in result.accuracy.relative_error.items()
-        },
-        "error_estimate": {
-            name: _number(value) for name, value in (result.accuracy.error or {}).items()
-        },
-        "accuracy_warning": result.accuracy.warning,
-        "warning": result.warning,
-        "alarm": result.alarm,
-    }
-    if peaks.hub is not None:
-        report["hub"] = _hub_json(peaks.hub, holds)
-    if convergence is not None:
-        change = convergence.change
-        report["convergence"] = {
-            "bar": convergence.bar,
-            "levels": [
-                {
-                    "n_boom_modes": level.n_boom_modes,
-                    "n_membrane_modes": level.n_membrane_modes,
-                    "peak_tip_deflection_m": per_boom(level.peaks.tip_deflection.value),
-                    "peak_root_moment_Nm": per_boom(level.peaks.root_moment.value),
-                    "change_before": level.change_before.largest(),
-                }
-                for level in convergence.levels
-            ],
-            "tip_deflection_change": per_boom(change.tips),
-            "root_moment_change": per_boom(change.moments),
-            "tip_deflection_change_own": per_boom(change.tips_own),
-            "root_moment_change_own": per_boom(change.moments_own),
-            "converged": convergence.converged and change.largest() <= convergence.bar,
-            "stopped": convergence.stopped,
-        }
-    return report
-
-
 def _check_options(args, duration: float, snapshots) -> None:
     if not args.every > 0:
         raise ValueError(f"--every must be > 0, got {args.every}")
@@ -588,23 +357,17 @@ def _deploy(args) -> int:
         holds = hold_peaks(model, scenario.profile, float(result.t[-1]))
     numbers = None
     if closed is not None:
-        from sail_ros.analysis.closed_loop import summary, summary_lines
+        from sail_ros.analysis.closed_loop import summary
 
         numbers = summary(closed, open_loop)
+    found = DeploymentReport(
+        result, config, description, model, table_times, convergence, holds, numbers
+    )
     if args.json:
-        report = _json_report(result, config, description, convergence, holds)
-        if numbers is not None:
-            report["controller"] = numbers
-        print(json.dumps(report, indent=2))
+        print(json.dumps(found.to_json(), indent=2))
     elif args.summary or not (args.mcap or args.figures):
-        _print_table(result, table_times, description, config)
-        _print_peaks(result.peaks, model, convergence)
-        if holds is not None:
-            _print_hub_peaks(result.peaks.hub, holds)
-        if numbers is not None:
-            print()
-            print("\n".join(summary_lines(numbers)))
-    warning = _convergence_warning(convergence, params) if convergence is not None else ""
+        found.print_text()
+    warning = found.convergence_warning()
     if warning:
         print(warning, file=sys.stderr)
 
@@ -679,11 +442,11 @@ def _closed_loop_figure(folder: Path, closed, open_loop, description) -> Path:
 def _write_log(args, model, result, grid, scenario, policy, closed=None) -> Path:
     """The run at the grid's times as an MCAP log at --mcap (whole or not at all); a closed
     loop's commands with it."""
-    from sail_ros.analysis.log_export import simulator_parameters, write_deployment_log
+    from sail_ros.analysis.log_export import recorded_parameters, write_deployment_log
 
     logged = result.subset(np.isin(result.t, grid))
     shape_every = round(args.rate / args.shape_rate) if args.shape_rate > 0 else 0
-    parameters = simulator_parameters(
+    parameters = recorded_parameters(
         model,
         logged,
         state_rate_hz=args.rate,
@@ -750,10 +513,4 @@ def _write_figures(folder: Path, model, result, snapshots, scenario, description
     ]
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_deploy, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _deploy)

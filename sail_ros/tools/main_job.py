@@ -27,17 +27,17 @@ import numpy as np
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.analysis.log_series import read_log
 from sail_ros.bag import BagReader
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.integrate.control import DEFAULT_MAX_STEP
 from sail_ros.messages import commands as commands_msg
-from sail_ros.messages import status as key
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
-from sail_ros.ros.cli import bounded_teardown
+from sail_ros.options import ToolParser
+from sail_ros.ros.program import bounded_teardown
 from sail_ros.tools.client import NoAnswerError, SimClient, init_context
-from sail_ros.tools.common import run
+from sail_ros.tools.common import tool_main
 from sail_ros.tools.domains import DomainLease
 
 START, END, DURATION, TIP = 10.0, 15.0, 15.0, 0.1  # m, m, s, m (model.md §9)
@@ -79,11 +79,7 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros demo",
-        description=__doc__.split("\n\n")[0],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
-    )
+    parser = ToolParser.for_tool("demo", __doc__.split("\n\n")[0], EXAMPLES, WRITES, NOTES)
     parser.add_argument(
         "-o", "--output", type=Path, help="bag folder to create (default: out/demo_<UTC time>)"
     )
@@ -94,11 +90,6 @@ def build_parser() -> ToolParser:
         help="simulation seconds per wall second (default 2.0)",
     )
     return parser
-
-
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_demo, args)
 
 
 def _demo(args) -> int:
@@ -283,3 +274,6 @@ def summarise(output: Path, t_start: float) -> None:
         f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
         f"{statuses[key.OVERRUNS][-1]}; rejected commands: {statuses[key.REJECTED][-1]}"
     )
+
+
+main = tool_main(build_parser, _demo)

@@ -11,7 +11,6 @@ with `--fem` compares the frequencies with the independent finite-element model
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,14 +22,14 @@ from sail_ros.analysis.modes import (
     modal_analysis,
     representative_shapes,
 )
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
+from sail_ros.options import ToolParser
 from sail_ros.tools.common import (
     add_sail_options,
     configuration,
     describe_parameters,
     print_written,
-    run,
+    tool_main,
     write_csv_rows,
     write_text,
 )
@@ -270,11 +269,7 @@ def _fem_csv_rows(check) -> list[dict]:
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros modes",
-        description=__doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
-    )
+    parser = ToolParser.for_tool("modes", __doc__.split("\n\n")[1], EXAMPLES, WRITES, NOTES)
     add_sail_options(parser)
     parser.add_argument(
         "--lengths",
@@ -428,10 +423,4 @@ def _modes(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_modes, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _modes)

@@ -37,11 +37,11 @@ from sail_ros.analysis.montecarlo import (
     study_sail,
     summarize,
 )
-from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.options import ToolParser, paragraphs
 from sail_ros.outputs import staged
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
-from sail_ros.tools.common import add_sail_options, configuration, print_written, run
+from sail_ros.tools.common import add_sail_options, configuration, print_written, tool_main
 
 WORST = 5
 FIGURES = ("envelopes.png", "peaks.png", "influence.png")
@@ -64,10 +64,12 @@ whose run leaves the linear range, is a row with its error."""
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros montecarlo",
-        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, NOTES),
+    parser = ToolParser.for_tool(
+        "montecarlo",
+        paragraphs(__doc__, 0, 1),
+        EXAMPLES,
+        WRITES,
+        NOTES,
     )
     parser.add_argument("study", type=Path, metavar="STUDY.yaml", help="the study file")
     parser.add_argument("--out", type=Path, help="output folder (default: <study>_results)")
@@ -210,10 +212,4 @@ def _figures(study, rows, summary, out: Path) -> list[Path]:
     return written
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_montecarlo, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _montecarlo)

@@ -39,8 +39,8 @@ from sail_ros.analysis.plant import (
     undamped_note,
     undamped_shown,
 )
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.model import SailModel
+from sail_ros.options import ToolParser, paragraphs
 from sail_ros.outputs import staged
 from sail_ros.tools.common import (
     LIMITS_NOTE,
@@ -48,7 +48,7 @@ from sail_ros.tools.common import (
     configuration,
     describe_parameters,
     print_written,
-    run,
+    tool_main,
 )
 
 EXAMPLES = (
@@ -67,10 +67,12 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros plant",
-        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, LIMITS_NOTE),
+    parser = ToolParser.for_tool(
+        "plant",
+        paragraphs(__doc__, 0, 1),
+        EXAMPLES,
+        WRITES,
+        LIMITS_NOTE,
     )
     add_sail_options(parser)
     parser.add_argument(
@@ -214,10 +216,4 @@ def _plant(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_plant, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _plant)

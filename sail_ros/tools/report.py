@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sail_ros import status as key
 from sail_ros.analysis.convergence import converge
 from sail_ros.analysis.deployment import (
     carried_over,
@@ -60,11 +61,10 @@ from sail_ros.analysis.log_rerun import rerun_log
 from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.parameter_history import parameter_changes
 from sail_ros.analysis.scenario import check_scenario, scenario_from_dict
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.integrate.errors import AccuracyWarning
-from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, record, yaml_values
 from sail_ros.model.layout import BOOMS, QUADRANTS
+from sail_ros.options import ToolParser
 from sail_ros.outputs import staged
 from sail_ros.plots.histories import (
     boom_lengths_figure,
@@ -83,8 +83,8 @@ from sail_ros.tools.common import (
     print_peak_table,
     print_written,
     refine_hint,
-    run,
     set_values,
+    tool_main,
 )
 
 # first columns of real_time_factor.csv; any other status values follow by name
@@ -117,10 +117,8 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros report",
-        description=__doc__.split("\n\n")[0],
-        epilog=help_epilog(EXAMPLES, WRITES, __doc__.split("\n\n", 1)[1]),
+    parser = ToolParser.for_tool(
+        "report", __doc__.split("\n\n")[0], EXAMPLES, WRITES, __doc__.split("\n\n", 1)[1]
     )
     parser.add_argument("log", type=Path, help="MCAP file or rosbag2 folder")
     parser.add_argument(
@@ -647,10 +645,4 @@ def _real_time_factor(log, out: Path, time_label: str, title: str) -> list[Path]
     ]
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_report, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _report)

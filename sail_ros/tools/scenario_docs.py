@@ -21,7 +21,7 @@ from pathlib import Path
 from sail_ros.analysis import montecarlo, scenario
 from sail_ros.control.settings import DesignSettings
 from sail_ros.model import SailParameters
-from sail_ros.model.fields import fields_of, markdown_table
+from sail_ros.model.fields import markdown_table, settings_of
 from sail_ros.policy import Policy
 
 BLOCK = re.compile(
@@ -41,9 +41,9 @@ def blocks() -> dict[str, str]:
     """Block name -> its Markdown, as the code declares it."""
     return {
         "scenario": _sections(scenario.SECTIONS),
-        "sail": markdown_table((f.name, f) for f in fields_of(SailParameters)),
-        "limits": markdown_table((f.name, f) for f in fields_of(Policy)),
-        "controller": markdown_table((f.name, f) for f in fields_of(DesignSettings)),
+        "sail": markdown_table(settings_of(SailParameters)),
+        "limits": markdown_table(settings_of(Policy)),
+        "controller": markdown_table(settings_of(DesignSettings)),
         "study": _sections(montecarlo.SECTIONS),
     }
 

@@ -17,9 +17,9 @@ from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros import topics
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import hub as hub_msg
+from sail_ros.options import ToolParser, paragraphs
 from sail_ros.policy import Policy
 from sail_ros.tools.client import NoAnswerError, SimClient, add_domain_option, run_client
 
@@ -89,11 +89,7 @@ def hub_wrench(args):
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros send",
-        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, notes=NOTES),
-    )
+    parser = ToolParser.for_tool("send", paragraphs(__doc__, 0, 1), EXAMPLES, notes=NOTES)
     parser.add_argument(
         "--timeout", type=float, default=10.0, help="seconds to wait for the simulator (10)"
     )

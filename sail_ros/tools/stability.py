@@ -27,7 +27,7 @@ from sail_ros.analysis.stability import (
     growth,
     stability_sweep,
 )
-from sail_ros.cli import ToolParser, help_epilog
+from sail_ros.options import ToolParser
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
 from sail_ros.tools.common import (
@@ -36,7 +36,7 @@ from sail_ros.tools.common import (
     configuration,
     describe_parameters,
     print_written,
-    run,
+    tool_main,
     write_csv_rows,
 )
 
@@ -60,10 +60,8 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros stability",
-        description=__doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES, WRITES, LIMITS_NOTE),
+    parser = ToolParser.for_tool(
+        "stability", __doc__.split("\n\n")[1], EXAMPLES, WRITES, LIMITS_NOTE
     )
     add_sail_options(parser)
     grid = parser.add_argument_group("grid")
@@ -263,10 +261,4 @@ def _stability(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
-    return run(_stability, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+main = tool_main(build_parser, _stability)

@@ -15,12 +15,12 @@ import math
 import sys
 import time
 
+from sail_ros import status as key
 from sail_ros import topics
-from sail_ros.cli import ToolParser, help_epilog
 from sail_ros.messages import state as state_msg
-from sail_ros.messages import status as key
 from sail_ros.model import record
 from sail_ros.model.record import HUB_COMPONENTS
+from sail_ros.options import ToolParser, paragraphs
 from sail_ros.tools.client import SimClient, add_domain_option, run_client
 
 CLEAR = "\033[H\033[2J"  # cursor home, clear screen
@@ -36,11 +36,7 @@ EXAMPLES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser(
-        prog="sail-ros watch",
-        description=__doc__.split("\n\n")[0] + "\n\n" + __doc__.split("\n\n")[1],
-        epilog=help_epilog(EXAMPLES),
-    )
+    parser = ToolParser.for_tool("watch", paragraphs(__doc__, 0, 1), EXAMPLES)
     parser.add_argument("--once", action="store_true", help="print one sample and exit")
     parser.add_argument("--json", action="store_true", help="JSON instead of a table")
     parser.add_argument("--rate", type=float, default=4.0, help="refreshes per second [Hz] (4)")

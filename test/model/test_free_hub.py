@@ -238,7 +238,11 @@ def test_free_hub_parameters_default_to_the_clamped_sail_and_are_checked():
     p = SailParameters()
     assert p.free_hub is False and p.stowed_mass_on_hub is True
     assert (p.hub_mass, p.hub_inertia_x, p.hub_inertia_y) == (100.0, 100.0, 100.0)
-    assert free().total_mass == pytest.approx(164.03, abs=5e-3)  # model.md §13.8
+    # with the stowed material on the hub the heave's mass M[z, z] is the whole sail's:
+    # m_h + 4 rho_B L_f + 2 rho_M L_f^2 (model.md §13.8)
+    model = SailModel(free())
+    z = model.hub_slice.start
+    assert model.mass_and_stiffness(7.0)[0][z, z] == pytest.approx(164.03, abs=5e-3)
     for field in ("free_hub", "stowed_mass_on_hub"):
         with pytest.raises(ValueError, match=f"{field} must be true or false, got 1"):
             SailParameters(**{field: 1})

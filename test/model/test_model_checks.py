@@ -4,9 +4,11 @@ import numpy as np
 import pytest
 import scipy.linalg
 from harness import SMALL
+from scipy.optimize import brentq
 
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.basis import cantilever_roots
+from sail_ros.model.sail_model import cantilever_frequencies, cantilever_frequency
 
 pytestmark = pytest.mark.model
 
@@ -238,3 +240,23 @@ def test_coordinate_names_follow_system_order():
     assert names[:3] == ["boom_a_mode_1", "boom_a_mode_2", "boom_b_mode_1"]
     assert names[8:11] == ["membrane_ab_mode_2_1", "membrane_ab_mode_3_1", "membrane_ab_mode_3_2"]
     assert names[-1] == "membrane_da_mode_3_2"
+
+
+def test_boom_mode_shares_sum_to_the_tips_and_root_moments_at_their_frequencies():
+    """Each boom mode's share of the outputs (what a log's report asks of the model for
+    the modes its sampling cannot follow) adds up to the outputs, and the boom modes'
+    bare-cantilever frequencies are `beta_j^2 sqrt(EI / rho_B) / L^2`."""
+    model = SailModel(SMALL)
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(5, model.n))
+    lengths = rng.uniform(5.0, 12.0, size=(5, 4))
+    tips, moments = model.boom_mode_shares(q, lengths)
+    assert tips.shape == moments.shape == (5, 4, model.n_boom_modes)
+    np.testing.assert_allclose(tips.sum(axis=2), model.tip_deflections(q), rtol=1e-12)
+    np.testing.assert_allclose(moments.sum(axis=2), model.root_moments(q, lengths), rtol=1e-12)
+    params = model.params
+    omega = cantilever_frequencies(params, lengths, model.n_boom_modes)
+    beta = brentq(lambda b: np.cos(b) * np.cosh(b) + 1.0, 1.0, 3.0)
+    expected = beta**2 * np.sqrt(params.boom_bending_stiffness / params.boom_linear_density)
+    np.testing.assert_allclose(omega[..., 0], expected / lengths**2, rtol=1e-10)
+    assert cantilever_frequency(params, 7.0) == pytest.approx(expected / 49.0, rel=1e-10)

@@ -14,6 +14,7 @@ from sail_ros.model import (
     StaticProfile,
     WaypointProfile,
 )
+from sail_ros.policy import Policy
 
 pytestmark = pytest.mark.model
 
@@ -57,7 +58,7 @@ def test_bad_parameters_name_field_and_value(field, value, message):
 def test_yaml_round_trip_and_unknown_keys(tmp_path):
     p = SailParameters(sail_side=40.0, n_boom_modes=7, boom_axial_load=0.3)
     path = tmp_path / "sail.yaml"
-    p.to_yaml(path)
+    path.write_text(yaml.safe_dump({"sail": p.to_dict()}, sort_keys=False))
     assert SailParameters.from_yaml(path) == p
     path.write_text(yaml.safe_dump({"sail": {"sail_side": 40.0, "boom_stiffness": 1.0}}))
     with pytest.raises(ValueError, match="unknown sail parameter\\(s\\) 'boom_stiffness'"):
@@ -116,8 +117,8 @@ def test_cycloidal_profile_closed_form():
 
 
 def test_cycloidal_within_limits():
-    profile = CycloidalProfile.within_limits(
-        10.0, [20.0, 15.0, 10.0, 12.0], max_rate=0.5, max_acceleration=0.02
+    profile = Policy(max_rate=0.5, max_acceleration=0.02).fastest_cycloid(
+        10.0, [20.0, 15.0, 10.0, 12.0]
     )
     t = np.linspace(0, profile.duration, 2001)
     rates = np.array([profile(ti)[1] for ti in t])

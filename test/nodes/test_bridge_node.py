@@ -3,17 +3,17 @@ and what it does with clients that misbehave."""
 
 import asyncio
 import json
-import time
 
 import pytest
+from harness import wait_until
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from std_msgs.msg import Float64
 from tornado.httpclient import HTTPRequest
 from tornado.websocket import websocket_connect
 
+from sail_ros import status as key
 from sail_ros import topics
-from sail_ros.messages import status as key
 from sail_ros.nodes.bridge import SERVABLE, Bridge, main
 from sail_ros.ros.parameters import ConfigError
 
@@ -82,13 +82,6 @@ async def _read(client) -> int:
     return count
 
 
-def _wait_for(condition, what: str, timeout: float = 5.0) -> None:
-    deadline = time.monotonic() + timeout
-    while not condition():
-        assert time.monotonic() < deadline, f"timed out waiting for {what}"
-        time.sleep(0.01)
-
-
 def test_clients_beyond_max_clients_are_disconnected_and_bad_frames_counted(ros_context):
     """300 bad frames from a client are counted as the server's problems (their log lines
     are few: test_bridging); with max_clients 2, two more clients are disconnected as they
@@ -115,7 +108,9 @@ def test_clients_beyond_max_clients_are_disconnected_and_bad_frames_counted(ros_
 
     try:
         asyncio.run(run())
-        _wait_for(lambda: node.status_values()[key.CONNECTIONS] == "0", "the clients gone")
+        wait_until(
+            lambda: node.status_values()[key.CONNECTIONS] == "0", 5.0, "the clients gone", step=0.01
+        )
     finally:
         node.close()
         node.destroy_node()

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from harness import spin_until as harness_spin_until
+from harness import wait_until
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -84,7 +84,7 @@ def ros(ros_context):
     nodes = []
 
     def spin_until(condition, timeout, what):
-        harness_spin_until(executor, condition, timeout, what, step=0.002)
+        wait_until(condition, timeout, what, executor=executor, step=0.002)
 
     def start(simulator=SIMULATOR, namespace=None, **parameters):
         overrides = [Parameter(n, value=v) for n, v in {**SAIL, **parameters}.items()]

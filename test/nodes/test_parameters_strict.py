@@ -6,7 +6,7 @@ import sys
 
 import pytest
 import yaml
-from harness import CONFIG, run_tool, spin_until
+from harness import CONFIG, run_tool, wait_until
 from rcl_interfaces.msg import Parameter as ParameterMessage
 from rcl_interfaces.msg import ParameterEvent, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
@@ -44,12 +44,12 @@ def test_an_unknown_parameter_stops_the_node(ros_context, tmp_path, node_class, 
 
 def set_parameter(client_node, executor, name, value) -> tuple[bool, str]:
     client = client_node.create_client(SetParameters, "/sail_sim/set_parameters")
-    spin_until(executor, client.service_is_ready, 10.0, "the parameter service")
+    wait_until(client.service_is_ready, 10.0, "the parameter service", executor=executor)
     parameter = ParameterMessage(
         name=name, value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
     )
     future = client.call_async(SetParameters.Request(parameters=[parameter]))
-    spin_until(executor, future.done, 10.0, "the answer")
+    wait_until(future.done, 10.0, "the answer", executor=executor)
     (result,) = future.result().results
     return result.successful, result.reason
 
@@ -72,14 +72,14 @@ def test_run_time_changes_are_refused_by_name_or_published(ros_context):
         ok, reason = set_parameter(client, executor, "max_rate", 2.0)
         assert ok, reason
         assert sim.config.policy.max_rate == 2.0
-        spin_until(
-            executor,
+        wait_until(
             lambda: any(
                 e.node == "/sail_sim" and [p.name for p in e.changed_parameters] == ["max_rate"]
                 for e in events
             ),
             5.0,
             "the parameter event",
+            executor=executor,
         )
     finally:
         executor.shutdown()

@@ -10,7 +10,7 @@ import time
 
 import pytest
 import rclpy
-from harness import DOMAIN_ID, spin_until
+from harness import private_context, wait_until
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -40,15 +40,13 @@ def state(i: int) -> JointState:
 @pytest.fixture
 def peer():
     """A second context on the test domain with one node and its executor."""
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=DOMAIN_ID)
-    node = Node("test_peer", context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    yield node, executor
-    executor.shutdown()
-    node.destroy_node()
-    rclpy.shutdown(context=context)
+    with private_context() as context:
+        node = Node("test_peer", context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        yield node, executor
+        executor.shutdown()
+        node.destroy_node()
 
 
 class Stop:
@@ -73,9 +71,13 @@ def start_recording(context, executor, publisher, tmp_path, **parameters):
     runner = threading.Thread(target=lambda: result.append(recorder.run(stop)))
     runner.start()
     try:
-        spin_until(executor, lambda: publisher.get_subscription_count() >= 1, 10.0, "recorder")
+        wait_until(
+            lambda: publisher.get_subscription_count() >= 1, 10.0, "recorder", executor=executor
+        )
         # both ends matched: the recorder's graph shows the publisher too
-        spin_until(executor, lambda: recorder.count_publishers(TOPIC) >= 1, 10.0, "its view")
+        wait_until(
+            lambda: recorder.count_publishers(TOPIC) >= 1, 10.0, "its view", executor=executor
+        )
     except BaseException:
         stop.event.set()
         runner.join(10.0)
@@ -137,15 +139,21 @@ def test_commands_of_short_lived_publishers_are_recorded_once(ros_context, peer,
     topic = topics.absolute(topics.DEPLOY_CMD)
     with recording_commands(ros_context, tmp_path, topic):
         # subscribed before any publisher exists
-        spin_until(executor, lambda: node.count_subscribers(topic) == 2, 10.0, "subscriptions")
+        wait_until(
+            lambda: node.count_subscribers(topic) == 2, 10.0, "subscriptions", executor=executor
+        )
         latched = node.create_publisher(Float64, topic, topics.LATCHED_COMMAND_QOS)
-        spin_until(executor, lambda: latched.get_subscription_count() == 2, 10.0, "matches")
+        wait_until(
+            lambda: latched.get_subscription_count() == 2, 10.0, "matches", executor=executor
+        )
         for value in (11.0, 12.0, 13.0):
             latched.publish(Float64(data=value))
         assert latched.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
         node.destroy_publisher(latched)
         volatile = node.create_publisher(Float64, topic, topics.COMMAND_QOS)
-        spin_until(executor, lambda: volatile.get_subscription_count() == 1, 10.0, "a match")
+        wait_until(
+            lambda: volatile.get_subscription_count() == 1, 10.0, "a match", executor=executor
+        )
         for value in (14.0, 15.0):
             volatile.publish(Float64(data=value))
         assert volatile.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
@@ -165,7 +173,9 @@ def test_a_command_whose_publisher_the_graph_never_showed_gets_a_full_channel(
     with recording_commands(ros_context, tmp_path, topic) as recorder:
         recorder.get_publishers_info_by_topic = lambda name: []  # the graph lags behind
         latched = node.create_publisher(Float64, topic, topics.LATCHED_COMMAND_QOS)
-        spin_until(executor, lambda: latched.get_subscription_count() == 2, 10.0, "matches")
+        wait_until(
+            lambda: latched.get_subscription_count() == 2, 10.0, "matches", executor=executor
+        )
         latched.publish(Float64(data=12.0))
         assert latched.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
     bag = BagReader(tmp_path / "bag")
@@ -187,7 +197,9 @@ def test_a_publisher_of_another_type_on_a_command_topic_is_named_not_recorded(
     topic = topics.absolute(topics.DEPLOY_CMD)
     with recording_commands(ros_context, tmp_path, topic) as recorder:
         foreign = node.create_publisher(String, topic, topics.COMMAND_QOS)
-        spin_until(executor, lambda: recorder.count_publishers(topic) == 1, 10.0, "its view")
+        wait_until(
+            lambda: recorder.count_publishers(topic) == 1, 10.0, "its view", executor=executor
+        )
         foreign.publish(String(data="deploy"))
         logged, deadline = "", time.monotonic() + 10.0
         while "not recording" not in logged:  # the next graph poll
@@ -209,7 +221,9 @@ def test_take_waiting_takes_what_waits_in_order_with_its_dds_times(ros_context, 
         JointState, TOPIC, lambda *_: None, QoSProfile(depth=100), raw=True
     )
     try:
-        spin_until(executor, lambda: publisher.get_subscription_count() >= 1, 10.0, "taker")
+        wait_until(
+            lambda: publisher.get_subscription_count() >= 1, 10.0, "taker", executor=executor
+        )
         before_ns = time.time_ns()
         for i in range(30):
             publisher.publish(state(i))
@@ -259,7 +273,9 @@ def test_replay_plays_in_process(ros_context, peer, tmp_path):
     player = threading.Thread(target=lambda: result.append(replay.play(stop)))
     player.start()
     try:
-        spin_until(executor, lambda: len(received) == len(sent), 10.0, "the replayed messages")
+        wait_until(
+            lambda: len(received) == len(sent), 10.0, "the replayed messages", executor=executor
+        )
     finally:
         stop.set()
         player.join(10.0)
@@ -298,7 +314,7 @@ def test_replay_into_a_namespace_moves_the_sail_topics(ros_context, peer, tmp_pa
     player = threading.Thread(target=lambda: result.append(replay.play(stop)))
     player.start()
     try:
-        spin_until(executor, lambda: len(received) == 5, 10.0, "the moved topic")
+        wait_until(lambda: len(received) == 5, 10.0, "the moved topic", executor=executor)
     finally:
         stop.set()
         player.join(10.0)

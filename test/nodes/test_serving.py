@@ -9,8 +9,8 @@ import pytest
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from sail_ros.ros import cli as ros_cli
-from sail_ros.ros.cli import StopSignals, serve_until_stopped
+from sail_ros.ros import program as ros_program
+from sail_ros.ros.program import StopSignals, serve_until_stopped
 
 pytestmark = pytest.mark.node
 
@@ -19,7 +19,7 @@ pytestmark = pytest.mark.node
 def served(ros_context, monkeypatch):
     """A node on an executor; the serving threads' longest wait is far beyond the
     test's margins, so only a wake-up can end a wait in time."""
-    monkeypatch.setattr(ros_cli, "SERVE_WAIT_S", 60.0)
+    monkeypatch.setattr(ros_program, "SERVE_WAIT_S", 60.0)
     node = Node("serving_test", context=ros_context)
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(node)

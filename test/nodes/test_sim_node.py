@@ -1,6 +1,7 @@
 """Node `sail_sim` in this process: a private rclpy Context, its own executor,
 and a client node in the same context talking to it over (loopback) DDS."""
 
+import contextlib
 import errno
 import math
 import os
@@ -9,9 +10,8 @@ import time
 
 import numpy as np
 import pytest
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import DOMAIN_ID, SMALL_SIM
+from harness import SMALL_SIM, private_context, wait_until
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, SetParameters
 from rclpy.event_handler import PublisherEventCallbacks
@@ -24,11 +24,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import hub as hub_msg
-from sail_ros.messages import status as key
 from sail_ros.model.fields import ConfigError
 from sail_ros.nodes import sim as sim_node
 from sail_ros.nodes.sim import SPECS, SimNode, main
@@ -44,16 +44,13 @@ def ros(monkeypatch, tmp_path):
     """A private context on a test-private domain, localhost only; yields a factory
     `start(**parameters) -> (sim node, client node, spin_until)`."""
     monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path))
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=DOMAIN_ID)
+    stack = contextlib.ExitStack()
+    context = stack.enter_context(private_context())
     executor = SingleThreadedExecutor(context=context)
     nodes = []
 
     def spin_until(condition, timeout, what):
-        deadline = time.monotonic() + timeout
-        while not condition():
-            assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
-            executor.spin_once(timeout_sec=0.01)
+        wait_until(condition, timeout, what, executor=executor)
 
     def start(**parameters):
         parameters = {**SMALL_SIM, **parameters}
@@ -72,7 +69,7 @@ def ros(monkeypatch, tmp_path):
         executor.remove_node(node)
         node.destroy_node()
     executor.shutdown()
-    rclpy.shutdown(context=context)
+    stack.close()
 
 
 class Client(Node):
@@ -117,7 +114,7 @@ def test_parameters_are_described_over_the_parameter_services(ros):
     for spec in SPECS:
         descriptor = by_name[spec.name]
         assert descriptor.description == spec.description
-        assert descriptor.read_only == spec.read_only
+        assert descriptor.read_only == spec.spec.read_only
     assert by_name["sail.boom_bending_stiffness"].read_only
     assert by_name["max_rate"].floating_point_range[0].from_value == pytest.approx(1e-6)
     assert by_name["sail.n_boom_modes"].integer_range[0].to_value == 30

@@ -6,6 +6,7 @@ import threading
 import time
 
 import pytest
+from harness import wait_until
 
 from sail_ros.runtime.ticker import Ticker, following_call
 
@@ -19,7 +20,7 @@ def test_calls_come_every_period_while_active_and_never_after_stop():
     assert not calls  # inactive until set
     started = time.monotonic()
     ticker.set(0.01, True)
-    _wait_until(lambda: len(calls) >= 10, "ten calls")
+    wait_until(lambda: len(calls) >= 10, 5.0, "ten calls", step=0.001)
     ticker.set(0.01, False)
     count = len(calls)
     assert count <= (time.monotonic() - started) / 0.01 + 1  # none faster than the period
@@ -30,18 +31,11 @@ def test_calls_come_every_period_while_active_and_never_after_stop():
         held = len(calls)
         time.sleep(0.05)
         assert len(calls) == held
-    _wait_until(lambda: len(calls) > held, "a call once the lock is free")
+    wait_until(lambda: len(calls) > held, 5.0, "a call once the lock is free", step=0.001)
     ticker.stop()
     stopped = len(calls)
     time.sleep(0.05)
     assert len(calls) == stopped
-
-
-def _wait_until(condition, what: str, timeout: float = 5.0) -> None:
-    deadline = time.monotonic() + timeout
-    while not condition():
-        assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
-        time.sleep(0.001)
 
 
 def test_a_late_call_is_made_at_once_and_the_missed_ones_skipped():

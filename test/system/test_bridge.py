@@ -30,7 +30,7 @@ from pathlib import Path
 import psutil
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import JS, SMALL_SIM, spin_until
+from harness import JS, SMALL_SIM, wait_until
 from mcap.reader import make_reader
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
@@ -38,10 +38,10 @@ from std_msgs.msg import Float64
 from tornado.httpclient import HTTPRequest
 from tornado.websocket import WebSocketClosedError, websocket_connect
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import BagReader, bag_files
 from sail_ros.messages import diagnostics as diagnostics_msg
-from sail_ros.messages import status as key
 from sail_ros.nodes import bridge
 
 pytestmark = pytest.mark.multiprocess
@@ -51,7 +51,7 @@ SERVED = re.compile(r"serving on (ws://127\.0\.0\.1:\d+)")
 SIM_TOPICS = [
     topics.absolute(name)
     for name in topics.TOPICS
-    if name != topics.CLOCK and name not in topics.HUB_TOPICS
+    if name != topics.CLOCK and name not in (topics.HUB_STATE, topics.HUB_WRENCH_CMD)
 ]
 COMMAND_SCHEMA = "std_msgs/msg/Float64"
 # the client's run: a deployment, a command beyond max_length, bytes that are no Float64,
@@ -235,7 +235,7 @@ def test_foxglove_client_sees_the_log_and_commands_the_sail(processes, js_reader
 
 
 def _type(type_name: str):
-    from sail_ros.ros.cli import message_class
+    from sail_ros.ros.program import message_class
 
     return message_class(type_name)
 
@@ -300,7 +300,7 @@ def test_a_client_that_stops_reading_loses_messages_alone(
     operator.spin_for(4.5)
     fast_result = finished(fast, tmp_path / "fast.json")
     slow_result = finished(slow, tmp_path / "slow.json")
-    spin_until(operator.spinner, lambda: bridge_status, 5.0, "the bridge's status")
+    wait_until(lambda: bridge_status, 5.0, "the bridge's status", executor=operator.spinner)
     operator.spin_for(0.6)
 
     # the reading client got every state sample in order, never held up for the stall: a

@@ -1,6 +1,7 @@
 """The package builds with colcon, and the installed `sim` (what `ros2 run sail_ros
 sim` executes) runs from the install space and publishes."""
 
+import contextlib
 import os
 import shutil
 import signal
@@ -10,8 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
-import rclpy
-from harness import ROOT
+from harness import ROOT, private_context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -103,8 +103,8 @@ def test_installed_sim_runs_and_publishes(install, tmp_path, monkeypatch):
     ).stdout.strip()
     assert Path(where).is_relative_to(prefix), where
 
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=int(env["ROS_DOMAIN_ID"]))
+    contexts = contextlib.ExitStack()
+    context = contexts.enter_context(private_context(int(env["ROS_DOMAIN_ID"])))
     node = Node("colcon_test_listener", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
@@ -141,6 +141,6 @@ def test_installed_sim_runs_and_publishes(install, tmp_path, monkeypatch):
             sim.wait()
         executor.shutdown()
         node.destroy_node()
-        rclpy.shutdown(context=context)
+        contexts.close()
     assert list(states[-1].position) == [10.0] * 4
     assert "time scale 5" in log.read_text()

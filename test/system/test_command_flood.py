@@ -20,8 +20,8 @@ import pytest
 from harness import SMALL_SIM
 from std_msgs.msg import Float64
 
+from sail_ros import status as key
 from sail_ros import topics
-from sail_ros.messages import status as key
 
 pytestmark = [pytest.mark.multiprocess, pytest.mark.timing]
 

@@ -38,8 +38,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import rclpy
-from harness import DOMAIN_ID, JS, Tool, ros_value, spare_domain
+from harness import DOMAIN_ID, JS, Tool, private_context, ros_value, spare_domain, wait_until
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rcl_interfaces.msg import ParameterEvent
@@ -53,7 +52,7 @@ from std_msgs.msg import Float64
 from sail_ros import topics
 from sail_ros.analysis.log_series import read_log
 from sail_ros.bag import BagReader, bag_files
-from sail_ros.ros.cli import message_class
+from sail_ros.ros.program import message_class
 from sail_ros.tools import bag as bag_tool
 from sail_ros.tools import deploy
 
@@ -121,15 +120,7 @@ class RawListener(Node):
     def wait_until(self, condition, timeout: float, what: str, running=()) -> None:
         """Until `condition()`; fails naming `what` after `timeout` [s], or at once if
         one of the `running` tools exits."""
-        deadline = time.monotonic() + timeout
-        while not condition():
-            for tool in running:
-                if tool.process.poll() is not None:
-                    pytest.fail(
-                        f"{tool.log_path.stem} exited while waiting for {what}:\n{tool.log()}"
-                    )
-            assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
-            time.sleep(0.02)
+        wait_until(condition, timeout, what, step=0.02, running=running)
 
     def wait_until_quiet(self, quiet: float = 0.3, timeout: float = 10.0) -> None:
         """Until nothing arrived for `quiet` [s]: what was in flight is taken."""
@@ -203,12 +194,10 @@ def logs(js_readers, ros_env, tmp_path_factory) -> Logs:
     own meanwhile."""
     root = tmp_path_factory.mktemp("conformance")
     folders = {kind: root / kind for kind in ("live", "split", "killed", "replayed", "deploy")}
-    contexts, listeners, started = [], [], []
+    contexts, listeners, started = contextlib.ExitStack(), [], []
 
     def listen(domain):
-        contexts.append(rclpy.Context())
-        rclpy.init(context=contexts[-1], domain_id=domain)
-        listeners.append(RawListener(contexts[-1]))
+        listeners.append(RawListener(contexts.enter_context(private_context(domain))))
         return listeners[-1]
 
     def start(tool, *args, env=ros_env):
@@ -303,9 +292,9 @@ def logs(js_readers, ros_env, tmp_path_factory) -> Logs:
             if tool.process.poll() is None:
                 tool.process.kill()
                 tool.process.wait()
-        for node, context in zip(listeners, contexts, strict=False):
+        for node in listeners:
             node.close()
-            rclpy.shutdown(context=context)
+        contexts.close()
     live = listener.take()
     return Logs(
         folders,

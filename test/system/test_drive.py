@@ -20,7 +20,7 @@ import time
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import SMALL_SIM, run_tool, spin_until
+from harness import SMALL_SIM, run_tool, wait_until
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -29,10 +29,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.messages import commands as commands_msg
-from sail_ros.messages import status as key
 
 pytestmark = pytest.mark.multiprocess
 
@@ -227,8 +227,12 @@ def test_commands_from_publishers_that_send_at_once_all_arrive(processes, operat
         publisher = node.create_publisher(
             JointTrajectory, topics.BOOM_LENGTH_CMD, topics.LATCHED_COMMAND_QOS
         )
-        spin_until(operator.spinner, lambda p=publisher: p.get_subscription_count() >= 1,
-                   10.0, "the simulator")  # fmt: skip
+        wait_until(
+            lambda p=publisher: p.get_subscription_count() >= 1,
+            10.0,
+            "the simulator",
+            executor=operator.spinner,
+        )
         command = JointTrajectory(joint_names=["boom_b"])
         command.points = [JointTrajectoryPoint(positions=[10.0 + 0.1 * (i + 1)])]
         command.points[0].time_from_start.sec = 5
@@ -251,8 +255,12 @@ def test_a_burst_beyond_the_command_queue_waits_and_is_answered_and_counted(proc
     operator.wait_for_simulator()
     # reliable, volatile, keeping all 30 until acknowledged
     publisher = operator.create_publisher(Float64, topics.DEPLOY_CMD, QoSProfile(depth=100))
-    spin_until(operator.spinner, lambda: publisher.get_subscription_count() >= 1, 10.0,
-               "the simulator")  # fmt: skip
+    wait_until(
+        lambda: publisher.get_subscription_count() >= 1,
+        10.0,
+        "the simulator",
+        executor=operator.spinner,
+    )
     for k in range(30):
         publisher.publish(Float64(data=11.0 + 0.1 * k))
     assert publisher.wait_for_all_acked(Duration(seconds=10.0))
@@ -380,8 +388,12 @@ def test_a_publisher_that_behaves_like_ros2_topic_pub_once_reaches_the_simulator
     for i in range(5):
         node = Node(f"ros2_topic_pub_{i}", context=operator.context)
         publisher = node.create_publisher(Float64, topics.DEPLOY_CMD, topics.LATCHED_COMMAND_QOS)
-        spin_until(operator.spinner, lambda p=publisher: p.get_subscription_count() >= 1,
-                   10.0, "a matching subscription")  # fmt: skip
+        wait_until(
+            lambda p=publisher: p.get_subscription_count() >= 1,
+            10.0,
+            "a matching subscription",
+            executor=operator.spinner,
+        )
         publisher.publish(Float64(data=10.5 + 0.5 * i))
         time.sleep(0.1)  # --keep-alive 0.1
         node.destroy_node()

@@ -25,7 +25,7 @@ import pytest
 import rclpy
 import yaml
 from geometry_msgs.msg import Point
-from harness import DOMAIN_ID, ROOT
+from harness import DOMAIN_ID, ROOT, private_context, wait_until
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -145,13 +145,11 @@ def publish_main(argv) -> int:
 @pytest.fixture(scope="module")
 def listener_node(ros_env):
     """A live subscriber in this process (its own context) on the test's domain."""
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=DOMAIN_ID)
-    node = Listener(context)
-    yield node
-    node.spinner.shutdown()
-    node.destroy_node()
-    rclpy.shutdown(context=context)
+    with private_context() as context:
+        node = Listener(context)
+        yield node
+        node.spinner.shutdown()
+        node.destroy_node()
 
 
 @pytest.fixture
@@ -217,10 +215,7 @@ class Listener(Node):
             messages.clear()
 
     def spin_until(self, condition, timeout: float, what: str):
-        deadline = time.monotonic() + timeout
-        while not condition():
-            assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
-            self.spin_some()
+        wait_until(condition, timeout, what, between=self.spin_some)
 
     def publisher_counts(self, prefix="") -> dict[str, int]:
         return {t: len(self.get_publishers_info_by_topic(prefix + t)) for t in STREAMS}
@@ -764,7 +759,7 @@ def test_unwritable_output_and_bad_parameters_exit_with_a_clear_error(ros_env, t
                 "/sail/boom_state", serialize_message(stream_message("/sail/boom_state", i)), i
             )
     # five participants that leave at the same moment: each discovers no other, for Fast
-    # DDS can deadlock removing one while others leave (`ros.cli.bounded_teardown`)
+    # DDS can deadlock removing one while others leave (`ros.program.bounded_teardown`)
     alone = {**ros_env, "ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF"}
     unwritable = start_tool("recorder", ["-o", str(blocker / "bag")], alone)
     occupied = tmp_path / "occupied"  # a folder that holds files: a bad argument

@@ -26,11 +26,11 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.integrate.control import DEFAULT_MAX_STEP
 from sail_ros.messages import diagnostics as diagnostics_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.profiles import BoomMotion, SwitchedProfile
 from sail_ros.policy import Policy
@@ -407,11 +407,11 @@ def test_the_offline_replay_does_not_hang_on_the_logged_times_rounding():
     sim = Simulation(model, config)
     while sim.t < 0.5 - 1e-9:
         assert sim.step()
-    t_deploy = sim.deploy(12.0).t_start
+    t_deploy = sim.apply_motion(sim.plan_deploy(12.0)).t_start
     while sim.t < t_deploy + 2.0:
         assert sim.step()
     command = trajectory(["boom_a", "boom_b"], ([12.5, 11.5], 8.0), ([13.0, 11.0], 14.0))
-    t_command = sim.follow(command).t_start
+    t_command = sim.apply_motion(sim.plan_trajectory(command)).t_start
     tips = []
     while sim.t < t_command + 15.0:
         assert sim.step()

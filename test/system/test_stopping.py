@@ -101,7 +101,7 @@ def test_a_node_refused_at_start_whose_teardown_sticks_still_ends(ros_env):
     with exit code 1 and the stacks, instead of hanging."""
     stuck = (
         "import argparse, re\n"
-        "from sail_ros.ros import cli\n"
+        "from sail_ros.ros import program as cli\n"
         "from sail_ros.ros.parameters import ConfigError\n"
         "cli.TEARDOWN_LIMIT_S = 0.5\n"
         "class Node:\n"
@@ -125,7 +125,7 @@ def test_a_stuck_teardown_ends_the_process_even_holding_the_interpreter_lock(ros
     exit code 1 and the stacks; a teardown that returns leaves no watchdog behind."""
     stuck = (
         "import re\n"
-        "from sail_ros.ros.cli import bounded_teardown\n"
+        "from sail_ros.ros.program import bounded_teardown\n"
         "with bounded_teardown(0.5):\n"
         "    re.match(r'(a+)+$', 'a' * 64 + 'b')\n"
     )
@@ -136,7 +136,7 @@ def test_a_stuck_teardown_ends_the_process_even_holding_the_interpreter_lock(ros
 
     finished = (
         "import time\n"
-        "from sail_ros.ros.cli import bounded_teardown\n"
+        "from sail_ros.ros.program import bounded_teardown\n"
         "with bounded_teardown(0.2):\n"
         "    pass\n"
         "time.sleep(0.6)\n"

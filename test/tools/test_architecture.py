@@ -1,6 +1,7 @@
 """The package's structure: imports flow one way, offline code stays away from nodes."""
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -54,32 +55,122 @@ def test_no_import_cycle(graph):
             visit(name, [name])
 
 
-def test_model_imports_only_the_model(graph):
-    """The structure (`model`) imports nothing else, but `SailModel`'s time integration
-    (`stepper`, `simulate`, `simulate_on_grid`) hands the model to `integrate`, which
-    imports the structure's modules and never `SailModel` itself."""
+# -- the layers, as docs/architecture.md states them ------------------------------------------
+
+
+def layer_rows() -> list[tuple[tuple[str, ...], str]]:
+    """The rows of docs/architecture.md's layer table, top first: (the module prefixes
+    the row names, what importing them may load)."""
+    rows = []
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    table = text[text.index("| package | job | imports ROS |") :].split("\n\n")[0]
+    for line in table.splitlines()[2:]:
+        cells = [cell.strip() for cell in line.strip("|").split(" | ")]
+        paths = re.findall(r"`(sail_ros/[\w/]*(?:\.py)?)`", cells[0])
+        prefixes = tuple(
+            path.removesuffix("/").removesuffix(".py").replace("/", ".") for path in paths
+        )
+        rows.append((prefixes, cells[-1]))
+    return rows
+
+
+ROWS = layer_rows()
+
+
+def row_of(module: str) -> int | None:
+    for index, (prefixes, _) in enumerate(ROWS):
+        if any(module == prefix or module.startswith(prefix + ".") for prefix in prefixes):
+            return index
+    return None
+
+
+def test_every_module_has_its_row(graph):
+    assert len(ROWS) >= 10, ROWS
+    unplaced = sorted(name for name in graph if name != "sail_ros" and row_of(name) is None)
+    assert not unplaced, f"not in docs/architecture.md's layer table: {unplaced}"
+
+
+# the one import down the table that docs/architecture.md names: `SailModel` hands
+# itself to `integrate`
+REACHES_DOWN = {"sail_ros.model.sail_model": ("sail_ros.integrate",)}
+
+
+def test_each_row_imports_only_its_own_and_the_rows_above(graph):
     for name, targets in graph.items():
-        if name.startswith("sail_ros.model"):
-            allowed = ("sail_ros.model", "sail_ros.integrate")
-            allowed = allowed if name == "sail_ros.model.sail_model" else allowed[:1]
-            outside = {t for t in targets if not t.startswith(allowed)}
-            assert not outside, f"{name} imports {outside}"
+        if name == "sail_ros":
+            continue
+        allowed = REACHES_DOWN.get(name, ())
+        below = {
+            t
+            for t in targets - {"sail_ros"}
+            if row_of(t) > row_of(name) and not t.startswith(allowed)
+        }
+        assert not below, f"{name} imports {below}, below it in docs/architecture.md"
+
+
+def test_the_helpers_use_the_standard_library_only():
+    for prefix in ROWS[0][0]:
+        path = PACKAGE.parent / (prefix.replace(".", "/") + ".py")
+        outside = {
+            name
+            for name in imported_top_levels(path)
+            if name not in sys.stdlib_module_names and name != "sail_ros"
+        }
+        assert not outside, f"{prefix} imports {outside}"
+
+
+def test_integrate_never_imports_sail_model(graph):
+    for name, targets in graph.items():
         if name.startswith("sail_ros.integrate"):
-            outside = {
-                t for t in targets if not t.startswith(("sail_ros.model", "sail_ros.integrate"))
-            }
-            assert not outside and "sail_ros.model.sail_model" not in targets, (
-                f"{name} imports {targets}"
-            )
+            assert "sail_ros.model.sail_model" not in targets, name
 
 
-def test_analysis_tools_and_the_pure_packages_import_no_node_module(graph):
-    pure = ("sail_ros.analysis", "sail_ros.tools", "sail_ros.runtime", "sail_ros.bridging",
-            "sail_ros.control")  # fmt: skip
-    for name, targets in graph.items():
-        if name.startswith(pure):
-            nodes = {t for t in targets if t.startswith("sail_ros.nodes")}
-            assert not nodes, f"{name} imports {nodes}"
+def loaded_by(modules: list[str]) -> list[str]:
+    """What importing `modules` (together, in a fresh interpreter) loads of ROS: the
+    packages rclpy and *_msgs, *_interfaces, and "rclpy.node" if it is among them."""
+    code = (
+        f"import sys, {', '.join(modules)}\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules if m.startswith('rclpy')"
+        " or m.split('.')[0].endswith(('_msgs', '_interfaces'))}"
+        " | ({'rclpy.node'} & set(sys.modules))))"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    return ast.literal_eval(result.stdout.strip())
+
+
+def modules_of(prefixes) -> list[str]:
+    found = []
+    for prefix in prefixes:
+        path = PACKAGE.parent / prefix.replace(".", "/")
+        files = sorted(path.glob("*.py")) if path.is_dir() else [path.with_suffix(".py")]
+        found += [module_name(file) for file in files]
+    return found
+
+
+ROS_ROWS = [(prefixes, rule) for prefixes, rule in ROWS if rule != "yes"]
+
+
+@pytest.mark.parametrize(
+    ("prefixes", "rule"), ROS_ROWS, ids=[prefixes[0] for prefixes, _ in ROS_ROWS]
+)
+def test_what_importing_a_row_loads(prefixes, rule):
+    """A row "no" loads neither rclpy nor a message package; "... only" loads no rclpy
+    node but in the modules it names (`send`: the tool of cli.TOOLS, `client`:
+    tools.client)."""
+    from sail_ros.cli import TOOLS
+
+    named = re.findall(r"`(\w+)`", rule.partition("an rclpy node:")[2])
+    nodes_allowed = {
+        TOOLS[word].split(":")[0] if word in TOOLS else f"sail_ros.tools.{word}" for word in named
+    }
+    modules = [module for module in modules_of(prefixes) if module not in nodes_allowed]
+    ros = loaded_by(modules)
+    if rule == "no":
+        assert ros == [], f"importing {prefixes} loads {ros}"
+    else:
+        assert "only" in rule, rule
+        assert "rclpy.node" not in ros, f"importing {modules} loads an rclpy node"
 
 
 def test_messages_are_built_only_in_the_messages_package(graph):
@@ -91,7 +182,13 @@ def test_messages_are_built_only_in_the_messages_package(graph):
         if name.startswith("sail_ros.messages"):
             outside = {
                 t for t in targets if not t.startswith(("sail_ros.messages", "sail_ros.model"))
-            } - {"sail_ros", "sail_ros.topics", "sail_ros.bag", "sail_ros.bag.recording"}
+            } - {
+                "sail_ros",
+                "sail_ros.topics",
+                "sail_ros.names",
+                "sail_ros.bag",
+                "sail_ros.bag.recording",
+            }
             assert not outside, f"{name} imports {outside}"
     topics = ast.parse((PACKAGE / "topics.py").read_text())
     built = {
@@ -117,35 +214,6 @@ MESSAGE_TYPES = {
 }
 
 
-@pytest.mark.parametrize(
-    "module",
-    [
-        "sail_ros.model",
-        "sail_ros.analysis.log_export",
-        "sail_ros.analysis.log_series",
-        "sail_ros.tools.deploy",
-        "sail_ros.tools.report",
-        "sail_ros.analysis.closed_loop",
-    ],
-)
-def test_offline_code_does_not_load_rclpy_node(module):
-    code = f"import sys, {module}; print('rclpy.node' in sys.modules)"
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == "False"
-
-
-@pytest.mark.parametrize(
-    "module",
-    ["sail_ros.model", "sail_ros.control.check", "sail_ros.control.loop",
-     "sail_ros.control.agreement"],
-)  # fmt: skip
-def test_the_model_and_the_controller_do_not_load_ros(module):
-    code = f"import sys, {module}; print(sorted(m for m in sys.modules if 'rclpy' in m))"
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert result.stdout.strip() == "[]", result.stdout + result.stderr
-
-
 # import name -> its rosdep key in package.xml; imports without a key are listed in its
 # pip-only comment
 ROSDEP_KEYS = {
@@ -167,14 +235,19 @@ PIP_ONLY = {
 }
 
 
-def third_party_imports() -> set[str]:
+def imported_top_levels(path: Path) -> set[str]:
+    """The top-level packages `path` imports (`numpy` of `numpy.linalg`)."""
     found = set()
-    for path in PACKAGE.rglob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.Import):
-                found.update(alias.name.split(".")[0] for alias in node.names)
-            elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
-                found.add(node.module.split(".")[0])
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            found.add(node.module.split(".")[0])
+    return found
+
+
+def third_party_imports() -> set[str]:
+    found = set().union(*(imported_top_levels(path) for path in PACKAGE.rglob("*.py")))
     return {name for name in found if name not in sys.stdlib_module_names and name != "sail_ros"}
 
 

@@ -4,6 +4,7 @@ import logging
 
 import pytest
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bridging.clients import ClientBook, command_refusal
 from sail_ros.bridging.protocol import (
@@ -12,7 +13,6 @@ from sail_ros.bridging.protocol import (
     ServerLog,
     service_definitions,
 )
-from sail_ros.messages import status as key
 
 pytestmark = pytest.mark.model
 

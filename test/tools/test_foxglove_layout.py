@@ -12,7 +12,7 @@ from sail_ros import topics
 from sail_ros.model import SailParameters
 from sail_ros.nodes import bridge
 from sail_ros.policy import Policy
-from sail_ros.ros.cli import message_class
+from sail_ros.ros.program import message_class
 
 pytestmark = pytest.mark.model
 
@@ -111,6 +111,6 @@ def test_the_publish_panel_sends_a_deployment_the_simulator_accepts(layout):
 
 def test_the_status_panel_shows_the_simulators_integrator(layout):
     panel = layout["configById"]["DiagnosticStatusPanel!integrator"]
-    assert panel["selectedName"] == topics.DIAGNOSTIC_NAME
-    assert panel["selectedHardwareId"] == topics.HARDWARE_ID
+    assert panel["selectedName"] == topics.integrator_status_name()
+    assert panel["selectedHardwareId"] == topics.SIM_NODE
     resolve(layout["configById"]["RawMessages!answers"]["topicPath"])

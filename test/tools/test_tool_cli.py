@@ -16,9 +16,9 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from harness import run_tool
 
 from sail_ros import cli, topics
+from sail_ros import status as key
 from sail_ros.messages import state as state_msg
-from sail_ros.messages import status as key
-from sail_ros.ros.cli import parse_command_line
+from sail_ros.ros.program import parse_command_line
 from sail_ros.tools import deploy, montecarlo, report, send, watch
 
 pytestmark = pytest.mark.model

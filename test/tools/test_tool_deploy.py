@@ -11,7 +11,7 @@ from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 
 from sail_ros import topics
-from sail_ros.analysis.scenario import load_scenario, reference_scenario
+from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
 from sail_ros.bag import BagReader
 from sail_ros.integrate.peaks import MAX_SPACING_S, PEAK_ERROR
 from sail_ros.messages import hub as hub_msg
@@ -68,7 +68,8 @@ def test_summary_prints_the_reference_table(capsys):
 
 def test_reference_file_is_the_built_in_reference():
     assert (
-        load_scenario(CONFIG / "scenario_reference.yaml").document == reference_scenario().document
+        load_scenario(CONFIG / "scenario_reference.yaml").document
+        == scenario_from_dict(REFERENCE).document
     )
 
 

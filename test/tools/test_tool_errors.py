@@ -10,7 +10,7 @@ from sensor_msgs.msg import JointState
 
 from sail_ros.bag import BagReader, BagWriter, DamagedBagError
 from sail_ros.model.fields import ConfigError
-from sail_ros.ros.cli import check_params_files, read_params_files
+from sail_ros.ros.program import check_params_files, read_params_files
 from sail_ros.tools.common import configuration
 
 pytestmark = pytest.mark.model

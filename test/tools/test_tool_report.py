@@ -9,6 +9,7 @@ from rcl_interfaces.msg import ParameterEvent
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.parameter_history import parameter_changes
@@ -17,7 +18,6 @@ from sail_ros.bag.recording import ParameterChange, changes_record_of
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import state as state_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.tools import deploy, report
 

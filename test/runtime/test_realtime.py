@@ -10,10 +10,10 @@ from harness import SMALL, SMALL_SIM
 from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import hub as hub_msg
-from sail_ros.messages import status as key
 from sail_ros.model import SailModel
 from sail_ros.runtime.config import config_from_values
 from sail_ros.runtime.intake import Undecodable

@@ -1,26 +1,17 @@
 """The simulator's pure parts: command checks and planning, boom motion, the
-grid-stepping core, pacing, the parameter table and the message builders.
-No ROS runtime."""
+grid-stepping core, pacing and the parameter table. No ROS runtime."""
 
-import copy
 import math
 
 import numpy as np
 import pytest
 import yaml
 from builtin_interfaces.msg import Duration
-from geometry_msgs.msg import Point
 from harness import ROOT, SMALL_SIM
-from rclpy.serialization import deserialize_message, serialize_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
-from visualization_msgs.msg import Marker, MarkerArray
 
 from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
-from sail_ros.messages import diagnostics as diagnostics_msg
-from sail_ros.messages import shape as shape_msg
-from sail_ros.messages import state as state_msg
-from sail_ros.messages.cdr import ShapeSerializer, StateSerializer, serialize
 from sail_ros.model import (
     CycloidalProfile,
     SailModel,
@@ -30,9 +21,7 @@ from sail_ros.model import (
 )
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion
-from sail_ros.model.shape import SailSurface
-from sail_ros.nodes.sim import SPECS
-from sail_ros.policy import Policy
+from sail_ros.policy import TOLERANCE, Policy
 from sail_ros.runtime.commands import BoomState, CommandError, Rules, plan_deploy, plan_trajectory
 from sail_ros.runtime.config import DEFAULTS, ConfigError, config_from_values
 from sail_ros.runtime.intake import CommandQueue
@@ -182,6 +171,30 @@ def test_deploy_duration_is_honoured_or_rejected():
         plan_deploy(15.0, REST, RULES, duration=4.0)
 
 
+def test_every_motion_check_draws_the_line_at_the_one_slack():
+    """The policy's rate and motion checks and the deploy planners compare with the limits
+    in one place (`Policy.motion_excess`): within its slack a motion passes, beyond it
+    every one of them refuses."""
+    policy, sail = RULES.policy, RULES.sail
+    within, beyond = 1.0 + TOLERANCE / 2, 1.0 + 4 * TOLERANCE
+    rate, acceleration = policy.max_rate, policy.max_acceleration
+    assert not any(policy.motion_excess(10.0, 10.0, rate * within, acceleration * within, sail))
+    assert policy.motion_excess(10.0, 10.0, rate * beyond, 0.0, sail) == (
+        False, False, True, False
+    )  # fmt: skip
+    assert policy.motion_excess(10.0, 10.0, 0.0, math.nan, sail)[3]
+    policy.check_rate(rate * within, "rate")
+    with pytest.raises(ValueError, match="max_rate"):
+        policy.check_rate(rate * beyond, "rate")
+    fastest = policy.fastest_cycloid(10.0, 15.0).duration
+    plan = plan_deploy(15.0, REST, RULES, duration=fastest)
+    policy.check_motion(plan.profile, sail)
+    with pytest.raises(CommandError, match="needs"):
+        plan_deploy(15.0, REST, RULES, duration=fastest / beyond)
+    with pytest.raises(ValueError, match="above max_"):
+        policy.check_motion(CycloidalProfile(10.0, 15.0, fastest / beyond), sail)
+
+
 @pytest.mark.parametrize(
     ("target", "reason"),
     [
@@ -264,13 +277,15 @@ def test_simulation_steps_on_the_grid_and_matches_simulate(model, config):
     sim = Simulation(model, config)
     for _ in range(100):
         assert sim.step()
-    sim.deploy(12.0)
+    sim.apply_motion(sim.plan_deploy(12.0))
     while sim.steps < 600:
         assert sim.step()
     assert sim.t == pytest.approx(6.0, abs=1e-12)
     assert sim.accepted == 1 and sim.last_command_start == pytest.approx(1.0)
     # the same motion offline, sampled as the simulator does: agreement to round-off
-    profile = CycloidalProfile.within_limits(10.0, 12.0, 1.0, 0.5, t0=sim.last_command_start)
+    profile = Policy(max_rate=1.0, max_acceleration=0.5).fastest_cycloid(
+        10.0, 12.0, t0=sim.last_command_start
+    )
     run = model.simulate_on_grid(
         profile, 6.0, 0.01, model.initial_coordinates([0.1, 0, 0, 0]),
         max_step=config.max_model_step, rtol=config.model_rtol,
@@ -377,7 +392,7 @@ def test_short_booms_get_sub_steps(model, config):
     assert sim.substeps() == 3
     assert Simulation(model, config).substeps() == 1
     assert sim.step() and sim.stepper.steps_taken == 1  # at rest: one exact step
-    sim.deploy(2.0)
+    sim.apply_motion(sim.plan_deploy(2.0))
     assert sim.step() and sim.stepper.steps_taken == 4 and sim.t == pytest.approx(0.02)
 
 
@@ -387,8 +402,8 @@ def test_rejected_command_leaves_the_state_alone(model, config):
         reference.step()
         sim.step()
     with pytest.raises(CommandError, match="above max_rate"):
-        sim.follow(trajectory(["boom_a"], ([20.0], 5.0)))
-    assert (sim.rejected, sim.accepted) == (1, 0) and "above max_rate" in sim.last_rejection
+        sim.apply_motion(sim.plan_trajectory(trajectory(["boom_a"], ([20.0], 5.0))))
+    assert sim.accepted == 0
     for _ in range(50):
         reference.step()
         sim.step()
@@ -440,7 +455,7 @@ def test_non_finite_state_stops_until_reset(config):
     t = sim.t
     assert not sim.step() and sim.t == t
     with pytest.raises(CommandError, match="call sail/reset first"):
-        sim.deploy(12.0)
+        sim.apply_motion(sim.plan_deploy(12.0))
     sim.paused = True
     sim.reset(config_from_values({**SMALL_SIM, "sail.boom_axial_load": 1e6}))  # no tip: stays 0
     assert sim.state == PAUSED and sim.t == t and not np.any(sim.q)
@@ -549,30 +564,6 @@ def test_config_file_holds_the_defaults():
     }
 
 
-def test_every_parameter_is_described_with_unit_and_range():
-    for spec in SPECS:
-        descriptor = spec.descriptor()
-        assert descriptor.description and descriptor.name == spec.name
-        if spec.element_type not in (str, bool):  # a text or a flag has no unit
-            assert "[" in spec.description, f"{spec.name}: no unit"
-            assert descriptor.floating_point_range or descriptor.integer_range
-        assert descriptor.read_only == (
-            spec.name.startswith("sail.")
-            or spec.name
-            in {
-                "integration_step",
-                "max_model_step",
-                "model_rtol",
-                "time_scale",
-                "realtime_priority",
-                "frame_id",
-                "inertial_frame_id",
-                "shape_divisions",
-                "max_queued_commands",
-            }
-        )
-
-
 @pytest.mark.parametrize(
     ("change", "reason"),
     [
@@ -648,77 +639,6 @@ def test_publication_intervals_round_to_whole_steps():
     assert config.steps_between(config.shape_rate_hz) == 0  # off
 
 
-# -- message builders ---------------------------------------------------------------------------
-
-
-def test_state_messages_carry_stamp_frame_names_and_values():
-    stamp = topics.stamp_ns(1_700_000_000_123_000_000, 2.5)
-    message = state_msg.boom_state(stamp, [10.0, 11.0, 12.0, 13.0], [0.0, 0.1, 0.2, 0.3])
-    assert (message.header.stamp.sec, message.header.stamp.nanosec) == (1_700_000_002, 623_000_000)
-    assert message.header.frame_id == "sail" and message.name == list(topics.BOOM_JOINTS)
-    assert list(message.position) == [10.0, 11.0, 12.0, 13.0]
-    assert list(message.velocity) == [0.0, 0.1, 0.2, 0.3]
-    tips = state_msg.tip_deflection(stamp, [0.1, 0, 0, 0], [0, 0, 0, 0], frame_id="body")
-    assert tips.name == ["boom_a_tip", "boom_b_tip", "boom_c_tip", "boom_d_tip"]
-    assert tips.header.frame_id == "body"
-    status = diagnostics_msg.diagnostics(stamp, "WARN", "why", {"state": "running", "overruns": 3})
-    assert status.status[0].level == diagnostics_msg.LEVELS["WARN"]
-    assert diagnostics_msg.diagnostic_values(status) == {"state": "running", "overruns": "3"}
-
-
-def test_shape_markers_draw_the_deflected_membrane_and_the_booms(model):
-    surface = SailSurface(model, 4)
-    q = model.initial_coordinates([0.1, 0.0, 0.0, -0.05])
-    lengths = [10.0, 11.0, 12.0, 13.0]
-    vertices = surface.vertices(q, lengths)
-    markers = shape_msg.shape(
-        5, vertices, surface.triangles, surface.boom_lines(q, lengths)
-    ).markers
-    membrane, booms = markers[0], markers[1:]
-    assert (membrane.ns, membrane.type, membrane.header.frame_id) == (
-        "membrane",
-        Marker.TRIANGLE_LIST,
-        "sail",
-    )
-    assert len(membrane.points) == len(membrane.colors) == 3 * len(surface.triangles)
-    corner = surface.triangles[7, 1]
-    assert (membrane.points[7 * 3 + 1].x, membrane.points[7 * 3 + 1].z) == (
-        vertices[corner, 0],
-        vertices[corner, 2],
-    )
-    # colours scale with the largest |height| (0.1 m at tip a): red there, half blue at tip d
-    heights = [p.z for p in membrane.points]
-    top, bottom = membrane.colors[int(np.argmax(heights))], membrane.colors[int(np.argmin(heights))]
-    assert (top.r, top.g, top.b) == (1.0, 0.0, 0.0)
-    assert (bottom.r, bottom.g, bottom.b) == pytest.approx((0.5, 0.5, 1.0))
-    assert [(m.ns, m.id, m.type) for m in booms] == [
-        ("booms", k, Marker.LINE_STRIP) for k in range(4)
-    ]
-    tip_a = booms[0].points[-1]
-    assert (tip_a.x, tip_a.y, tip_a.z) == pytest.approx((10.0, 0.0, 0.1))
-    assert booms[3].points[-1].y == pytest.approx(-13.0)
-    assert all(m.pose.orientation.w == 1.0 for m in markers)
-
-
-def test_shared_vertex_points_serialise_as_one_point_per_corner(model):
-    """The membrane marker shares one Point per vertex among its corners: what rclpy's
-    serialiser writes decodes to the message built with one Point per corner (bytes
-    are not compared: the CDR alignment padding is not initialised)."""
-    surface = SailSurface(model, 6)
-    q = model.initial_coordinates([0.1, -0.02, 0.03, -0.05])
-    lengths = [10.0, 11.0, 12.0, 13.0]
-    vertices, triangles = surface.vertices(q, lengths), surface.triangles
-    message = shape_msg.shape(5, vertices, triangles, surface.boom_lines(q, lengths))
-    corners = vertices[triangles.ravel()]
-    scale = max(np.abs(corners[:, 2]).max(), shape_msg.MIN_COLOUR_RANGE)
-    expected = copy.deepcopy(message)
-    expected.markers[0].points = [Point(x=x, y=y, z=z) for x, y, z in corners.tolist()]
-    expected.markers[0].colors = shape_msg.height_colours(corners[:, 2], scale)
-    decoded = deserialize_message(serialize_message(message), MarkerArray)
-    assert decoded == expected
-    assert [p.z for p in decoded.markers[0].points] == corners[:, 2].tolist()
-
-
 def test_a_trajectory_longer_than_max_trajectory_points_is_rejected_whole(config):
     sim = Simulation(SailModel(config.sail), config)
     sim.policy = sim.policy.replace(max_trajectory_points=3)
@@ -728,48 +648,6 @@ def test_a_trajectory_longer_than_max_trajectory_points_is_rejected_whole(config
         point.time_from_start.sec = i + 1
         command.points.append(point)
     with pytest.raises(CommandError, match="4 points, more than max_trajectory_points = 3"):
-        sim.follow(command)
-    assert sim.rejected == 1
+        sim.apply_motion(sim.plan_trajectory(command))
     command.points.pop()
-    assert sim.follow(command).booms == (0,)
-
-
-def test_shape_bytes_are_those_of_the_message_built_from_objects(model):
-    """What the simulator publishes on /sail/shape (CDR filled with numpy) is, byte for
-    byte, the serialised message `messages.shape.shape` builds: every stamp, point and colour,
-    frame after frame (each fills a fresh copy of the template)."""
-    surface = SailSurface(model, 6)
-    serializer = ShapeSerializer(surface.triangles, surface.boom_stations.size, "body")
-    lengths = [10.0, 11.0, 12.0, 13.0]
-    for stamp_ns, tips in (
-        (1_700_000_000_123_456_789, [0.1, -0.02, 0.03, -0.05]),
-        (5, [0.0, 0.0, 0.0, 0.0]),  # flat: the colour scale's floor
-        (2_000_000_000_000_000_001, [-0.3, 0.2, 0.0, 0.01]),
-    ):
-        q = model.initial_coordinates(tips)
-        vertices, booms = surface.vertices(q, lengths), surface.boom_lines(q, lengths)
-        data = serializer.serialize(stamp_ns, vertices, booms)
-        built = shape_msg.shape(stamp_ns, vertices, surface.triangles, booms, "body")
-        assert data == serialize(built)
-        assert deserialize_message(data, MarkerArray) == built
-
-
-def test_state_bytes_are_those_of_the_messages_built_from_objects(model):
-    """What the simulator publishes on the state topics (CDR filled with numpy) is,
-    byte for byte, the serialised messages `messages.state.state_messages` builds, topic by
-    topic."""
-    for with_clock in (False, True):
-        serializer = StateSerializer(model.coordinate_names, "body", with_clock=with_clock)
-        rng = np.random.default_rng(7)
-        for stamp_ns in (1_700_000_000_123_456_789, 5, 2_000_000_000_000_000_001):
-            q, qd = rng.normal(size=model.n), rng.normal(size=model.n)
-            lengths, rates = rng.uniform(5.0, 20.0, 4), rng.normal(size=4)
-            sample = model.sample(1.5, lengths, rates, q, qd)
-            built = state_msg.state_messages(
-                stamp_ns, sample, model.coordinate_names, "body", with_clock=with_clock
-            )
-            sent = serializer.serialize(stamp_ns, sample)
-            assert [name for name, _ in sent] == [name for name, _ in built]
-            for (_, data), (name, message) in zip(sent, built, strict=True):
-                assert data == serialize(message), name
-                assert deserialize_message(data, type(message)) == message, name
+    assert sim.apply_motion(sim.plan_trajectory(command)).booms == (0,)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import difflib
 import faulthandler
 import importlib
 import re
@@ -27,17 +26,12 @@ from rclpy.logging import get_logger
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
-from sail_ros.cli import nearest, parse_arguments
 from sail_ros.early_signals import RECEIVED as EARLY_SIGNALS
 from sail_ros.model import yaml_values
 from sail_ros.model.fields import ConfigError
+from sail_ros.options import parse_arguments
 from sail_ros.ros.discovery import announce_often
-
-
-def suggestion(name: str, known) -> str:
-    """The text " (did you mean 'x'?)" for the known name x closest to `name`, or ""."""
-    close = nearest(name, known)
-    return f" (did you mean {close!r}?)" if close else ""
+from sail_ros.spelling import nearest
 
 
 def read_params_files(ros_argv: list[str]) -> list[tuple[str, list[str]]]:
@@ -83,8 +77,8 @@ def check_params_files(files: list[tuple[str, list[str]]], node_name: str) -> No
     """
     for path, sections in files:
         if not any(yaml_values.section_applies(section, node_name) for section in sections):
-            close = difflib.get_close_matches(node_name, sections, n=1, cutoff=0.6)
-            hint = f"; did you mean {node_name!r} for {close[0]!r}?" if close else ""
+            close = nearest(node_name, sections)
+            hint = f"; did you mean {node_name!r} for {close!r}?" if close else ""
             raise ConfigError(
                 f"--params-file {path} has no section for node {node_name!r} (it has "
                 f"{', '.join(map(repr, sections))}{hint})"
