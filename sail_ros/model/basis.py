@@ -142,7 +142,7 @@ def cantilever_modes(n: int, xi, derivative: int = 0) -> np.ndarray:
     `e^b` and loses every digit beyond about the 8th mode. Writing
     `cosh(bx) - s sinh(bx) = e^(-bx) + (1 - s) sinh(bx)` and expanding
     `(1 - s) sinh(bx)` with all exponentials scaled by `e^-b` leaves only
-    terms of order one:
+    terms of order one::
 
         psi = e^(-bx) - cos(bx) + s sin(bx)
               + c (e^(b(x-1)) - e^(-b(x+1))) / d,
