@@ -86,6 +86,7 @@ sphinx_gallery_conf = {
     "image_scrapers": ("sail_ros_docs_scraper.scrape_written_figures",),
     "reset_modules": (),
     "min_reported_time": 1,
+    "write_computation_times": False,
 }
 sys.path.insert(0, str(DOCS))
 

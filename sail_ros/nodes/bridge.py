@@ -167,6 +167,9 @@ SPECS = [
 # the bridge's status on /diagnostics (msg_docs/bridge.md)
 STATUS_SUFFIX = ": websocket"  # its name: the node's, then this; keys in messages.status
 
+# the one WebSocket subprotocol foxglove-sdk's server accepts (and its minor revision)
+SUBPROTOCOL = "foxglove.sdk.v1"
+
 
 class Bridge(Node):
     """The `sail_bridge` node and its WebSocket server (listening once constructed).
@@ -236,7 +239,11 @@ class Bridge(Node):
             raise OSError(f"cannot listen on {address}:{self.config['port']}: {error}") from None
         self._port = self.server.port
         self.url = self.client_book.url = f"ws://{address}:{self.server.port}"
-        self.get_logger().info(f"serving on {self.url}")
+        self.get_logger().info(
+            f"serving on {self.url} (WebSocket subprotocol {SUBPROTOCOL}, as foxglove_bridge "
+            "3.x: a client that offers only foxglove.websocket.v1 is refused with HTTP 400 and "
+            "a 'handshake failed' line)"
+        )
         if not loopback:
             self.get_logger().warning(
                 f"listening on {address}: everyone who reaches port {self.server.port} can "

@@ -85,6 +85,8 @@ def snapshot(client: SimClient) -> dict:
         key.DISSIPATION: float(values.get(key.DISSIPATION, "nan")),
         key.ACCEPTED: int(values.get(key.ACCEPTED, "0")),
         key.REJECTED: int(values.get(key.REJECTED, "0")),
+        key.SUPERSEDED: int(values.get(key.SUPERSEDED, "0")),
+        key.IGNORED: int(values.get(key.IGNORED, "0")),
         key.LAST_COMMAND: values.get(key.LAST_COMMAND, ""),
         key.LAST_REJECTION: values.get(key.LAST_REJECTION, ""),
         "last_answer": f"{answer.outcome}: {answer.message}" if answer else "",
@@ -119,7 +121,8 @@ def table(view: dict) -> str:
             *hub,
             f"  load power {view[key.LOAD_POWER]:.4g} W, damping dissipation "
             f"{view[key.DISSIPATION]:.4g} W",
-            f"  commands: {view[key.ACCEPTED]} accepted, {view[key.REJECTED]} rejected",
+            f"  commands: {view[key.ACCEPTED]} accepted, {view[key.REJECTED]} rejected, "
+            f"{view[key.SUPERSEDED]} superseded, {view[key.IGNORED]} ignored",
             f"  last command: {view[key.LAST_COMMAND] or '-'}",
             f"  last rejection: {view[key.LAST_REJECTION] or '-'}",
             f"  last answer: {view['last_answer'] or '-'}",
