@@ -11,8 +11,8 @@ the benchmarks page (rendered from the committed results of the latest run,
 """
 
 import importlib
-import re
 import pkgutil
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -87,6 +87,7 @@ sphinx_gallery_conf = {
     "reset_modules": (),
     "min_reported_time": 1,
     "write_computation_times": False,
+    "run_stale_examples": True,  # every build runs every example: no figure goes stale
 }
 sys.path.insert(0, str(DOCS))
 
@@ -140,9 +141,7 @@ _CODE_OR_BARS = re.compile(r"(``?[^`]+``?)|(?<![\\|])\|(?=[^|\s])([^|`\n]*?[^|\s
 
 def _absolute_values(app, what, name, obj, options, lines) -> None:
     for index, line in enumerate(lines):
-        lines[index] = _CODE_OR_BARS.sub(
-            lambda m: m.group(1) or rf"\|{m.group(2)}\|", line
-        )
+        lines[index] = _CODE_OR_BARS.sub(lambda m: m.group(1) or rf"\|{m.group(2)}\|", line)
 
 
 def setup(app):

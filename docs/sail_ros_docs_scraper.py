@@ -27,7 +27,7 @@ def scrape_written_figures(block, block_vars, gallery_conf):
     example = Path(block_vars["src_file"]).stem.removeprefix("plot_")
     stable = Path(gallery_conf["src_dir"]) / "docs" / "gallery" / "figures" / example
     shown = []
-    for path, target in zip(new, block_vars["image_path_iterator"]):
+    for path, target in zip(new, block_vars["image_path_iterator"], strict=False):
         shutil.copyfile(path, target)
         copy = stable / path.relative_to(folder)
         copy.parent.mkdir(parents=True, exist_ok=True)

@@ -172,8 +172,8 @@ def cantilever_modes_and_slopes(n: int, xi, out=None) -> tuple[np.ndarray, np.nd
     `out` (a pair of such arrays) if given.
 
     Mode by mode, so that every temporary is one mode's worth: the integrals call this
-    on thousands of points, and arrays of all modes at once were allocated, touched
-    and given back to the system at every chunk (page faults were 40 % of the time).
+    on thousands of points, and arrays of all modes at once would be allocated, touched
+    and given back to the system at every chunk, a page fault for every page.
     """
     xi = np.asarray(xi, dtype=float)
     b = cantilever_roots(n).reshape((n,) + (1,) * xi.ndim)

@@ -31,9 +31,7 @@ def test_the_stored_parameter_count_is_the_simulators(ros_context):
 
 
 def test_quoted_defaults_are_the_defaults():
-    quoted = re.findall(
-        r"`([a-z_.]+)` \(([-0-9.e]+)\)|`([a-z_.]+)`, ([-0-9.e]+) ", README + GUIDE
-    )
+    quoted = re.findall(r"`([a-z_.]+)` \(([-0-9.e]+)\)|`([a-z_.]+)`, ([-0-9.e]+) ", README + GUIDE)
     checked = 0
     for name_a, value_a, name_b, value_b in quoted:
         name, value = (name_a, value_a) if name_a else (name_b, value_b)
