@@ -44,6 +44,9 @@ import argparse
 import multiprocessing
 import os
 import pathlib
+import sys
+
+from results import Results
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -289,7 +292,12 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5, help="runs per case; the best is kept")
     parser.add_argument("--integrals", nargs="*", default=["40,40"], help="integral builds alone")
     parser.add_argument("--sampler", nargs="*", default=["20,20"], help="grid sampling cost")
+    parser.add_argument(
+        "--json", metavar="FILE", help="also write the figures as JSON (results.py) for the docs"
+    )
     args = parser.parse_args()
+    results = Results("model_benchmark", sys.argv)
+    table = []
     context = multiprocessing.get_context("spawn")
     print(
         f"{'n_B,n_M':>8}{'case':>24}{'dofs':>6}{'build [s]':>11}{'steps':>7}{'wall [s]':>10}"
@@ -311,6 +319,20 @@ def main() -> None:
                 f"{r['peak_rss_mb']:>10.0f}",
                 flush=True,
             )
+            table.append(
+                [size, r["case"], r["n"], round(r["build_s"], 3), r["steps"],
+                 round(r["wall_s"], 4), round(T_END / r["wall_s"]), ratio,
+                 round(r["tips_pct"], 4), round(r["moments_pct"], 4), estimate,
+                 round(r["peak_rss_mb"])]
+            )  # fmt: skip
+    results.table(
+        "The reference deployment (model.md §9), 301 outputs; accuracy against DOP853 at "
+        "rtol 1e-10, in % of each output's peak; best of --repeat runs",
+        ["n_B,n_M", "case", "coordinates", "build [s]", "steps", "wall [s]",
+         "real-time factor", "x Radau", "tips [%]", "root moments [%]", "est. [%]",
+         "peak RSS [MB]"],
+        table,
+    )  # fmt: skip
     for size in args.sampler:
         nb, nm = (int(v) for v in size.split(","))
         with context.Pool(1) as pool:
@@ -321,6 +343,11 @@ def main() -> None:
             + " per grid step",
             flush=True,
         )
+        results.note(
+            f"the live simulator's sampling at ({size}), 0.01 s grid, moving: "
+            + ", ".join(f"{name} {1e3 * wall:.3f} ms" for name, wall in best.items())
+            + " per grid step"
+        )
     for size in args.integrals:
         nb, nm = (int(v) for v in size.split(","))
         with context.Pool(1) as pool:
@@ -330,6 +357,11 @@ def main() -> None:
             f"peak RSS {r['peak_rss_mb']:.0f} MB",
             flush=True,
         )
+        results.note(
+            f"integrals at ({size}) built alone: {r['order']}^2 points, {r['wall_s']:.3f} s, "
+            f"peak RSS {r['peak_rss_mb']:.0f} MB"
+        )
+    results.write(args.json)
 
 
 if __name__ == "__main__":

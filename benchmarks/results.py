@@ -38,12 +38,12 @@ class Results:
 
     Attributes:
         name: the script's name (`model_benchmark`, ...).
-        command: the command line that produced the run.
+        command: the command line that produced the run, from the repository's root.
     """
 
-    def __init__(self, name: str, command: str):
+    def __init__(self, name: str, argv: list[str]):
         self.name = name
-        self.command = command
+        self.command = " ".join(["python", f"benchmarks/{Path(argv[0]).name}", *argv[1:]])
         self.tables: list[dict] = []
         self.notes: list[str] = []
         self._load_before = os.getloadavg()
