@@ -69,6 +69,7 @@ from sail_ros.bridging.protocol import (
     service_schema,
 )
 from sail_ros.bridging.sockets import disconnect, release_freed_memory
+from sail_ros.cli import docstring_examples
 from sail_ros.messages import status as key
 from sail_ros.ros.cli import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.commanding import command_publisher, decode
@@ -476,7 +477,9 @@ class Bridge(Node):
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = make_parser("sail-ros bridge", __doc__.split("\n\n")[0], SPECS)
+    parser = make_parser(
+        "sail-ros bridge", __doc__.split("\n\n")[0], SPECS, docstring_examples(__doc__)
+    )
     parser.add_argument(
         "--namespace",
         default=None,

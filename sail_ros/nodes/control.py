@@ -49,7 +49,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 
 from sail_ros import topics
-from sail_ros.cli import PHYSICS_DOC
+from sail_ros.cli import PHYSICS_DOC, docstring_examples
 from sail_ros.control.agreement import SIMULATOR_PARAMETERS, disagreement
 from sail_ros.control.design import command_limits, require_free_hub
 from sail_ros.control.loop import DiscreteController, StaleWatch
@@ -499,7 +499,10 @@ def _parser() -> argparse.ArgumentParser:
         + "\n\n"
         + PHYSICS_DOC
         + "\n\nROS parameters (--ros-args -p name:=value, or --params-file "
-        "config/closed_loop.yaml):\n" + "\n".join(lines),
+        "config/closed_loop.yaml):\n"
+        + "\n".join(lines)
+        + "\n\nExamples:\n"
+        + "\n".join(f"  {line}" for line in docstring_examples(__doc__)),
     )
 
 

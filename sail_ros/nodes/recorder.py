@@ -53,6 +53,7 @@ from sail_ros.bag import (
     qos,
 )
 from sail_ros.bag.recording import Recording
+from sail_ros.cli import docstring_examples
 from sail_ros.messages.parameters import parameter_update, yaml_texts
 from sail_ros.ros.cli import StopSignals, bounded_teardown, message_class, run_node
 from sail_ros.ros.parameters import (
@@ -579,7 +580,7 @@ class Recorder(Node):
 def main(argv=None) -> int:
     """`sail-ros recorder [options] [--ros-args ...]`; returns the exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS)
+    parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS, docstring_examples(__doc__))
     return run_node(NODE_NAME, parser, argv, _record)
 
 

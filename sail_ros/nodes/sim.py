@@ -44,7 +44,7 @@ from rclpy.task import Future
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import topics
-from sail_ros.cli import PHYSICS_DOC
+from sail_ros.cli import PHYSICS_DOC, docstring_examples
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import state as state_msg
@@ -496,7 +496,9 @@ def _parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog=PHYSICS_DOC
         + "\n\nROS parameters (--ros-args -p name:=value, or --params-file config/sim.yaml):\n"
-        + "\n".join(lines),
+        + "\n".join(lines)
+        + "\n\nExamples:\n"
+        + "\n".join(f"  {line}" for line in docstring_examples(__doc__)),
     )
 
 

@@ -241,3 +241,26 @@ def test_watch_shows_the_time_of_the_state_it_shows():
     latest[topics.BOOM_STATE].header.stamp = topics.stamp(epoch - 5 * 10**9)
     view = watch.snapshot(SimpleNamespace(latest=latest, sim_name="/sail_sim"))
     assert view[key.SIM_TIME] == 2.0
+
+
+@pytest.mark.parametrize("node", ["sim", "control", "recorder", "replay", "bridge"])
+def test_a_nodes_help_ends_with_its_examples(node, capsys):
+    try:
+        code = cli.main([node, "--help"])
+    except SystemExit as exit_info:
+        code = exit_info.code
+    text = capsys.readouterr().out
+    assert code == 0
+    assert "\nExamples:\n" in text, text[-600:]
+    examples = [line.strip() for line in text.split("\nExamples:\n")[1].strip().splitlines()]
+    assert len(examples) >= 2 and all(e.startswith(f"sail-ros {node}") for e in examples)
+
+
+def test_the_umbrella_help_gives_one_line_per_tool(capsys):
+    assert cli.main(["--help"]) == 0
+    text = capsys.readouterr().out
+    assert set(cli.SUMMARIES) == set(cli.TOOLS)
+    for name in cli.TOOLS:
+        (line,) = [line for line in text.splitlines() if line.split()[:1] == [name]]
+        assert cli.SUMMARIES[name] in line
+    assert "sail_ros." not in text  # summaries, not module paths
