@@ -23,6 +23,7 @@ python benchmarks/montecarlo_dask.py --json /tmp/montecarlo.json
 python benchmarks/free_hub_benchmark.py --json /tmp/free_hub.json
 python benchmarks/sim_cpu.py --quick --json /tmp/sim_cpu.json
 python benchmarks/recorder_throughput.py --json /tmp/recorder.json
+python benchmarks/bridge_latency.py --json /tmp/bridge.json
 python benchmarks/results.py benchmarks/results/latest.json /tmp/model.json ...
 ```
 """
