@@ -70,7 +70,7 @@ def main() -> None:
     from sail_ros.tools.cluster import dask_client
 
     study = study_from_dict({"study": {**STUDY["study"], "samples": args.samples}})
-    base = SailParameters().to_dict()
+    base = SailParameters(n_boom_modes=4, n_membrane_modes=6).to_dict()  # as printed below
     cases = [(study, i, base) for i in range(args.samples)]
 
     run_sample(cases[0])  # integrals built and cached, as in a warm worker
