@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import re
 import time
 from pathlib import Path
 
@@ -43,7 +44,8 @@ class Results:
 
     def __init__(self, name: str, argv: list[str]):
         self.name = name
-        self.command = " ".join(["python", f"benchmarks/{Path(argv[0]).name}", *argv[1:]])
+        shown = " ".join(["python", f"benchmarks/{Path(argv[0]).name}", *argv[1:]])
+        self.command = re.sub(r" --json(=| )\S+", "", shown)  # where it was written: no figure
         self.tables: list[dict] = []
         self.notes: list[str] = []
         self._load_before = os.getloadavg()
