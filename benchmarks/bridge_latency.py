@@ -37,6 +37,7 @@ import numpy as np
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from results import Results
 from std_msgs.msg import Float64
 
 from sail_ros import topics
@@ -96,6 +97,14 @@ def wait_for_url(log: Path, process: subprocess.Popen, timeout: float = 30.0) ->
     raise RuntimeError("the bridge did not serve:\n" + log.read_text())
 
 
+def figures(values_ms: list[float]) -> list:
+    """[median, p95, max] [ms] and the count, for the JSON table."""
+    if not values_ms:
+        return ["-", "-", "-", 0]
+    median, p95 = np.percentile(values_ms, [50, 95])
+    return [round(median, 2), round(p95, 2), round(max(values_ms), 2), len(values_ms)]
+
+
 def percentiles(values_ms: list[float]) -> str:
     if not values_ms:
         return "no messages"
@@ -109,7 +118,12 @@ def percentiles(values_ms: list[float]) -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="measured time [s]")
+    parser.add_argument(
+        "--json", metavar="FILE", help="also write the figures as JSON (results.py) for the docs"
+    )
     args = parser.parse_args(argv)
+    results = Results("bridge_latency", sys.argv if argv is None else ["bridge_latency.py", *argv])
+    table = []
     domain = 220 - os.getpid() % 10
     print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     with tempfile.TemporaryDirectory() as scratch:
@@ -177,8 +191,16 @@ def main(argv=None) -> int:
         for group, names in GROUPS.items():
             values = [v for name in names for v in store.get(name, [])]
             print(f"    {group:<26}{percentiles(values)}")
+            table.append([label, group, *figures(values)])
         every = [v for values in store.values() for v in values]
         print(f"    {'all':<26}{percentiles(every)}")
+        table.append([label, "all", *figures(every)])
+    results.table(
+        f"Simulator publish to Foxglove client, default rates, {args.seconds:g} s, booms moving",
+        ["path", "topics", "median [ms]", "p95 [ms]", "max [ms]", "messages"],
+        table,
+    )
+    results.write(args.json)
     return 0
 
 

@@ -20,6 +20,9 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
+import sys
+
+from results import Results
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -97,7 +100,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", default=["4,6", "10,10", "20,20"])
     parser.add_argument("--repeat", type=int, default=9, help="runs per case; the best is kept")
+    parser.add_argument(
+        "--json", metavar="FILE", help="also write the figures as JSON (results.py) for the docs"
+    )
     args = parser.parse_args()
+    results = Results("free_hub_benchmark", sys.argv)
+    table = []
     context = multiprocessing.get_context("spawn")
     print(
         f"{'n_B,n_M':>8}{'hub':>9}{'dofs':>6}{'steps':>7}{'wall [s]':>10}{'CPU [s]':>9}"
@@ -114,11 +122,23 @@ def main() -> None:
                 f"{r['cpu'][hub]:>9.4f}{15.0 / r['wall'][hub]:>7.0f}"
                 f"{1e6 * assembly:>15.1f}{1e6 * solves:>13.1f}"
             )
+            table.append(
+                [size, hub, r["n"][hub], r["steps"][hub], round(r["wall"][hub], 4),
+                 round(r["cpu"][hub], 4), round(15.0 / r["wall"][hub]),
+                 round(1e6 * assembly, 1), round(1e6 * solves, 1)]
+            )  # fmt: skip
         print(
             f"{size:>8}  free / clamped: wall {r['wall']['free'] / r['wall']['clamped']:.3f}, "
             f"CPU {r['cpu']['free'] / r['cpu']['clamped']:.3f}",
             flush=True,
         )
+    results.table(
+        "A 15 s deployment, the hub clamped and free; best of --repeat runs",
+        ["n_B,n_M", "hub", "coordinates", "steps", "wall [s]", "CPU [s]",
+         "real-time factor", "assembly [us]", "solves [us]"],
+        table,
+    )  # fmt: skip
+    results.write(args.json)
 
 
 if __name__ == "__main__":

@@ -18,9 +18,11 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
 
 from machine import stolen_seconds
+from results import Results
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -54,7 +56,11 @@ def empty(case):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=1000)
+    parser.add_argument(
+        "--json", metavar="FILE", help="also write the figures as JSON (results.py) for the docs"
+    )
     args = parser.parse_args()
+    results = Results("montecarlo_dask", sys.argv)
 
     import numpy as np
 
@@ -64,7 +70,7 @@ def main() -> None:
     from sail_ros.tools.cluster import dask_client
 
     study = study_from_dict({"study": {**STUDY["study"], "samples": args.samples}})
-    base = SailParameters().to_dict()
+    base = SailParameters(n_boom_modes=4, n_membrane_modes=6).to_dict()  # as printed below
     cases = [(study, i, base) for i in range(args.samples)]
 
     run_sample(cases[0])  # integrals built and cached, as in a warm worker
@@ -117,6 +123,21 @@ def main() -> None:
     needed = 100_000 * walls[1, None] / args.samples / 600.0
     print(f"100 000 samples in 10 min    about {needed:.0f} workers like these "
           f"({100_000 * walls[1, None] / args.samples / 3600:.1f} worker-hours)")  # fmt: skip
+    results.table(
+        f"{args.samples} samples of the reference deployment (n_B, n_M = 4, 6), local workers",
+        ["measure", "value"],
+        [
+            ["one sample, called directly [ms]", round(1e3 * direct, 1)],
+            ["1 worker [s]", round(walls[1, None], 1)],
+            ["2 workers [s]", round(walls[2, None], 1)],
+            ["speed-up, 2 workers", round(walls[1, None] / walls[2, None], 2)],
+            ["2 workers, 1 sample per task [s]", round(walls[2, 1], 1)],
+            ["worker time per sample, 2 workers [ms]", round(1e3 * per_worker_sample, 1)],
+            ["Dask's cost per case [ms]", round(1e3 * empty_per_case, 2)],
+            ["rows from 1 and 2 workers, batched or not", "identical" if same else "DIFFERENT"],
+        ],
+    )
+    results.write(args.json)
 
 
 if __name__ == "__main__":

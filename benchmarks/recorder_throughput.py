@@ -23,6 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from results import Results
 from sim_cpu import cpu_seconds  # a sibling script: benchmarks/ is on sys.path when run
 
 TOPICS = ["/sail/boom_state", "/sail/modal_state", "/sail/shape"]
@@ -135,6 +136,9 @@ def main() -> int:
     parser.add_argument("--seconds", type=float, default=2.0, help="publishing time per rate [s]")
     parser.add_argument("--points", type=int, default=400, help="membrane points per shape")
     parser.add_argument("--publish", nargs=3, help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--json", metavar="FILE", help="also write the figures as JSON (results.py) for the docs"
+    )
     args = parser.parse_args()
     if args.publish:
         publish(float(args.publish[0]), int(args.publish[1]), int(args.publish[2]))
@@ -155,6 +159,8 @@ def main() -> int:
         f"{'lost':>6} {'MiB/s':>7} {'CPU/message':>12}"
     )
     best = None
+    results = Results("recorder_throughput", sys.argv)
+    table = []
     with tempfile.TemporaryDirectory() as tmp:
         for index, rate in enumerate(args.rates):
             folder = Path(tmp) / f"rate_{index}"
@@ -169,14 +175,25 @@ def main() -> int:
                 f"{published - recorded:>6} {raw_rate:>7.2f} {cpu_us:>9.0f} us "
                 f"  (bag {size / 2**20:.2f} MiB)"
             )
+            table.append([round(rate), round(achieved, 1), published, recorded,
+                          published - recorded, round(raw_rate, 2), round(cpu_us)])  # fmt: skip
             if recorded == published:
                 best = achieved
             else:
                 break
+    results.table(
+        f"Recorder throughput: {len(TOPICS)} messages a step, {args.seconds:g} s per rate",
+        ["target [steps/s]", "achieved [steps/s]", "published", "recorded", "lost",
+         "MiB/s (raw)", "CPU per message [us]"],
+        table,
+    )  # fmt: skip
     if best is None:
         print("the recorder lost messages at every rate tried")
+        results.write(args.json)
         return 1
     print(f"highest lossless rate: {best:.0f} steps/s ({best * len(TOPICS):.0f} messages/s)")
+    results.note(f"highest lossless rate: {best:.0f} steps/s ({best * len(TOPICS):.0f} messages/s)")
+    results.write(args.json)
     return 0
 
 

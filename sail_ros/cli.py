@@ -38,11 +38,31 @@ TOOLS = {
 }
 
 
+# one line per tool for `sail-ros --help`
+SUMMARIES = {
+    "modes": "natural frequencies and mode shapes at any boom lengths; --fem cross-check",
+    "deploy": "an offline deployment from a scenario: tables, true peaks, MCAP, figures",
+    "stability": "largest real part of seed Eq. 3 over lengths, rates, prestress (Dask)",
+    "plant": "the linear plant: poles, .npz/.mat matrices, Bode figure; --controller",
+    "montecarlo": "Monte Carlo deployments of a study file on Dask: percentiles, worst cases",
+    "report": "figures and CSV of a log: tips, root moments, lengths, energies, real time",
+    "bag": "bag recover: a complete copy of a log cut short",
+    "recorder": "node sail_recorder: record topics to MCAP as rosbag2 does",
+    "replay": "node sail_replay: republish a log with its recorded timing and /clock",
+    "bridge": "node sail_bridge: the simulator live in Foxglove over WebSocket",
+    "sim": "node sail_sim: the sail simulated in real time",
+    "control": "node sail_control: holds a free hub's attitude and heave (LQG)",
+    "send": "one command to the running simulator, and its answer",
+    "watch": "the running simulator live in the terminal (--once, --json)",
+    "demo": "the main job: simulator and recorder, the reference deployment, a summary",
+}
+
+
 def _usage():
     width = max(len(name) for name in TOOLS)
     lines = ["usage: sail-ros <tool> [args]", "", "tools:"]
-    for name, target in TOOLS.items():
-        lines.append(f"  {name:<{width}}  ({target.split(':')[0]})")
+    for name in TOOLS:
+        lines.append(f"  {name:<{width}}  {SUMMARIES[name]}")
     lines.append("")
     lines.append("`sail-ros <tool> --help` describes a tool. " + PHYSICS_DOC)
     return "\n".join(lines)

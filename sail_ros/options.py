@@ -18,6 +18,13 @@ PHYSICS_DOC = (
     "share/sail_ros/docs/model.md)."
 )
 
+
+def docstring_examples(doc: str) -> list[str]:
+    """The example commands of a module docstring: its lines indented by four spaces that
+    start with `sail-ros `."""
+    return [line.strip() for line in doc.splitlines() if line.startswith("    sail-ros ")]
+
+
 # a value such as -1, -.5, -1e-3, -inf or -nan: argparse's own pattern takes only the
 # first two, so `--values -inf` read as an unknown option
 NEGATIVE_NUMBER = re.compile(

@@ -270,9 +270,9 @@ def last_run(log) -> tuple[np.ndarray, np.ndarray]:
 
 def tilt_agreement(t, hub, closed: ClosedLoopRun) -> tuple[float, float, int]:
     """How closely a hub's tilt history (`t` [s], `hub` (k, 6), e.g. `last_run` of a live
-    log) follows an offline closed loop's at the same times: the largest |theta - theta
-    offline| [rad] (the tilt vector's difference), the offline peak |theta| [rad] over
-    those times, and how many times were compared (those of both)."""
+    log) follows an offline closed loop's at the same times: the largest
+    |theta - theta_offline| [rad] (the tilt vector's difference), the offline peak |theta|
+    [rad] over those times, and how many times were compared (those of both)."""
     offline = closed.run
     keys = np.round(offline.t, 6)
     common = np.isin(np.round(t, 6), keys)

@@ -6,7 +6,7 @@ What a file holds, so that `ros2 bag info/play`, Foxglove and rosbags read it:
   definition text of the installed `.msg` files (see `definitions`);
 - one channel per topic, message encoding `cdr`, channel metadata
   `offered_qos_profiles` (the publishers' QoS as a rosbag2 YAML list) and
-  `topic_type_hash` (RIHS01_...);
+  `topic_type_hash` (`RIHS01_...`);
 - messages as the CDR bytes given, log time and publish time in ns;
 - the header at once, and each schema and channel as soon as its topic is
   registered, outside any chunk, flushed (and fsync'ed): a file cut before its

@@ -150,7 +150,7 @@ class BagWriter:
             offered_qos_profiles: the publishers' QoS, as rosbag2 QoS entries
                 (dicts, see `metadata.default_qos_profile`) or their YAML text;
                 None means one reliable volatile profile.
-            topic_type_hash: "RIHS01_..."; None reads it from the installed .json.
+            topic_type_hash: `"RIHS01_..."`; None reads it from the installed .json.
             definition: the type's schema (e.g. as another log recorded it); None
                 reads it from the installed .msg files.
 

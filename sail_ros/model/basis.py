@@ -142,7 +142,7 @@ def cantilever_modes(n: int, xi, derivative: int = 0) -> np.ndarray:
     `e^b` and loses every digit beyond about the 8th mode. Writing
     `cosh(bx) - s sinh(bx) = e^(-bx) + (1 - s) sinh(bx)` and expanding
     `(1 - s) sinh(bx)` with all exponentials scaled by `e^-b` leaves only
-    terms of order one:
+    terms of order one::
 
         psi = e^(-bx) - cos(bx) + s sin(bx)
               + c (e^(b(x-1)) - e^(-b(x+1))) / d,
@@ -172,8 +172,8 @@ def cantilever_modes_and_slopes(n: int, xi, out=None) -> tuple[np.ndarray, np.nd
     `out` (a pair of such arrays) if given.
 
     Mode by mode, so that every temporary is one mode's worth: the integrals call this
-    on thousands of points, and arrays of all modes at once were allocated, touched
-    and given back to the system at every chunk (page faults were 40 % of the time).
+    on thousands of points, and arrays of all modes at once would be allocated, touched
+    and given back to the system at every chunk, a page fault for every page.
     """
     xi = np.asarray(xi, dtype=float)
     b = cantilever_roots(n).reshape((n,) + (1,) * xi.ndim)

@@ -72,6 +72,7 @@ from sail_ros.bridging.protocol import (
 )
 from sail_ros.bridging.sockets import disconnect, release_freed_memory
 from sail_ros.model.fields import setting, settings_of
+from sail_ros.options import docstring_examples
 from sail_ros.ros.commanding import command_publisher, decode
 from sail_ros.ros.parameters import (
     ConfigError,
@@ -169,6 +170,9 @@ SPECS = settings_of(BridgeSettings)
 # the bridge's status on /diagnostics (msg_docs/bridge.md)
 STATUS_SUFFIX = ": websocket"  # its name: the node's, then this; keys in sail_ros.status
 
+# the one WebSocket subprotocol foxglove-sdk's server accepts (and its minor revision)
+SUBPROTOCOL = "foxglove.sdk.v1"
+
 
 class Bridge(Node):
     """The `sail_bridge` node and its WebSocket server (listening once constructed).
@@ -238,7 +242,11 @@ class Bridge(Node):
             raise OSError(f"cannot listen on {address}:{self.config['port']}: {error}") from None
         self._port = self.server.port
         self.url = self.client_book.url = f"ws://{address}:{self.server.port}"
-        self.get_logger().info(f"serving on {self.url}")
+        self.get_logger().info(
+            f"serving on {self.url} (WebSocket subprotocol {SUBPROTOCOL}, as foxglove_bridge "
+            "3.x: a client that offers only foxglove.websocket.v1 is refused with HTTP 400 and "
+            "a 'handshake failed' line)"
+        )
         if not loopback:
             self.get_logger().warning(
                 f"listening on {address}: everyone who reaches port {self.server.port} can "
@@ -471,7 +479,9 @@ class Bridge(Node):
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = make_parser("sail-ros bridge", __doc__.split("\n\n")[0], SPECS)
+    parser = make_parser(
+        "sail-ros bridge", __doc__.split("\n\n")[0], SPECS, docstring_examples(__doc__)
+    )
     parser.add_argument(
         "--namespace",
         default=None,

@@ -60,7 +60,7 @@ from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import hub as hub_msg
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, fields_of
-from sail_ros.options import PHYSICS_DOC
+from sail_ros.options import PHYSICS_DOC, docstring_examples
 from sail_ros.policy import Policy
 from sail_ros.ros.commanding import command_publisher
 from sail_ros.ros.parameters import declare, node_options
@@ -499,7 +499,10 @@ def _parser() -> argparse.ArgumentParser:
         + "\n\n"
         + PHYSICS_DOC
         + "\n\nROS parameters (--ros-args -p name:=value, or --params-file "
-        "config/closed_loop.yaml):\n" + "\n".join(lines),
+        "config/closed_loop.yaml):\n"
+        + "\n".join(lines)
+        + "\n\nExamples:\n"
+        + "\n".join(f"  {line}" for line in docstring_examples(__doc__)),
     )
 
 

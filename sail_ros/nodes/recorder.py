@@ -57,6 +57,7 @@ from sail_ros.bag.parameter_fetch import ASK, ASK_AGAIN, WARN_ABSENT, ParameterF
 from sail_ros.bag.recording import Recording
 from sail_ros.messages.parameters import parameter_update, yaml_texts
 from sail_ros.model.fields import setting, settings_of
+from sail_ros.options import docstring_examples
 from sail_ros.ros.parameters import (
     ConfigError,
     declare,
@@ -571,7 +572,7 @@ class Recorder(Node):
 def main(argv=None) -> int:
     """`sail-ros recorder [options] [--ros-args ...]`; returns the exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS)
+    parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS, docstring_examples(__doc__))
     return run_node(NODE_NAME, parser, argv, _record)
 
 

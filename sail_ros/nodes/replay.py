@@ -32,6 +32,7 @@ from rosgraph_msgs.msg import Clock
 from sail_ros import topics
 from sail_ros.bag import BagReader, DamagedBagError, qos
 from sail_ros.model.fields import setting, settings_of
+from sail_ros.options import docstring_examples
 from sail_ros.ros.parameters import (
     ConfigError,
     declare,
@@ -322,7 +323,7 @@ class Replay(Node):
 def main(argv=None) -> int:
     """`sail-ros replay FILE [options] [--ros-args ...]`; returns the exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS)
+    parser = make_parser(NODE_NAME, __doc__.split("\n\n")[0], SPECS, docstring_examples(__doc__))
     parser.add_argument(
         "bag_path", nargs="?", metavar="FILE", help="MCAP file or bag folder (same as --bag)"
     )

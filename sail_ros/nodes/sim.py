@@ -50,7 +50,7 @@ from sail_ros.messages import state as state_msg
 from sail_ros.messages.cdr import ShapeSerializer, StateSerializer
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
-from sail_ros.options import PHYSICS_DOC
+from sail_ros.options import PHYSICS_DOC, docstring_examples
 from sail_ros.ros.commanding import decode
 from sail_ros.ros.discovery import subscriptions_of
 from sail_ros.ros.parameters import ConfigError, declare, node_options
@@ -496,7 +496,9 @@ def _parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog=PHYSICS_DOC
         + "\n\nROS parameters (--ros-args -p name:=value, or --params-file config/sim.yaml):\n"
-        + "\n".join(lines),
+        + "\n".join(lines)
+        + "\n\nExamples:\n"
+        + "\n".join(f"  {line}" for line in docstring_examples(__doc__)),
     )
 
 

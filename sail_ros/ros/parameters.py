@@ -18,6 +18,7 @@ type.
 from __future__ import annotations
 
 import argparse
+import textwrap
 
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -135,14 +136,24 @@ def _as_double(spec: Setting | None, parameter: Parameter) -> Parameter | None:
     return None
 
 
-def make_parser(prog: str, description: str, specs: list[Setting]) -> argparse.ArgumentParser:
-    """An argparse parser with one option per parameter (defaults None: unset)."""
+def make_parser(
+    prog: str, description: str, specs: list[Setting], examples=()
+) -> argparse.ArgumentParser:
+    """An argparse parser with one option per parameter (defaults None: unset); its
+    `--help` ends with the `examples` (commands, one a line)."""
+    epilog = textwrap.fill(
+        "Every option is also the ROS parameter of the same name with '_' for '-' "
+        "(--ros-args -p name:=value, or --ros-args --params-file file.yaml); "
+        "an option given here wins.",
+        88,
+    )
+    if examples:
+        epilog += "\n\nExamples:\n" + "\n".join(f"  {line}" for line in examples)
     parser = argparse.ArgumentParser(
         prog=prog,
         description=description,
-        epilog="Every option is also the ROS parameter of the same name with '_' for '-' "
-        "(--ros-args -p name:=value, or --ros-args --params-file file.yaml); "
-        "an option given here wins.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=epilog,
     )
     for spec in specs:
         limits = spec.limits()

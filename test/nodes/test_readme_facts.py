@@ -1,6 +1,6 @@
-"""The README's numbers that are facts of the code agree with the code: how many
-parameters the main job finds stored (the simulator's own and those every rclpy node
-declares), and every default it quotes as "`name` (value)" or "`name`, value"."""
+"""The README's and the guide's numbers that are facts of the code agree with the code:
+how many parameters the main job finds stored (the simulator's own and those every rclpy
+node declares), and every default they quote as "`name` (value)" or "`name`, value"."""
 
 import re
 
@@ -14,6 +14,8 @@ from sail_ros.runtime.config import DEFAULTS, PARAMETERS
 pytestmark = pytest.mark.node
 
 README = (ROOT / "README.md").read_text()
+GUIDE = "\n".join(page.read_text() for page in sorted((ROOT / "docs").rglob("*.md"))
+                  if "_build" not in page.parts and "_generated" not in page.parts)  # fmt: skip
 
 
 def test_the_stored_parameter_count_is_the_simulators(ros_context):
@@ -29,7 +31,7 @@ def test_the_stored_parameter_count_is_the_simulators(ros_context):
 
 
 def test_quoted_defaults_are_the_defaults():
-    quoted = re.findall(r"`([a-z_.]+)` \(([-0-9.e]+)\)|`([a-z_.]+)`, ([-0-9.e]+) ", README)
+    quoted = re.findall(r"`([a-z_.]+)` \(([-0-9.e]+)\)|`([a-z_.]+)`, ([-0-9.e]+) ", README + GUIDE)
     checked = 0
     for name_a, value_a, name_b, value_b in quoted:
         name, value = (name_a, value_a) if name_a else (name_b, value_b)

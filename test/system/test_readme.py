@@ -1,18 +1,20 @@
-"""The README runs as written: every command block, in order, in a fresh copy of the tree.
+"""The README and the user's guide run as written: every command block, in order (the
+README's, then each guide page's in `PAGES`), in a fresh copy of the tree.
 
 Blocks tagged `bash` run in one bash session (so `source scripts/env.sh` and
 background jobs carry over from block to block), `python` blocks with the
 environment's python at their place in the order. Not run: `bash ros` (needs
 a ROS installation with the `ros2` command), `bash suite` (the test suite
-itself) and untagged or `console` blocks (output). The copy holds exactly
+itself), untagged, `text` or `console` blocks (output), and `{include}` directives (the
+guide showing a README block, which runs from the README). The copy holds exactly
 what a clone would (git's tracked and unignored files), shares the set-up
 `.venv`, and must be as clean afterwards: whatever the examples write is
 ignored by git.
 
-The suite runs it CI-sized: every block that works offline, not the main job (its
+The suite runs them CI-sized: every block that works offline, not the main job (its
 `sail-ros demo` runs in test_sim_multiprocess.py), the live walk-throughs (blocks that
 start processes in the background, driven in test_drive.py) nor the Monte Carlo study
-(run in test_studies_dask.py). The whole README runs with `--slow` (scripts/stress.sh).
+(run in test_studies_dask.py). Everything runs with `--slow` (scripts/stress.sh).
 """
 
 import hashlib
@@ -35,6 +37,20 @@ LIVE = re.compile(r"&\s*$", re.MULTILINE)  # a process left running in the backg
 STUDY = "sail-ros montecarlo"
 MAIN_JOB = "scripts/main.sh"
 FENCE = re.compile(r"^```([^\n`]*)\n(.*?)^```", re.MULTILINE | re.DOTALL)
+# the pages whose blocks run, in this order (a page's blocks may use what an earlier wrote)
+PAGES = (
+    "README.md",
+    "docs/guide/start.md",
+    "docs/guide/simulator.md",
+    "docs/guide/foxglove.md",
+    "docs/guide/logs.md",
+    "docs/guide/studies.md",
+    "docs/guide/free_hub.md",
+    "docs/guide/closed_loop.md",
+    "docs/guide/python.md",
+    "docs/scenarios.md",
+)
+KINDS = {"bash", "python", "bash ros", "bash suite", "console", "text", "", "{include}"}
 
 
 def blocks(text: str) -> list[tuple[str, str]]:
@@ -63,10 +79,27 @@ def fresh_copy(destination: Path) -> Path:
     return destination
 
 
+def page_blocks(tree: Path) -> list[tuple[str, str]]:
+    """(info string, body) of every fenced block of the pages, in order."""
+    return [block for page in PAGES for block in blocks((tree / page).read_text())]
+
+
 def test_readme_blocks_are_recognised():
     kinds = [info for info, _ in blocks((ROOT / "README.md").read_text())]
     assert "bash" in kinds and "python" in kinds and "bash ros" in kinds
-    assert set(kinds) <= {"bash", "python", "bash ros", "bash suite", "console", ""}
+    every = [info.split(" ")[0] if info.startswith("{") else info for info, _ in page_blocks(ROOT)]
+    assert set(every) <= KINDS, set(every) - KINDS
+
+
+def test_every_guide_page_with_commands_is_run():
+    """A guide page that holds a command block is one of `PAGES`."""
+    listed = {ROOT / page for page in PAGES}
+    for page in sorted((ROOT / "docs").rglob("*.md")):
+        if "_build" in page.parts or "_generated" in page.parts:
+            continue
+        kinds = {info for info, _ in blocks(page.read_text())}
+        if kinds & {"bash", "python"}:
+            assert page in listed, f"{page.relative_to(ROOT)} has command blocks that no test runs"
 
 
 def environment_is_current(tree: Path) -> bool:
@@ -119,15 +152,15 @@ def check_offline_output(output: str, tree: Path) -> None:
 
 
 def run_readme(tmp_path: Path, ros_env: dict, chosen) -> tuple[str, Path]:
-    """Run the README's `bash` and `python` blocks that `chosen(body)` keeps, in order,
+    """Run the pages' `bash` and `python` blocks that `chosen(body)` keeps, in order,
     in one bash session in a fresh copy; (everything printed, the copy)."""
     tree = fresh_copy(tmp_path / "sail_ros")
     assert environment_is_current(tree), "the environment is out of date: run scripts/test.sh"
     script = ["set -euo pipefail"]
-    for index, (info, body) in enumerate(blocks((tree / "README.md").read_text())):
+    for index, (info, body) in enumerate(page_blocks(tree)):
         if info not in ("bash", "python") or not chosen(body):
             continue
-        script.append(f'echo "--- README block {index} at ${{SECONDS}} s"')
+        script.append(f'echo "--- block {index} at ${{SECONDS}} s"')
         if info == "bash":
             script.append(body)
         else:

@@ -4,6 +4,7 @@ the topic's type, with the boom the plot says."""
 
 import json
 import re
+import subprocess
 
 import pytest
 from harness import ROOT
@@ -114,3 +115,22 @@ def test_the_status_panel_shows_the_simulators_integrator(layout):
     assert panel["selectedName"] == topics.integrator_status_name()
     assert panel["selectedHardwareId"] == topics.SIM_NODE
     resolve(layout["configById"]["RawMessages!answers"]["topicPath"])
+
+
+def test_the_guides_copy_for_another_namespace_moves_every_topic_and_status(tmp_path):
+    """docs/guide/foxglove.md's command writes the layout for /sat2: every topic the layout
+    names moves under /sat2 (but the global /diagnostics), and the status panel follows
+    the simulator's name there."""
+    page = (ROOT / "docs" / "guide" / "foxglove.md").read_text()
+    (command,) = [b for b in re.findall(r"```bash\n(.*?)```", page, re.S) if "sed " in b]
+    (tmp_path / "config").mkdir()
+    (tmp_path / "config" / "foxglove_layout.json").write_text(LAYOUT.read_text())
+    subprocess.run(["bash", "-ec", command], cwd=tmp_path, check=True)
+    text = (tmp_path / "out" / "foxglove_layout_sat2.json").read_text()
+    topics_named = re.findall(r'"(/[A-Za-z0-9_]+/[^"]*)"', text)
+    assert topics_named and all(name.startswith("/sat2/sail/") for name in topics_named)
+    assert len(topics_named) == len(re.findall(r'"/sail/', LAYOUT.read_text()))
+    status = json.loads(text)["configById"]["DiagnosticStatusPanel!integrator"]
+    assert status["topicToRender"] == "/diagnostics"
+    assert status["selectedName"] == topics.integrator_status_name("/sat2/sail_sim")
+    assert status["selectedHardwareId"] == "sat2/sail_sim"

@@ -256,3 +256,26 @@ def test_watch_counts_the_commands_by_every_outcome():
     line = next(row for row in watch.table(view).splitlines() if "commands:" in row)
     assert line.strip().startswith("commands: 3 accepted, 40 superseded")
     assert line.endswith("2 rejected, 1 ignored")
+
+
+@pytest.mark.parametrize("node", ["sim", "control", "recorder", "replay", "bridge"])
+def test_a_nodes_help_ends_with_its_examples(node, capsys):
+    try:
+        code = cli.main([node, "--help"])
+    except SystemExit as exit_info:
+        code = exit_info.code
+    text = capsys.readouterr().out
+    assert code == 0
+    assert "\nExamples:\n" in text, text[-600:]
+    examples = [line.strip() for line in text.split("\nExamples:\n")[1].strip().splitlines()]
+    assert len(examples) >= 2 and all(e.startswith(f"sail-ros {node}") for e in examples)
+
+
+def test_the_umbrella_help_gives_one_line_per_tool(capsys):
+    assert cli.main(["--help"]) == 0
+    text = capsys.readouterr().out
+    assert set(cli.SUMMARIES) == set(cli.TOOLS)
+    for name in cli.TOOLS:
+        (line,) = [line for line in text.splitlines() if line.split()[:1] == [name]]
+        assert cli.SUMMARIES[name] in line
+    assert "sail_ros." not in text  # summaries, not module paths
