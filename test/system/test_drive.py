@@ -79,7 +79,8 @@ class Answers:
 
 def test_send_and_watch_drive_the_simulator(processes, ros_env, tmp_path):
     sim = processes(
-        "sim", parameters={"initial_tip_deflection": [0.1, 0.0, 0.0, 0.0], **FAST_STATUS}
+        "sim",
+        parameters={**SMALL_SIM, "initial_tip_deflection": [0.1, 0.0, 0.0, 0.0], **FAST_STATUS},
     )
     recorder = processes("recorder", "-o", str(tmp_path / "bag"))
     recorder.wait_for_lines(["recording /sail/deploy_cmd ", "recording /sail/boom_length_cmd "])

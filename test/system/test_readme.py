@@ -156,10 +156,14 @@ def run_readme(tmp_path: Path, ros_env: dict, chosen) -> tuple[str, Path]:
     in one bash session in a fresh copy; (everything printed, the copy)."""
     tree = fresh_copy(tmp_path / "sail_ros")
     assert environment_is_current(tree), "the environment is out of date: run scripts/test.sh"
-    script = ["set -euo pipefail"]
+    script, ran = ["set -euo pipefail"], set()
     for index, (info, body) in enumerate(page_blocks(tree)):
         if info not in ("bash", "python") or not chosen(body):
             continue
+        lines = {line.split("#")[0].strip() for line in body.splitlines()} - {""}
+        if info == "bash" and lines <= ran:  # a guide page shows commands run already
+            continue
+        ran |= lines
         script.append(f'echo "--- block {index} at ${{SECONDS}} s"')
         if info == "bash":
             script.append(body)
