@@ -50,7 +50,8 @@ class Trial(NamedTuple):
     outputs: np.ndarray | None = None  # the end's largest outputs (`control.largest`)
     # [rad/s] the highest frozen mode the rational steps carry at the start (not followed)
     carried_frequency: float = math.inf
-    # the run of local extrapolations at the step's end (`attempt`): (q, p, qd)
+    # the run of local extrapolations at the step's end (`attempt`): (q, p, and its
+    # distance from the step's end per output kind, `control.largest`)
     companion: tuple | None = None
     # the dense output's error inside the step per output kind (`attempt`): the
     # extension's, and half the followed modes' jump at the middle
@@ -205,6 +206,6 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
         mats[2],
         outputs,
         carried,
-        None if companion is None else (qc, pc, qdc),
+        None if companion is None else (qc, pc, largest(rows, q2 - qc, qd2 - qdc)),
         interpolation,
     )

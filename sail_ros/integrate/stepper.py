@@ -304,10 +304,9 @@ class SailStepper:
         if trial.companion is None:  # fixed steps: no estimate
             self._companion = (self._q, self._p)
             return
-        q_c, p_c, qd_c = trial.companion
+        q_c, p_c, distance = trial.companion
         self._companion = (q_c, p_c)
-        rows = self.at.rows(self.at.motion(self._t)[0])
-        self.control.account(largest(rows, self._q - q_c, trial.qd - qd_c), trial.interpolation)
+        self.control.account(distance, trial.interpolation)
 
     def _enter_switch(self) -> None:
         """At a switch of a piecewise profile (`profiles.SwitchedProfile`), the next piece
