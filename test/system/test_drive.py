@@ -317,6 +317,8 @@ def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_pa
     resting = watch(ros_env, "--ros-args", "-r", "__ns:=/sat2", run=in_process)
     assert moving["boom_length_m"]["a"] > 10.0 and moving[key.ACCEPTED] == 1
     assert resting["boom_length_m"]["a"] == 10.0 and resting[key.ACCEPTED] == 0
+    for recorder in recorders:  # each has its own simulator's parameters before they stop
+        recorder.wait_for_lines(["parameters of 'sail_sim'"])
     for process in (sat1, sat2, *recorders):
         assert process.stop(signal.SIGINT) == 0, process.log()
 
