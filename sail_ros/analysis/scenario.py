@@ -55,6 +55,7 @@ from sail_ros.model import (
     WaypointProfile,
     yaml_values,
 )
+from sail_ros.model.layout import Layout
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion, JammedProfile
 from sail_ros.policy import Policy
@@ -237,6 +238,12 @@ class Scenario:
         q0 += _coordinates(self.initial.get("q0"), model, "scenario.initial.q0")
         qd0 = _coordinates(self.initial.get("qd0"), model, "scenario.initial.qd0")
         return q0, qd0
+
+    def check_coordinates(self, layout: Layout) -> None:
+        """ValueError if the initial state names a coordinate `layout` lacks or gives the
+        wrong number of values: checked before a model's integrals are computed."""
+        for field in ("q0", "qd0"):
+            _coordinates(self.initial.get(field), layout, f"scenario.initial.{field}")
 
 
 def load_scenario(path, check_points=None) -> Scenario:
@@ -462,7 +469,7 @@ def _coordinate_values(spec, where: str, unit_spec) -> list[tuple[object, float]
     return [(i, check_number(v, f"{where}[{i}]", unit_spec)) for i, v in enumerate(spec)]
 
 
-def _coordinates(spec, model: SailModel, where: str) -> np.ndarray:
+def _coordinates(spec, model: SailModel | Layout, where: str) -> np.ndarray:
     values = np.zeros(model.n)
     entries = _coordinate_values(spec, where, INITIAL["q0"].spec)
     if isinstance(spec, dict):

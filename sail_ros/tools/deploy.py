@@ -47,6 +47,7 @@ from sail_ros.analysis.scenario import (
 )
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
 from sail_ros.model import SailModel
+from sail_ros.model.layout import Layout
 from sail_ros.options import ToolParser
 from sail_ros.outputs import staged
 from sail_ros.policy import OutOfRangeError, Policy
@@ -307,11 +308,12 @@ def _deploy(args) -> int:
     else:  # the table alone: no fine grid, whose short steps would slow the run
         t_eval = table_times
 
-    model = SailModel(params)
-    try:  # what the scenario names with the model: its coordinates
-        scenario.initial_state(model)
+    try:  # what the scenario names: its coordinates, before the model's integrals
+        layout = Layout(params.n_boom_modes, params.membrane_modes, params.free_hub)
+        scenario.check_coordinates(layout)
     except ValueError as error:
         raise ValueError(f"{args.scenario or 'the reference deployment'}: {error}") from None
+    model = SailModel(params)
     config.check(check_scenario, scenario, model, policy)
     closed = open_loop = None
     if scenario.controller is not None:
