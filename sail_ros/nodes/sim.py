@@ -225,6 +225,9 @@ class SimNode(Node):
             f"booms at {config.initial_lengths.tolist()} m; stamps = {epoch_ns} ns + "
             "simulation time"
         )
+        note = config.live_counts_note()
+        if note:
+            self.get_logger().info(note)
 
     def _schedule_ticks(self) -> int:
         """Put the ticks' thread on real-time scheduling if `realtime_priority` asks for it

@@ -26,7 +26,7 @@ from sail_ros.model import SailParameters, yaml_values
 from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH
 from sail_ros.outputs import CREATED, made_for, staged
 from sail_ros.policy import OutOfRangeError, Policy
-from sail_ros.runtime.config import PARAMETERS
+from sail_ros.runtime.config import PARAMETERS, SIM_DEFAULTS
 from sail_ros.spelling import did_you_mean
 
 # the --help note of the tools that take --lengths and --rates
@@ -124,7 +124,8 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
         )
         file_policy = {}
     else:  # the simulator's params file: what the simulator would take of it
-        file_sail = {k.removeprefix(topics.SAIL_PREFIX): v for k, v in given.items()
+        simulator = {**SIM_DEFAULTS, **given}  # what it leaves out, the simulator's default
+        file_sail = {k.removeprefix(topics.SAIL_PREFIX): v for k, v in simulator.items()
                      if k.startswith(topics.SAIL_PREFIX)}  # fmt: skip
         file_policy = {k: v for k, v in given.items() if k in policy_names}
         try:

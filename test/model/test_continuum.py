@@ -53,8 +53,10 @@ def fe_transient():
 
 @pytest.mark.parametrize(
     "changes",
-    [{}, {"resolved_length": LENGTH}],
-    ids=["defaults", "resolved-at-the-run's-length"],
+    [{}, {"resolved_length": LENGTH}, {"membrane_band": 1.4}],
+    # the last: the simulator's default band (runtime/config.SIM_DEFAULTS, whose value
+    # test/runtime/test_commands.py checks), resolved at its default 10 m
+    ids=["defaults", "resolved-at-the-run's-length", "the-simulator's-defaults"],
 )
 def test_default_mode_counts_follow_the_fe_transient(fe_transient, changes):
     """Boom a bent at a fixed 15 m: its energy flows into the film, whose dense spectrum

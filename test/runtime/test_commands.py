@@ -23,7 +23,7 @@ from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion
 from sail_ros.policy import TOLERANCE, Policy
 from sail_ros.runtime.commands import BoomState, CommandError, Rules, plan_deploy, plan_trajectory
-from sail_ros.runtime.config import DEFAULTS, ConfigError, config_from_values
+from sail_ros.runtime.config import DEFAULTS, SIM_DEFAULTS, ConfigError, config_from_values
 from sail_ros.runtime.intake import CommandQueue
 from sail_ros.runtime.pacing import Pacer, RealTimeFactor
 from sail_ros.runtime.simulation import ERROR, PAUSED, RUNNING, Simulation
@@ -558,10 +558,21 @@ def test_config_file_holds_the_defaults():
     values = document["sail_sim"]["ros__parameters"]
     flat = {f"sail.{key}": value for key, value in values.pop("sail").items()} | values
     assert flat == DEFAULTS
+    # config/sail.yaml holds the sail's defaults, the offline tools'; the simulator's
+    # differ where SIM_DEFAULTS says (and its start-up line says so)
     sail = yaml.safe_load((ROOT / "config/sail.yaml").read_text())["sail"]
-    assert {f"sail.{key}": value for key, value in sail.items()} == {
-        name: value for name, value in DEFAULTS.items() if name.startswith("sail.")
-    }
+    assert sail == SailParameters().to_dict()
+    simulator = {name: value for name, value in DEFAULTS.items() if name.startswith("sail.")}
+    differing = {name for name, value in simulator.items() if value != sail[name[5:]]}
+    assert differing == set(SIM_DEFAULTS) == {"sail.membrane_band"}
+    assert (
+        config_from_values({})
+        .live_counts_note()
+        .startswith(
+            "membrane_band 1.4 keeps 106 membrane modes per quadrant where the offline tools' 1.8 "
+            "keeps 181"
+        )
+    )
 
 
 @pytest.mark.parametrize(

@@ -1,8 +1,8 @@
 """The README and the user's guide run as written: every command block, in order (the
 README's, then each guide page's in `PAGES`), in a fresh copy of the tree.
 
-Blocks tagged `bash` run in one bash session (so `source scripts/env.sh` and
-background jobs carry over from block to block), `python` blocks with the
+Blocks tagged `bash` (or `bash long`) run in one bash session (so `source scripts/env.sh`
+and background jobs carry over from block to block), `python` blocks with the
 environment's python at their place in the order. Not run: `bash ros` (needs
 a ROS installation with the `ros2` command), `bash suite` (the test suite
 itself), untagged, `text` or `console` blocks (output), and `{include}` directives (the
@@ -14,7 +14,10 @@ ignored by git.
 The suite runs them CI-sized: every block that works offline, not the main job (its
 `sail-ros demo` runs in test_sim_multiprocess.py), the live walk-throughs (blocks that
 start processes in the background, driven in test_drive.py) nor the Monte Carlo study
-(run in test_studies_dask.py). Everything runs with `--slow` (scripts/stress.sh).
+(run in test_studies_dask.py), nor `bash long` blocks, which take more than about ten
+seconds at the default mode counts and whose options run CI-sized in test/tools
+(`deploy --convergence`: test_tool_deploy.py's convergence tests; the free-hub scenario:
+its free-hub tests). Everything runs with `--slow` (scripts/stress.sh).
 """
 
 import hashlib
@@ -50,7 +53,17 @@ PAGES = (
     "docs/guide/python.md",
     "docs/scenarios.md",
 )
-KINDS = {"bash", "python", "bash ros", "bash suite", "console", "text", "", "{include}"}
+KINDS = {
+    "bash",
+    "python",
+    "bash long",
+    "bash ros",
+    "bash suite",
+    "console",
+    "text",
+    "",
+    "{include}",
+}
 
 
 def blocks(text: str) -> list[tuple[str, str]]:
@@ -98,7 +111,7 @@ def test_every_guide_page_with_commands_is_run():
         if "_build" in page.parts or "_generated" in page.parts:
             continue
         kinds = {info for info, _ in blocks(page.read_text())}
-        if kinds & {"bash", "python"}:
+        if kinds & {"bash", "bash long", "python"}:
             assert page in listed, f"{page.relative_to(ROOT)} has command blocks that no test runs"
 
 
@@ -110,14 +123,17 @@ def environment_is_current(tree: Path) -> bool:
     return stamp.is_file() and stamp.read_text().strip() == hashlib.sha256(text).hexdigest()
 
 
-def offline(body: str) -> bool:
-    """A block that starts nothing in the background and runs no study nor the main job."""
-    return not LIVE.search(body) and STUDY not in body and MAIN_JOB not in body
+def offline(info: str, body: str) -> bool:
+    """A block that starts nothing in the background and runs no study, no long command
+    nor the main job."""
+    return (
+        info != "bash long" and not LIVE.search(body) and STUDY not in body and MAIN_JOB not in body
+    )
 
 
 @pytest.mark.slow
 def test_readme_runs_top_to_bottom(tmp_path, ros_env):
-    output, tree = run_readme(tmp_path, ros_env, lambda body: True)
+    output, tree = run_readme(tmp_path, ros_env, lambda info, body: True)
     assert "accepted: deploy to 12 m" in output
     assert "rejected, as it should be" in output
     assert "40 samples ran, 0 failed" in output
@@ -152,20 +168,20 @@ def check_offline_output(output: str, tree: Path) -> None:
 
 
 def run_readme(tmp_path: Path, ros_env: dict, chosen) -> tuple[str, Path]:
-    """Run the pages' `bash` and `python` blocks that `chosen(body)` keeps, in order,
+    """Run the pages' `bash` and `python` blocks that `chosen(info, body)` keeps, in order,
     in one bash session in a fresh copy; (everything printed, the copy)."""
     tree = fresh_copy(tmp_path / "sail_ros")
     assert environment_is_current(tree), "the environment is out of date: run scripts/test.sh"
     script, ran = ["set -euo pipefail"], set()
     for index, (info, body) in enumerate(page_blocks(tree)):
-        if info not in ("bash", "python") or not chosen(body):
+        if info not in ("bash", "bash long", "python") or not chosen(info, body):
             continue
         lines = {line.split("#")[0].strip() for line in body.splitlines()} - {""}
-        if info == "bash" and lines <= ran:  # a guide page shows commands run already
+        if info != "python" and lines <= ran:  # a guide page shows commands run already
             continue
         ran |= lines
         script.append(f'echo "--- block {index} at ${{SECONDS}} s"')
-        if info == "bash":
+        if info != "python":
             script.append(body)
         else:
             path = tmp_path / f"block_{index}.py"

@@ -484,6 +484,21 @@ def test_a_study_file_given_as_a_scenario_is_named_in_one_short_line(capsys):
     assert "got a mapping of 'study' (a study file: sail-ros montecarlo runs it)" in err
 
 
+def test_the_default_convergence_reruns_finer_until_the_peaks_settle_or_says_they_did_not(
+    capsys,
+):
+    """`--convergence` without counts (the guide's command, CI-sized): finer reruns one
+    after another, each named with how far it moved the peaks before it; from (4, 6) they
+    do not settle within the reruns allowed, which the warning says with the counts."""
+    assert deploy.main([*SMALL_SET, "--convergence"]) == 0
+    captured = capsys.readouterr()
+    reruns = [line.split("=")[1].split(":")[0].strip() for line in captured.out.splitlines()
+              if line.strip().startswith("rerun at (n_B, n_M)")]  # fmt: skip
+    assert len(reruns) >= 2 and reruns[0] != "(4, 6)", reruns
+    assert f"change against {reruns[-1]} modes, % of the largest" in captured.out
+    assert "peaks not converged" in captured.err and reruns[-1] in captured.err
+
+
 def test_convergence_needs_more_modes(capsys):
     assert deploy.main(["--convergence", "4", "6"]) == 2
     assert "must grow from the run's (n_B, n_M) = (8, 181)" in capsys.readouterr().err
