@@ -3,9 +3,9 @@
 Prints, on this machine: the wall time of the study on a local cluster of 1 and
 of 2 worker processes (one thread each) and the speed-up, with the cases batched
 (`execution.batch_sizes`: down to one case per task at the end) and one case per
-task; the time of one sample called directly; a sample's cost split into building
-its model, integrating, its outputs and the rest (transport: the worker-seconds per
-sample beyond the sample's own); Dask's overhead per case (an empty case through the
+task; the time of one sample called directly, and at the default (converged) mode
+counts; a sample's cost split into building its model, integrating, its outputs and the
+rest (transport: the worker-seconds per sample beyond the sample's own); Dask's overhead per case (an empty case through the
 cluster); whether the rows are the same from 1 and 2 workers; the CPU time the
 hypervisor took from the machine's cores during each measurement (steal: on a shared
 virtual machine the same run takes longer while it is high); and the cluster size
@@ -81,6 +81,16 @@ def main() -> None:
     direct = (time.perf_counter() - started) / 20
     stolen_direct = stolen_seconds() - stolen_before
 
+    # the same sample at the default (converged) counts, called directly
+    default = SailParameters().resolved(10.0)
+    converged = [(study, i, default.to_dict()) for i in range(3)]
+    run_sample(converged[0])
+    started = time.perf_counter()
+    for case in converged:
+        assert not run_sample(case)["error"]
+    direct_default = (time.perf_counter() - started) / len(converged)
+    default_counts = f"{default.n_boom_modes}, {default.n_membrane_modes}"
+
     walls, rows, stolen = {}, {}, {}
     for workers, batch in ((1, None), (2, None), (2, 1)):
         with dask_client(workers=workers) as client:
@@ -106,6 +116,8 @@ def main() -> None:
     print(f"samples                      {args.samples} (reference deployment, n_B, n_M = 4, 6)")
     print(f"one sample, called directly  {1e3 * direct:.1f} ms  (20 samples; steal "
           f"{stolen_direct:.2f} s)")  # fmt: skip
+    print(f"at the default counts        {1e3 * direct_default:.0f} ms a sample (n_B, n_M = "
+          f"{default_counts}; 3 samples)")  # fmt: skip
     print(f"1 worker                     {walls[1, None]:.1f} s  "
           f"({1e3 * walls[1, None] / args.samples:.1f} ms/sample; "
           f"steal {stolen[1, None]:.1f} s)")  # fmt: skip
@@ -128,6 +140,10 @@ def main() -> None:
         ["measure", "value"],
         [
             ["one sample, called directly [ms]", round(1e3 * direct, 1)],
+            [
+                f"one sample at the default counts ({default_counts}) [ms]",
+                round(1e3 * direct_default),
+            ],
             ["1 worker [s]", round(walls[1, None], 1)],
             ["2 workers [s]", round(walls[2, None], 1)],
             ["speed-up, 2 workers", round(walls[1, None] / walls[2, None], 2)],
