@@ -5,11 +5,12 @@ of 2 worker processes (one thread each) and the speed-up, with the cases batched
 (`execution.batch_sizes`: down to one case per task at the end) and one case per
 task; the time of one sample called directly, and at the default (converged) mode
 counts; a sample's cost split into building its model, integrating, its outputs and the
-rest (transport: the worker-seconds per sample beyond the sample's own); Dask's overhead per case (an empty case through the
-cluster); whether the rows are the same from 1 and 2 workers; the CPU time the
-hypervisor took from the machine's cores during each measurement (steal: on a shared
-virtual machine the same run takes longer while it is high); and the cluster size
-(workers like these) that a 100 000-sample study needs to finish in ten minutes.
+rest (transport: the worker-seconds per sample beyond the sample's own); Dask's overhead
+per case (an empty case through the cluster); whether the rows are the same from 1 and
+2 workers; the CPU time the hypervisor took from the machine's cores during each
+measurement (steal: on a shared virtual machine the same run takes longer while it is
+high); and the cluster size (workers like these) that a 100 000-sample study needs to
+finish in ten minutes.
 
     python benchmarks/montecarlo_dask.py [--samples 1000]
 """

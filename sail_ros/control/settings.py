@@ -26,6 +26,7 @@ from sail_ros.model.fields import (
     setting,
     spec_of,
 )
+from sail_ros.model.parameters import LIVE_DEFAULTS
 from sail_ros.policy import Policy
 
 MAX_DELAY_PERIODS = 50  # a longer loop delay is no design this controller makes sense for
@@ -262,4 +263,12 @@ NODE_PARAMETERS = {
     **{f.name: _fixed(f) for f in fields_of(Policy) if f.name in LIMIT_NAMES},
     **{SAIL_PREFIX + f.name: f for f in fields_of(SailParameters)},
 }
-NODE_SETTINGS = [Setting.of(name, field) for name, field in NODE_PARAMETERS.items()]
+NODE_SETTINGS = [  # the sail's defaults the simulator's: the plant it runs
+    dataclasses.replace(
+        Setting.of(name, field),
+        default=LIVE_DEFAULTS.get(name.removeprefix(SAIL_PREFIX), default_of(field))
+        if name.startswith(SAIL_PREFIX)
+        else default_of(field),
+    )
+    for name, field in NODE_PARAMETERS.items()
+]

@@ -31,7 +31,7 @@ from sail_ros.model.fields import (
     setting,
 )
 from sail_ros.model.layout import per_boom
-from sail_ros.model.parameters import MAX_MEMBRANE_MODES
+from sail_ros.model.parameters import LIVE_DEFAULTS, MAX_MEMBRANE_MODES
 from sail_ros.names import SAIL_PREFIX
 from sail_ros.policy import Policy
 
@@ -141,11 +141,8 @@ class SimSettings:
 TABLES = (("", SimSettings), ("", Policy), (SAIL_PREFIX, SailParameters))
 # name -> dataclass field, in declaration order
 PARAMETERS = {prefix + field.name: field for prefix, table in TABLES for field in fields_of(table)}
-# The simulator's own defaults where they differ from the tables': a membrane band of 1.4
-# keeps 106 membrane modes per quadrant at 10 m against the offline tools' 181 (1.8), a
-# model stepped at 2x real time on 2 cores; its peaks stay within the offline defaults'
-# convergence bar (docs/model.md §10.1). The simulator says so at start.
-SIM_DEFAULTS = {SAIL_PREFIX + "membrane_band": 1.4}
+# the simulator's own defaults where they differ from the tables' (`LIVE_DEFAULTS`)
+SIM_DEFAULTS = {SAIL_PREFIX + name: value for name, value in LIVE_DEFAULTS.items()}
 DEFAULTS = {name: SIM_DEFAULTS.get(name, default_of(field)) for name, field in PARAMETERS.items()}
 SETTINGS = [  # for the node
     dataclasses.replace(Setting.of(name, field), default=DEFAULTS[name])

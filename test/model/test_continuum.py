@@ -11,7 +11,7 @@ from sail_ros.fem import SailFEM, free_vibration
 from sail_ros.model import SailModel, SailParameters, StaticProfile
 from sail_ros.model.basis import cantilever_roots
 from sail_ros.model.layout import triangle_mode_indices
-from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH
+from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH, LIVE_DEFAULTS
 
 pytestmark = pytest.mark.model
 
@@ -53,9 +53,7 @@ def fe_transient():
 
 @pytest.mark.parametrize(
     "changes",
-    [{}, {"resolved_length": LENGTH}, {"membrane_band": 1.4}],
-    # the last: the simulator's default band (runtime/config.SIM_DEFAULTS, whose value
-    # test/runtime/test_commands.py checks), resolved at its default 10 m
+    [{}, {"resolved_length": LENGTH}, LIVE_DEFAULTS],  # the last resolved at 10 m, as live
     ids=["defaults", "resolved-at-the-run's-length", "the-simulator's-defaults"],
 )
 def test_default_mode_counts_follow_the_fe_transient(fe_transient, changes):

@@ -26,12 +26,13 @@ from sail_ros.messages import hub as hub_msg
 from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError
 from sail_ros.nodes.control import ControlNode
+from sail_ros.runtime.config import DEFAULTS
 
 pytestmark = pytest.mark.node
 
 SAIL = {"sail.free_hub": True, "sail.n_boom_modes": 2, "sail.n_membrane_modes": 2}
 SIMULATOR = {
-    **{f"sail.{name}": value for name, value in SailParameters().to_dict().items()},
+    **{name: value for name, value in DEFAULTS.items() if name.startswith("sail.")},
     **SAIL, "state_rate_hz": 100.0, "time_scale": 1.0, "integration_step": 0.01,
     "max_model_step": 0.01, "max_hub_force": 1.0, "max_hub_torque": 1.0, "max_tip_force": 1.0,
     "command_wait_s": 0.0,
@@ -243,3 +244,13 @@ def test_in_a_namespace_it_controls_the_simulator_of_its_namespace(ros):
     spin_until(lambda: stand_in.wrenches, 2.0, "a command in /sat2")
     assert controller._hub_topic == "/sat2/sail/hub_wrench_cmd"
     spin_until(lambda: stand_in.statuses, 3.0, "the status sat2/sail_control: controller")
+
+
+def test_the_controllers_sail_defaults_are_the_simulators():
+    """A controller and a simulator started with their defaults design for and run one
+    sail (the simulator's own defaults, `LIVE_DEFAULTS`, included)."""
+    from sail_ros.control.settings import NODE_SETTINGS
+
+    sail = {s.name: s.default for s in NODE_SETTINGS if s.name.startswith("sail.")}
+    assert sail == {name: value for name, value in DEFAULTS.items() if name.startswith("sail.")}
+    assert sail["sail.membrane_band"] != SailParameters().membrane_band  # the live one
