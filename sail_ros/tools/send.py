@@ -11,17 +11,17 @@ from __future__ import annotations
 import math
 import sys
 
-from builtin_interfaces.msg import Duration
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectory
 
 from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import hub as hub_msg
 from sail_ros.options import ToolParser, paragraphs
 from sail_ros.policy import Policy
-from sail_ros.tools.client import NoAnswerError, SimClient, add_domain_option, run_client
+from sail_ros.ros.sim_client import NoAnswerError, SimClient
+from sail_ros.tools.client import add_domain_option, run_client
 
 BOOMS = "abcd"
 QUADRANTS = ("ab", "bc", "cd", "da")
@@ -171,8 +171,8 @@ def build_parser() -> ToolParser:
 
 
 def trajectory(booms: list[str], points: list[list[float]]) -> JointTrajectory:
-    """A JointTrajectory for `booms` ("a" ...) through `points` ([time, lengths...])."""
-    message = JointTrajectory(joint_names=[f"boom_{boom}" for boom in booms])
+    """The `sail/boom_length_cmd` of `booms` ("a" ...) through `points` ([time, lengths...]),
+    checked as a command line (ValueError naming the point)."""
     for point in points:
         seconds, *lengths = point
         if len(lengths) != len(booms):
@@ -185,14 +185,7 @@ def trajectory(booms: list[str], points: list[list[float]]) -> JointTrajectory:
         for boom, length in zip(booms, lengths, strict=True):
             if not math.isfinite(length):  # the simulator's words (Policy.check_length)
                 raise ValueError(f"--point: boom_{boom} is {length!r}, not a finite length")
-        whole = math.floor(seconds)
-        message.points.append(
-            JointTrajectoryPoint(
-                positions=lengths,
-                time_from_start=Duration(sec=whole, nanosec=round((seconds - whole) * 1e9)),
-            )
-        )
-    return message
+    return commands_msg.boom_length_command(booms, points)
 
 
 def run(args, client: SimClient) -> int:
