@@ -18,7 +18,7 @@ import numpy as np
 
 from sail_ros.analysis.modes import fem_cross_check, representative_shapes
 from sail_ros.analysis.modes_table import ModesTable, fem_csv_rows
-from sail_ros.options import ToolParser
+from sail_ros.options import ToolParser, add_lengths_option
 from sail_ros.tools.common import (
     add_sail_options,
     configuration,
@@ -56,12 +56,9 @@ changes the limits)."""
 def build_parser() -> ToolParser:
     parser = ToolParser.for_tool("modes", __doc__.split("\n\n")[1], EXAMPLES, WRITES, NOTES)
     add_sail_options(parser)
-    parser.add_argument(
-        "--lengths",
-        type=float,
-        nargs="+",
-        metavar="L",
-        help="boom lengths [m]: one value for all booms or four (a b c d); "
+    add_lengths_option(
+        parser,
+        "boom lengths [m]: one value for all booms or four (a b c d); "
         "default: fully deployed, a/sqrt(2)",
     )
     parser.add_argument("--count", type=int, default=12, help="frequencies to list (default 12)")

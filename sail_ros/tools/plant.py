@@ -1,12 +1,11 @@
 """`sail-ros plant`: the sail as a linear plant at given boom lengths and rates.
 
-Prints the poles (natural frequency [rad/s, Hz], damping ratio; with --json
-the same as one JSON object), writes the
-matrices `A, B, C, D` of `xd = A x + B u`, `y = C x + D u` (`x = [q; qd]`;
-inputs: 4 quadrant pressures [Pa], 4 tip forces [N]; outputs: 4 tip
-deflections [m], 4 root moments [N m]; with a free hub 11 inputs and 14
-outputs: the hub force [N] and torques [N m], the hub's heave [m], tilts
-[rad] and their rates, which hold double integrators) with their names to
+Prints the poles (natural frequency [rad/s, Hz], damping ratio; with --json the
+same as one JSON object), writes the matrices `A, B, C, D` of `xd = A x + B u`,
+`y = C x + D u` (`x = [q; qd]`; inputs: 4 quadrant pressures [Pa], 4 tip forces
+[N]; outputs: 4 tip deflections [m], 4 root moments [N m]; with a free hub 11
+inputs and 14 outputs: the hub force [N] and torques [N m], the hub's heave [m],
+tilts [rad] and their rates, which hold double integrators) with their names to
 `.npz` and MATLAB `.mat`, and a Bode figure of each tip force to its own
 boom's tip deflection and root moment (with a free hub also its force to its heave
 and its torques to its tilts). The matrices load into python-control
@@ -33,7 +32,7 @@ import numpy as np
 from sail_ros.analysis.plant import linear_plant, undamped_note
 from sail_ros.analysis.plant_table import PlantTable
 from sail_ros.model import SailModel
-from sail_ros.options import ToolParser, paragraphs
+from sail_ros.options import ToolParser, add_lengths_option, paragraphs
 from sail_ros.outputs import staged
 from sail_ros.tools.common import (
     LIMITS_NOTE,
@@ -61,20 +60,11 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser.for_tool(
-        "plant",
-        paragraphs(__doc__, 0, 1),
-        EXAMPLES,
-        WRITES,
-        LIMITS_NOTE,
-    )
+    description = paragraphs(__doc__, 0, 1)
+    parser = ToolParser.for_tool("plant", description, EXAMPLES, WRITES, LIMITS_NOTE)
     add_sail_options(parser)
-    parser.add_argument(
-        "--lengths",
-        type=float,
-        nargs="+",
-        metavar="L",
-        help="boom lengths [m]: one for all booms or four (a b c d); default: fully deployed",
+    add_lengths_option(
+        parser, "boom lengths [m]: one for all booms or four (a b c d); default: fully deployed"
     )
     parser.add_argument(
         "--rates",

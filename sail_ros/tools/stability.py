@@ -20,7 +20,7 @@ from tqdm import tqdm
 
 from sail_ros.analysis.stability import stability_sweep
 from sail_ros.analysis.stability_table import FIGURES, StabilityTable
-from sail_ros.options import ToolParser
+from sail_ros.options import ToolParser, add_lengths_option
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
 from sail_ros.tools.common import (
@@ -57,13 +57,7 @@ def build_parser() -> ToolParser:
     )
     add_sail_options(parser)
     grid = parser.add_argument_group("grid")
-    grid.add_argument(
-        "--lengths",
-        type=float,
-        nargs="+",
-        metavar="L",
-        help="boom lengths [m], all booms alike (default: fully deployed)",
-    )
+    add_lengths_option(grid, "boom lengths [m], all booms alike (default: fully deployed)")
     grid.add_argument(
         "--rates",
         type=float,
