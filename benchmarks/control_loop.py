@@ -5,7 +5,7 @@ For each time scale asked, starts `sail-ros sim`, `sail-ros control` (both with 
 scale's params file: config/closed_loop.yaml at 1, config/closed_loop_scale4.yaml at 4)
 and `sail-ros recorder` as processes, and drives the reference closed-loop scenario
 (config/scenario_free_hub_control.yaml) from a client node of its own
-(`tools.client.SimClient`, as `sail-ros send`): pause, reset (the run starts from the
+(`ros.sim_client.SimClient`, as `sail-ros send`): pause, reset (the run starts from the
 scenario's initial state), deploy to 16 m in 15 s (booms a, b, c; the simulator's
 deploy_duration), boom d along its cycloid to 12 m in 6 s (waypoints every 0.25 s),
 resume. After `--duration` simulated seconds it stops them and prints, from the recorded log:
@@ -46,7 +46,7 @@ from sail_ros.analysis.closed_loop import last_run, run_closed_loop, tilt_agreem
 from sail_ros.analysis.log_series import read_log
 from sail_ros.analysis.scenario import load_scenario
 from sail_ros.model import SailModel, SailParameters
-from sail_ros.tools.client import SimClient
+from sail_ros.ros.sim_client import SimClient
 from sail_ros.tools.send import trajectory
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -93,6 +93,12 @@ def paragraphs(text: str, *indices: int) -> str:
     return "\n\n".join(parts[i] for i in indices)
 
 
+def add_lengths_option(parser, help: str) -> None:
+    """`--lengths L [L ...]`, boom lengths [m], as the studies at frozen lengths take them
+    (`help` says how many and their default)."""
+    parser.add_argument("--lengths", type=float, nargs="+", metavar="L", help=help)
+
+
 def help_epilog(examples, writes: str = "", notes: str = "") -> str:
     """The end of a tool's `--help`: `notes` (paragraphs), the files it writes, where the
     physics is documented, and last the examples (commands, one a line; a comment after

@@ -14,4 +14,7 @@ the others need nothing beyond the model.
 - `log_export`, `log_series`: deployment runs into MCAP logs with the live
   simulator's topics, and logs back into time series.
 - `load_changes`: when a run's loads change, in words for its figures.
+- `modes_table`, `plant_table`, `stability_table`: what `sail-ros modes`, `plant`
+  and `stability` found, one object each that renders their text, JSON and CSV.
+- `demo_run`: the demo's reference deployment and the summary of its recording.
 """

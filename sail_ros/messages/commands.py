@@ -1,12 +1,16 @@
-"""The load commands (`sail/pressure_cmd`, `sail/tip_force_cmd`) and the simulator's
-answer to every command (`sail/command_status`)."""
+"""The boom and load commands (`sail/boom_length_cmd`, `sail/pressure_cmd`,
+`sail/tip_force_cmd`) and the simulator's answer to every command
+(`sail/command_status`)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
+from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from sail_ros.names import (  # noqa: F401  the answers' vocabulary, re-exported
     ACCEPTED,
@@ -25,6 +29,21 @@ def load_command(topic: str, values: Mapping[str, float]) -> JointState:
     """A `sail/pressure_cmd` (quadrant -> Pa) or `sail/tip_force_cmd` (boom -> N)."""
     message = JointState(name=list(values))
     message.effort = [float(v) for v in values.values()]
+    return message
+
+
+def boom_length_command(booms: Sequence[str], points: Sequence[Sequence[float]]) -> JointTrajectory:
+    """A `sail/boom_length_cmd` taking `booms` ("a" ...) through `points`, each a time
+    from now [s] followed by one length [m] per boom."""
+    message = JointTrajectory(joint_names=[f"boom_{boom}" for boom in booms])
+    for seconds, *lengths in points:
+        whole = math.floor(seconds)
+        message.points.append(
+            JointTrajectoryPoint(
+                positions=lengths,
+                time_from_start=Duration(sec=whole, nanosec=round((seconds - whole) * 1e9)),
+            )
+        )
     return message
 
 

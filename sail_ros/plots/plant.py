@@ -12,6 +12,13 @@ from __future__ import annotations
 import numpy as np
 from matplotlib import transforms
 
+from sail_ros.analysis.plant import (
+    bode_band,
+    bode_grid,
+    bode_pairs,
+    frequency_response,
+    undamped_shown,
+)
 from sail_ros.plots.common import BOOM_COLOURS, figure, fit_width, save, styled
 from sail_ros.plots.histories import equal_groups
 
@@ -133,3 +140,28 @@ def bode_figure(omega, response, plant, path, title: str, marked=None):
     fit_width(fig.suptitle(title))
     fig.tight_layout()
     return save(fig, path)
+
+
+def plant_figure(plant, params, listed, path, band=None):
+    """The Bode figure of `plant` (built from the sail `params`) in `path`: over `band`
+    (F_MIN, F_MAX) [Hz], else `bode_band` of the `listed` poles, on a grid that
+    resolves each resonance; the title names the lengths, mode counts and damping, and
+    the undamped poles that show. Returns the path."""
+    pairs = bode_pairs(plant)
+    low, high = band or bode_band(plant, pairs, listed)
+    omega = bode_grid(plant, pairs, low, high)
+    undamped = undamped_shown(plant, pairs, low, high)
+    count = len({f for found in undamped.values() for f in found})
+    title = (
+        f"lengths {', '.join(f'{v:.4g}' for v in plant.lengths)} m, n_B = "
+        f"{params.n_boom_modes}, n_M = {params.membrane_modes}, alpha = "
+        f"{params.mass_damping:g} 1/s, beta = {params.stiffness_damping:g} s"
+    )
+    if count:
+        title += (
+            f"\nundamped: {count} poles that show here (v, along the top) lie on the "
+            "imaginary axis, where |G| is unbounded: the lines are drawn to within 1e-4 of "
+            "them and break there"
+        )
+    response = frequency_response(plant, omega)
+    return bode_figure(omega, response, plant, path, title, marked=undamped)

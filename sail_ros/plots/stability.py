@@ -1,4 +1,5 @@
-"""Stability figures: max Re(lambda) against prestress per rate, and eigenvalue loci."""
+"""Stability figures: max Re(lambda) against prestress per rate, the stability map, and
+eigenvalue loci; `stability_figures` draws the three of a `sail-ros stability` run."""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ from matplotlib import cm
 from matplotlib.colors import LogNorm
 from matplotlib.lines import Line2D
 
-from sail_ros.analysis.stability import INSTABILITY_RTOL
+from sail_ros.analysis.stability import CRITICAL, INSTABILITY_RTOL, eigenvalue_loci
+from sail_ros.analysis.stability_table import FIGURES
 from sail_ros.plots.common import figure, fit_width, save, styled
 
 RATE_CMAP = "viridis"
@@ -243,3 +245,33 @@ def loci_figure(
     bar.set_label("membrane prestress $\\sigma$ [Pa]")
     fig.tight_layout()
     return save(fig, path)
+
+
+def stability_figures(table, folder, loci_rate: float | None = None) -> list:
+    """The three figures of a `StabilityTable` in `folder` (`FIGURES`); the loci at the
+    first length and `loci_rate` [m/s] (default: the fastest deployment rate, else the
+    rate of largest magnitude). Returns their paths."""
+    params, sweeps, rates = table.params, table.sweeps, table.rates
+    real_path, map_path, loci_path = (folder / name for name in FIGURES)
+    written = [
+        max_real_figure(sweeps, real_path, params.membrane_prestress),
+        map_figure(sweeps, map_path, params.membrane_prestress),
+    ]
+    deploying = [r for r in rates if r > 0]
+    rate = (
+        loci_rate
+        if loci_rate is not None
+        else (max(deploying) if deploying else max(rates, key=abs))
+    )
+    length = float(table.lengths[0])
+    critical = next(
+        (
+            s.critical_prestress
+            for s in sweeps
+            if s.length == length and s.rate == rate and s.status == CRITICAL
+        ),
+        None,
+    )
+    loci = eigenvalue_loci(params, length, rate, table.prestresses)
+    written.append(loci_figure(table.prestresses, loci, length, rate, loci_path, critical))
+    return written

@@ -23,26 +23,19 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from sail_ros import status as key
 from sail_ros import topics
-from sail_ros.analysis.log_series import read_log
-from sail_ros.bag import BagReader
-from sail_ros.integrate.control import DEFAULT_MAX_STEP
+from sail_ros.analysis.demo_run import DURATION, END, SETTLE_S, START, TIP, summarise
 from sail_ros.messages import commands as commands_msg
-from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.options import ToolParser
 from sail_ros.ros.program import bounded_teardown
-from sail_ros.tools.client import NoAnswerError, SimClient, init_context
+from sail_ros.ros.sim_client import NoAnswerError, SimClient, init_context
 from sail_ros.tools.common import tool_main
 from sail_ros.tools.domains import DomainLease
 
-START, END, DURATION, TIP = 10.0, 15.0, 15.0, 0.1  # m, m, s, m (model.md §9)
-REPORT_TIMES = (5.0, 10.0, 15.0)  # s after the start of the deployment
-SETTLE_S = 1.0  # s of simulation after the booms stop
 START_TIMEOUT_S = 60.0  # wall time for the processes to come up
 
 
@@ -153,7 +146,7 @@ def _demo(args) -> int:
         print(f"error: exit codes {codes}; see {logs[0]} and {logs[1]}", file=sys.stderr)
         return 1
     print("simulator and recorder stopped cleanly (exit code 0)\n")
-    summarise(output, t_start)
+    print(summarise(output, t_start).text())
     return 0
 
 
@@ -201,79 +194,6 @@ def _run(processes, time_scale: float, domain: int, lease: DomainLease) -> float
         client.close()
         with bounded_teardown():
             context.try_shutdown()
-
-
-def summarise(output: Path, t_start: float) -> None:
-    """Print what the bag holds and the tip deflections against the offline model."""
-    reader = BagReader(output)
-    counts = {name: info.message_count for name, info in sorted(reader.topics().items())}
-    log_times = [m.log_time_ns for m in reader.messages()]
-    print(f"MCAP log: {output.resolve()}")
-    for file in reader.files:
-        print(f"  {file.name}  {file.stat().st_size / 1024:.0f} KiB")
-    print(
-        f"  {sum(counts.values())} messages over {(max(log_times) - min(log_times)) * 1e-9:.2f}"
-        " s of wall time"
-    )
-    for name, count in counts.items():
-        print(f"    {name:<24}{count:>7}")
-
-    log = read_log(output)  # t: simulation time, from the first status that tells it
-    statuses = log.diagnostics[1]
-    parameters = log.parameters or {}
-    sail = log.sail_parameters() or SailParameters()
-    print(
-        f"  simulator parameters stored: {len(parameters)} (n_B = {sail.n_boom_modes}, "
-        f"n_M = {sail.membrane_modes}, time_scale = {parameters.get('time_scale')})"
-    )
-
-    t = log.seconds(log.tips.stamp_ns) - t_start
-    chosen = [int(np.argmin(np.abs(t - wanted))) for wanted in REPORT_TIMES]
-    model = SailModel(sail)
-    step = float(parameters.get("integration_step", "0.01"))
-    _, q, _ = model.simulate_on_grid(  # stepped and sampled as the simulator does
-        CycloidalProfile(START, END, DURATION),
-        DURATION + SETTLE_S,
-        step,
-        model.initial_coordinates([TIP, 0.0, 0.0, 0.0]),
-        max_step=float(parameters.get("max_model_step", DEFAULT_MAX_STEP)),
-    )
-    offline = model.tip_deflections(q[np.rint(t[chosen] / step).astype(int)])
-    print(
-        "\n  tip deflection [mm]      boom a     boom b     boom c     boom d   "
-        "(offline, same model: max |difference|)"
-    )
-    for index, reference in zip(chosen, offline, strict=True):
-        live = log.tips.position[index]
-        print(
-            f"    t = {t[index]:5.2f} s   "
-            + "".join(f"{1e3 * v:11.4f}" for v in live)
-            + f"   ({np.abs(live - reference).max():.1e} m)"
-        )
-    # while running; each status carries the last measurement over >= 0.5 s of running
-    # (window 0 before the first)
-    running = [
-        float(factor)
-        for state, factor, window in zip(
-            statuses[key.STATE],
-            statuses[key.REAL_TIME_FACTOR],
-            statuses[key.REAL_TIME_FACTOR_WINDOW],
-            strict=True,
-        )
-        if state == "running" and float(window) > 0
-    ]
-    scale = float(parameters.get("time_scale", "1.0"))
-    factor = (
-        f"max {max(running):.3f}, median {np.median(running):.3f}" if running else "not measured"
-    )
-    print(
-        f"\n  real-time factor: {factor} (time scale {scale:g}); longest integration step "
-        f"{max(map(float, statuses[key.STEP_TIME_MAX])):.3f} ms"
-    )
-    print(
-        f"  overruns (ticks that came over one step, {1e3 * step / scale:.1f} ms, late): "
-        f"{statuses[key.OVERRUNS][-1]}; rejected commands: {statuses[key.REJECTED][-1]}"
-    )
 
 
 main = tool_main(build_parser, _demo)

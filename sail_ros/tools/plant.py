@@ -1,11 +1,11 @@
 """`sail-ros plant`: the sail as a linear plant at given boom lengths and rates.
 
-Prints the poles (natural frequency [rad/s, Hz], damping ratio), writes the
-matrices `A, B, C, D` of `xd = A x + B u`, `y = C x + D u` (`x = [q; qd]`;
-inputs: 4 quadrant pressures [Pa], 4 tip forces [N]; outputs: 4 tip
-deflections [m], 4 root moments [N m]; with a free hub 11 inputs and 14
-outputs: the hub force [N] and torques [N m], the hub's heave [m], tilts
-[rad] and their rates, which hold double integrators) with their names to
+Prints the poles (natural frequency [rad/s, Hz], damping ratio; with --json the
+same as one JSON object), writes the matrices `A, B, C, D` of `xd = A x + B u`,
+`y = C x + D u` (`x = [q; qd]`; inputs: 4 quadrant pressures [Pa], 4 tip forces
+[N]; outputs: 4 tip deflections [m], 4 root moments [N m]; with a free hub 11
+inputs and 14 outputs: the hub force [N] and torques [N m], the hub's heave [m],
+tilts [rad] and their rates, which hold double integrators) with their names to
 `.npz` and MATLAB `.mat`, and a Bode figure of each tip force to its own
 boom's tip deflection and root moment (with a free hub also its force to its heave
 and its torques to its tilts). The matrices load into python-control
@@ -23,24 +23,16 @@ in the right half-plane. --gains writes the controller's gain schedule for the n
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from sail_ros.analysis.plant import (
-    bode_band,
-    bode_grid,
-    bode_pairs,
-    frequency_response,
-    hub_note,
-    linear_plant,
-    poles,
-    undamped_note,
-    undamped_shown,
-)
+from sail_ros.analysis.plant import linear_plant, undamped_note
+from sail_ros.analysis.plant_table import PlantTable
 from sail_ros.model import SailModel
-from sail_ros.options import ToolParser, paragraphs
+from sail_ros.options import ToolParser, add_lengths_option, paragraphs
 from sail_ros.outputs import staged
 from sail_ros.tools.common import (
     LIMITS_NOTE,
@@ -58,6 +50,7 @@ EXAMPLES = (
     "sail-ros plant --controller --set free_hub=true --gains out/gains.npz",
     "sail-ros plant --lengths 20 22 20 22 --rates 0.1 --set mass_damping=0.02",
     "sail-ros plant --lengths 30 --npz out/plant.npz --mat out/plant.mat --figure out/bode.png",
+    "sail-ros plant --lengths 30 --count 6 --json",
 )
 WRITES = (
     "--npz FILE and --mat FILE (A, B, C, D with the names and units of states, inputs and "
@@ -67,20 +60,11 @@ WRITES = (
 
 
 def build_parser() -> ToolParser:
-    parser = ToolParser.for_tool(
-        "plant",
-        paragraphs(__doc__, 0, 1),
-        EXAMPLES,
-        WRITES,
-        LIMITS_NOTE,
-    )
+    description = paragraphs(__doc__, 0, 1)
+    parser = ToolParser.for_tool("plant", description, EXAMPLES, WRITES, LIMITS_NOTE)
     add_sail_options(parser)
-    parser.add_argument(
-        "--lengths",
-        type=float,
-        nargs="+",
-        metavar="L",
-        help="boom lengths [m]: one for all booms or four (a b c d); default: fully deployed",
+    add_lengths_option(
+        parser, "boom lengths [m]: one for all booms or four (a b c d); default: fully deployed"
     )
     parser.add_argument(
         "--rates",
@@ -92,6 +76,11 @@ def build_parser() -> ToolParser:
     )
     parser.add_argument("--count", type=int, default=12, help="poles to list (default 12)")
     output = parser.add_argument_group("output")
+    output.add_argument(
+        "--json", action="store_true",
+        help="print one JSON object (lengths, rates, sizes, parameters, the listed poles, "
+        "the notes; NaN as null) instead of the text; the files asked for are still written",
+    )  # fmt: skip
     output.add_argument("--npz", type=Path, metavar="FILE", help="write the plant as .npz")
     output.add_argument("--mat", type=Path, metavar="FILE", help="write the plant as MATLAB .mat")
     output.add_argument("--figure", type=Path, metavar="PNG", help="write the Bode figure")
@@ -130,6 +119,8 @@ def _plant(args) -> int:
     if args.controller:
         from sail_ros.tools.loop_check import check_loop
 
+        if args.json:
+            raise ValueError("--json prints the open plant; it does not go with --controller")
         return check_loop(args)
     if args.scenario or args.gains:
         raise ValueError("--scenario and --gains go with --controller")
@@ -147,29 +138,9 @@ def _plant(args) -> int:
     if args.band is not None and not 0 < args.band[0] < args.band[1]:
         raise ValueError(f"--band needs 0 < F_MIN < F_MAX [Hz], got {args.band}")
     plant = linear_plant(model, lengths, rates)
-    listed = poles(plant)[: args.count]
-    print(
-        f"Linear plant of the sail: lengths {', '.join(f'{v:.4g}' for v in plant.lengths)} m, "
-        f"rates {', '.join(f'{v:.4g}' for v in plant.rates)} m/s; {len(plant.state_names)} "
-        f"states, {len(plant.input_names)} inputs, {len(plant.output_names)} outputs"
-    )
-    print(describe_parameters(params))
-    print()
-    print(f"  {'pole':>5}{'Re s [1/s]':>14}{'Im s [rad/s]':>14}{'omega [rad/s]':>15}"
-          f"{'f [Hz]':>12}{'zeta':>12}")  # fmt: skip
-    for i, pole in enumerate(listed, start=1):
-        # round-off of an undamped plant reads as 0, not as +-1e-16
-        tiny = abs(pole.s.real) < 1e-12 * max(pole.omega, 1.0)
-        real, zeta = (0.0, 0.0) if tiny else (pole.s.real, pole.zeta)
-        print(
-            f"  {i:>5}{real:>14.5g}{pole.s.imag:>14.6g}{pole.omega:>15.6g}"
-            f"{pole.hertz:>12.5g}{zeta:>12.4g}"
-        )
-    unstable = [p for p in poles(plant) if p.s.real > 1e-9 * max(p.omega, 1.0)]
-    if unstable:
-        print(f"  {len(unstable)} pole(s) with a positive real part: the frozen plant is unstable")
-    if plant.free_hub:
-        print(f"  note: {hub_note(plant)}")
+    found = PlantTable.of(plant, params, describe_parameters(params), args.count)
+    if not args.json:
+        print(found.text())
     note = undamped_note(plant)
     if note:
         print(f"warning: {note}", file=sys.stderr)
@@ -189,30 +160,13 @@ def _plant(args) -> int:
             scipy.io.savemat(stream, arrays)
         written.append(args.mat)
     if args.figure:
-        from sail_ros.plots.plant import bode_figure  # matplotlib only when drawing
+        from sail_ros.plots.plant import plant_figure  # matplotlib only when drawing
 
-        pairs = bode_pairs(plant)
-        low, high = args.band or bode_band(plant, pairs, listed)
-        omega = bode_grid(plant, pairs, low, high)
-        undamped = undamped_shown(plant, pairs, low, high)
-        count = len({f for found in undamped.values() for f in found})
-        title = (
-            f"lengths {', '.join(f'{v:.4g}' for v in plant.lengths)} m, n_B = "
-            f"{params.n_boom_modes}, n_M = {params.membrane_modes}, alpha = "
-            f"{params.mass_damping:g} 1/s, beta = {params.stiffness_damping:g} s"
-        )
-        if count:
-            title += (
-                f"\nundamped: {count} poles that show here (v, along the top) lie on the "
-                "imaginary axis, where |G| is unbounded: the lines are drawn to within 1e-4 of "
-                "them and break there"
-            )
-        written.append(
-            bode_figure(
-                omega, frequency_response(plant, omega), plant, args.figure, title, marked=undamped
-            )  # fmt: skip
-        )
-    print_written(written)
+        written.append(plant_figure(plant, params, found.listed, args.figure, args.band))
+    if args.json:
+        print(json.dumps(found.to_json(), indent=2))
+    else:
+        print_written(written)
     return 0
 
 

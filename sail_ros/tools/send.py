@@ -11,17 +11,17 @@ from __future__ import annotations
 import math
 import sys
 
-from builtin_interfaces.msg import Duration
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectory
 
 from sail_ros import topics
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import hub as hub_msg
 from sail_ros.options import ToolParser, paragraphs
 from sail_ros.policy import Policy
-from sail_ros.tools.client import NoAnswerError, SimClient, add_domain_option, run_client
+from sail_ros.ros.sim_client import NoAnswerError, SimClient
+from sail_ros.tools.client import add_domain_option, run_client
 
 BOOMS = "abcd"
 QUADRANTS = ("ab", "bc", "cd", "da")
@@ -75,6 +75,38 @@ def load_command(args) -> tuple[str, object]:
     return topic, commands_msg.load_command(topic, dict(zip(names, values, strict=True)))
 
 
+# each command: its line in the list of commands, and its own --help's description
+COMMANDS = {
+    "deploy": (
+        "all booms to one length [m] (sail/deploy_cmd)",
+        "All booms to LENGTH metres, the fastest smooth motion within the simulator's limits.",
+    ),
+    "move": (
+        "named booms through waypoints (sail/boom_length_cmd)",
+        "The named booms through waypoints, from their current length and rate; the others "
+        "carry on. Each --point is a time from now [s] followed by one length [m] per named "
+        "boom.",
+    ),
+    "pressure": (
+        "uniform pressure [Pa] on named quadrants (sail/pressure_cmd)",
+        "Set the pressure [Pa, +z] on the named quadrants from the next step on; the others "
+        "keep theirs. Limit: the simulator's max_pressure.",
+    ),
+    "tip-force": (
+        "force [N] at the tips of named booms (sail/tip_force_cmd)",
+        "Set the force [N, +z] at the tips of the named booms from the next step on; the "
+        "others keep theirs. Limit: the simulator's max_tip_force.",
+    ),
+    "hub-wrench": (
+        "force [N] and torques [N m] on a free hub (sail/hub_wrench_cmd)",
+        "Set the force along z [N] and the torques about x and y [N m] on the free hub from "
+        "the next step on; those not given are 0 (no options: no wrench). Limits: the "
+        "simulator's max_hub_force and max_hub_torque.",
+    ),
+    "pause": ("hold the simulation (sail/pause, true)", None),
+    "resume": ("go on (sail/pause, false)", None),
+    "reset": ("back to the initial state (sail/reset)", None),
+}
 HUB_WRENCH_OPTIONS = (("--force", "N"), ("--torque-x", "N m"), ("--torque-y", "N m"))
 
 
@@ -95,75 +127,36 @@ def build_parser() -> ToolParser:
     )
     add_domain_option(parser)
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    deploy = commands.add_parser(
-        "deploy",
-        help="all booms to one length [m] (sail/deploy_cmd)",
-        description="All booms "
-        "to LENGTH metres, the fastest smooth motion within the simulator's limits.",
-    )
-    deploy.add_argument("length", type=float, metavar="LENGTH", help="target length [m]")
-    move = commands.add_parser(
-        "move",
-        help="named booms through waypoints (sail/boom_length_cmd)",
-        description="The named booms through waypoints, from their current length and rate; "
-        "the others carry on. Each --point is a time from now [s] followed by one length [m] "
-        "per named boom.",
-    )
-    move.add_argument(
+    made = {
+        name: commands.add_parser(name, help=line, description=description)
+        for name, (line, description) in COMMANDS.items()
+    }
+    made["deploy"].add_argument("length", type=float, metavar="LENGTH", help="target length [m]")
+    made["move"].add_argument(
         "--booms", nargs="+", required=True, choices=list(BOOMS), help="booms to move (a b c d)"
     )
-    move.add_argument(
-        "--point",
-        nargs="+",
-        type=float,
-        action="append",
-        required=True,
-        metavar="VALUE",
+    made["move"].add_argument(
+        "--point", nargs="+", type=float, action="append", required=True, metavar="VALUE",
         help="TIME LENGTH [LENGTH ...]: when [s from now] and where [m] (repeatable)",
-    )
-    pressure = commands.add_parser(
-        "pressure",
-        help="uniform pressure [Pa] on named quadrants (sail/pressure_cmd)",
-        description="Set the pressure [Pa, +z] on the named quadrants from the next step on; "
-        "the others keep theirs. Limit: the simulator's max_pressure.",
-    )
-    pressure.add_argument(
+    )  # fmt: skip
+    made["pressure"].add_argument(
         "--quadrants", nargs="+", required=True, choices=[*QUADRANTS, ALL],
         help="ab bc cd da, or all",
     )  # fmt: skip
-    pressure.add_argument(
-        "--values",
-        nargs="+",
-        type=float,
-        required=True,
-        help="Pa: one per quadrant, or one for all",
-    )
-    force = commands.add_parser(
-        "tip-force",
-        help="force [N] at the tips of named booms (sail/tip_force_cmd)",
-        description="Set the force [N, +z] at the tips of the named booms from the next step "
-        "on; the others keep theirs. Limit: the simulator's max_tip_force.",
-    )
-    force.add_argument(
+    made["tip-force"].add_argument(
         "--booms", nargs="+", required=True, choices=[*BOOMS, ALL], help="a b c d, or all"
     )
-    force.add_argument(
-        "--values", nargs="+", type=float, required=True, help="N: one per boom, or one for all"
-    )
-    wrench = commands.add_parser(
-        "hub-wrench",
-        help="force [N] and torques [N m] on a free hub (sail/hub_wrench_cmd)",
-        description="Set the force along z [N] and the torques about x and y [N m] on the "
-        "free hub from the next step on; those not given are 0 (no options: no wrench). "
-        "Limits: the simulator's max_hub_force and max_hub_torque.",
-    )
+    for name, unit, each in (("pressure", "Pa", "quadrant"), ("tip-force", "N", "boom")):
+        made[name].add_argument(
+            "--values", nargs="+", type=float, required=True,
+            help=f"{unit}: one per {each}, or one for all",
+        )  # fmt: skip
     axes = ("force along +z", "torque about x (boom a)", "torque about y (boom b)")
     for (option, unit), what in zip(HUB_WRENCH_OPTIONS, axes, strict=True):
-        wrench.add_argument(option, type=float, default=0.0, metavar=unit.replace(" ", ""),
-                            help=f"{what} [{unit}] (0)")  # fmt: skip
-    commands.add_parser("pause", help="hold the simulation (sail/pause, true)")
-    commands.add_parser("resume", help="go on (sail/pause, false)")
-    commands.add_parser("reset", help="back to the initial state (sail/reset)")
+        made["hub-wrench"].add_argument(
+            option, type=float, default=0.0, metavar=unit.replace(" ", ""),
+            help=f"{what} [{unit}] (0)",
+        )  # fmt: skip
     for name, command in commands.choices.items():  # each command's own examples
         own = [line for line in EXAMPLES if line.split()[:3] == ["sail-ros", "send", name]]
         command.epilog = "Examples:\n" + "\n".join(f"  {line}" for line in own)
@@ -171,8 +164,8 @@ def build_parser() -> ToolParser:
 
 
 def trajectory(booms: list[str], points: list[list[float]]) -> JointTrajectory:
-    """A JointTrajectory for `booms` ("a" ...) through `points` ([time, lengths...])."""
-    message = JointTrajectory(joint_names=[f"boom_{boom}" for boom in booms])
+    """The `sail/boom_length_cmd` of `booms` ("a" ...) through `points` ([time, lengths...]),
+    checked as a command line (ValueError naming the point)."""
     for point in points:
         seconds, *lengths = point
         if len(lengths) != len(booms):
@@ -185,14 +178,7 @@ def trajectory(booms: list[str], points: list[list[float]]) -> JointTrajectory:
         for boom, length in zip(booms, lengths, strict=True):
             if not math.isfinite(length):  # the simulator's words (Policy.check_length)
                 raise ValueError(f"--point: boom_{boom} is {length!r}, not a finite length")
-        whole = math.floor(seconds)
-        message.points.append(
-            JointTrajectoryPoint(
-                positions=lengths,
-                time_from_start=Duration(sec=whole, nanosec=round((seconds - whole) * 1e9)),
-            )
-        )
-    return message
+    return commands_msg.boom_length_command(booms, points)
 
 
 def run(args, client: SimClient) -> int:

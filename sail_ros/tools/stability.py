@@ -18,16 +18,9 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from sail_ros.analysis.stability import (
-    CRITICAL,
-    INSTABILITY_RTOL,
-    STABLE,
-    UNSTABLE,
-    eigenvalue_loci,
-    growth,
-    stability_sweep,
-)
-from sail_ros.options import ToolParser
+from sail_ros.analysis.stability import stability_sweep
+from sail_ros.analysis.stability_table import FIGURES, StabilityTable
+from sail_ros.options import ToolParser, add_lengths_option
 from sail_ros.policy import Policy
 from sail_ros.tools.cluster import add_cluster_options, check_cluster_options, dask_client
 from sail_ros.tools.common import (
@@ -43,7 +36,6 @@ from sail_ros.tools.common import (
 DEFAULT_RATES = (-1.0, -0.3, -0.1, -0.03, -0.01, 0.0, 0.01, 0.03, 0.1, 0.3, 1.0)
 DEFAULT_PRESTRESS = (1e-2, 1e5)  # Pa
 POINTS_PER_DECADE = 8
-FIGURES = ("stability.png", "stability_map.png", "eigenvalue_loci.png")
 EXAMPLES = (
     "sail-ros stability",
     "sail-ros stability --lengths 10 35 70.71 --rates -0.1 0.1 1 --figures out/stability "
@@ -65,13 +57,7 @@ def build_parser() -> ToolParser:
     )
     add_sail_options(parser)
     grid = parser.add_argument_group("grid")
-    grid.add_argument(
-        "--lengths",
-        type=float,
-        nargs="+",
-        metavar="L",
-        help="boom lengths [m], all booms alike (default: fully deployed)",
-    )
+    add_lengths_option(grid, "boom lengths [m], all booms alike (default: fully deployed)")
     grid.add_argument(
         "--rates",
         type=float,
@@ -122,38 +108,6 @@ def build_parser() -> ToolParser:
     return parser
 
 
-def _describe(sweep) -> str:
-    if sweep.status == STABLE:
-        return "stable at every prestress"
-    if sweep.status == UNSTABLE:
-        return "unstable at every prestress"
-    text = f"{sweep.critical_prestress:.4g}"
-    return text if sweep.monotone else text + " (stability windows below)"
-
-
-def _critical_rows(sweeps, params) -> list[dict]:
-    rows = []
-    for sweep in sweeps:
-        max_real, max_abs = growth(params, sweep.length, sweep.rate, params.membrane_prestress)
-        rows.append(
-            {
-                "length_m": sweep.length,
-                "rate_m_s": sweep.rate,
-                "status": sweep.status,
-                "critical_prestress_pa": sweep.critical_prestress,
-                "critical_tension_n_m": (
-                    None
-                    if sweep.critical_prestress is None
-                    else sweep.critical_prestress * params.membrane_thickness
-                ),
-                "monotone": sweep.monotone,
-                "max_real_at_sail_prestress_1_s": max_real,
-                "max_abs_at_sail_prestress_1_s": max_abs,
-            }
-        )
-    return rows
-
-
 def _stability(args) -> int:
     check_cluster_options(args.scheduler, args.workers)
     config = configuration(args)
@@ -183,80 +137,22 @@ def _stability(args) -> int:
         sweeps = stability_sweep(
             params, lengths, args.rates, prestresses, client=client, progress=bar.update
         )
-    rows = _critical_rows(sweeps, params)
-
-    print(
-        "Frozen-length stability (seed Eq. 3): constant rate, all booms alike; "
-        "the prestress is varied"
+    table = StabilityTable.of(
+        params, describe_parameters(params), lengths, args.rates, prestresses, sweeps
     )
-    print(describe_parameters(params))
-    print(
-        f"  grid: {points} prestresses {low:g}..{high:g} Pa (log-spaced) x "
-        f"{len(args.rates)} rates x {len(lengths)} length(s) = {total} points"
-    )
-    print(f"  unstable when max Re(lambda) > {INSTABILITY_RTOL:g} max |lambda|")
-    print()
-    sail = f"sigma = {params.membrane_prestress:g} Pa"
-    print(
-        f"  {'L [m]':>7}{'rate [m/s]':>12}  {'critical prestress [Pa]':<32}max Re at {sail} [1/s]"
-    )
-    for row, sweep in zip(rows, sweeps, strict=True):
-        rate = f"{row['rate_m_s']:+.3g}" if row["rate_m_s"] else "0"
-        print(
-            f"  {row['length_m']:7.4g}{rate:>12}  {_describe(sweep):<32}"
-            f"{row['max_real_at_sail_prestress_1_s']:+.3e}"
-        )
-    print()
-    print("  critical prestress: the frozen system is unstable below it and stable above it;")
-    print(
-        "  retraction (rate < 0) turns the Md term into negative damping: unstable at any "
-        "prestress."
-    )
+    print(table.text())
 
     written = []
     if args.csv:
-        write_csv_rows(args.csv, rows)
+        write_csv_rows(args.csv, table.rows)
         written.append(args.csv)
     if args.grid_csv:
-        write_csv_rows(
-            args.grid_csv,
-            [
-                {
-                    "length_m": s.length,
-                    "rate_m_s": s.rate,
-                    "prestress_pa": float(p),
-                    "max_real_1_s": float(r),
-                    "max_abs_1_s": float(a),
-                    "unstable": bool(u),
-                }
-                for s in sweeps
-                for p, r, a, u in zip(s.prestress, s.max_real, s.max_abs, s.unstable, strict=True)
-            ],
-        )
+        write_csv_rows(args.grid_csv, table.grid_rows())
         written.append(args.grid_csv)
     if args.figures:
-        from sail_ros.plots.stability import loci_figure, map_figure, max_real_figure
+        from sail_ros.plots.stability import stability_figures  # matplotlib only when drawing
 
-        real_path, map_path, loci_path = (args.figures / name for name in FIGURES)
-        written.append(max_real_figure(sweeps, real_path, params.membrane_prestress))
-        written.append(map_figure(sweeps, map_path, params.membrane_prestress))
-        deploying = [r for r in args.rates if r > 0]
-        rate = (
-            args.loci_rate
-            if args.loci_rate is not None
-            else (max(deploying) if deploying else max(args.rates, key=abs))
-        )
-        length = float(lengths[0])
-        critical = next(
-            (
-                s.critical_prestress
-                for s in sweeps
-                if s.length == length and s.rate == rate and s.status == CRITICAL
-            ),
-            None,
-        )
-        loci = eigenvalue_loci(params, length, rate, prestresses)
-        written.append(loci_figure(prestresses, loci, length, rate, loci_path, critical))
+        written += stability_figures(table, args.figures, args.loci_rate)
     print_written(written)
     return 0
 

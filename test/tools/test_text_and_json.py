@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from harness import SMALL_SET
 
-from sail_ros.tools import deploy, modes
+from sail_ros.tools import deploy, modes, plant
 
 pytestmark = pytest.mark.model
 
@@ -77,3 +77,40 @@ def test_modes_text_and_json_agree(capsys, tmp_path):
         assert row["frequency_hz"] == pytest.approx(float(hertz), rel=1e-4)
         assert row["period_s"] == pytest.approx(float(period), rel=1e-3)
         assert row["multiplicity"] == int(multiplicity) == (int(last or first) - int(first) + 1)
+
+
+def test_plant_text_and_json_agree(capsys):
+    # a free hub, damped and retracting: rigid-body, growing and damped poles, both notes
+    short = [*SMALL_SET, "--set", "free_hub=true", "--set", "mass_damping=0.02",
+             "--lengths", "20", "22", "20", "22", "--rates", "-0.05", "--count", "12"]  # fmt: skip
+    text = run(plant.main, short, capsys)
+    found = json.loads(run(plant.main, [*short, "--json"], capsys))
+
+    heading = re.match(
+        r"Linear plant of the sail: lengths (.+) m, rates (.+) m/s; (\d+) states, (\d+) inputs, "
+        r"(\d+) outputs",
+        text,
+    ).groups()
+    assert [float(v) for v in heading[0].split(", ")] == pytest.approx(found["lengths_m"])
+    assert [float(v) for v in heading[1].split(", ")] == pytest.approx(found["rates_m_s"])
+    sizes = tuple(map(int, heading[2:]))
+    assert sizes == (found["states"], found["inputs"], found["outputs"])
+    counts = re.search(r"modes n_B, n_M\s+(\d+), (\d+)", text).groups()
+    parameters = found["parameters"]
+    assert tuple(map(int, counts)) == (parameters["n_boom_modes"], parameters["n_membrane_modes"])
+    coordinates = 4 * sum(map(int, counts)) + 3  # and the free hub's three
+    assert sizes == (2 * coordinates, 11, 14)
+    assert float(re.search(rf"alpha = {NUMBER} 1/s", text)[1]) == parameters["mass_damping"]
+
+    printed = re.findall(r"^\s+(\d+)" + rf"\s+{NUMBER}" * 5 + "$", text, re.MULTILINE)
+    assert len(printed) == len(found["poles"]) == 12
+    keys = ("real_1_s", "imag_rad_s", "omega_rad_s", "frequency_hz", "damping_ratio")
+    for (index, *values), row in zip(printed, found["poles"], strict=True):
+        assert int(index) == row["pole"]
+        for value, key in zip(values, keys, strict=True):  # printed to 4 to 6 digits
+            assert float(value) == pytest.approx(row[key], rel=6e-4, abs=1e-12), (index, key)
+    assert any(row["real_1_s"] > 0 for row in found["poles"])  # retraction: growing modes
+    growing = int(re.search(r"(\d+) pole\(s\) with a positive real part", text)[1])
+    assert growing == found["unstable_poles"] > 0
+    assert f"  note: {found['hub_note']}" in text.splitlines()
+    assert found["undamped_note"] is None  # damped: no warning, in either
