@@ -14,4 +14,7 @@ the others need nothing beyond the model.
 - `log_export`, `log_series`: deployment runs into MCAP logs with the live
   simulator's topics, and logs back into time series.
 - `load_changes`: when a run's loads change, in words for its figures.
+- `log_report`, `log_tables`, `log_true_peaks`: what `sail-ros report` finds in a log
+  (its ranges, peaks, energies, real-time factor, parameter changes), its CSV tables,
+  and the log run again for its true peaks.
 """
