@@ -17,4 +17,7 @@ the others need nothing beyond the model.
 - `modes_table`, `plant_table`, `stability_table`: what `sail-ros modes`, `plant`
   and `stability` found, one object each that renders their text, JSON and CSV.
 - `demo_run`: the demo's reference deployment and the summary of its recording.
+- `log_report`, `log_tables`, `log_true_peaks`: what `sail-ros report` finds in a log
+  (its ranges, peaks, energies, real-time factor, parameter changes), its CSV tables,
+  and the log run again for its true peaks.
 """

@@ -3,12 +3,14 @@ result object, so a number printed is the number written."""
 
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
-from harness import SMALL_SET
+import yaml
+from harness import CONFIG, SMALL_SET
 
-from sail_ros.tools import deploy, modes, plant
+from sail_ros.tools import deploy, modes, plant, report
 
 pytestmark = pytest.mark.model
 
@@ -114,3 +116,189 @@ def test_plant_text_and_json_agree(capsys):
     assert growing == found["unstable_poles"] > 0
     assert f"  note: {found['hub_note']}" in text.splitlines()
     assert found["undamped_note"] is None  # damped: no warning, in either
+
+
+CELL = r"([-+]?[0-9.]+(?:e[-+]?\d+)?|-)"  # a peak table's cell: a dash where there is no number
+PEAK_ROW = re.compile(rf"^ {{4,}}(\S.*?)\s+{CELL}\s+{CELL}\s+{CELL}\s+{CELL}$")
+
+
+def peak_rows(lines) -> list[tuple[str, list[float]]]:
+    """The rows of the first peak table in `lines` (`print_peak_table`): label and cells,
+    NaN for a dash."""
+    rows = []
+    for line in lines[1:]:  # the table's head row names the booms
+        found = PEAK_ROW.match(line)
+        if not found:
+            break
+        cells = [np.nan if cell == "-" else float(cell) for cell in found.groups()[1:]]
+        rows.append((found[1].strip(), cells))
+    return rows
+
+
+def expected_rows(peaks: dict, convergence: dict | None = None) -> list:
+    """The rows the text's peak table holds of a JSON peaks object, and their precision."""
+
+    def boom_values(values, scale=1.0):
+        return [np.nan if values[b] is None else scale * values[b] for b in "abcd"]
+
+    rows = []
+    for kind, label, scale, digits in (
+        ("tip_deflection", "|tip deflection| [mm]", 1e3, 5e-5),
+        ("root_moment", "|root moment| [N m]", 1.0, 0),
+    ):
+        unit = "m" if kind == "tip_deflection" else "Nm"
+        rows.append((label, boom_values(peaks[f"peak_{kind}_{unit}"], scale), digits))
+        rows.append(("at t [s]", boom_values(peaks[f"peak_{kind}_time_s"]), 5e-4))
+        if convergence is not None:
+            for own, of in (("", "the largest"), ("_own", "its own peak")):
+                change = boom_values(convergence[f"{kind}_change{own}"], 100.0)
+                against = f"({convergence['n_boom_modes']}, {convergence['n_membrane_modes']})"
+                rows.append((f"change against {against} modes, % of {of}", change, 5e-4))
+    return rows
+
+
+def assert_table(lines, peaks, convergence=None):
+    printed, expected = peak_rows(lines), expected_rows(peaks, convergence)
+    assert [label for label, _ in printed] == [label for label, _, _ in expected]
+    for (label, cells), (_, values, atol) in zip(printed, expected, strict=True):
+        # 5 significant digits where no fixed decimals are printed
+        np.testing.assert_allclose(cells, values, rtol=5e-5 if not atol else 0, atol=atol,
+                                   err_msg=label)  # fmt: skip
+
+
+def test_report_text_and_json_agree(tmp_path, capsys):
+    """A small deploy log's report, with its rerun on a finer model: each number the text
+    prints is the JSON's, to the digits printed; the warnings and the files written too."""
+    log = tmp_path / "run.mcap"
+    assert deploy.main([*SMALL_SET, "--t-end", "2", "--rate", "10", "--mcap", str(log)]) == 0
+    capsys.readouterr()
+    assert report.main([str(log), "--out", str(tmp_path / "text")]) == 0
+    text, warnings = capsys.readouterr()
+    assert report.main([str(log), "--out", str(tmp_path / "json"), "--json"]) == 0
+    out, err = capsys.readouterr()
+    found = json.loads(out)
+    assert err == warnings and warnings.splitlines() == found["warnings"]
+    assert "peaks not converged" in warnings  # (4, 6) modes against (8, 9)
+    lines = text.splitlines()
+
+    assert lines[0] == f"Log {found['log']}" and found["incomplete"] == []
+    topics = re.findall(r"^  (/\S+): (\d+) messages$", text, re.MULTILINE)
+    assert {topic: int(count) for topic, count in topics} == found["topics"]
+    tips = found["tip_deflections"]
+    printed = re.search(rf"tip deflections: {NUMBER} \.\. {NUMBER} s, peak \|tip\| {NUMBER} mm",
+                        text).groups()  # fmt: skip
+    np.testing.assert_allclose(
+        np.array(printed, float), [tips["t_first_s"], tips["t_last_s"], 1e3 * tips["peak_m"]],
+        atol=5e-4,
+    )  # fmt: skip
+    moments = re.search(rf"root moments: peak \|M\| {NUMBER} N m \(n_B = (\d+)\)", text)
+    assert float(moments[1]) == pytest.approx(found["root_moments"]["peak_N_m"], rel=5e-4)
+    assert int(moments[2]) == found["root_moments"]["n_boom_modes"]
+    lengths = re.search(rf"boom lengths: {NUMBER} \.\. {NUMBER} m", text).groups()
+    np.testing.assert_allclose(np.array(lengths, float),
+                               list(found["boom_lengths"].values()), atol=5e-4)  # fmt: skip
+    assert "  parameter changes: none recorded" in lines
+    assert found["parameter_changes"] == {"source": "", "changes": []}
+
+    # the peaks between the logged samples, and what the sampling cannot follow
+    peaks = found["peaks"]
+    first = next(i for i, line in enumerate(lines) if "peaks per boom from the logged" in line)
+    every = float(re.search(rf"every {NUMBER} ms", lines[first])[1])
+    assert every == pytest.approx(1e3 * peaks["spacing_s"], rel=5e-4)
+    assert lines[first].endswith("interpolated with the logged rates (cubic Hermite):")
+    assert peaks["interpolated"] == {"tip_deflection": True, "root_moment": True}
+    assert_table(lines[first + 1 :], peaks)
+    unresolved = re.search(
+        rf"boom modes from {NUMBER} Hz up .*more than {NUMBER} rad .* carry up to "
+        + ", ".join([rf"{NUMBER} %"] * 4),
+        text,
+    ).groups()  # fmt: skip
+    assert float(unresolved[0]) == pytest.approx(peaks["unresolved"]["frequency_hz"], rel=5e-3)
+    assert float(unresolved[1]) == peaks["unresolved"]["phase_rad"]
+    shares = [100 * peaks["unresolved"]["root_moment_share"][b] for b in "abcd"]
+    np.testing.assert_allclose(np.array(unresolved[2:], float), shares, rtol=5e-2)
+
+    # the rerun's true peaks and their change on the finer model
+    rerun = found["rerun"]
+    first = next(i for i, line in enumerate(lines) if line.startswith("  a rerun of"))
+    said = re.search(rf"a rerun of (.+) reproduces the logged tips to {NUMBER} of", lines[first])
+    assert said[1] == rerun["of"] == "the recorded scenario" and rerun["runs"] == 1
+    assert float(said[2]) == pytest.approx(rerun["agreement"], abs=5e-3)
+    assert_table(lines[first + 1 :], rerun, rerun["convergence"])
+    assert not rerun["convergence"]["converged"]
+
+    # the energies, with the sail they were computed for
+    energies = found["energies"]
+    assert "  energies use the sail parameters recorded in the log:" in lines
+    assert energies["parameters_recorded"]
+    counts = re.search(r"modes n_B, n_M\s+(\d+), (\d+)", text).groups()
+    parameters = energies["parameters"]
+    assert tuple(map(int, counts)) == (parameters["n_boom_modes"], parameters["n_membrane_modes"])
+    energy = re.search(rf"mechanical energy: {NUMBER} J at t = {NUMBER} s, {NUMBER} J at t = "
+                       rf"{NUMBER} s", text).groups()  # fmt: skip
+    for printed, key in zip(energy, ("first_J", "first_t_s", "last_J", "last_t_s"), strict=True):
+        # 4 significant digits of an energy, 3 decimals of a time
+        close = {"rel": 5e-4} if key.endswith("_J") else {"abs": 5e-4}
+        assert float(printed) == pytest.approx(energies[key], **close)
+    assert found["real_time_factor"] is None
+    assert f"  {found['not_available']['real_time_factor']}" in lines
+
+    written = [line.split()[1] for line in lines if line.startswith("wrote ")]
+    assert [Path(path).name for path in written] == [Path(p).name for p in found["written"]]
+    assert all(Path(path).is_file() for path in found["written"])
+    assert found["error"] == "" and "NaN" not in out
+
+
+def hub_rows(hub: dict) -> list:
+    """The rows the text's free hub table holds of a JSON hub object [mm, mrad; s]."""
+    names = ("heave", "tilt_x", "tilt_y", "tilt")
+    units = ("m", "rad", "rad", "rad")
+    return [
+        ("peak", [1e3 * hub[f"peak_{n}_{u}"] for n, u in zip(names, units, strict=True)], 5e-5),
+        ("at t [s]", [hub[f"peak_{name}_time_s"] for name in names], 5e-4),
+    ]
+
+
+def test_report_text_and_json_agree_on_a_free_hub_and_its_commands(tmp_path, capsys,
+                                                                   monkeypatch):  # fmt: skip
+    """config/scenario_free_hub_control.yaml cut to 0.5 s at (n_B, n_M) = (2, 2): the hub's
+    range, its commands and its peaks, in the log and in the rerun of the closed loop (the
+    figures, which test_tool_report.py checks, left out)."""
+    monkeypatch.setattr(report, "_figures", lambda found, folder: None)
+    document = yaml.safe_load((CONFIG / "scenario_free_hub_control.yaml").read_text())
+    document["scenario"] |= {"duration": 0.5, "snapshots": [0.0, 0.5]}
+    scenario, log = tmp_path / "short.yaml", tmp_path / "closed.mcap"
+    scenario.write_text(yaml.safe_dump(document))
+    counts = ["--set", "n_boom_modes=2", "--set", "n_membrane_modes=2"]
+    argv = ["--scenario", str(scenario), "--rate", "20", "--mcap", str(log), *counts]
+    assert deploy.main(argv) == 0
+    capsys.readouterr()
+    text = run(report.main, [str(log), "--out", str(tmp_path / "t"), "--no-convergence"], capsys)
+    found = json.loads(run(report.main, [str(log), "--out", str(tmp_path / "j"),
+                                         "--no-convergence", "--json"], capsys))  # fmt: skip
+    lines = text.splitlines()
+
+    hub = re.search(rf"free hub: \|z_h\| up to {NUMBER} mm, tilt \|theta\| up to {NUMBER} mrad "
+                    rf"\({NUMBER} deg\)", text).groups()  # fmt: skip
+    heave, tilt = found["hub"]["peak_heave_m"], found["hub"]["peak_tilt_rad"]
+    np.testing.assert_allclose(np.array(hub, float), [1e3 * heave, 1e3 * tilt, np.degrees(tilt)],
+                               rtol=5e-3)  # fmt: skip
+    commands = re.search(rf"hub wrench commands: (\d+), peak \|F_z\| {NUMBER} N, \|tau_x\| "
+                         rf"{NUMBER} N m, \|tau_y\| {NUMBER} N m", text).groups()  # fmt: skip
+    wrench = found["hub_commands"]
+    assert int(commands[0]) == wrench["count"] == found["topics"]["/sail/hub_wrench_cmd"]
+    np.testing.assert_allclose(
+        np.array(commands[1:], float),
+        [wrench["peak_F_z_N"], wrench["peak_tau_x_N_m"], wrench["peak_tau_y_N_m"]],
+        rtol=5e-4,
+    )
+    for head, peaks in (
+        ("    free hub, interpolated with the logged rates", found["peaks"]["hub"]),
+        ("    free hub (true peaks of the rerun):", found["rerun"]["hub"]),
+    ):
+        first = next(i for i, line in enumerate(lines) if line.startswith(head))
+        printed, expected = peak_rows(lines[first + 1 :]), hub_rows(peaks)
+        assert [label for label, _ in printed] == [label for label, _, _ in expected]
+        for (label, cells), (_, values, atol) in zip(printed, expected, strict=True):
+            np.testing.assert_allclose(cells, values, atol=atol, err_msg=label)
+    assert "convergence" not in found["rerun"]  # --no-convergence
