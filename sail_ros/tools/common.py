@@ -21,12 +21,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sail_ros import topics
+from sail_ros.configuration import Layer, file_layer, merge
 from sail_ros.model import SailParameters, yaml_values
 from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH
 from sail_ros.outputs import CREATED, made_for, staged
 from sail_ros.policy import OutOfRangeError, Policy
-from sail_ros.runtime.config import PARAMETERS
 from sail_ros.spelling import did_you_mean
 
 # the --help note of the tools that take --lengths and --rates
@@ -101,83 +100,33 @@ def set_values(args: argparse.Namespace) -> dict:
 
 
 def configuration(args: argparse.Namespace, sail_section: dict | None = None, where: str = ""):
-    """The `Configuration` of --config and --set (and of `sail_section`, a scenario's
-    `sail:` overrides, named `where` in errors: --set > it > --config > defaults).
+    """The `Configuration` of --config, `sail_section` (a scenario's `sail:` overrides,
+    named `where` in errors) and --set, merged in that order over the defaults
+    (`sail_ros.configuration.merge`).
 
     Raises:
         ValueError: a bad file, name or value (the message names it).
     """
     changes = set_values(args)
-    policy_names, sail_names = set(Policy.field_names()), set(SailParameters.field_names())
+    limit_names, sail_names = set(Policy.field_names()), set(SailParameters.field_names())
     for name in changes:
-        if name not in policy_names | sail_names:
-            hint = did_you_mean(name, policy_names | sail_names)
+        if name not in limit_names | sail_names:
+            hint = did_you_mean(name, limit_names | sail_names)
             raise ValueError(
                 f"--set: unknown parameter {name!r}{hint}; sail parameters: "
                 f"{', '.join(sorted(sail_names))}; limits: {', '.join(Policy.field_names())}"
             )
-    document = yaml_values.load_file(args.config, "config") if args.config else None
-    given = simulator_parameters(document, args.config) if args.config else None
-    if given is None:  # a sail parameters file (or none)
-        file_sail = (
-            SailParameters.from_document(document, args.config).to_dict() if args.config else {}
-        )
-        file_policy = {}
-    else:  # the simulator's params file: what the simulator would take of it
-        file_sail = {k.removeprefix(topics.SAIL_PREFIX): v for k, v in given.items()
-                     if k.startswith(topics.SAIL_PREFIX)}  # fmt: skip
-        file_policy = {k: v for k, v in given.items() if k in policy_names}
-        try:
-            SailParameters.from_dict(file_sail)
-        except ValueError as error:
-            raise ValueError(f"{args.config}: {error}") from None
-    sail_changes = {k: v for k, v in changes.items() if k in sail_names}
-    sail = SailParameters.from_dict({**file_sail, **sail_changes})
+    layers = [file_layer(args.config)] if args.config else []
     if sail_section:
-        overrides = {k: v for k, v in sail_section.items() if k not in sail_changes}
-        try:
-            sail = SailParameters.from_dict({**file_sail, **overrides, **sail_changes})
-        except ValueError as error:
-            raise ValueError(f"{where or 'sail section'}: {error}") from None
-    policy_changes = {k: v for k, v in changes.items() if k in policy_names}
-    policy = Policy(**{**file_policy, **policy_changes})
-    sources = [f"{args.config}" if file_policy else ""] + [
-        f"--set {k}={v}" for k, v in policy_changes.items()
-    ]
-    source = ", ".join(filter(None, sources)) or "defaults"
-    config = Configuration(sail, policy, source)
+        layers.append(Layer(where or "sail section", sail_section))
+    limit_changes = {k: v for k, v in changes.items() if k in limit_names}
+    layers.append(Layer("", {k: v for k, v in changes.items() if k in sail_names}, limit_changes))
+    sail, policy = merge(layers)
+    sources = [args.config] if args.config and layers[0].policy else []
+    sources += [f"--set {k}={v}" for k, v in limit_changes.items()]
+    config = Configuration(sail, policy, ", ".join(sources) or "defaults")
     config.check(policy.check_sail, sail)
     return config
-
-
-# parameters every rclpy node has besides its own
-NODE_BUILT_INS = ("use_sim_time", "start_type_description_service")
-
-
-def simulator_parameters(document, path) -> dict | None:
-    """The parameters a ROS 2 params file (`<node>: ros__parameters: ...`; its YAML
-    `document`, read from `path`, which errors name) gives the simulator (its sections
-    for `sail_sim`, in any namespace, and for every node, `/**`), by the names the node
-    declares (`sail.n_boom_modes`), nested mappings flattened as ROS does; None for a
-    document that is not a params file.
-
-    Raises:
-        ValueError: the file names a parameter the simulator does not have (which the
-            simulator refuses, `ros.parameters.reject_unknown`), or holds no section it
-            would read, naming them.
-    """
-    given = yaml_values.node_parameters(document, topics.SIM_NODE, path)
-    if given is None:
-        return None
-    node = topics.SIM_NODE
-    known = set(PARAMETERS) | set(NODE_BUILT_INS)
-    unknown = sorted(name for name in given if name not in known)
-    if unknown:
-        named = []
-        for name in unknown:
-            named.append(f"{name!r}{did_you_mean(name, known)}")
-        raise ValueError(f"{path}: unknown parameter(s) of {node}: {', '.join(named)}")
-    return given
 
 
 def sail_parameters(args: argparse.Namespace) -> SailParameters:
