@@ -78,14 +78,12 @@ from sail_ros.policy import OutOfRangeError, Policy
 from sail_ros.tools.common import (
     add_sail_options,
     configuration,
-    describe_parameters,
-    print_hub_peak_table,
-    print_peak_table,
     print_written,
     refine_hint,
     set_values,
     tool_main,
 )
+from sail_ros.tools.tables import describe_parameters, print_hub_peak_table, print_peak_table
 
 # first columns of real_time_factor.csv; any other status values follow by name
 DIAGNOSTIC_COLUMNS = (
