@@ -2,7 +2,9 @@
 
 The sail comes from `--config` and `--set`; so do the limits (`sail_ros.policy.Policy`:
 the simulator's, with the same names), so an offline run refuses what the simulator
-refuses, in the same words. `run` turns a user's mistake into one line and exit
+refuses, in the same words; `sail_ros.configuration.merge` lays them over the defaults
+(with a scenario's `sail:` section between). The text blocks the tools print alike are
+in `tools.tables`. `run` turns a user's mistake into one line and exit
 code 2 and ends quietly when the reader of stdout goes away (`| head`).
 """
 
