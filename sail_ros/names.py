@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from sail_ros.model.parameters import SIMULATOR_NODE
+from sail_ros.model.parameters import SAIL_PREFIX, SIMULATOR_NODE  # noqa: F401  (SAIL_PREFIX re-exported)
 
 # -- names ------------------------------------------------------------------------------------
 # Relative, so a node's namespace (`--ros-args -r __ns:=/sat2`) moves them all;
@@ -103,7 +103,6 @@ PARAMETERS_METADATA = "sail_sim_parameters"  # the simulator's parameters, name 
 # one record per parameter event that changed them: node, times, {name, old, new} list
 PARAMETER_CHANGES_METADATA = "sail_sim_parameter_changes"
 SCENARIO_METADATA = "sail_deploy_scenario"  # an offline run: its scenario (YAML) and epoch_ns
-SAIL_PREFIX = "sail."  # the simulator's parameter `sail.<field>` is SailParameters.<field>
 
 # -- stamps -------------------------------------------------------------------------------------
 

@@ -9,7 +9,8 @@ live logs" holds by construction:
 - the stamps: simulation time as nanoseconds since the Unix epoch (`stamp_ns`);
 - the metadata record names (`PARAMETERS_METADATA`, `PARAMETER_CHANGES_METADATA`,
   `SCENARIO_METADATA`);
-- the flat parameter names `sail.<field>` <-> `SailParameters`.
+- the flat parameter names `sail.<field>` <-> `SailParameters` (converted by
+  `model.parameters`, re-exported here).
 
 The builders of every message, pure functions of numbers (no node, no clock), are
 in `sail_ros.messages`, one module per message. Every quantity is SI. The pages under
@@ -34,6 +35,11 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from sail_ros.model import SailParameters, yaml_values
+from sail_ros.model.parameters import (  # noqa: F401  the flat names, re-exported
+    HUB_FIELDS,
+    flat_sail_parameters,
+    sail_parameters_from_flat,
+)
 from sail_ros.names import (  # noqa: F401  the names, re-exported with the table
     BOOM_JOINTS,
     BOOM_LENGTH_CMD,
@@ -178,38 +184,6 @@ def yaml_value(value) -> str:
         value = [item[0] if isinstance(item, bytes) else item for item in value]
     text = yaml.safe_dump(value, default_flow_style=True, width=1 << 30)
     return text.removesuffix("\n...\n").strip()
-
-
-# a free hub's fields (docs/model.md §13.8): written only when the hub is free, so a clamped
-# sail's parameters are the ones it always had
-HUB_FIELDS = ("free_hub", "hub_mass", "hub_inertia_x", "hub_inertia_y", "stowed_mass_on_hub")
-
-
-def flat_sail_parameters(params: SailParameters) -> dict[str, object]:
-    """`sail.<field>` -> value: the sail as the simulator's parameters (the hub's fields
-    only with a free hub; absent, they take their defaults)."""
-    return {
-        SAIL_PREFIX + name: value
-        for name, value in params.to_dict().items()
-        if params.free_hub or name not in HUB_FIELDS
-    }
-
-
-def sail_parameters_from_flat(values: Mapping[str, object]) -> SailParameters:
-    """`SailParameters` from the `sail.<field>` entries of `values` (others ignored).
-
-    Raises:
-        ValueError: a field is unknown or its value invalid, named `sail.<field>`.
-    """
-    fields = {
-        name[len(SAIL_PREFIX) :]: value
-        for name, value in values.items()
-        if name.startswith(SAIL_PREFIX)
-    }
-    try:
-        return SailParameters.from_dict(fields)
-    except ValueError as error:
-        raise ValueError(f"{SAIL_PREFIX}{error}") from None
 
 
 def sail_parameters_from_record(record: Mapping[str, str]) -> SailParameters | None:

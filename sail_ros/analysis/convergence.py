@@ -103,6 +103,26 @@ class Convergence:
     def finest(self) -> Level:
         return self.levels[-1]
 
+    def warning(self, hint: str) -> str:
+        """One line when the run's peaks are not within the bar of the finest rerun's, or
+        the reruns did not settle ("" if both hold); `hint` says how to refine."""
+        moved = [
+            f"{what} {boom} {100 * change:+.2f} %"
+            for what, changes in (("tip", self.change.tips), ("moment", self.change.moments))
+            for boom, change in zip("abcd", changes, strict=True)
+            if abs(change) > self.bar
+        ]
+        parts = []
+        if moved:
+            parts.append(
+                f"peaks not converged: against (n_B, n_M) = ({self.finest.n_boom_modes}, "
+                f"{self.finest.n_membrane_modes}) they are off by more than "
+                f"{100 * self.bar:g} % of the largest of their kind ({', '.join(moved)}); {hint}"
+            )
+        if self.stopped:
+            parts.append(f"the reruns did not settle: {self.stopped}")
+        return f"warning: {'; '.join(parts)}" if parts else ""
+
 
 def finer_parameters(params, n_boom_modes: int | None = None, n_membrane_modes: int | None = None):
     """The parameters of the next level: the counts given, else four more boom modes (up to

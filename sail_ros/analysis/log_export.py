@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
+import numpy as np
 import yaml
 
 from sail_ros import topics
@@ -42,6 +43,7 @@ from sail_ros.messages import hub as hub_msg
 from sail_ros.messages.cdr import ShapeSerializer, StateSerializer, serialize
 from sail_ros.model import SailModel
 from sail_ros.model.shape import SailSurface
+from sail_ros.outputs import staged
 from sail_ros.policy import Policy
 
 LOG_EPOCH_NS = 0
@@ -187,3 +189,28 @@ def _commands(commands, frame_id: str) -> list:
             message.header.stamp = topics.stamp(acts)
             found.append((float(t), acts, topics.TIP_FORCE_CMD, serialize(message)))
     return found
+
+
+def write_study_log(found, scenario, policy: Policy, request, progress):
+    """A deploy study's run (`analysis.deploy_study.DeployStudy`) at its grid's times as
+    the log `request.mcap` asks for (whole or not at all, `outputs.staged`, named --mcap
+    in errors), a closed loop's commands with it; `progress(what, total)` as
+    `deploy_study.study`'s. Returns the path written."""
+    result, closed, rate_hz = found.result, found.closed, request.rate
+    logged = result.subset(np.isin(result.t, found.grid))
+    shape_every = round(rate_hz / request.shape_rate) if request.shape_rate > 0 else 0
+    parameters = recorded_parameters(
+        found.model, logged, state_rate_hz=rate_hz,
+        shape_rate_hz=rate_hz / shape_every if shape_every else 0.0,
+        max_step=request.max_step, shape_divisions=request.shape_divisions, policy=policy,
+    )  # fmt: skip
+    commands = None
+    if closed is not None:
+        commands = (result.t, closed.commands, closed.schedule.delay, closed.inputs)
+    with staged(request.mcap, "--mcap") as building, progress("mcap", logged.t[-1]) as reached:
+        write_deployment_log(
+            building, found.model, logged, parameters=parameters,
+            scenario_document=scenario.document, shape_every=shape_every,
+            shape_divisions=request.shape_divisions, progress=reached, commands=commands,
+        )  # fmt: skip
+    return request.mcap

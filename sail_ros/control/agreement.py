@@ -16,6 +16,7 @@ import math
 
 from sail_ros.control.settings import DesignSettings
 from sail_ros.model import SailParameters
+from sail_ros.model.parameters import sail_fields
 from sail_ros.policy import Policy
 
 LIMITS = (("max_hub_force", "N"), ("max_hub_torque", "N m"), ("max_tip_force", "N"))
@@ -37,7 +38,7 @@ def disagreement(
     """`(error, warnings)`: the first thing in `simulator` (parameter name -> value, as
     the simulator `node` has them) that the controller cannot work with ("" if none), and
     what it can but should be told about."""
-    sail = {name[len("sail.") :]: v for name, v in simulator.items() if name.startswith("sail.")}
+    sail = sail_fields(simulator)
     if sail.get("free_hub") is False:
         return (
             f"the simulator {node} has a clamped hub (sail.free_hub = false): nothing to "

@@ -26,7 +26,7 @@ from sail_ros.model.fields import (
     setting,
     spec_of,
 )
-from sail_ros.model.parameters import LIVE_DEFAULTS
+from sail_ros.model.parameters import LIVE_DEFAULTS, SAIL_PREFIX
 from sail_ros.policy import Policy
 
 MAX_DELAY_PERIODS = 50  # a longer loop delay is no design this controller makes sense for
@@ -243,7 +243,6 @@ class NodeSettings:
 
 # the limits of the policy the controller saturates at (the simulator's, checked against it)
 LIMIT_NAMES = ("max_hub_force", "max_hub_torque", "max_tip_force")
-SAIL_PREFIX = "sail."  # as the simulator's: `sail.<field>` is SailParameters.<field>
 
 
 def _fixed(field):

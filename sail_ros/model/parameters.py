@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from pathlib import Path
 
 import sail_ros.model.yaml_values as yaml_values
@@ -36,6 +37,10 @@ SIMULATOR_NODE = "sail_sim"
 # convergence bar (docs/model.md §10.1). The simulator and the controller node, which
 # must design for the simulator's sail, declare these; the simulator says so at start.
 LIVE_DEFAULTS = {"membrane_band": 1.4}
+SAIL_PREFIX = "sail."  # the simulator's parameter `sail.<field>` is SailParameters.<field>
+# a free hub's fields (docs/model.md §13.8): given as parameters only when the hub is free, so
+# a clamped sail's parameters are the ones it always had
+HUB_FIELDS = ("free_hub", "hub_mass", "hub_inertia_x", "hub_inertia_y", "stowed_mass_on_hub")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -231,7 +236,7 @@ class SailParameters:
     def from_document(cls, document, path, node: str = SIMULATOR_NODE) -> SailParameters:
         """As `from_yaml`, from the file's document already read (`path` names it in
         errors); an empty document gives the defaults."""
-        return cls.from_dict(_find_sail_section(document or {}, Path(path), node))
+        return cls.from_dict(sail_section(document or {}, Path(path), node))
 
 
 def _with_nearest(name: str) -> str:
@@ -239,7 +244,10 @@ def _with_nearest(name: str) -> str:
     return repr(name) + did_you_mean(name, SailParameters.field_names())
 
 
-def _find_sail_section(document, path: Path, node: str) -> dict:
+def sail_section(document, path: Path, node: str = SIMULATOR_NODE):
+    """The sail's fields a parameters file's `document` gives (`from_document`), unchecked:
+    its `sail:` section, the `sail.` parameters of the node `node` in a ROS 2 params file,
+    or the document itself."""
     if not isinstance(document, dict):
         raise ValueError(f"{path}: expected a mapping at top level, got {document!r}")
     if "sail" in document:
@@ -251,4 +259,39 @@ def _find_sail_section(document, path: Path, node: str) -> dict:
     # 4}`) or by name (`sail.n_boom_modes: 4`); none, the defaults
     if "sail" in given:
         raise ValueError(f"{path}: sail of {node} must be a mapping, got {given['sail']!r}")
-    return {name.removeprefix("sail."): v for name, v in given.items() if name.startswith("sail.")}
+    return sail_fields(given)
+
+
+# -- the flat names `sail.<field>` of the simulator's parameters: the one conversion ----------
+
+
+def sail_fields(values: Mapping[str, object]) -> dict:
+    """The `sail.<field>` entries of flat parameter values, by field name (others left
+    out): `{"sail.n_boom_modes": 4, "max_rate": 2}` gives `{"n_boom_modes": 4}`."""
+    return {
+        name.removeprefix(SAIL_PREFIX): value
+        for name, value in values.items()
+        if name.startswith(SAIL_PREFIX)
+    }
+
+
+def flat_sail_parameters(params: SailParameters) -> dict[str, object]:
+    """`sail.<field>` -> value: the sail as the simulator's parameters (the hub's fields
+    only with a free hub; absent, they take their defaults)."""
+    return {
+        SAIL_PREFIX + name: value
+        for name, value in params.to_dict().items()
+        if params.free_hub or name not in HUB_FIELDS
+    }
+
+
+def sail_parameters_from_flat(values: Mapping[str, object]) -> SailParameters:
+    """`SailParameters` from the `sail.<field>` entries of `values` (others ignored).
+
+    Raises:
+        ValueError: a field is unknown or its value invalid, named `sail.<field>`.
+    """
+    try:
+        return SailParameters.from_dict(sail_fields(values))
+    except ValueError as error:
+        raise ValueError(f"{SAIL_PREFIX}{error}") from None

@@ -58,7 +58,6 @@ from sail_ros.control.settings import NODE_SETTINGS, DesignSettings, NodeSetting
 from sail_ros.messages import commands as commands_msg
 from sail_ros.messages import diagnostics as diagnostics_msg
 from sail_ros.messages import hub as hub_msg
-from sail_ros.model import SailParameters
 from sail_ros.model.fields import ConfigError, fields_of
 from sail_ros.options import PHYSICS_DOC, docstring_examples
 from sail_ros.policy import Policy
@@ -104,14 +103,13 @@ def config_from_values(values: dict):
         ConfigError: a value the controller cannot use, naming it.
     """
 
-    def table(cls, prefix=""):
-        return cls(**{f.name: values[prefix + f.name] for f in fields_of(cls) if
-                      prefix + f.name in values})  # fmt: skip
+    def table(cls):
+        return cls(**{f.name: values[f.name] for f in fields_of(cls) if f.name in values})
 
     try:
-        sail = table(SailParameters, topics.SAIL_PREFIX)
+        sail = topics.sail_parameters_from_flat(values)
     except ValueError as error:
-        raise ConfigError(f"{topics.SAIL_PREFIX}{error}") from None
+        raise ConfigError(str(error)) from None
     try:
         design, settings, policy = table(DesignSettings), table(NodeSettings), table(Policy)
         require_free_hub(sail)

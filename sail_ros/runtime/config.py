@@ -31,8 +31,7 @@ from sail_ros.model.fields import (
     setting,
 )
 from sail_ros.model.layout import per_boom
-from sail_ros.model.parameters import LIVE_DEFAULTS, MAX_MEMBRANE_MODES
-from sail_ros.names import SAIL_PREFIX
+from sail_ros.model.parameters import LIVE_DEFAULTS, MAX_MEMBRANE_MODES, SAIL_PREFIX
 from sail_ros.policy import Policy
 
 

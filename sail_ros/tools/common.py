@@ -2,7 +2,9 @@
 
 The sail comes from `--config` and `--set`; so do the limits (`sail_ros.policy.Policy`:
 the simulator's, with the same names), so an offline run refuses what the simulator
-refuses, in the same words. `run` turns a user's mistake into one line and exit
+refuses, in the same words; `sail_ros.configuration.merge` lays them over the defaults
+(with a scenario's `sail:` section between). The text blocks the tools print alike are
+in `tools.tables`. `run` turns a user's mistake into one line and exit
 code 2 and ends quietly when the reader of stdout goes away (`| head`).
 """
 
@@ -18,15 +20,12 @@ import signal
 import sys
 from pathlib import Path
 
-import numpy as np
 import yaml
 
-from sail_ros import topics
+from sail_ros.configuration import Layer, file_layer, merge
 from sail_ros.model import SailParameters, yaml_values
-from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH
 from sail_ros.outputs import CREATED, made_for, staged
 from sail_ros.policy import OutOfRangeError, Policy
-from sail_ros.runtime.config import PARAMETERS, SIM_DEFAULTS
 from sail_ros.spelling import did_you_mean
 
 # the --help note of the tools that take --lengths and --rates
@@ -101,136 +100,38 @@ def set_values(args: argparse.Namespace) -> dict:
 
 
 def configuration(args: argparse.Namespace, sail_section: dict | None = None, where: str = ""):
-    """The `Configuration` of --config and --set (and of `sail_section`, a scenario's
-    `sail:` overrides, named `where` in errors: --set > it > --config > defaults).
+    """The `Configuration` of --config, `sail_section` (a scenario's `sail:` overrides,
+    named `where` in errors) and --set, merged in that order over the defaults
+    (`sail_ros.configuration.merge`).
 
     Raises:
         ValueError: a bad file, name or value (the message names it).
     """
     changes = set_values(args)
-    policy_names, sail_names = set(Policy.field_names()), set(SailParameters.field_names())
+    limit_names, sail_names = set(Policy.field_names()), set(SailParameters.field_names())
     for name in changes:
-        if name not in policy_names | sail_names:
-            hint = did_you_mean(name, policy_names | sail_names)
+        if name not in limit_names | sail_names:
+            hint = did_you_mean(name, limit_names | sail_names)
             raise ValueError(
                 f"--set: unknown parameter {name!r}{hint}; sail parameters: "
                 f"{', '.join(sorted(sail_names))}; limits: {', '.join(Policy.field_names())}"
             )
-    document = yaml_values.load_file(args.config, "config") if args.config else None
-    given = simulator_parameters(document, args.config) if args.config else None
-    if given is None:  # a sail parameters file (or none)
-        file_sail = (
-            SailParameters.from_document(document, args.config).to_dict() if args.config else {}
-        )
-        file_policy = {}
-    else:  # the simulator's params file: what the simulator would take of it
-        simulator = {**SIM_DEFAULTS, **given}  # what it leaves out, the simulator's default
-        file_sail = {k.removeprefix(topics.SAIL_PREFIX): v for k, v in simulator.items()
-                     if k.startswith(topics.SAIL_PREFIX)}  # fmt: skip
-        file_policy = {k: v for k, v in given.items() if k in policy_names}
-        try:
-            SailParameters.from_dict(file_sail)
-        except ValueError as error:
-            raise ValueError(f"{args.config}: {error}") from None
-    sail_changes = {k: v for k, v in changes.items() if k in sail_names}
-    sail = SailParameters.from_dict({**file_sail, **sail_changes})
+    layers = [file_layer(args.config)] if args.config else []
     if sail_section:
-        overrides = {k: v for k, v in sail_section.items() if k not in sail_changes}
-        try:
-            sail = SailParameters.from_dict({**file_sail, **overrides, **sail_changes})
-        except ValueError as error:
-            raise ValueError(f"{where or 'sail section'}: {error}") from None
-    policy_changes = {k: v for k, v in changes.items() if k in policy_names}
-    policy = Policy(**{**file_policy, **policy_changes})
-    sources = [f"{args.config}" if file_policy else ""] + [
-        f"--set {k}={v}" for k, v in policy_changes.items()
-    ]
-    source = ", ".join(filter(None, sources)) or "defaults"
-    config = Configuration(sail, policy, source)
+        layers.append(Layer(where or "sail section", sail_section))
+    limit_changes = {k: v for k, v in changes.items() if k in limit_names}
+    layers.append(Layer("", {k: v for k, v in changes.items() if k in sail_names}, limit_changes))
+    sail, policy = merge(layers)
+    sources = [args.config] if args.config and layers[0].policy else []
+    sources += [f"--set {k}={v}" for k, v in limit_changes.items()]
+    config = Configuration(sail, policy, ", ".join(sources) or "defaults")
     config.check(policy.check_sail, sail)
     return config
-
-
-# parameters every rclpy node has besides its own
-NODE_BUILT_INS = ("use_sim_time", "start_type_description_service")
-
-
-def simulator_parameters(document, path) -> dict | None:
-    """The parameters a ROS 2 params file (`<node>: ros__parameters: ...`; its YAML
-    `document`, read from `path`, which errors name) gives the simulator (its sections
-    for `sail_sim`, in any namespace, and for every node, `/**`), by the names the node
-    declares (`sail.n_boom_modes`), nested mappings flattened as ROS does; None for a
-    document that is not a params file.
-
-    Raises:
-        ValueError: the file names a parameter the simulator does not have (which the
-            simulator refuses, `ros.parameters.reject_unknown`), or holds no section it
-            would read, naming them.
-    """
-    given = yaml_values.node_parameters(document, topics.SIM_NODE, path)
-    if given is None:
-        return None
-    node = topics.SIM_NODE
-    known = set(PARAMETERS) | set(NODE_BUILT_INS)
-    unknown = sorted(name for name in given if name not in known)
-    if unknown:
-        named = []
-        for name in unknown:
-            named.append(f"{name!r}{did_you_mean(name, known)}")
-        raise ValueError(f"{path}: unknown parameter(s) of {node}: {', '.join(named)}")
-    return given
 
 
 def sail_parameters(args: argparse.Namespace) -> SailParameters:
     """The sail of --config and --set (`configuration(args).sail`)."""
     return configuration(args).sail
-
-
-def _automatic(params) -> str:
-    """How an automatic membrane count was chosen ("" for a count given)."""
-    if params.n_membrane_modes:
-        return ""
-    length = params.resolved_length or DEFAULT_RESOLVED_LENGTH
-    capped = ""
-    if params.membrane_mode_need > params.membrane_modes:
-        capped = f", capped from {params.membrane_mode_need}"
-    return (
-        f"; n_M automatic: the membrane modes up to {params.membrane_band:g} x the first "
-        f"cantilever frequency at L = {length:g} m{capped}"
-    )
-
-
-def describe_parameters(params: SailParameters) -> str:
-    """The parameters in one block, with units, for printing next to results (a free
-    hub's in one more line)."""
-    hub = []
-    if params.free_hub:
-        stowed = "on the hub" if params.stowed_mass_on_hub else "not counted"
-        hub.append(
-            f"  free hub                m_h = {params.hub_mass:g} kg, J_x = "
-            f"{params.hub_inertia_x:g} kg m^2, J_y = {params.hub_inertia_y:g} kg m^2, "
-            f"stowed material {stowed}"
-        )
-    return "\n".join(
-        [
-            f"  sail side a             {params.sail_side:g} m (full boom length "
-            f"{params.full_boom_length:.4g} m)",
-            f"  boom EI                 {params.boom_bending_stiffness:g} N m^2",
-            f"  boom rho_B              {params.boom_linear_density:g} kg/m",
-            f"  film h, rho             {params.membrane_thickness:g} m, "
-            f"{params.membrane_density:g} kg/m^3 "
-            f"(rho_M = {params.membrane_areal_density:.4g} kg/m^2)",
-            f"  film prestress          {params.membrane_prestress:g} Pa "
-            f"(N0 = {params.membrane_tension:.4g} N/m)",
-            f"  boom axial load P       {params.boom_axial_load:g} N",
-            f"  modes n_B, n_M          {params.n_boom_modes}, {params.membrane_modes} "
-            f"({4 * params.n_boom_modes + 4 * params.membrane_modes}"
-            f"{' + 3 hub' if params.free_hub else ''} coordinates){_automatic(params)}",
-            f"  Rayleigh damping        alpha = {params.mass_damping:g} 1/s, "
-            f"beta = {params.stiffness_damping:g} s",
-            *hub,
-        ]
-    )
 
 
 def tool_main(build_parser, body):
@@ -321,45 +222,3 @@ def refine_hint(params: SailParameters) -> str:
     if params.n_membrane_modes:
         return "raise n_membrane_modes (and n_boom_modes) with --set"
     return "raise membrane_band (--set)"
-
-
-def print_peak_table(peaks, convergence=None, indent: str = "  ") -> None:
-    """Each boom's peak |tip deflection| [mm] and |root moment| [N m] with its time, and
-    with a `Convergence` (`analysis.convergence`) each one's change [%] against its
-    finest rerun: over the largest peak of its kind, and over the boom's own."""
-    tips = [
-        ("|tip deflection| [mm]", 1e3 * peaks.tip_deflection.value, "12.4f"),
-        ("  at t [s]", peaks.tip_deflection.time_s, "12.3f"),
-    ]
-    moments = [
-        ("|root moment| [N m]", peaks.root_moment.value, "12.5g"),
-        ("  at t [s]", peaks.root_moment.time_s, "12.3f"),
-    ]
-    if convergence is not None:
-        finest, change = convergence.finest, convergence.change
-        against = f"against ({finest.n_boom_modes}, {finest.n_membrane_modes}) modes"
-        for rows, largest, own in ((tips, change.tips, change.tips_own),
-                                   (moments, change.moments, change.moments_own)):  # fmt: skip
-            rows.append((f"  change {against}, % of the largest", 100 * largest, "+12.3f"))
-            rows.append((f"  change {against}, % of its own peak", 100 * own, "+12.3f"))
-    lines = tips + moments  # a peak of 0 (the output never moved) has no time: a dash
-    width = max(len(label) for label, _, _ in lines) + 2
-    print(f"{indent}{'':{width}}" + "".join(f"{'boom ' + b:>12}" for b in "abcd"))
-    for label, values, spec in lines:
-        print(f"{indent}{label:<{width}}" + "".join(_cell(v, spec) for v in values))
-
-
-def _cell(value: float, spec: str) -> str:
-    """`value` as `spec`, or a dash in its place when it is not a number (the time of a
-    peak that is 0)."""
-    width = int(spec.lstrip("+").split(".")[0])
-    return f"{value:>{spec}}" if np.isfinite(value) else f"{'-':>{width}}"
-
-
-def print_hub_peak_table(hub, indent: str = "  ") -> None:
-    """A free hub's peak |z_h| [mm], |theta_x|, |theta_y| and tilt |theta| [mrad] with their
-    times (`Peaks.hub`)."""
-    labels = ("|z_h| [mm]", "|theta_x| [mrad]", "|theta_y| [mrad]", "|theta| [mrad]")
-    print(f"{indent}{'':12}" + "".join(f"{label:>18}" for label in labels))
-    print(f"{indent}{'peak':<12}" + "".join(f"{1e3 * v:18.4f}" for v in hub.value))
-    print(f"{indent}{'  at t [s]':<12}" + "".join(_cell(v, "18.3f") for v in hub.time_s))

@@ -18,51 +18,25 @@ all as one JSON object. Writes an MCAP log with the live simulator's topics
 
 from __future__ import annotations
 
-import copy
+import contextlib
 import dataclasses
 import functools
 import json
-import math
 import sys
 from pathlib import Path
 
-import numpy as np
 from tqdm import tqdm
 
-from sail_ros.analysis.convergence import BAR, converge, finer_parameters
-from sail_ros.analysis.deployment import (
-    hold_peaks,
-    hold_reactions,
-    output_count,
-    output_times,
-    rerun_peaks,
-    run_deployment,
-    sample_bytes,
-)
-from sail_ros.analysis.scenario import (
-    REFERENCE,
-    check_scenario,
-    load_scenario,
-    scenario_from_dict,
-)
+from sail_ros.analysis.convergence import BAR
+from sail_ros.analysis.deploy_study import DeployRequest, study
+from sail_ros.analysis.reference import OPTIONS, reference_scenario
+from sail_ros.analysis.scenario import load_scenario
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
-from sail_ros.model import SailModel
-from sail_ros.model.layout import Layout
 from sail_ros.options import ToolParser
-from sail_ros.outputs import staged
-from sail_ros.policy import OutOfRangeError, Policy
-from sail_ros.tools.common import (
-    add_sail_options,
-    configuration,
-    print_written,
-    tool_main,
-)
+from sail_ros.plots.deploy_figures import CLOSED_LOOP_FIGURE, FIGURES, HUB_FIGURE, deploy_figures
+from sail_ros.tools.common import add_sail_options, configuration, print_written, tool_main
 from sail_ros.tools.deploy_result import DeploymentReport
 
-LEGACY = ("start", "end", "duration", "t_end", "boom", "tip")  # options that build a scenario
-FIGURES = ("deployment_snapshots.png", "tip_deflections.png", "boom_lengths.png")
-HUB_FIGURE = "hub_attitude.png"  # with a free hub: its tilt, heave and hold reactions
-CLOSED_LOOP_FIGURE = "closed_loop.png"  # with a controller: open against closed loop
 EXAMPLES = (
     "sail-ros deploy --summary",
     "sail-ros deploy --convergence",
@@ -194,96 +168,18 @@ def build_parser() -> ToolParser:
 def _scenario(args, limits=None):
     """The scenario to run and a one-line description of it; `limits` (a `Configuration`),
     if given, bound its waypoints."""
-    given = [name for name in LEGACY if getattr(args, name) is not None]
-    if args.scenario is not None:
-        if given:
-            options = ", ".join(
-                "--" + {"start": "from", "end": "to"}.get(n, n).replace("_", "-") for n in given
-            )
-            raise ValueError(
-                f"{options} describe the reference scenario; with --scenario "
-                f"{args.scenario} put them in the file"
-            )
-        points = limits and functools.partial(limits.check, limits.policy.check_points)
-        scenario = load_scenario(args.scenario, points)
-        return scenario, f"{scenario.description or 'scenario'} ({args.scenario})"
-    document = copy.deepcopy(REFERENCE)
-    body = document["scenario"]
-    reference = body["profile"]
-    start = reference["start"] if args.start is None else args.start
-    end = reference["end"] if args.end is None else args.end
-    duration = reference["duration"] if args.duration is None else args.duration
-    boom = args.boom or "a"
-    tip = body["initial"]["mode_state"]["a"] if args.tip is None else args.tip
-    body["profile"] = {"type": "cycloidal", "start": start, "end": end, "duration": duration}
-    body["duration"] = duration if args.t_end is None else args.t_end
-    body["initial"] = {"mode_state": {boom: tip}}
-    if args.t_end is not None or args.duration is not None:
-        body["snapshots"] = np.linspace(0.0, body["duration"], 6).round(6).tolist()
-    text = (
-        f"booms {start:g} m -> {end:g} m in {duration:g} s (cycloidal), "
-        f"boom {boom} tip {tip:g} m at t = 0"
-    )
-    body["description"] = text
-    labels = {"profile": "--from/--to/--duration", "initial": "--boom/--tip"}
-    try:
-        return scenario_from_dict(document, labels), text
-    except ValueError as error:  # a field of the document is an option here: name it so
-        options = {
-            "scenario.profile.start": "--from",
-            "scenario.profile.end": "--to",
-            "scenario.profile.duration": "--duration",
-            "scenario.duration": "--duration" if args.t_end is None else "--t-end",
-            f"scenario.initial.mode_state.{boom}": "--tip",
-        }
-        message = str(error)
-        for field, option in options.items():
-            if message.startswith(field + " "):
-                raise ValueError(option + message[len(field) :]) from None
-        raise ValueError(f"the reference deployment of the options: {message}") from None
-
-
-def _check_options(args, duration: float, snapshots) -> None:
-    if not args.every > 0:
-        raise ValueError(f"--every must be > 0, got {args.every}")
-    if not args.rate > 0:
-        raise ValueError(f"--rate must be > 0 Hz, got {args.rate}")
-    if not (math.isfinite(args.max_step) and args.max_step > 0):
-        raise ValueError(f"--max-step must be finite and > 0 s, got {args.max_step}")
-    if not 0.0 <= args.rtol < 1.0:
-        raise ValueError(f"--rtol must be in [0, 1) (0: fixed steps), got {args.rtol}")
-    if args.shape_rate < 0 or args.shape_rate > args.rate:
+    given = {name: getattr(args, name) for name in OPTIONS}
+    if args.scenario is None:
+        return reference_scenario(**given)
+    if any(value is not None for value in given.values()):
+        options = ", ".join(OPTIONS[name] for name, value in given.items() if value is not None)
         raise ValueError(
-            f"--shape-rate must be in [0, --rate = {args.rate:g}] Hz, got {args.shape_rate}"
+            f"{options} describe the reference scenario; with --scenario "
+            f"{args.scenario} put them in the file"
         )
-    if args.shape_divisions < 1:
-        raise ValueError(f"--shape-divisions must be >= 1, got {args.shape_divisions}")
-    for t in snapshots:
-        if not 0.0 <= t <= duration:
-            raise ValueError(f"--snapshots: {t:g} s is outside [0, {duration:g}] s")
-    if args.convergence is not None and len(args.convergence) not in (0, 2):
-        raise ValueError(f"--convergence takes no value or two (N_B N_M), got {args.convergence}")
-    mcap = args.mcap
-    if (
-        mcap is not None
-        and mcap.suffix != ".mcap"
-        and mcap.exists()
-        and (not mcap.is_dir() or any(mcap.iterdir()))
-    ):
-        raise ValueError(f"--mcap {mcap}: exists; give a new bag folder or a .mcap file")
-
-
-def _output_size(args, duration: float, n: int, extra: int) -> None:
-    """Refuse, before anything is allocated, a run whose outputs would not fit
-    (`Policy.check_output`), naming the estimate; `n` coordinates, `extra` more times."""
-    samples = output_count(duration, 1.0 / args.every)
-    what = f"the run over {duration:g} s (a table row every {args.every:g} s"
-    if args.mcap or args.figures:
-        samples += output_count(duration, args.rate) + extra
-        what += f", {args.rate:g} Hz for --mcap/--figures"
-    Policy.check_output(
-        samples, sample_bytes(n), what + ")", "a shorter duration, a longer --every, a lower --rate"
-    )
+    points = limits and functools.partial(limits.check, limits.policy.check_points)
+    scenario = load_scenario(args.scenario, points)
+    return scenario, f"{scenario.description or 'scenario'} ({args.scenario})"
 
 
 def _deploy(args) -> int:
@@ -293,43 +189,14 @@ def _deploy(args) -> int:
     where = f"{args.scenario}: sail section" if args.scenario else "scenario sail section"
     config = configuration(args, scenario.sail, where)
     config = dataclasses.replace(config, sail=config.sail.resolved(scenario.shortest_length))
-    params, policy = config.sail, config.policy
-    duration = scenario.duration
     snapshots = args.snapshots or list(scenario.snapshots)
-    _check_options(args, duration, snapshots)
-    if args.convergence:  # explicit counts: checked before the run
-        finer_parameters(params, *args.convergence)
-    coordinates = 4 * (params.n_boom_modes + params.membrane_modes) + 3 * params.free_hub
-    _output_size(args, duration, coordinates, len(snapshots))
-    table_times = np.unique(np.append(np.arange(0.0, duration, args.every), duration))
-    grid = output_times(duration, args.rate)
-    if args.mcap or args.figures:
-        t_eval = output_times(duration, args.rate, extra=[*table_times, *snapshots])
-    else:  # the table alone: no fine grid, whose short steps would slow the run
-        t_eval = table_times
-
-    try:  # what the scenario names: its coordinates, before the model's integrals
-        layout = Layout(params.n_boom_modes, params.membrane_modes, params.free_hub)
-        scenario.check_coordinates(layout)
-    except ValueError as error:
-        raise ValueError(f"{args.scenario or 'the reference deployment'}: {error}") from None
-    model = SailModel(params)
-    config.check(check_scenario, scenario, model, policy)
-    closed = open_loop = None
-    if scenario.controller is not None:
-        if args.convergence is not None:
-            raise ValueError(
-                "--convergence reruns the open loop; a scenario with a controller section "
-                "runs closed (raise n_boom_modes and n_membrane_modes with --set instead)"
-            )
-        closed, open_loop = _closed_loop(args, model, scenario, policy, t_eval)
-        result = closed.run
-    else:
-        with tqdm(total=duration, unit="s sim", disable=None, leave=False, file=sys.stderr) as bar:
-            result = run_deployment(
-                model, scenario, t_eval, args.max_step, lambda t: bar.update(t - bar.n),
-                policy=policy, rtol=args.rtol or None,
-            )  # fmt: skip
+    request = DeployRequest(
+        args.every, args.rate, args.max_step, args.rtol, tuple(snapshots),
+        None if args.convergence is None else tuple(args.convergence), args.shape_rate,
+        args.shape_divisions, args.mcap, args.figures, str(args.scenario or ""),
+    )  # fmt: skip
+    found = study(scenario, config.sail, config.policy, request, config.check, _progress)
+    result = found.result
     if result.warning:
         print(
             f"warning: {result.warning} (the simulator's diagnostics turn WARN here)",
@@ -337,182 +204,44 @@ def _deploy(args) -> int:
         )
     if result.accuracy.warning:
         print(f"warning: {result.accuracy.warning}", file=sys.stderr)
-    convergence, stopped = None, result.alarm
-    if args.convergence is not None and not stopped:
-
-        def rerun(finer):
-            desc = f"rerun at (n_B, n_M) = ({finer.n_boom_modes}, {finer.n_membrane_modes})"
-            with tqdm(total=duration, unit="s sim", desc=desc, disable=None, leave=False,
-                      file=sys.stderr) as bar:  # fmt: skip
-                return rerun_peaks(
-                    model, scenario, result, finer, args.max_step,
-                    lambda t: bar.update(t - bar.n), policy,
-                )  # fmt: skip
-
-        try:
-            convergence = converge(rerun, model, result.peaks, args.convergence or None)
-        except OutOfRangeError as error:
-            stopped = str(error)
-
-    holds = None
-    if model.free_hub:  # over the time the run reached
-        holds = hold_peaks(model, scenario.profile, float(result.t[-1]))
-    numbers = None
-    if closed is not None:
-        from sail_ros.analysis.closed_loop import summary
-
-        numbers = summary(closed, open_loop)
-    found = DeploymentReport(
-        result, config, description, model, table_times, convergence, holds, numbers
-    )
+    report = DeploymentReport(result, config, description, found.model, found.table_times,
+                              found.convergence, found.holds, found.controller)  # fmt: skip
     if args.json:
-        print(json.dumps(found.to_json(), indent=2))
+        print(json.dumps(report.to_json(), indent=2))
     elif args.summary or not (args.mcap or args.figures):
-        found.print_text()
-    warning = found.convergence_warning()
+        report.print_text()
+    warning = report.convergence_warning()
     if warning:
         print(warning, file=sys.stderr)
-
     written = []
     if args.mcap:
+        from sail_ros.analysis.log_export import write_study_log
         from sail_ros.bag import BagWriteError
 
         try:
-            written.append(_write_log(args, model, result, grid, scenario, policy, closed))
+            written.append(write_study_log(found, scenario, config.policy, request, _progress))
         except BagWriteError as error:  # named by the output, not its temporary name
             reason = error.error.strerror or error.error
             print(f"error: --mcap {args.mcap}: cannot write: {reason}; nothing written",
                   file=sys.stderr)  # fmt: skip
             return 1
     if args.figures:
-        written += _write_figures(args.figures, model, result, snapshots, scenario, description)
-        if closed is not None:
-            written.append(_closed_loop_figure(args.figures, closed, open_loop, description))
+        written += deploy_figures(args.figures, found, scenario, snapshots, description)
     if not args.json:
         print_written(written)
-    if stopped:
+    if found.stopped:
         kept = f"; {'wrote' if written else 'kept'} the run up to t = {result.t[-1]:g} s"
-        print(f"error: {stopped}{kept if result.alarm else ''}", file=sys.stderr)
+        print(f"error: {found.stopped}{kept if result.alarm else ''}", file=sys.stderr)
         return 1
     return 0
 
 
-def _closed_loop(args, model, scenario, policy, t_eval):
-    """The scenario with its controller (`analysis.closed_loop`), and without it on the
-    output times `t_eval` for the comparison."""
-    from sail_ros.analysis.closed_loop import run_closed_loop
-
-    design = scenario.controller
-    ratio = design.state_rate_hz / args.rate
-    if args.mcap and abs(ratio - round(ratio)) > 1e-9:
-        raise ValueError(
-            f"--rate {args.rate:g} Hz: the log of a closed loop takes every state sample's "
-            f"multiple; it must divide the controller's state_rate_hz = "
-            f"{design.state_rate_hz:g} Hz"
-        )
-    runs = []
-    for what in ("closed loop", "open loop"):
-        with tqdm(total=scenario.duration, unit="s sim", desc=what, disable=None, leave=False,
-                  file=sys.stderr) as bar:  # fmt: skip
-            progress = lambda t, bar=bar: bar.update(t - bar.n)  # noqa: E731
-            if what == "closed loop":
-                runs.append(run_closed_loop(
-                    model, scenario, design, policy, progress=progress, max_step=args.max_step,
-                    rtol=args.rtol or None,
-                ))  # fmt: skip
-            else:
-                runs.append(run_deployment(
-                    model, scenario, t_eval, args.max_step, progress, policy=policy,
-                    rtol=args.rtol or None,
-                ))  # fmt: skip
-    return runs
-
-
-def _closed_loop_figure(folder: Path, closed, open_loop, description) -> Path:
-    from sail_ros.plots.control import closed_loop_figure
-
-    run = closed.run
-    return closed_loop_figure(
-        (open_loop.t, open_loop.hub),
-        (run.t, run.hub),
-        (run.t, closed.commands, closed.inputs, closed.limits),
-        folder / CLOSED_LOOP_FIGURE,
-        description,
-    )
-
-
-def _write_log(args, model, result, grid, scenario, policy, closed=None) -> Path:
-    """The run at the grid's times as an MCAP log at --mcap (whole or not at all); a closed
-    loop's commands with it."""
-    from sail_ros.analysis.log_export import recorded_parameters, write_deployment_log
-
-    logged = result.subset(np.isin(result.t, grid))
-    shape_every = round(args.rate / args.shape_rate) if args.shape_rate > 0 else 0
-    parameters = recorded_parameters(
-        model,
-        logged,
-        state_rate_hz=args.rate,
-        shape_rate_hz=args.rate / shape_every if shape_every else 0.0,
-        max_step=args.max_step,
-        shape_divisions=args.shape_divisions,
-        policy=policy,
-    )
-    with (
-        staged(args.mcap, "--mcap") as building,
-        tqdm(
-            total=logged.t[-1], unit="s sim", desc="mcap", disable=None, leave=False,
-            file=sys.stderr,
-        ) as bar,
-    ):  # fmt: skip
-        write_deployment_log(
-            building,
-            model,
-            logged,
-            parameters=parameters,
-            scenario_document=scenario.document,
-            shape_every=shape_every,
-            shape_divisions=args.shape_divisions,
-            progress=lambda t: bar.update(t - bar.n),
-            commands=None if closed is None else (
-                result.t, closed.commands, closed.schedule.delay, closed.inputs
-            ),
-        )  # fmt: skip
-    return args.mcap
-
-
-def _write_figures(folder: Path, model, result, snapshots, scenario, description) -> list[Path]:
-    from sail_ros.analysis.load_changes import schedule_changes
-    from sail_ros.plots.deployment import snapshots_figure
-    from sail_ros.plots.histories import (
-        boom_lengths_figure,
-        hub_attitude_figure,
-        tip_deflections_figure,
-    )
-
-    loads = [(change.t_s, change.text) for change in schedule_changes(scenario.loads)]
-    rows = [result.index_of(t) for t in snapshots if t <= result.t[-1] + 1e-9] or [0]
-    snapshots_path, tips_path, lengths_path = (folder / name for name in FIGURES)
-    hub = []
-    if result.hub is not None:
-        holds = hold_reactions(model, scenario.profile, result.t)
-        hub.append(
-            hub_attitude_figure(result.t, result.hub, holds, folder / HUB_FIGURE, description)
-        )
-    return [
-        snapshots_figure(
-            model,
-            result.t[rows],
-            result.lengths[rows],
-            result.q[rows],
-            snapshots_path,
-            title=f"Deployment snapshots: {description}",
-        ),
-        tip_deflections_figure(result.t, result.tips, tips_path, title=description, loads=loads),
-        boom_lengths_figure(
-            result.t, result.lengths, result.rates, lengths_path, title=description
-        ),
-        *hub,
-    ]
+@contextlib.contextmanager
+def _progress(what, total):
+    """A progress bar on stderr (when it is a terminal) of the simulated time [s]."""
+    with tqdm(total=total, unit="s sim", desc=what, disable=None, leave=False,
+              file=sys.stderr) as bar:  # fmt: skip
+        yield lambda t: bar.update(t - bar.n)
 
 
 main = tool_main(build_parser, _deploy)

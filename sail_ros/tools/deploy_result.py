@@ -4,16 +4,17 @@ from the same fields (`DeploymentReport`), so the two cannot disagree."""
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from sail_ros.policy import Policy
-from sail_ros.tools.common import (
+from sail_ros.tools.common import refine_hint
+from sail_ros.tools.tables import (
     describe_parameters,
+    hub_peaks_json,
+    json_number,
     print_hub_peak_table,
     print_peak_table,
-    refine_hint,
 )
 
 
@@ -68,7 +69,7 @@ class DeploymentReport:
         """One line when the peaks did not converge ("" if they did, or none was asked)."""
         if self.convergence is None:
             return ""
-        return _convergence_warning(self.convergence, self.config.sail)
+        return self.convergence.warning(refine_hint(self.config.sail))
 
 
 def _policy_line(policy: Policy, low: float, high: float, free_hub: bool = False) -> str:
@@ -190,57 +191,9 @@ def _print_hub_peaks(hub, holds) -> None:
     )
 
 
-def _convergence_warning(convergence, params) -> str:
-    """One line when the run's peaks are not within the bar of the finest rerun's, or the
-    reruns did not settle ("" if both hold)."""
-    moved = [
-        f"{what} {boom} {100 * change:+.2f} %"
-        for what, changes in (
-            ("tip", convergence.change.tips),
-            ("moment", convergence.change.moments),
-        )
-        for boom, change in zip("abcd", changes, strict=True)
-        if abs(change) > convergence.bar
-    ]
-    parts = []
-    if moved:
-        finest = convergence.finest
-        parts.append(
-            f"peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
-            f"{finest.n_membrane_modes}) they are off by more than {100 * convergence.bar:g} % "
-            f"of the largest of their kind ({', '.join(moved)}); {refine_hint(params)}"
-        )
-    if convergence.stopped:
-        parts.append(f"the reruns did not settle: {convergence.stopped}")
-    return f"warning: {'; '.join(parts)}" if parts else ""
-
-
-def _hub_json(hub, holds) -> dict:
-    """A free hub's true peaks and its holds' peak reactions, for --json."""
-    names = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")
-    report = {f"peak_{name}": float(v) for name, v in zip(names, hub.value, strict=True)}
-    report |= {
-        f"peak_{name.rsplit('_', 1)[0]}_time_s": _number(v)
-        for name, v in zip(names, hub.time_s, strict=True)
-    }
-    report |= {
-        "peak_hold_force_N": holds.force,
-        "peak_hold_force_time_s": holds.force_time_s,
-        "peak_hold_torque_N_m": holds.torque,
-        "peak_hold_torque_time_s": holds.torque_time_s,
-        "hold_spacing_s": holds.spacing_s,
-    }
-    return report
-
-
-def _number(value) -> float | None:
-    """A float for JSON; None for NaN (the time of a peak that is 0), which JSON lacks."""
-    return float(value) if math.isfinite(value) else None
-
-
 def _json_report(result, config, description, convergence, holds=None) -> dict:
     def per_boom(values):
-        return dict(zip("abcd", (_number(v) for v in values), strict=True))
+        return dict(zip("abcd", (json_number(v) for v in values), strict=True))
 
     params, peaks = config.sail, result.peaks
     limits = dataclasses.asdict(config.policy)  # the lengths as in force (max_length 0: full)
@@ -260,17 +213,17 @@ def _json_report(result, config, description, convergence, holds=None) -> dict:
         "rtol": result.accuracy.rtol,
         "steps": result.accuracy.steps,
         "relative_error_estimate": {  # null where nothing moved (0 of a peak of 0)
-            name: _number(value) for name, value in result.accuracy.relative_error.items()
+            name: json_number(value) for name, value in result.accuracy.relative_error.items()
         },
         "error_estimate": {
-            name: _number(value) for name, value in (result.accuracy.error or {}).items()
+            name: json_number(value) for name, value in (result.accuracy.error or {}).items()
         },
         "accuracy_warning": result.accuracy.warning,
         "warning": result.warning,
         "alarm": result.alarm,
     }
     if peaks.hub is not None:
-        report["hub"] = _hub_json(peaks.hub, holds)
+        report["hub"] = hub_peaks_json(peaks.hub, holds)
     if convergence is not None:
         change = convergence.change
         report["convergence"] = {

@@ -26,7 +26,8 @@ from sail_ros.control.settings import DesignSettings
 from sail_ros.model import SailModel, yaml_values
 from sail_ros.model.profiles import StaticProfile
 from sail_ros.outputs import staged
-from sail_ros.tools.common import configuration, describe_parameters, print_written
+from sail_ros.tools.common import configuration, print_written
+from sail_ros.tools.tables import describe_parameters
 
 
 def design_of(args, base: DesignSettings | None) -> tuple[DesignSettings, list[str]]:

@@ -22,12 +22,12 @@ from sail_ros.options import ToolParser, add_lengths_option
 from sail_ros.tools.common import (
     add_sail_options,
     configuration,
-    describe_parameters,
     print_written,
     tool_main,
     write_csv_rows,
     write_text,
 )
+from sail_ros.tools.tables import describe_parameters
 
 # Meshes of the FE cross-check, coarse to fine: (boom elements, membrane
 # divisions per quadrant leg, Lagrange order). Halving the element size makes

@@ -38,10 +38,10 @@ from sail_ros.tools.common import (
     LIMITS_NOTE,
     add_sail_options,
     configuration,
-    describe_parameters,
     print_written,
     tool_main,
 )
+from sail_ros.tools.tables import describe_parameters
 
 EXAMPLES = (
     "sail-ros plant --lengths 30",

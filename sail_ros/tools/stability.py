@@ -27,11 +27,11 @@ from sail_ros.tools.common import (
     LIMITS_NOTE,
     add_sail_options,
     configuration,
-    describe_parameters,
     print_written,
     tool_main,
     write_csv_rows,
 )
+from sail_ros.tools.tables import describe_parameters
 
 DEFAULT_RATES = (-1.0, -0.3, -0.1, -0.03, -0.01, 0.0, 0.01, 0.03, 0.1, 0.3, 1.0)
 DEFAULT_PRESTRESS = (1e-2, 1e5)  # Pa
