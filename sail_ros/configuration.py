@@ -7,8 +7,8 @@ whole set). `merge` takes the layers in that order and checks each value where i
 given, so a bad one is named with its source (a file, a scenario's sail section; a
 name typed on the command line names itself). A file is read as the simulator would
 read it (`file_layer`): a sail parameters file gives the sail, the simulator's params
-file its sail (what it leaves out, the simulator's defaults) and its limits, by the names the node declares (`sail.<field>`,
-converted by `model.parameters.sail_fields`).
+file its sail (what it leaves out, the simulator's defaults) and its limits, by the
+names the node declares (`sail.<field>`, converted by `model.parameters.sail_fields`).
 """
 
 from __future__ import annotations

@@ -13,12 +13,8 @@ import numpy as np
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE
 from sail_ros.analysis.log_report import LogReport
 from sail_ros.model.layout import BOOMS
-from sail_ros.tools.common import (
-    describe_parameters,
-    print_hub_peak_table,
-    print_peak_table,
-    refine_hint,
-)
+from sail_ros.tools.common import refine_hint
+from sail_ros.tools.tables import describe_parameters, print_hub_peak_table, print_peak_table
 
 HUB_NAMES = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")  # of `Peaks.hub`, in JSON
 
