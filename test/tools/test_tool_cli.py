@@ -13,7 +13,7 @@ from types import SimpleNamespace
 
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from harness import run_tool
+from harness import SMALL_SET, run_tool
 
 from sail_ros import cli, topics
 from sail_ros import status as key
@@ -113,7 +113,7 @@ def test_unknown_tools_and_options_name_the_nearest():
 @pytest.mark.parametrize(
     "argv",
     [
-        ["deploy", "--to", "10", "--t-end", "3", "--every", "0.002"],  # 1500 lines, 125 kB
+        ["deploy", *SMALL_SET, "--to", "10", "--t-end", "3", "--every", "0.002"],  # 125 kB
         ["report", "LOG", "--out", "REPORT", "--no-convergence"],  # prints between its work
     ],
     ids=["deploy", "report"],
@@ -123,7 +123,8 @@ def test_a_broken_pipe_ends_quietly(tmp_path, ros_env, argv):
     Unix tools do on SIGPIPE (exit code 141, nothing on stderr)."""
     if argv[0] == "report":
         log = tmp_path / "run.mcap"
-        assert run_tool("deploy", ["--t-end", "2", "--rate", "10", "--mcap", str(log)])[0] == 0
+        argv_log = [*SMALL_SET, "--t-end", "2", "--rate", "10", "--mcap", str(log)]
+        assert run_tool("deploy", argv_log)[0] == 0
         argv = [str(log) if a == "LOG" else str(tmp_path / "r") if a == "REPORT" else a
                 for a in argv]  # fmt: skip
     process = subprocess.Popen(
@@ -191,7 +192,7 @@ def test_help_names_the_files_written(tmp_path, monkeypatch):
             assert name in helps[tool], (tool, name)
     assert "mode_shapes.png" in helps["modes"] and "--npz FILE and --mat FILE" in helps["plant"]
     log = tmp_path / "run.mcap"
-    argv = ["--t-end", "2", "--rate", "10", "--mcap", str(log)]
+    argv = [*SMALL_SET, "--t-end", "2", "--rate", "10", "--mcap", str(log)]
     assert deploy.main(argv) == 0
     assert report.main([str(log), "--out", str(tmp_path / "r"), "--no-convergence"]) == 0
     for path in (tmp_path / "r").iterdir():

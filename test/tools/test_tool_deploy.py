@@ -596,8 +596,8 @@ def test_a_free_hub_deployment_prints_its_attitude_peaks_and_hold_reactions(
 def test_a_clamped_sails_output_has_no_hub(tmp_path, capsys):
     import json
 
-    assert deploy.main(["--t-end", "2", "--summary", "--figures", str(tmp_path)]) == 0
+    assert deploy.main([*SMALL_SET, "--t-end", "2", "--summary", "--figures", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "hub" not in out and not (tmp_path / deploy.HUB_FIGURE).exists()
-    assert deploy.main(["--t-end", "2", "--json"]) == 0
+    assert deploy.main([*SMALL_SET, "--t-end", "2", "--json"]) == 0
     assert "hub" not in json.loads(capsys.readouterr().out)

@@ -284,7 +284,8 @@ def test_a_report_reruns_with_the_limits_the_log_recorded(tmp_path):
     given with --set."""
     log = tmp_path / "fast.mcap"
     limits = ["--set", "max_rate=2", "--set", "max_acceleration=2"]
-    argv = ["--to", "14", "--duration", "5", "--t-end", "2", "--rate", "10", "--mcap", str(log)]
+    argv = [*SMALL_SET, "--to", "14", "--duration", "5", "--t-end", "2", "--rate", "10",
+            "--mcap", str(log)]  # fmt: skip
     assert run_tool("deploy", [*argv, *limits])[0] == 0
     assert dict(BagReader(log).metadata())[topics.PARAMETERS_METADATA]["max_rate"] == "2.0"
     out = tmp_path / "report"
