@@ -90,7 +90,7 @@ def main() -> None:
     for case in converged:
         assert not run_sample(case)["error"]
     direct_default = (time.perf_counter() - started) / len(converged)
-    default_counts = f"{default.n_boom_modes}, {default.n_membrane_modes}"
+    default_counts = f"{default.n_boom_modes}, {default.membrane_modes}"
 
     walls, rows, stolen = {}, {}, {}
     for workers, batch in ((1, None), (2, None), (2, 1)):
