@@ -77,8 +77,17 @@ class Results:
 
 
 def merge(paths: list[Path], out: Path) -> None:
-    """One file of the latest run of each benchmark (`latest.json`), in the given order."""
-    runs = [json.loads(Path(path).read_text()) for path in paths]
+    """The latest run of each benchmark in `out` (`latest.json`): each run in `paths`
+    replaces the one of its benchmark in place; the runs of benchmarks not given stay,
+    and a new benchmark's run comes last."""
+    runs = json.loads(out.read_text())["runs"] if out.is_file() else []
+    for path in paths:
+        run = json.loads(Path(path).read_text())
+        same = [i for i, kept in enumerate(runs) if kept["benchmark"] == run["benchmark"]]
+        if same:
+            runs[same[0]] = run
+        else:
+            runs.append(run)
     out.write_text(json.dumps({"runs": runs}, indent=1) + "\n")
 
 

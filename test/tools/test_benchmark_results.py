@@ -33,6 +33,21 @@ def test_the_page_states_the_run_once_and_every_table(tmp_path):
     assert "| a\\|b | 0.1235 |" in page and "- model_benchmark note" in page
 
 
+def test_a_merge_replaces_the_run_of_each_benchmark_given_and_keeps_the_others(tmp_path):
+    def run(name, value):
+        results = Results(name, [f"benchmarks/{name}.py"])
+        results.table("t", ["case", "wall [s]"], [["a", value]])
+        results.write(tmp_path / f"{name}_{value}.json")
+        return tmp_path / f"{name}_{value}.json"
+
+    latest = tmp_path / "latest.json"
+    merge([run("model_benchmark", 1), run("sim_cpu", 2)], latest)
+    merge([run("sim_cpu", 3), run("bridge_latency", 4)], latest)
+    runs = json.loads(latest.read_text())["runs"]
+    assert [run["benchmark"] for run in runs] == ["model_benchmark", "sim_cpu", "bridge_latency"]
+    assert [run["tables"][0]["rows"][0][1] for run in runs] == [1, 3, 4]
+
+
 def test_the_committed_run_renders():
     page = render(ROOT / "benchmarks" / "results" / "latest.json")
     assert page.startswith("# Benchmarks")
