@@ -4,7 +4,6 @@ from the same fields (`ReportResult`), so the two cannot disagree."""
 from __future__ import annotations
 
 import dataclasses
-import math
 import sys
 from pathlib import Path
 
@@ -12,11 +11,9 @@ import numpy as np
 
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE
 from sail_ros.analysis.log_report import LogReport
-from sail_ros.model.layout import BOOMS
 from sail_ros.tools.common import refine_hint
+from sail_ros.tools.report_json import report_json
 from sail_ros.tools.tables import describe_parameters, print_hub_peak_table, print_peak_table
-
-HUB_NAMES = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")  # of `Peaks.hub`, in JSON
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,36 +42,8 @@ class ReportResult:
 
     def to_json(self, written: list[Path]) -> dict:
         """The same as one JSON object (`--json`), with the files `written`: SI units, NaN
-        as null."""
-        found, log = self.found, self.found.log
-        peaks = found.peaks
-        report = {
-            "log": str(self.path),
-            "incomplete": [str(path) for path in log.incomplete],
-            "topics": dict(sorted(log.topic_counts.items())),
-            "time_axis": found.time_label,
-            **found.ranges(),
-            "parameter_changes": {
-                "source": found.changes_source,
-                "changes": [dataclasses.asdict(change) for change in found.changes],
-            },
-            "peaks": {
-                "spacing_s": peaks.spacing_s,
-                "interpolated": dict(
-                    zip(("tip_deflection", "root_moment"), peaks.interpolated, strict=True)
-                ),  # fmt: skip
-                **_peaks_json(peaks.peaks),
-                "unresolved": _unresolved_json(found),
-            },
-            "rerun": _rerun_json(found.rerun),
-            "energies": _energies_json(found.energies),
-            "real_time_factor": _realtime_json(found.realtime),
-            "not_available": found.missing,
-            "warnings": self.warnings(),
-            "written": [str(path) for path in written],
-            "error": found.stopped,
-        }
-        return _plain(report)
+        as null (`tools.report_json`)."""
+        return report_json(self.path, self.found, self.warnings(), written)
 
     def warnings(self) -> list[str]:
         """The warnings the text says on stderr, in its order."""
@@ -228,109 +197,3 @@ def _print_ranges(ranges: dict) -> None:
 
 def _shown(value: str | None) -> str:
     return "(none)" if value is None else value
-
-
-def _per_boom(values) -> dict:
-    return dict(zip(BOOMS, values, strict=True))
-
-
-def _peaks_json(peaks) -> dict:
-    """Each boom's peaks and their times, and a free hub's (`Peaks`)."""
-    found = {
-        "peak_tip_deflection_m": _per_boom(peaks.tip_deflection.value),
-        "peak_tip_deflection_time_s": _per_boom(peaks.tip_deflection.time_s),
-        "peak_root_moment_Nm": _per_boom(peaks.root_moment.value),
-        "peak_root_moment_time_s": _per_boom(peaks.root_moment.time_s),
-    }
-    if peaks.hub is not None:
-        found["hub"] = {}
-        for name, value, time_s in zip(HUB_NAMES, peaks.hub.value, peaks.hub.time_s,
-                                       strict=True):  # fmt: skip
-            found["hub"][f"peak_{name}"] = value
-            found["hub"][f"peak_{name.rsplit('_', 1)[0]}_time_s"] = time_s
-    return found
-
-
-def _unresolved_json(found: LogReport) -> dict | None:
-    share = found.unresolved_share()
-    if share is None:
-        return None
-    return {
-        "frequency_hz": found.peaks.unresolved_frequency_hz,
-        "phase_rad": RESOLVED_PHASE,
-        "root_moment_share": _per_boom(share),
-    }
-
-
-def _rerun_json(rerun) -> dict | None:
-    if rerun is None:
-        return None
-    report = {
-        "of": rerun.what,
-        "not_possible": rerun.not_possible,
-        "stopped": rerun.stopped,
-        "n_boom_modes": rerun.params.n_boom_modes,
-        "n_membrane_modes": rerun.params.membrane_modes,
-    }
-    if rerun.peaks is None:
-        return report
-    report |= {"runs": rerun.runs, "agreement": rerun.agreement, **_peaks_json(rerun.peaks)}
-    convergence = rerun.convergence
-    if convergence is not None:
-        finest, change = convergence.finest, convergence.change
-        report["convergence"] = {
-            "n_boom_modes": finest.n_boom_modes,
-            "n_membrane_modes": finest.n_membrane_modes,
-            **_peaks_json(finest.peaks),
-            "bar": convergence.bar,
-            "tip_deflection_change": _per_boom(change.tips),
-            "tip_deflection_change_own": _per_boom(change.tips_own),
-            "root_moment_change": _per_boom(change.moments),
-            "root_moment_change_own": _per_boom(change.moments_own),
-            "converged": change.largest() <= convergence.bar,
-        }
-    return report
-
-
-def _energies_json(energies) -> dict | None:
-    if energies is None:
-        return None
-    t, total = energies.t, energies.groups.total
-    return {
-        "parameters_recorded": energies.recorded,
-        "parameters": energies.params.to_dict(),
-        "first_J": total[0],
-        "first_t_s": t[0],
-        "last_J": total[-1],
-        "last_t_s": t[-1],
-    }
-
-
-def _realtime_json(realtime) -> dict | None:
-    if realtime is None:
-        return None
-    measured = realtime.measured
-    if not measured.size:
-        return {"count": 0}
-    return {
-        "mean": measured.mean(),
-        "min": measured.min(),
-        "max": measured.max(),
-        "count": measured.size,
-    }
-
-
-def _plain(value):
-    """`value` as JSON takes it: numpy values as Python's, paths as text, NaN and
-    infinities as None."""
-    if isinstance(value, dict):
-        return {key: _plain(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_plain(item) for item in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, Path):
-        return str(value)
-    return value
