@@ -177,10 +177,7 @@ SUBPROTOCOL = "foxglove.sdk.v1"
 class Bridge(Node):
     """The `sail_bridge` node and its WebSocket server (listening once constructed).
 
-    Args:
-        parameter_overrides: initial parameter values (besides --ros-args).
-        context: the rclpy context (default: the global one).
-        namespace: the node's namespace (default: from --ros-args, else "/").
+    Its arguments are `ros.parameters.node_options`'s.
 
     Raises:
         ConfigError: a parameter has a value the bridge cannot use.

@@ -121,11 +121,8 @@ def config_from_values(values: dict):
 class ControlNode(Node):
     """The `sail_control` node (module docstring).
 
-    Args:
-        parameter_overrides: initial parameter values (besides --ros-args).
-        context: the rclpy context (default: the global one).
-        namespace: the node's namespace (default: from --ros-args, else "/").
-        clock: the steady clock [s] of the watchdog (injected for tests).
+    Its arguments are `ros.parameters.node_options`'s and `clock`, the steady clock [s]
+    of the watchdog (injected for tests).
 
     Raises:
         ConfigError: a parameter, or the gains file, the controller cannot use.

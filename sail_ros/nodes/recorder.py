@@ -189,10 +189,7 @@ def is_hidden(topic: str) -> bool:
 class Recorder(Node):
     """The `sail_recorder` node; `run` records until stopped.
 
-    Args:
-        parameter_overrides: initial parameter values (besides --ros-args).
-        context: the rclpy context (default: the global one).
-        namespace: the node's namespace (default: from --ros-args, else "/").
+    Its arguments are `ros.parameters.node_options`'s.
 
     Raises:
         ConfigError: a parameter has a value the recorder cannot use.

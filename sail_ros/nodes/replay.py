@@ -110,10 +110,7 @@ SPECS = settings_of(ReplaySettings)
 class Replay(Node):
     """The `sail_replay` node; `play` publishes the bag.
 
-    Args:
-        parameter_overrides: initial parameter values (besides --ros-args).
-        context: the rclpy context (default: the global one).
-        namespace: the node's namespace (default: from --ros-args, else "/").
+    Its arguments are `ros.parameters.node_options`'s.
 
     Raises:
         ConfigError: a parameter has a value the replay cannot use (no bag,

@@ -87,10 +87,7 @@ class SimNode(Node):
     parameters and a ticker thread from `start` on. With `realtime_priority` the ticks'
     thread alone is scheduled first-in first-out.
 
-    Args:
-        parameter_overrides: initial parameter values (besides --ros-args).
-        context: the rclpy context (default: the global one).
-        namespace: the node's namespace (default: from --ros-args, else "/").
+    Its arguments are `ros.parameters.node_options`'s.
 
     Raises:
         ConfigError: a parameter has a value the simulator cannot use.

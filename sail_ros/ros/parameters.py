@@ -76,7 +76,13 @@ def descriptor(setting: Setting) -> ParameterDescriptor:
 def node_options(parameter_overrides=(), context=None, namespace=None) -> dict:
     """The keyword arguments of rclpy's `Node` for a node of this package: its overrides,
     context and namespace, and undeclared parameters allowed so that `declare` can
-    refuse an unknown one by its name."""
+    refuse an unknown one by its name.
+
+    Args:
+        parameter_overrides: initial parameter values (besides --ros-args).
+        context: the rclpy context (default: the global one).
+        namespace: the node's namespace (default: from --ros-args, else "/").
+    """
     return {
         "context": context,
         "namespace": namespace,
