@@ -131,6 +131,30 @@ def wait_until(
             time.sleep(step)
 
 
+class Serving:
+    """An executor of `context` serving the nodes a test makes (`add`); `close` removes and
+    destroys them and shuts it down."""
+
+    def __init__(self, context, step: float = 0.01):
+        self.executor = SingleThreadedExecutor(context=context)
+        self.step = step  # [s] of spinning between two checks of `spin_until`
+        self._nodes = []
+
+    def add(self, *nodes) -> None:
+        for node in nodes:
+            self.executor.add_node(node)
+            self._nodes.append(node)
+
+    def spin_until(self, condition, timeout: float, what: str) -> None:
+        wait_until(condition, timeout, what, executor=self.executor, step=self.step)
+
+    def close(self) -> None:
+        for node in self._nodes:
+            self.executor.remove_node(node)
+            node.destroy_node()
+        self.executor.shutdown()
+
+
 @contextlib.contextmanager
 def private_context(domain_id: int | None = None):
     """A private rclpy context on `domain_id` (the test's domain by default), shut down at

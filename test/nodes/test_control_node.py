@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from harness import wait_until
+from harness import Serving
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -81,26 +80,17 @@ def ros(ros_context):
     """`start(simulator parameters, **controller parameters) -> (controller, stand-in,
     spin_until)` in a private context (`conftest.ros_context`)."""
     context = ros_context
-    executor = SingleThreadedExecutor(context=context)
-    nodes = []
-
-    def spin_until(condition, timeout, what):
-        wait_until(condition, timeout, what, executor=executor, step=0.002)
+    serving = Serving(context, step=0.002)
 
     def start(simulator=SIMULATOR, namespace=None, **parameters):
         overrides = [Parameter(n, value=v) for n, v in {**SAIL, **parameters}.items()]
         controller = ControlNode(overrides, context=context, namespace=namespace)
         stand_in = StandIn(context, simulator, namespace)
-        for node in (controller, stand_in):
-            executor.add_node(node)
-            nodes.append(node)
-        return controller, stand_in, spin_until
+        serving.add(controller, stand_in)
+        return controller, stand_in, serving.spin_until
 
     yield start
-    for node in nodes:
-        executor.remove_node(node)
-        node.destroy_node()
-    executor.shutdown()
+    serving.close()
 
 
 def commanding(controller, stand_in, spin_until):

@@ -11,11 +11,10 @@ import time
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from harness import SMALL_SIM, private_context, wait_until
+from harness import SMALL_SIM, Serving, private_context
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, SetParameters
 from rclpy.event_handler import PublisherEventCallbacks
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -46,11 +45,7 @@ def ros(monkeypatch, tmp_path):
     monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path))
     stack = contextlib.ExitStack()
     context = stack.enter_context(private_context())
-    executor = SingleThreadedExecutor(context=context)
-    nodes = []
-
-    def spin_until(condition, timeout, what):
-        wait_until(condition, timeout, what, executor=executor)
+    serving = Serving(context)
 
     def start(**parameters):
         parameters = {**SMALL_SIM, **parameters}
@@ -58,17 +53,12 @@ def ros(monkeypatch, tmp_path):
         sim = SimNode(overrides, context=context)
         sim.start()
         client = Client(context)
-        for node in (sim, client):
-            executor.add_node(node)
-            nodes.append(node)
-        spin_until(lambda: client.diagnostics, 5.0, "the first diagnostics")
-        return sim, client, spin_until
+        serving.add(sim, client)
+        serving.spin_until(lambda: client.diagnostics, 5.0, "the first diagnostics")
+        return sim, client, serving.spin_until
 
     yield start
-    for node in nodes:
-        executor.remove_node(node)
-        node.destroy_node()
-    executor.shutdown()
+    serving.close()
     stack.close()
 
 
