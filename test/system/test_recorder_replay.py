@@ -707,23 +707,10 @@ def test_full_disk_is_a_clear_error_and_keeps_what_was_written(ros_env, listener
         "os.execv(sys.executable, [sys.executable, '-m', 'sail_ros.cli', *sys.argv[1:]])"
     )
     recorder = start(
-        [
-            "-c",
-            launcher,
-            "recorder",
-            "-o",
-            str(folder),
-            "--topics",
-            *STREAMS,
-            "--compression",
-            "none",
-            "--max-chunk-duration-s",
-            "0.1",
-            "--parameter-node",
-            "",
-        ],
+        ["-c", launcher, "recorder", "-o", str(folder), "--topics", *STREAMS, "--compression",
+         "none", "--max-chunk-duration-s", "0.1", "--parameter-node", ""],
         ros_env,
-    )
+    )  # fmt: skip
     code, err = run_until_recorder_exits(recorder, ros_env, listener, count=2000, rate=200.0)
     assert code == 1, err
     assert f"cannot write '{folder / 'full_0.mcap'}': File too large" in err
@@ -903,18 +890,10 @@ recorder.Recorder.create_timer = create_timer
 def test_error_in_a_callback_still_finishes_the_bag(ros_env, listener, tmp_path):
     folder = tmp_path / "broken"
     recorder = start(
-        [
-            "-c",
-            RECORDER_WITH.format(patch=FAIL_ON_MESSAGE_51),
-            "-o",
-            str(folder),
-            "--topics",
-            *STREAMS,
-            "--parameter-node",
-            "",
-        ],
+        ["-c", RECORDER_WITH.format(patch=FAIL_ON_MESSAGE_51), "-o", str(folder), "--topics",
+         *STREAMS, "--parameter-node", ""],
         ros_env,
-    )
+    )  # fmt: skip
     code, err = run_until_recorder_exits(recorder, ros_env, listener, count=300, rate=100.0)
     assert code == 1, err
     assert "recording stopped by an unexpected error" in err
