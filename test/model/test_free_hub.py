@@ -436,16 +436,9 @@ def test_check_16_booms_on_a_massless_hub_are_clamped_guided_and_pinned(n_boom_m
     """Booms alone on a massless hub: each cantilever index splits into clamped-free (x1),
     guided-free (hub heaves: tan b + tanh b = 0, x1) and pinned-free (hub tilts:
     tan b = tanh b, x2), in units sqrt(EI / rho_B) / L^2, approached from above."""
-    params = free(
-        n_boom_modes=n_boom_modes,
-        n_membrane_modes=1,
-        membrane_density=0.0,
-        membrane_prestress=0.0,
-        hub_mass=0.0,
-        hub_inertia_x=0.0,
-        hub_inertia_y=0.0,
-        stowed_mass_on_hub=False,
-    )
+    params = free(n_boom_modes=n_boom_modes, n_membrane_modes=1, membrane_density=0.0,
+                  membrane_prestress=0.0, hub_mass=0.0, hub_inertia_x=0.0, hub_inertia_y=0.0,
+                  stowed_mass_on_hub=False)  # fmt: skip
     model = SailModel(params)
     L = 10.0
     M, K = model.mass_and_stiffness(L)
@@ -479,16 +472,8 @@ def test_check_17_momenta_are_conserved_during_deployment(stowed):
     from the fields stay constant to 1e-9 of the hub's momenta, along the stepper's run and
     along a DOP853 integration of Eq. 2 (its Md, Gd, S_h) over 2.75-4.75 s (the largest
     accelerations); the stepper follows DOP853 within 2e-3 of each output's peak."""
-    model = SailModel(
-        free(
-            n_boom_modes=2,
-            n_membrane_modes=3,
-            hub_mass=20.0,
-            hub_inertia_x=10.0,
-            hub_inertia_y=10.0,
-            stowed_mass_on_hub=stowed,
-        )
-    )
+    model = SailModel(free(n_boom_modes=2, n_membrane_modes=3, hub_mass=20.0, hub_inertia_x=10.0,
+                           hub_inertia_y=10.0, stowed_mass_on_hub=stowed))  # fmt: skip
     fields = Fields(model, order=32)
     profile = CycloidalProfile(10.0, 15.0, 15.0)
     q0 = model.initial_coordinates([0.1, -0.05, 0.0, 0.0])

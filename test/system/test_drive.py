@@ -337,18 +337,10 @@ def test_two_sails_in_two_namespaces_run_side_by_side(processes, ros_env, tmp_pa
 
 
 def test_two_demos_at_once_each_log_only_their_own_run(ros_env, tmp_path):
+    demo = [sys.executable, "-m", "sail_ros.cli", "demo", "--time-scale", "5", "-o"]
     demos = [
         subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "sail_ros.cli",
-                "demo",
-                "-o",
-                str(tmp_path / name),
-                "--time-scale",
-                "5",
-            ],  # fmt: skip
+            [*demo, str(tmp_path / name)],
             env=ros_env,
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,

@@ -31,6 +31,8 @@ from sail_ros.tools.cluster import dask_client
 
 pytestmark = pytest.mark.multiprocess
 
+# one single-threaded worker process per `dask worker`, no dashboard
+WORKER_OPTIONS = ("--nthreads", "1", "--nworkers", "1", "--no-dashboard")
 STABILITY_PARAMS = SailParameters()
 
 STUDY = {
@@ -96,16 +98,7 @@ def external_cluster(ros_env):
     for _ in range(2):
         processes.append(
             subprocess.Popen(
-                [
-                    *dask,
-                    "worker",
-                    address,
-                    "--nthreads",
-                    "1",
-                    "--nworkers",
-                    "1",
-                    "--no-dashboard",
-                ],  # fmt: skip
+                [*dask, "worker", address, *WORKER_OPTIONS],
                 env=env,
                 stdout=subprocess.DEVNULL,
                 stderr=subprocess.DEVNULL,
