@@ -16,5 +16,7 @@ elif [ "$(cat "$js/node_modules/.installed" 2>/dev/null)" != "$lock" ]; then
 fi
 source "$root/scripts/env.sh"
 cd "$root"
-# two tests at a time (test/conftest.py: which tests share a worker, `timing` tests alone)
-exec python -m pytest -n 2 --dist loadgroup "$@"
+# three tests at a time on 2 cores: much of a multi-process test is waiting (DDS discovery,
+# real-time runs, timers), which a third worker fills (test/conftest.py: which tests share
+# a worker, `timing` tests alone)
+exec python -m pytest -n 3 --dist loadgroup "$@"

@@ -14,7 +14,7 @@ The tests live by tier, one folder each, every module marked with its tier:
 
 `pytest -m model` runs the first four in about a minute. A test marked `slow` is the full
 size of a trial the suite runs CI-sized: it runs only with `--slow` (scripts/stress.sh).
-The test command runs two tests at a time (pytest-xdist, `-n 2`, a module on one worker
+The test command runs three tests at a time (pytest-xdist, `-n 3`, a module on one worker
 when its tests share a module fixture, any other test wherever a worker is free); a
 test marked `timing` asserts wall-clock behaviour (real-time factor, overruns), so it
 runs while no other test does: it holds a lock exclusively that every other test holds
