@@ -108,16 +108,23 @@ def test_recorder_records_in_process(ros_context, peer, tmp_path):
     assert [list(m.position) for m in recorded] == [list(m.position) for m in sent]
 
 
+def deploy_topic(namespace: str) -> str:
+    return f"/{namespace}{topics.absolute(topics.DEPLOY_CMD)}"
+
+
 @contextlib.contextmanager
-def recording_commands(context, tmp_path, topic):
-    """A recorder of command topic `topic` into tmp_path/bag, running in a thread while
-    the block runs; stopped after it, which it must end with exit code 0."""
+def recording_commands(context, tmp_path, namespace):
+    """A recorder in `namespace` of its deploy command topic (`deploy_topic`) into
+    tmp_path/bag, running in a thread while the block runs; stopped after it, which it
+    must end with exit code 0. Each test takes a namespace of its own: the graph may show
+    an earlier test's participants on this domain for a while after they are gone (a
+    simulator's subscriptions, a client's publishers of the command topics)."""
     overrides = [
         Parameter("output", value=str(tmp_path / "bag")),
-        Parameter("topics", value=[topic]),
+        Parameter("topics", value=[deploy_topic(namespace)]),
         Parameter("parameter_node", value=""),
     ]
-    recorder = Recorder(overrides, context=context)
+    recorder = Recorder(overrides, context=context, namespace=namespace)
     stop, result = Stop(), []
     runner = threading.Thread(target=lambda: result.append(recorder.run(stop)))
     runner.start()
@@ -136,8 +143,8 @@ def test_commands_of_short_lived_publishers_are_recorded_once(ros_context, peer,
     that is gone as soon as its readers have them (`sail-ros send`) and of a volatile
     one are all in the bag, each once, though the first came on both subscriptions."""
     node, executor = peer
-    topic = topics.absolute(topics.DEPLOY_CMD)
-    with recording_commands(ros_context, tmp_path, topic):
+    topic = deploy_topic("short_lived")
+    with recording_commands(ros_context, tmp_path, "short_lived"):
         # subscribed before any publisher exists
         wait_until(
             lambda: node.count_subscribers(topic) == 2, 10.0, "subscriptions", executor=executor
@@ -169,8 +176,8 @@ def test_a_command_whose_publisher_the_graph_never_showed_gets_a_full_channel(
     then gone: the channel has the type's hash and the QoS `sail-ros send` offers, so
     readers and a replay handle it as any other."""
     node, executor = peer
-    topic = topics.absolute(topics.DEPLOY_CMD)
-    with recording_commands(ros_context, tmp_path, topic) as recorder:
+    topic = deploy_topic("unseen_publisher")
+    with recording_commands(ros_context, tmp_path, "unseen_publisher") as recorder:
         recorder.get_publishers_info_by_topic = lambda name: []  # the graph lags behind
         latched = node.create_publisher(Float64, topic, topics.LATCHED_COMMAND_QOS)
         wait_until(
@@ -194,8 +201,8 @@ def test_a_publisher_of_another_type_on_a_command_topic_is_named_not_recorded(
     """The recorder's subscriptions are of the simulator's command type: a publisher of
     another type on the same name is named once in its log, and nothing is recorded."""
     node, executor = peer
-    topic = topics.absolute(topics.DEPLOY_CMD)
-    with recording_commands(ros_context, tmp_path, topic) as recorder:
+    topic = deploy_topic("foreign_type")
+    with recording_commands(ros_context, tmp_path, "foreign_type") as recorder:
         foreign = node.create_publisher(String, topic, topics.COMMAND_QOS)
         wait_until(
             lambda: recorder.count_publishers(topic) == 1, 10.0, "its view", executor=executor
