@@ -9,6 +9,7 @@ import dataclasses
 
 import numpy as np
 
+from sail_ros.analysis.json_values import json_number
 from sail_ros.analysis.modes import (
     clamped_counterparts,
     group_multiplicities,
@@ -175,7 +176,7 @@ def frequency_rows(
                     "period_s": 2 * np.pi / value if value > 0 else None,
                     "group": group,
                     "multiplicity": multiplicity,
-                    **({"damping_ratio": _number(zeta[index])} if zeta is not None else {}),
+                    **({"damping_ratio": json_number(zeta[index])} if zeta is not None else {}),
                 }
             )
             if counterparts is not None:
@@ -220,10 +221,6 @@ def moved_note(omega, count: int, counterparts, clamped) -> str:
         "  clamped modes the free hub moved beyond the listed ones (the hub moves with "
         f"them): {'; '.join(moved)}"
     )
-
-
-def _number(value) -> float | None:
-    return None if np.isnan(value) else float(value)
 
 
 def cross_check_table(check) -> str:

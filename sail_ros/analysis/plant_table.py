@@ -5,14 +5,9 @@ same rows, so they agree."""
 from __future__ import annotations
 
 import dataclasses
-import math
 
+from sail_ros.analysis.json_values import json_number
 from sail_ros.analysis.plant import LinearPlant, Pole, hub_note, poles, undamped_note
-
-
-def _number(value: float) -> float | None:
-    """A float for JSON; None for NaN, which JSON lacks."""
-    return None if math.isnan(value) else float(value)
 
 
 def pole_row(index: int, pole: Pole) -> dict:
@@ -100,7 +95,7 @@ class PlantTable:
             "parameters": self.params.to_dict(),
             "poles": [
                 {
-                    key: _number(value) if isinstance(value, float) else value
+                    key: json_number(value) if isinstance(value, float) else value
                     for key, value in row.items()
                 }
                 for row in self.rows()

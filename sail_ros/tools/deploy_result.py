@@ -7,12 +7,12 @@ import dataclasses
 
 import numpy as np
 
+from sail_ros.analysis.json_values import json_number
 from sail_ros.policy import Policy
 from sail_ros.tools.common import refine_hint
 from sail_ros.tools.tables import (
     describe_parameters,
     hub_peaks_json,
-    json_number,
     print_hub_peak_table,
     print_peak_table,
 )

@@ -4,11 +4,9 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 
-import numpy as np
-
+from sail_ros.analysis.json_values import plain
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE
 from sail_ros.analysis.log_report import LogReport
 from sail_ros.model.layout import BOOMS
@@ -47,7 +45,7 @@ def report_json(path: Path, found: LogReport, warnings: list[str], written: list
         "written": [str(file) for file in written],
         "error": found.stopped,
     }
-    return _plain(report)
+    return plain(report)
 
 
 def _per_boom(values) -> dict:
@@ -138,19 +136,3 @@ def _realtime_json(realtime) -> dict | None:
         "max": measured.max(),
         "count": measured.size,
     }
-
-
-def _plain(value):
-    """`value` as JSON takes it: numpy values as Python's, paths as text, NaN and
-    infinities as None."""
-    if isinstance(value, dict):
-        return {key: _plain(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_plain(item) for item in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, Path):
-        return str(value)
-    return value

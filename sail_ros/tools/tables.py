@@ -4,10 +4,9 @@ text and in JSON)."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from sail_ros.analysis.json_values import json_number
 from sail_ros.model import SailParameters
 from sail_ros.model.parameters import DEFAULT_RESOLVED_LENGTH
 
@@ -117,8 +116,3 @@ def hub_peaks_json(hub, holds) -> dict:
         "hold_spacing_s": holds.spacing_s,
     }
     return report
-
-
-def json_number(value) -> float | None:
-    """A float for JSON; None for NaN (the time of a peak that is 0), which JSON lacks."""
-    return float(value) if math.isfinite(value) else None
