@@ -64,7 +64,8 @@ class FrozenModes:
     (n, k) with `V^T M V = I`, modal damping `d` [1/s], `M`, `MV = M V` and the damped
     frequencies `omega_d` [rad/s] (`_damped`); all n of them (`updates` 0), or the k
     highest carried on from a neighbouring length (`updated`, `updates` since the last
-    full set)."""
+    full set). `below` [rad/s]: the highest mode a carried-on set leaves out, as the set
+    it came from saw it (0 for all modes)."""
 
     omega: np.ndarray
     V: np.ndarray
@@ -73,13 +74,14 @@ class FrozenModes:
     MV: np.ndarray
     omega_d: np.ndarray
     updates: int = 0
+    below: float = 0.0
 
     @classmethod
     def of(cls, M: np.ndarray, K: np.ndarray, damping: tuple[float, float]) -> FrozenModes:
         """All modes, from the mass and elastic stiffness at the lengths and the Rayleigh
         coefficients `(alpha, beta)`: `V^T C_d V = diag(alpha + beta omega^2)`."""
         lam, V = _eigh(K, M)
-        return cls._made(lam, V, M, damping, 0)
+        return cls._made(lam, V, M, damping, 0, 0.0)
 
     def updated(self, count: int, M, K, damping, factor) -> FrozenModes:
         """The `count` highest modes at new lengths (`M`, `K`) from these: one step of
@@ -91,14 +93,15 @@ class FrozenModes:
         c, lower = factor
         Y, _ = _potrs(c, K @ self.V[:, -count:], lower=lower)
         lam, Z = _eigh(Y.T @ K @ Y, Y.T @ M @ Y)
-        return self._made(lam, Y @ Z, M, damping, self.updates + 1)
+        below = float(self.omega[-count - 1]) if self.omega.size > count else self.below
+        return self._made(lam, Y @ Z, M, damping, self.updates + 1, below)
 
     @classmethod
-    def _made(cls, lam, V, M, damping, updates) -> FrozenModes:
+    def _made(cls, lam, V, M, damping, updates, below) -> FrozenModes:
         lam = np.maximum(lam, 0.0)
         alpha, beta = damping
         omega, d = np.sqrt(lam), alpha + beta * lam
-        return cls(omega, V, d, M, M @ V, _damped(omega, d), updates)
+        return cls(omega, V, d, M, M @ V, _damped(omega, d), updates, below)
 
 
 def _eigh(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -211,8 +211,8 @@ def test_samples_close_enough_for_the_followed_modes_they_weigh(profile, boom):
 
 
 def test_a_batch_of_steps_gives_each_step_its_own_curve():
-    """`rational.Curves` stacks steps that follow different numbers of modes (12, 9 and 8
-    here, retracting from 15 m), padded with null modes: each step's samples and followed
+    """`rational.Curves` stacks steps that follow different numbers of modes (12, 8, 5 and
+    4 here, retracting from 15 m to 6 m), padded with null modes: each step's samples and followed
     modes are those of its own `Extension`, to round-off, in any order; damped, and
     undamped on a grid of equal intervals (their turns as running products)."""
     check_batch_of_steps(SMALL.replace(mass_damping=0.02, stiffness_damping=2e-4))
@@ -230,7 +230,7 @@ def check_batch_of_steps(params, grid=False):
         def after_step(self, stepper):
             steps.append(stepper.last_curve())
 
-    model.simulate(CycloidalProfile(15.0, 10.0, 6.0), 3.0, model.mode_state("a", 0.1),
+    model.simulate(CycloidalProfile(15.0, 6.0, 6.0), 3.0, model.mode_state("a", 0.1),
                    observer=Steps())  # fmt: skip
     counts = [step.count for step in steps]
     assert len(set(counts)) >= 3 and min(counts) > 0

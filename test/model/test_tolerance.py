@@ -10,6 +10,7 @@ from harness import SMALL
 
 from sail_ros.integrate.control import DEFAULT_RTOL, WHOLE_STEP_PHASE
 from sail_ros.integrate.sampling import GridSampler
+from sail_ros.integrate.stepper import SailStepper
 from sail_ros.model import BoomMotion, CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.assembly import DAMPING, MASS, STIFFNESS_EQ
 from sail_ros.model.loads import LoadSchedule, input_function
@@ -288,6 +289,43 @@ def test_a_plain_callables_inputs_keep_the_bar_between_output_times(case):
     assert tips < BAR and moments < BAR, (tips, moments)
     estimate = run.relative_error_estimate
     assert estimate["tips"] >= tips and estimate["root_moments"] >= moments, estimate
+
+
+@pytest.mark.filterwarnings("ignore::sail_ros.integrate.errors.AccuracyWarning")
+def test_a_callables_jump_costs_no_more_steps_than_a_schedules_switch():
+    """The same loads as a plain callable and as a `LoadSchedule`: the callable's jump is
+    found only when a step reaches it, after a step sized without it, and the step cut
+    short to end there is a sliver. The steps after it take up where the controller was
+    (a sliver's error says little of a full step's), from all the modes a full step
+    follows (a sliver follows few: the modes it carries on are not all those a longer
+    step needs), so the run attempts the schedule's steps and the sliver, give or take two."""
+    model = SailModel(SailParameters(n_boom_modes=6, n_membrane_modes=6))
+    profile = CycloidalProfile(10.0, 15.0, 15.0)
+    q0 = model.mode_state("a", 0.1)
+    pressures, force = np.array([2e-3, 0.0, 2e-3, 0.0]), np.array([0.0, 0.05, 0.0, 0.0])
+
+    def loads(t):
+        return pressures, force if 5.0 <= t < 10.0 else np.zeros(4)
+
+    schedule = LoadSchedule([(0.0, pressures, 0.0), (5.0, None, force), (10.0, None, 0.0)])
+    t_out = np.linspace(0.0, 15.0, 301)
+    steps = {}
+    for name, given in (("callable", loads), ("schedule", schedule)):
+        run = model.simulate(profile, 15.0, q0=q0, t_eval=t_out, loads=given)
+        steps[name] = run.steps + run.rejected  # attempted
+    assert steps["callable"] <= steps["schedule"] + 3, steps
+
+
+def test_a_step_cut_short_to_reach_a_time_leaves_the_proposal():
+    """A step cut to a sliver to end at a time asked (`advance`) meets the tolerance with
+    room to spare; the next step is still the one the controller proposed before it, not
+    a growth of the sliver."""
+    model = SailModel(SMALL)
+    stepper = SailStepper(model, CycloidalProfile(10.0, 15.0, 15.0), model.mode_state("a", 0.1))
+    stepper.advance(3.0)
+    proposal = stepper.proposal
+    stepper.advance(stepper.t + 1e-3 * proposal)
+    assert stepper.proposal >= proposal
 
 
 def smooth_reference(model, profile, loads, q0, t_out):
