@@ -108,6 +108,8 @@ def _nbytes(value, depth: int = 3) -> int:
     if depth == 0:
         return 0
     if isinstance(value, tuple | list):
+        if all(type(item) is np.ndarray for item in value):  # a motion, a set of matrices
+            return sum(item.nbytes for item in value)
         return sum(_nbytes(item, depth - 1) for item in value)
     if hasattr(value, "__dict__"):
         return sum(_nbytes(item, depth - 1) for item in vars(value).values())
