@@ -218,7 +218,9 @@ class WaypointProfile:
         return float(self.times[-1])
 
     def __call__(self, t):
-        if t <= self.times[0]:
+        # from the first waypoint on (a switch's resolution before it: a piece entered
+        # there), the spline's own acceleration
+        if t < self.times[0] - SWITCH_RESOLUTION:
             return self.lengths[0], self._start_rates, self._zero
         if t >= self.times[-1]:
             return self.lengths[-1], self._end_rates, self._zero
@@ -285,11 +287,13 @@ class SampledProfile:
         return float(self.times[-1])
 
     def __call__(self, t):
-        if t <= self.times[0]:
+        # from the first sample on (a switch's resolution before it: a piece entered
+        # there), the Hermite's own rate
+        if t < self.times[0] - SWITCH_RESOLUTION:
             return self.lengths[0], self._zero, self._zero
         if t >= self.times[-1]:
             return self.lengths[-1], self._zero, self._zero
-        i = int(np.searchsorted(self.times, t, side="right")) - 1
+        i = max(int(np.searchsorted(self.times, t, side="right")) - 1, 0)
         h = self.times[i + 1] - self.times[i]
         s = (t - self.times[i]) / h
         y0, y1 = self.lengths[i], self.lengths[i + 1]

@@ -14,6 +14,7 @@ from sail_ros.model import (
     StaticProfile,
     WaypointProfile,
 )
+from sail_ros.model.profiles import SampledProfile
 from sail_ros.policy import Policy
 
 pytestmark = pytest.mark.model
@@ -145,6 +146,29 @@ def test_waypoint_profile_passes_waypoints_with_continuous_rate():
     assert np.all(low <= lengths.min(axis=0) + 1e-12) and np.all(
         high >= lengths.max(axis=0) - 1e-12
     )
+
+
+@pytest.mark.parametrize("kind", ["waypoints", "samples"])
+def test_a_profile_from_its_first_time_on_is_its_own_motion(kind):
+    """At its first time, and a switch's resolution (1 ns) before it, where a stepper
+    enters it as a new piece, a profile gives its own motion (the right-hand limit, the
+    spline's or the Hermite's acceleration), not the hold before it: a command's motion
+    replayed from its time logged to the nanosecond, on either side of the simulator's
+    step end, starts with the acceleration the simulator used."""
+    times = [2.0, 3.0, 5.0]
+    lengths = np.array([[10.0] * 4, [10.6, 10.4, 10.7, 10.3], [11.5] * 4])
+    if kind == "waypoints":
+        profile = WaypointProfile(times, lengths, start_rates=0.5)
+    else:
+        profile = SampledProfile(times, lengths, np.full((3, 4), 0.5))
+    just_after = profile(2.0 + 1e-6)
+    for t in (2.0, 2.0 - 4e-10):
+        lengths_t, rates, accelerations = profile(t)
+        np.testing.assert_allclose(lengths_t, lengths[0], atol=1e-9)
+        np.testing.assert_allclose(rates, 0.5, atol=1e-8)
+        np.testing.assert_allclose(accelerations, just_after[2], rtol=1e-4)
+        assert np.abs(accelerations).min() > 0.1
+    assert not profile(2.0 - 2e-9)[2].any()  # before it: the hold
 
 
 @pytest.mark.parametrize(
