@@ -700,7 +700,10 @@ def recorded(folder: Path, topic=None) -> bool:
 
 def test_full_disk_is_a_clear_error_and_keeps_what_was_written(ros_env, listener, tmp_path):
     folder = tmp_path / "full"
-    limit = 64 * 1024  # bytes: RLIMIT_FSIZE makes writes past it fail as on a full disk
+    # bytes: RLIMIT_FSIZE makes writes past it fail as on a full disk. A chunk of 0.1 s
+    # holds about 37 kB here, more when the recorder was held up and a backlog arrives
+    # at once: room for several, so that the first one fits however the machine is loaded
+    limit = 256 * 1024
     launcher = (
         "import os, resource, signal, sys; signal.signal(signal.SIGXFSZ, signal.SIG_IGN); "
         f"resource.setrlimit(resource.RLIMIT_FSIZE, ({limit}, {limit})); "
