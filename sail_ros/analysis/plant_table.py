@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from sail_ros.analysis.json_values import json_number
+from sail_ros.analysis.json_values import plain
 from sail_ros.analysis.plant import LinearPlant, Pole, hub_note, poles, undamped_note
 
 
@@ -93,13 +93,7 @@ class PlantTable:
             "inputs": len(plant.input_names),
             "outputs": len(plant.output_names),
             "parameters": self.params.to_dict(),
-            "poles": [
-                {
-                    key: json_number(value) if isinstance(value, float) else value
-                    for key, value in row.items()
-                }
-                for row in self.rows()
-            ],  # fmt: skip
+            "poles": [plain(row) for row in self.rows()],
             "unstable_poles": self.unstable,
             "hub_note": hub_note(plant) if plant.free_hub else None,
             "undamped_note": undamped_note(plant) or None,
