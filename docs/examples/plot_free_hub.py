@@ -17,9 +17,19 @@ from sail_ros.tools import deploy
 
 FIGURES = Path(tempfile.mkdtemp())
 SMALL = ["--set", "n_boom_modes=4", "--set", "n_membrane_modes=6"]
-ROOT = Path.cwd()
-while not (ROOT / "config" / "scenario_free_hub.yaml").is_file():
-    ROOT = ROOT.parent  # sphinx-gallery runs an example in its own folder
+# sphinx-gallery runs an example in its own folder: the tree is the nearest one up
+ROOT = next(
+    (
+        p
+        for p in (Path.cwd(), *Path.cwd().parents)
+        if (p / "config" / "scenario_free_hub.yaml").is_file()
+    ),
+    None,
+)
+if ROOT is None:
+    raise SystemExit(
+        "run this example inside the sail_ros tree: it reads config/scenario_free_hub.yaml"
+    )
 
 # %%
 # The open loop: the hub's heave, tilt and the reactions of its holds.

@@ -23,9 +23,19 @@ from sail_ros.plots.montecarlo import envelopes_figure, influence_figure, peaks_
 from sail_ros.policy import Policy
 
 FIGURES = Path(tempfile.mkdtemp())
-ROOT = Path.cwd()
-while not (ROOT / "config" / "study_reference.yaml").is_file():
-    ROOT = ROOT.parent  # sphinx-gallery runs an example in its own folder
+# sphinx-gallery runs an example in its own folder: the tree is the nearest one up
+ROOT = next(
+    (
+        p
+        for p in (Path.cwd(), *Path.cwd().parents)
+        if (p / "config" / "study_reference.yaml").is_file()
+    ),
+    None,
+)
+if ROOT is None:
+    raise SystemExit(
+        "run this example inside the sail_ros tree: it reads config/study_reference.yaml"
+    )
 
 study = dataclasses.replace(load_study(ROOT / "config" / "study_reference.yaml"), samples=24)
 sail = SailParameters(n_boom_modes=4, n_membrane_modes=6)
