@@ -81,9 +81,10 @@ def rerun_log(log: LogSeries, model: SailModel, carried_from: SailModel | None =
                 s for s in (loads.switch_times if loads else []) if 0 < s < times[-1] - start
             ]
             t_eval = np.union1d(times - start, switches)
-            t_run, q, _ = model.simulate(
-                profile, t_eval[-1], q0, qd0, t_eval=t_eval, loads=loads, observer=peaks
-            )
+            t_run, q, _ = model.simulate(  # the tips alone: no velocities inside steps
+                profile, t_eval[-1], q0, qd0, t_eval=t_eval, loads=loads, observer=peaks,
+                rates=None,
+            )  # fmt: skip
             on_samples = np.isin(t_run, times - start)
             tips[part] = model.tip_deflections(q[on_samples])
         else:

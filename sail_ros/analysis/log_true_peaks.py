@@ -160,7 +160,12 @@ def _scenario_rerun(log: LogSeries, model: SailModel, policy: Policy):
             closed = run_closed_loop(model, scenario, scenario.controller, policy, max_step=step)
             run = closed.run.subset(np.isin(np.round(closed.run.t, 6), np.round(t, 6)))
         else:
-            run = run_deployment(model, scenario, t, step, initial=initial, policy=policy)
+            # the tips alone: the log's own model gives them as the log did, to the bit (no
+            # velocities inside steps), a finer one from the peaks' pass over each step
+            run = run_deployment(
+                model, scenario, t, step, initial=initial, policy=policy, rates=None,
+                states=carried_from is None,
+            )  # fmt: skip
         if run.alarm:
             raise OutOfRangeError(run.alarm)
         if run.accuracy.warning:  # said once by the report

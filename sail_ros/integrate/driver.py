@@ -151,7 +151,8 @@ def _outputs(stepper, t_eval, done, q, qd, rates, states, at_outputs) -> int:
 
 
 def simulate(system: LinearSystem, profile, t_end: float, q0=None, qd0=None, t_eval=None,
-             progress=None, inputs=None, observer=None, **options) -> Run:  # fmt: skip
+             progress=None, inputs=None, observer=None, rates="exact",
+             **options) -> Run:  # fmt: skip
     """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`.
 
     Args:
@@ -166,6 +167,9 @@ def simulate(system: LinearSystem, profile, t_end: float, q0=None, qd0=None, t_e
         inputs: callable `t -> u` or None (with `switch_times` [s], steps end there).
         observer: optional object that sees every step: `start(stepper)`,
             `after_step(stepper)` (e.g. `peaks.OutputPeaks`), and `finish()` if it has one.
+        rates: the velocities at output times inside steps (`SailStepper.states_at`):
+            "exact", "extension" (off by about 0.3 % of peak) or None (`qd` nan there),
+            for a caller that reads the coordinates alone; `q` the same to the bit.
         options: `SailStepper` options, `rtol`, `atol` (the tolerance), `max_step` [s],
             `resolved_frequency` [rad/s].
 
@@ -181,7 +185,7 @@ def simulate(system: LinearSystem, profile, t_end: float, q0=None, qd0=None, t_e
         t_eval = np.linspace(0.0, t_end, count + 1)
     observers = () if observer is None else (_Observer(observer),)
     # fixed steps end at the output times
-    return run(stepper, t_eval, t_end, observers, progress=progress,
+    return run(stepper, t_eval, t_end, observers, rates, progress=progress,
                stop_at_outputs=stepper.rtol is None,
                keep_on_error=False)  # fmt: skip
 

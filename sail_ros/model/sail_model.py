@@ -331,8 +331,8 @@ class SailModel(Readout):
     def simulate(self, profile, t_end: float, q0=None, qd0=None, t_eval=None, loads=None,
                  **options):  # fmt: skip
         """Integrate from t = 0 to `t_end` [s] under the boom motion `profile`; returns
-        `(t, q, qd)` at `t_eval` (`integrate.driver.simulate`: `progress`, `observer`, the
-        stepper's options). `loads`: None, a constant pair `(pressures, tip_forces)` or
+        `(t, q, qd)` at `t_eval` (`integrate.driver.simulate`: `progress`, `observer`,
+        `rates`, the stepper's options). `loads`: None, a constant pair `(pressures, tip_forces)` or
         triple with a free hub's `hub_wrench` `(F_z [N], tau_x [N m], tau_y [N m])`, or a
         callable `t ->` either, or a `loads.LoadSchedule`."""
         inputs = input_function(loads, self.free_hub)

@@ -59,3 +59,18 @@ def test_without_rates_the_positions_are_the_same_and_the_step_end_is_the_state(
     q, qd = stepper.states_at(times, rates=None)
     assert np.array_equal(q, q_exact)
     assert np.isnan(qd[:3]).all() and np.array_equal(qd[3], stepper.qd)
+
+
+def test_simulate_without_rates_gives_the_same_coordinates():
+    """`SailModel.simulate(..., rates=None)` (a log's rerun reads the tips alone): the
+    coordinates at every output time the same to the bit, velocities only at the steps'
+    ends."""
+    model = SailModel(SailParameters(n_boom_modes=3, n_membrane_modes=3))
+    q0 = model.mode_state(boom="a", tip_deflection=0.05)
+    profile, t_eval = CycloidalProfile(10.0, 15.0, 6.0), np.linspace(0.0, 6.0, 25)
+    t, q, qd = model.simulate(profile, 6.0, q0, t_eval=t_eval)
+    t_none, q_none, qd_none = model.simulate(profile, 6.0, q0, t_eval=t_eval, rates=None)
+    assert np.array_equal(t, t_none) and np.array_equal(q, q_none)
+    inside = np.isnan(qd_none).any(axis=1)
+    assert 0 < inside.sum() < t.size - 1  # most outputs fall inside steps
+    assert np.array_equal(qd_none[~inside], qd[~inside])
