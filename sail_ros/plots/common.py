@@ -131,10 +131,10 @@ def break_lines(t, *columns):
 def reveal_hidden(fig) -> None:
     """Draw dashed each line that would cover more than `HIDDEN_SHARE` of an earlier
     line of its panel, and its legend entry, so that the earlier one shows between the
-    dashes. Measured on the figure as laid out (it is drawn once)."""
+    dashes. Measured on the figure as laid out (once, without rendering its pixels)."""
     if not any(len(data_lines(ax)) > 1 for ax in fig.axes):
         return
-    fig.canvas.draw()
+    fig.draw_without_rendering()  # the layout and the transforms, no pixels
     for ax in fig.axes:
         lines = sorted(data_lines(ax), key=lambda line: line.get_zorder())  # as drawn
         dashed = [

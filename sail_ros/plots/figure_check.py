@@ -133,8 +133,8 @@ def record(fig, path, dpi: float) -> None:
 
 
 def inspect(fig, path, dpi: float) -> FigureCheck:
-    """Draw `fig` and measure it (see `FigureCheck`); `dpi` of the file it is saved to."""
-    fig.canvas.draw()
+    """Lay `fig` out and measure it (see `FigureCheck`); `dpi` of the file it is saved to."""
+    fig.draw_without_rendering()  # the layout and the text extents, no pixels
     renderer = fig.canvas.get_renderer()
     page = fig.bbox
     panels = [ax for ax in fig.axes if ax.get_visible()]
