@@ -342,8 +342,11 @@ class SystemAt:
         """`qd = M^-1 (p - G q)` (m, n) with `M`, `G` at each of `times` [s] (m,): the
         matrices of all m assembled in one pass, each `M` factored by Cholesky. With
         `qd_guess`, the momenta are those of `q`, `qd_guess` but on `invariant`, where they
-        are `p`'s (the followed modes put in at samples, `moving._replaced`)."""
+        are `p`'s (the followed modes put in at samples, `moving._replaced`). From
+        `BLOCK_SOLVE_MIN_COORDINATES` on, by blocks, one time after another."""
         motions = [self.motion(float(t)) for t in times]
+        if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
+            return self._velocities_by_blocks(motions, q, p, qd_guess)
         stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
         matrices = self.system.assemble((MASS, GYROSCOPIC), *stacked)
         if qd_guess is not None:
@@ -356,6 +359,20 @@ class SystemAt:
         for M, row in zip(matrices[:, 0], qd, strict=True):
             factor, _ = potrf(M, lower=True, overwrite_a=True, clean=False)
             row[:], _ = potrs(factor, row, lower=True)
+        return qd
+
+    def _velocities_by_blocks(self, motions, q, p, qd_guess) -> np.ndarray:
+        """`velocities` with `M` and `G` as blocks at each motion (a solve by blocks costs
+        a fraction of the dense Cholesky factor at hundreds of coordinates)."""
+        qd = np.empty_like(q)
+        for i, motion in enumerate(motions):
+            blocks = self.system.assemble_blocks((MASS, GYROSCOPIC), *motion)
+            guess = np.zeros_like(q[i]) if qd_guess is None else qd_guess[i]
+            Mqd, Gq = blocks.matvec(np.stack([guess, q[i]]))
+            momenta = p[i] if qd_guess is None else Mqd + Gq
+            if qd_guess is not None and self.invariant is not None:
+                momenta[self.invariant] = p[i][self.invariant]
+            qd[i] = blocks.solve(momenta - Gq)
         return qd
 
     def momentum(self, t, q, qd) -> np.ndarray:

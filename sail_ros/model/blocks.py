@@ -148,12 +148,21 @@ class BlockMatrices:
         its columns are solved for alongside the right-hand side (one factorisation), and
         the border from the small system left, `(Z - F S^-1 E) u_b = r_b - F S^-1 r`;
         returns complex, the shape of `rhs`."""
+        return self._solve(taus[:, None] ** _POWERS, rhs)  # powers (p, 3): 1, tau, tau^2
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """`A_0^-1 rhs` (a mass matrix's solve), in real arithmetic, `rhs` (n,) or (n, m)
+        for m right-hand sides; by blocks as `solve_shifted`."""
+        return self._solve(np.ones((1, 1)), rhs[None])[0]
+
+    def _solve(self, powers: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """`(sum_i powers[j, i] A_i)^-1 rhs_j` for `powers` (p, c), complex or real."""
         single = rhs.ndim == 2
         rhs = rhs[..., None] if single else rhs
         m = rhs.shape[-1]
-        powers = taus[:, None] ** _POWERS  # (p, 3): 1, tau, tau^2
-        booms = _combine(powers, self.booms[:3])  # (p, 4, n_B, n_B)
-        quadrants = _combine(powers, self.quadrants[:3])  # (p, 4, n~, n~)
+        count = powers.shape[1]
+        booms = _combine(powers, self.booms[:count])  # (p, 4, n_B, n_B)
+        quadrants = _combine(powers, self.quadrants[:count])  # (p, 4, n~, n~)
         if self.border is None:
             out = self._solve_blocks(booms, quadrants, rhs)
             return out[..., 0] if single else out
@@ -190,7 +199,7 @@ class BlockMatrices:
         # Quadrant q spans booms q (first) and q + 1 (second): boom b's diagonal block
         # gathers quadrant b's first and quadrant b - 1's second block.
         first, second = slice(0, nb), slice(nb, 2 * nb)
-        grid = np.zeros((p, 4, 4, nb, nb), dtype=complex)  # (boom row, boom column) blocks
+        grid = np.zeros((p, 4, 4, nb, nb), dtype=booms.dtype)  # (boom row, column) blocks
         grid[:, _BOOMS, _BOOMS] = (
             booms + schur[:, :, first, first] + schur[:, _PREVIOUS, second, second]
         )
@@ -211,15 +220,16 @@ class BlockMatrices:
         (p, b, b) and its right-hand side (p, b): b = 3 (the hub's rows) or 6 (and
         the low-rank part's three), with `rhs` (p, n, m)."""
         p, n_e = powers.shape[0], self.where.n_elastic
-        shifted = Border(_combine(powers, self.border.flat[:3]), self.where.n, n_e)
+        count = powers.shape[1]
+        shifted = Border(_combine(powers, self.border.flat[:count]), self.where.n, n_e)
         hub_rows, columns = shifted.rows, shifted.columns  # (p, 3, n), (p, n_e, 3)
         rows, corner, border_rhs = hub_rows[:, :, :n_e], hub_rows[:, :, n_e:], rhs[:, n_e:]
         if self.low_rank is not None:  # aux v: W v - U^T u = 0; elastic rows - c(tau) U v
             U, W = self.low_rank.U, self.low_rank.W
-            c = powers @ self.low_rank.coefficients[:3]  # (p,)
+            c = powers @ self.low_rank.coefficients[:count]  # (p,)
             columns = np.concatenate([columns, -c[:, None, None] * U], axis=-1)
             rows = np.concatenate([rows, np.broadcast_to(-U.T, (p, 3, n_e))], axis=1)
-            zero = np.zeros((p, 3, 3), dtype=complex)
+            zero = np.zeros((p, 3, 3), dtype=corner.dtype)
             corner = np.concatenate(
                 [
                     np.concatenate([corner, zero], axis=-1),
@@ -232,10 +242,12 @@ class BlockMatrices:
 
 
 def _combine(powers: np.ndarray, blocks: np.ndarray) -> np.ndarray:
-    """`sum_i powers[:, i] blocks[i]` for real `blocks` (3, ...) and complex `powers`
-    (p, 3): the real and imaginary parts written straight into the complex result
+    """`sum_i powers[:, i] blocks[i]` for real `blocks` (c, ...) and `powers` (p, c):
+    complex powers' real and imaginary parts written straight into the complex result
     (a third of the time of forming them apart and adding)."""
     flat = blocks.reshape(blocks.shape[0], -1)
+    if not np.iscomplexobj(powers):
+        return (powers @ flat).reshape(powers.shape[0], *blocks.shape[1:])
     out = np.empty((powers.shape[0], flat.shape[1]), dtype=complex)
     parts = out.view(float).reshape(*out.shape, 2)
     np.matmul(powers.real, flat, out=parts[..., 0])

@@ -1,6 +1,6 @@
 """The matrices as component blocks (`model/blocks.py`): the same matrices, products and
 shifted solves as the assembled ones, and a moving step that does not depend on which
-form the stepper uses."""
+form the stepper uses, nor the velocities at output times."""
 
 import numpy as np
 import pytest
@@ -55,6 +55,11 @@ def test_blocks_add_up_to_the_assembled_matrices_and_act_like_them(
     for u in (blocks.solve_shifted(taus, rhs), DenseMatrices(full).solve_shifted(taus, rhs)):
         residual = np.einsum("pij,pj->pi", systems, u) - rhs
         assert np.abs(residual).max() < 1e-12 * np.abs(rhs).max() * np.abs(systems).max()
+    # the first matrix alone (the mass matrix's solve, `velocities`), real
+    b = rng.standard_normal(model.n)
+    u = blocks.solve(b)
+    assert not np.iscomplexobj(u)
+    assert np.abs(full[0] @ u - b).max() < 1e-12 * np.abs(b).max() * np.abs(full[0]).max()
 
 
 @pytest.mark.parametrize("hub", HUBS.values(), ids=HUBS.keys())
