@@ -119,6 +119,16 @@ class Replay(Node):
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
+        try:
+            self._set_up()
+        except ConfigError:
+            # destroyed here, not by the garbage collector after rclpy has shut down
+            # (which can abort the process on its way out)
+            self.destroy_node()
+            raise
+
+    def _set_up(self) -> None:
+        """The bag, the topics to play and their publishers (raises ConfigError)."""
         self.config = declare(self, SPECS)
         if not self.config["bag"]:
             raise ConfigError("bag: no bag given (a file or folder, e.g. `sail-ros replay run1`)")
