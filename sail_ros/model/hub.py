@@ -93,6 +93,16 @@ def free_modes(model, M: np.ndarray, K: np.ndarray):
     return np.concatenate([np.zeros(3), omega2]), V
 
 
+# `layout.hub_tilt_axis` of booms a..d, and as a (2, 4) matrix of signs: the stepper
+# assembles the inputs at every evaluation
+_BOOMS = np.arange(4)
+_TILT_AXES, _TILT_SIGNS = (np.array(v) for v in zip(*map(hub_tilt_axis, range(4)), strict=True))
+_TILT = np.zeros((2, 4))
+_TILT[_TILT_AXES, _BOOMS] = _TILT_SIGNS
+_FIRST = np.array([q.first for q in QUADRANTS])
+_SECOND = np.array([q.second for q in QUADRANTS])
+
+
 def with_hub_inputs(model, elastic: np.ndarray, lengths) -> np.ndarray:
     """`B_u` (n, 11) of a free sail from its elastic part `elastic` (n, 8) at 4 checked
     `lengths` [m]: the pressures and tip forces push and tilt the hub too (virtual work
@@ -100,15 +110,11 @@ def with_hub_inputs(model, elastic: np.ndarray, lengths) -> np.ndarray:
     matrix = np.zeros((model.n, N_INPUTS + 3))
     matrix[:, :N_INPUTS] = elastic
     hub = matrix[model.hub_slice]  # rows z_h, theta_x, theta_y (a view)
-    area = np.array([lengths[q.first] * lengths[q.second] for q in QUADRANTS])
+    area = lengths[_FIRST] * lengths[_SECOND]
     hub[0, :4] = 0.5 * area
     hub[0, 4:8] = 1.0
     hub[:, 8:] = np.eye(3)
-    for j, quadrant in enumerate(QUADRANTS):
-        for boom in (quadrant.first, quadrant.second):  # the arm: that boom's length
-            axis, sign = hub_tilt_axis(boom)
-            hub[1 + axis, j] += sign * area[j] * lengths[boom] / 6.0
-    for k in range(4):
-        axis, sign = hub_tilt_axis(k)
-        hub[1 + axis, 4 + k] = sign * lengths[k]
+    for booms in (_FIRST, _SECOND):  # each quadrant's two arms: its booms' lengths
+        hub[1:, :4] += _TILT[:, booms] * area * lengths[booms] / 6.0
+    hub[1 + _TILT_AXES, 4 + _BOOMS] = _TILT_SIGNS * lengths
     return matrix
