@@ -14,6 +14,7 @@ resolve each of them.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 import scipy.linalg
@@ -50,6 +51,17 @@ class LinearPlant:
     mass_damping: float = 0.0
     stiffness_damping: float = 0.0
     free_hub: bool = False
+
+    @functools.cached_property
+    def eigenvalues(self) -> np.ndarray:
+        """The eigenvalues of `A` (computed once: the notes, bands and poles all read
+        them)."""
+        return np.linalg.eigvals(self.A)
+
+    @functools.cached_property
+    def eigenvectors(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`(values, left, right)` of `A` (`scipy.linalg.eig`), computed once."""
+        return scipy.linalg.eig(self.A, left=True, right=True)
 
     def arrays(self) -> dict:
         """Everything as arrays (for `.npz` and MATLAB `.mat`), with the damping and,
@@ -119,7 +131,7 @@ class Pole:
 
 def poles(plant: LinearPlant) -> list[Pole]:
     """One pole per oscillatory pair (Im s >= 0) and every real pole, by frequency."""
-    eigenvalues = np.linalg.eigvals(plant.A)
+    eigenvalues = plant.eigenvalues
     kept = eigenvalues[eigenvalues.imag >= -1e-12 * np.maximum(1.0, np.abs(eigenvalues))]
     result = []
     for s in kept:
@@ -229,7 +241,7 @@ def shown_poles(plant: LinearPlant, pairs, share: float = SHOWN_SHARE) -> list[P
     in it, by frequency. A pole's part is its modal residue's static contribution
     `2 |R_i| / |s_i|`, `R_i = (C v_i)(w_i^H B) / (w_i^H v_i)` (right and left eigenvectors
     of A): the part of the response it carries away from its own frequency."""
-    values, left, right = scipy.linalg.eig(plant.A, left=True, right=True)
+    values, left, right = plant.eigenvectors
     rigid = len(rigid_poles(plant))
     order = np.argsort(np.abs(values))
     upper = [i for i in order[rigid:] if values[i].imag > 0]  # rigid: the zero eigenvalues
