@@ -371,12 +371,18 @@ def test_two_demos_at_once_each_log_only_their_own_run(ros_env, tmp_path):
         assert np.median(steps) == 20_000_000
 
 
+@pytest.mark.timing
 def test_a_publisher_that_behaves_like_ros2_topic_pub_once_reaches_the_simulator(
     processes, operator
 ):
     """What Jazzy's `ros2 topic pub --once --qos-durability transient_local` does
     (ros2cli 0.32): reliable, transient local, keep last 10; wait for one matching
-    subscription; publish once; stay 0.1 s; exit. Five times, five answers."""
+    subscription; publish once; stay 0.1 s; exit. Five times, five answers.
+
+    Timed, so alone: the publisher sees the simulator's subscription before the simulator
+    sees the publisher, and the command reaches it only if the simulator's discovery
+    catches up within those 0.1 s of wall time, which a machine saturated by other tests
+    can delay (one command of five lost once)."""
     answers = Answers(operator)
     processes("sim", parameters=SMALL_SIM)
     operator.wait_for_simulator()
