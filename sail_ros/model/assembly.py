@@ -48,7 +48,7 @@ import numpy as np
 
 from sail_ros.model.blocks import BlockLayout, BlockMatrices, Border, LowRank
 from sail_ros.model.integrals import BoomIntegrals, QuadrantIntegrals
-from sail_ros.model.layout import QUADRANTS, Layout, hub_tilt_axis
+from sail_ros.model.layout import QUADRANT_BOOMS, QUADRANTS, Layout, hub_tilt_axis
 
 MASS = "M"
 DAMPING = "C"
@@ -704,10 +704,7 @@ class SystemAssembler:
         self._quadrants = _Component(
             QUADRANT_TERMS, quadrant, np.stack([flat(layout.quadrant_slots(q)) for q in QUADRANTS])
         )
-        # each quadrant's first boom, then each one's second
-        self._quadrant_booms = np.array(
-            [q.first for q in QUADRANTS] + [q.second for q in QUADRANTS]
-        )
+        self._quadrant_booms = QUADRANT_BOOMS.ravel()  # the first booms, then the second
         self._plans: dict[tuple[str, ...], _Plan] = {}
         self._scatters: dict[tuple, np.ndarray] = {}  # `_stacked_scatter`
         self.blocks = BlockLayout(layout)

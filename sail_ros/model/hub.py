@@ -7,7 +7,13 @@ import numpy as np
 import scipy.linalg
 
 from sail_ros.model.assembly import GYROSCOPIC, MASS
-from sail_ros.model.layout import BOOM_DIRECTIONS, QUADRANTS, hub_tilt_axis, per_boom
+from sail_ros.model.layout import (
+    BOOM_DIRECTIONS,
+    QUADRANT_BOOMS,
+    QUADRANTS,
+    hub_tilt_axis,
+    per_boom,
+)
 from sail_ros.model.loads import N_INPUTS
 from sail_ros.model.parameters import SailParameters
 
@@ -99,8 +105,7 @@ _BOOMS = np.arange(4)
 _TILT_AXES, _TILT_SIGNS = (np.array(v) for v in zip(*map(hub_tilt_axis, range(4)), strict=True))
 _TILT = np.zeros((2, 4))
 _TILT[_TILT_AXES, _BOOMS] = _TILT_SIGNS
-_FIRST = np.array([q.first for q in QUADRANTS])
-_SECOND = np.array([q.second for q in QUADRANTS])
+_FIRST, _SECOND = QUADRANT_BOOMS
 
 
 def with_hub_inputs(model, elastic: np.ndarray, lengths) -> np.ndarray:

@@ -36,6 +36,8 @@ class Quadrant(NamedTuple):
 # model.md §1 and Tab. 1: the first boom of a quadrant is the one named first
 QUADRANTS = (Quadrant("ab", 0, 1), Quadrant("bc", 1, 2), Quadrant("cd", 2, 3), Quadrant("da", 3, 0))
 QUADRANT_NAMES = tuple(quadrant.name for quadrant in QUADRANTS)
+# (2, 4): each quadrant's first boom, then each one's second (indices into a per-boom array)
+QUADRANT_BOOMS = np.array([[q.first for q in QUADRANTS], [q.second for q in QUADRANTS]])
 
 
 def per_boom(

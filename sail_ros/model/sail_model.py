@@ -36,6 +36,7 @@ from sail_ros.model.integrals import (
 )
 from sail_ros.model.layout import (
     BOOMS,
+    QUADRANT_BOOMS,
     QUADRANTS,
     Layout,
     per_boom,
@@ -258,8 +259,7 @@ class SailModel(Readout):
 
     def assemble_inputs(self, lengths) -> np.ndarray:
         """`input_matrix` for 4 already checked lengths (the stepper's hot path)."""
-        first = [q.first for q in QUADRANTS]
-        second = [q.second for q in QUADRANTS]
+        first, second = QUADRANT_BOOMS
         scale = np.concatenate([lengths[first] * lengths[second], np.ones(4)])
         if not self.free_hub:
             return self._unit_inputs * scale
