@@ -77,6 +77,7 @@ from sail_ros.ros.commanding import command_publisher, decode
 from sail_ros.ros.parameters import (
     ConfigError,
     declare,
+    destroyed_if_refused,
     make_parser,
     node_options,
     overrides,
@@ -186,6 +187,12 @@ class Bridge(Node):
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
+        with destroyed_if_refused(self):
+            self._set_up()
+
+    def _set_up(self) -> None:
+        """The served topics, the command publishers and the server (raises ConfigError,
+        OSError)."""
         self.config = declare(self, SPECS)
         address = self.config["address"]
         try:

@@ -62,7 +62,7 @@ from sail_ros.model.fields import ConfigError, fields_of
 from sail_ros.options import PHYSICS_DOC, docstring_examples
 from sail_ros.policy import Policy
 from sail_ros.ros.commanding import command_publisher
-from sail_ros.ros.parameters import declare, node_options
+from sail_ros.ros.parameters import declare, destroyed_if_refused, node_options
 from sail_ros.ros.program import bounded_teardown, run_node, serve_until_stopped
 
 NODE_NAME = topics.CONTROLLER_NODE
@@ -130,12 +130,18 @@ class ControlNode(Node):
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None, clock=time.monotonic):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
+        self.clock = clock
+        with destroyed_if_refused(self):
+            self._set_up()
+
+    def _set_up(self) -> None:
+        """The gains, the subscriptions, the command publishers and the timers (raises
+        ConfigError)."""
         self._values = declare(self, SPECS)
         self.sail, self.design, self.settings, self.policy = config_from_values(self._values)
         self.schedule = self._schedule()
         limits = command_limits(self.policy, self.schedule.inputs)
         self.controller = DiscreteController(self.schedule, limits)
-        self.clock = clock
         self.failure = ""  # why the controller cannot go on (exit 2)
         self.enabled = self.settings.enabled
         self._simulator = self.resolve_topic_name(self.settings.simulator_node)

@@ -61,6 +61,7 @@ from sail_ros.options import docstring_examples
 from sail_ros.ros.parameters import (
     ConfigError,
     declare,
+    destroyed_if_refused,
     make_parser,
     node_options,
     overrides,
@@ -198,6 +199,11 @@ class Recorder(Node):
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
+        with destroyed_if_refused(self):
+            self._set_up()
+
+    def _set_up(self) -> None:
+        """The checks, the bag and the subscriptions (raises ConfigError)."""
         self.config = declare(self, SPECS)
         self._wanted = {self._resolve(topic) for topic in self.config["topics"]}
         self._recording: dict[str, list] = {}  # topic -> its subscriptions

@@ -36,6 +36,7 @@ from sail_ros.options import docstring_examples
 from sail_ros.ros.parameters import (
     ConfigError,
     declare,
+    destroyed_if_refused,
     make_parser,
     node_options,
     overrides,
@@ -119,13 +120,8 @@ class Replay(Node):
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
-        try:
+        with destroyed_if_refused(self):
             self._set_up()
-        except ConfigError:
-            # destroyed here, not by the garbage collector after rclpy has shut down
-            # (which can abort the process on its way out)
-            self.destroy_node()
-            raise
 
     def _set_up(self) -> None:
         """The bag, the topics to play and their publishers (raises ConfigError)."""

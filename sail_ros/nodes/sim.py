@@ -53,7 +53,7 @@ from sail_ros.model.shape import SailSurface
 from sail_ros.options import PHYSICS_DOC, docstring_examples
 from sail_ros.ros.commanding import decode
 from sail_ros.ros.discovery import subscriptions_of
-from sail_ros.ros.parameters import ConfigError, declare, node_options
+from sail_ros.ros.parameters import ConfigError, declare, destroyed_if_refused, node_options
 from sail_ros.ros.program import bounded_teardown, run_node, serve_until_stopped
 from sail_ros.ros.taking import take_waiting
 from sail_ros.runtime.affordable import StepCost
@@ -95,6 +95,11 @@ class SimNode(Node):
 
     def __init__(self, parameter_overrides=(), context=None, namespace=None):
         super().__init__(NODE_NAME, **node_options(parameter_overrides, context, namespace))
+        with destroyed_if_refused(self):
+            self._set_up()
+
+    def _set_up(self) -> None:
+        """The model, its publishers, the ticks and the commands' node (raises ConfigError)."""
         self._values = declare(self, SPECS)
         self.config = config = config_from_values(self._values)
         sail = config.resolved_sail

@@ -18,6 +18,7 @@ type.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import textwrap
 
 from rcl_interfaces.msg import (
@@ -27,6 +28,7 @@ from rcl_interfaces.msg import (
     SetParametersResult,
 )
 from rclpy.exceptions import ParameterException
+from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from sail_ros.model.fields import ConfigError, Setting
@@ -89,6 +91,18 @@ def node_options(parameter_overrides=(), context=None, namespace=None) -> dict:
         "parameter_overrides": list(parameter_overrides),
         "allow_undeclared_parameters": True,
     }
+
+
+@contextlib.contextmanager
+def destroyed_if_refused(node: Node):
+    """Destroy `node` (as rclpy's `Node`) if the block raises, then let the error go on:
+    a node refused while it is set up is destroyed there, not by the garbage collector
+    after rclpy has shut down (which can abort the process on its way out)."""
+    try:
+        yield
+    except BaseException:
+        Node.destroy_node(node)
+        raise
 
 
 def declare(node, specs: list[Setting]) -> dict[str, object]:

@@ -14,6 +14,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from sail_ros.nodes import bridge, recorder, replay
+from sail_ros.nodes.bridge import Bridge
+from sail_ros.nodes.control import ControlNode
 from sail_ros.nodes.recorder import Recorder
 from sail_ros.nodes.replay import Replay
 from sail_ros.nodes.sim import SimNode
@@ -29,10 +31,16 @@ pytestmark = pytest.mark.node
         (SimNode, Parameter("sail.n_boom_mode", value=3), "(did you mean 'sail.n_boom_modes'?)"),
         (Recorder, Parameter("compresion", value="lz4"), "(did you mean 'compression'?)"),
         (Replay, Parameter("rates", value=2.0), "'rates' (did you mean 'rate'?)"),
+        (Bridge, Parameter("prot", value=0), "'prot' (did you mean 'port'?)"),
+        (ControlNode, Parameter("enable", value=True), "'enable' (did you mean 'enabled'?)"),
     ],
-    ids=["sim", "sim-sail", "recorder", "replay"],
+    ids=["sim", "sim-sail", "recorder", "replay", "bridge", "control"],
 )
 def test_an_unknown_parameter_stops_the_node(ros_context, tmp_path, node_class, override, message):
+    """The refused node is destroyed where it is refused (while the error, and with it
+    the half-made node, is still held): not left to the garbage collector, which may
+    run after rclpy has shut down."""
+    witness = Node("refusal_witness", context=ros_context)
     overrides = [override]
     if node_class is Recorder:
         overrides.append(Parameter("output", value=str(tmp_path / "bag")))
@@ -40,6 +48,8 @@ def test_an_unknown_parameter_stops_the_node(ros_context, tmp_path, node_class, 
         node_class(overrides, context=ros_context)
     assert message in str(raised.value)
     assert not (tmp_path / "bag").exists()  # the recorder made nothing
+    assert witness.get_node_names() == ["refusal_witness"]
+    witness.destroy_node()
 
 
 def set_parameter(client_node, executor, name, value) -> tuple[bool, str]:
