@@ -11,7 +11,7 @@ this process, publishes commands at a fixed rate for a phase each:
 Per phase it prints: commands sent; their outcomes as the simulator's /diagnostics
 count them (accepted, superseded, rejected) and whether they add up to what was
 sent; overruns; late states, gaps between two /sail/boom_state samples as the
-simulator published them (DDS source timestamps) over the issue's bound of two
+simulator published them (DDS source timestamps) over the bound of two
 state periods (40 ms at 50 Hz), in brackets those while the bystander was late too;
 the largest gap; and the simulator process's CPU (a share of one core). Then what
 the machine did meanwhile: a bystander, a process of its own that sleeps 2 ms at a

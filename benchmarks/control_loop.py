@@ -12,7 +12,7 @@ resume. After `--duration` simulated seconds it stops them and prints, from the 
 
 - the live run's peak |theta| and that of the offline closed loop
   (`analysis.closed_loop.run_closed_loop`) of the same scenario, and their largest
-  difference over the run as a fraction of the offline peak (the issue's bar: 5 %);
+  difference over the run as a fraction of the offline peak (the bar: 5 %);
 - the loop latency (a state sample's publication to its command's), from the
   controller's statuses on /diagnostics: the median of their window medians and the
   largest window maximum;

@@ -195,7 +195,7 @@ def test_changes_record_keeps_every_value_as_text():
 
 def test_a_writer_that_failed_never_blocks_the_threads_that_queue(tmp_path, monkeypatch):
     """The disk fails at the first message while the queue is full: queueing more and
-    closing return at once (a blocking put used to wait for a writer that was gone)."""
+    closing return at once (a blocking put would wait for a writer that is gone)."""
     failing = threading.Event()
 
     def write(self, *args, **kwargs):

@@ -1,7 +1,7 @@
 """The hub's controller without ROS (docs/control.md): sampling with the loop delay against
 closed forms, the LQR against the continuous one, the schedule, the gains file, the loop's
 saturation and anti-windup, the watchdog, and the stability check against the full plant
-(the issue's reference free-hub scenario, at explicit mode counts)."""
+(the reference free-hub scenario, at explicit mode counts)."""
 
 import dataclasses
 import math
@@ -257,7 +257,7 @@ def reference():
 
 
 def test_the_loop_is_stable_along_the_reference_free_hub_deployment(reference):
-    """Issue 40, item 3: every 0.25 s of config/scenario_free_hub_control.yaml (booms
+    """Every 0.25 s of config/scenario_free_hub_control.yaml (booms
     deploying unequally, frozen at each time's lengths and rates: the open plant is
     unstable there), the discrete loop against the plant with all of its modes at (4, 6)
     has no pole in the right half-plane; the poles the loop moves are all in the open

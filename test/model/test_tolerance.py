@@ -106,12 +106,12 @@ def test_the_default_tolerance_meets_the_bar_on_drawn_deployments(draw):
 
 
 def test_a_load_step_below_the_follow_floor_does_not_shrink_the_steps_away():
-    """A tip force switched on at 0.89 s rings modes just below the follow floor. When the
-    floor let the estimate's whole step carry modes it turns by up to 4 rad (6.3e-3 rad of
-    Pade lag against the halves' 3.6e-5), the estimate overstated the halves' error: refused
-    steps raised the floor, more modes were carried, and the run took 162 steps, 142 of
-    them near 3.5 ms from 2.0 s on; with the whole step carrying at most 2 rad, 25 meet
-    the bar."""
+    """A tip force switched on at 0.89 s rings modes just below the follow floor. The
+    estimate's whole step carries them by at most 2 rad, where the Pade approximant lags
+    far less than the halves' error; a floor that let it carry them by up to 4 rad (a lag
+    of 6.3e-3 rad against the halves' 3.6e-5) would have the estimate overstate that
+    error, refused steps raise the floor, more modes be carried, and the steps shrink to
+    a few milliseconds. Fewer than 60 steps meet the bar."""
     draws = list(drawn_deployments(5, seed=7))
     for draw in draws:  # each takes its initial tips from the shared generator in turn
         q0 = draw[1].initial_coordinates(draw[-1].uniform(-0.1, 0.1, 4))
@@ -126,11 +126,11 @@ def test_a_load_step_below_the_follow_floor_does_not_shrink_the_steps_away():
 
 def test_the_estimates_whole_step_keeps_within_three_rad_of_the_resolved_frequency():
     """The error-controlled step is bounded to `WHOLE_STEP_PHASE` (3 rad) of the resolved
-    frequency. At 4 rad (two rational steps of 2 rad) the estimate's whole step lagged the
-    resolved mode by 6.3e-3 rad, read as 2.1e-3 of its amplitude: the live sampler's steps
-    at the bound were refused one after another while that mode rang (boom a bent, a slow
-    deployment from 10 m), and this drawn undamped deployment left 0.24 % of peak on its
-    root moments."""
+    frequency: at 4 rad (two rational steps of 2 rad) the estimate's whole step would lag
+    the resolved mode by 6.3e-3 rad, read as 2.1e-3 of its amplitude, and the live
+    sampler's steps at the bound would be refused one after another while that mode rings
+    (boom a bent, a slow deployment from 10 m). The live sampler's steps keep within the
+    bound, none refused, and a drawn undamped deployment meets the bar."""
     model = SailModel(SailParameters(n_boom_modes=4, n_membrane_modes=6))
     profile = CycloidalProfile(10.0, 60.0, 1000.0, t0=0.5)
     stepper = model.stepper(profile, q0=model.initial_coordinates([0.1, 0.0, 0.0, 0.0]))
@@ -253,7 +253,7 @@ def switched_force(times, force=2e-3, boom=2):
 
 
 CALLABLE_CASES = {
-    # the issue's run: a damped, loaded deployment, the force on from 5 s to 11 s, the
+    # a damped, loaded deployment, the force on from 5 s to 11 s, the
     # outputs every 4 s (both switches between them)
     "jumps between outputs": (switched_force([5.0, 11.0]), [5.0, 11.0]),
     # three switches inside what would be one step

@@ -382,7 +382,7 @@ def test_a_publisher_that_behaves_like_ros2_topic_pub_once_reaches_the_simulator
     Timed, so alone: the publisher sees the simulator's subscription before the simulator
     sees the publisher, and the command reaches it only if the simulator's discovery
     catches up within those 0.1 s of wall time, which a machine saturated by other tests
-    can delay (one command of five lost once)."""
+    can delay past them."""
     answers = Answers(operator)
     processes("sim", parameters=SMALL_SIM)
     operator.wait_for_simulator()

@@ -548,8 +548,8 @@ def test_sigkill_leaves_the_bag_readable_up_to_its_last_chunk(ros_env, listener,
 def test_sigkill_one_second_after_the_first_message_leaves_a_recoverable_log(
     ros_env, listener, tmp_path
 ):
-    """A recorder killed 1 s after the first message reached it, start-up included (such a
-    log used to hold its 62-byte header alone): the topics are on disk from their start,
+    """A recorder killed 1 s after the first message reached it, start-up included (its log
+    must hold more than a 62-byte header): the topics are on disk from their start,
     a file's first chunks close 0.1, 0.2, 0.4 s after their first message (the first may
     hold the latched message alone), and `sail-ros bag recover` makes of it a log that
     rosbags opens, holding the stream from its first message on (0.2 s at least)."""
@@ -786,7 +786,7 @@ def test_replay_offset_past_the_end_is_an_error_even_when_looping(recording, ros
     span = f"(span {(max(times) - times[0]) / 1e9:.2f} s)"
     looping = start_tool("replay", [str(folder), "--start-offset-s", "100", "--loop"], ros_env)
     once = start_tool("replay", [str(folder), "--start-offset-s", "100"], ros_env)
-    for process in (looping, once):  # the loop used to spin a core forever, doing nothing
+    for process in (looping, once):  # a loop over nothing must end, not spin a core
         code, _, err = finish(process)
         assert code == 2, err
         assert f"start_offset_s = 100 s is past the end of the bag {span}" in err, err
@@ -817,8 +817,8 @@ def test_replay_stops_looping_when_a_pass_plays_nothing(recording, monkeypatch):
 
 def test_replay_waits_until_its_last_messages_are_delivered(ros_env, listener, tmp_path):
     """1.2 MB messages published within 20 ms: the replay keeps its publishers until
-    every one is acknowledged (it used to exit after 1 s, and on a busy machine the
-    subscriber then missed the last ones).
+    every one is acknowledged (a replay that left after a fixed second would, on a busy
+    machine, leave the subscriber without the last ones).
 
     Recorded transient local: the listener gets them whichever side of the
     discovery comes first (a volatile subscriber that sees the replay's publisher
@@ -866,7 +866,7 @@ def test_recorder_checks_parameter_node_before_creating_the_bag(ros_env, tmp_pat
     assert code == 2, err
     assert "parameter_node: 'bad name' is not a valid node name (" in err, err
     assert "Traceback" not in err
-    assert not folder.exists()  # it used to hold rec1_0.mcap without summary
+    assert not folder.exists()  # not even an MCAP file without summary
 
 
 RECORDER_WITH = """

@@ -1,4 +1,4 @@
-"""The hub's controller offline: `sail-ros deploy` with a controller section (the issue's
+"""The hub's controller offline: `sail-ros deploy` with a controller section (its
 evidence on the reference free-hub scenario), `sail-ros plant --controller`, the
 closed loop's log and report, and the bad inputs."""
 
@@ -36,7 +36,7 @@ def short_scenario(tmp_path, duration=3.0, **controller) -> str:
 
 
 def test_the_closed_loop_holds_the_free_hub_of_the_reference_scenario(capsys):
-    """Issue 40, item 4, offline: config/scenario_free_hub_control.yaml at (n_B, n_M) = (4,
+    """Offline: config/scenario_free_hub_control.yaml at (n_B, n_M) = (4,
     6), whose open loop tilts the hub 85.4 mrad: closed, the peak tilt is under a
     twentieth of that, tilt and heave settle (over the run's last tenth within half their
     peaks, and far below the open loop's there), no boom tip bends more than in open

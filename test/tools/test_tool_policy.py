@@ -224,8 +224,8 @@ def test_output_sizes_are_refused_with_the_estimate(tmp_path):
 
 
 def test_deploy_for_1e9_s_is_refused_within_4_gb_of_address_space():
-    """Under RLIMIT_AS = 4 GB, as the issue asked: refused before anything is allocated
-    (it used to ask for 23.8 GiB and be killed)."""
+    """Under RLIMIT_AS = 4 GB: refused before anything is allocated (the outputs of 1e9 s
+    would take 23.8 GiB, and the process be killed asking for them)."""
     limit = 4 * 10**9
 
     def limited():
