@@ -13,7 +13,6 @@ import math
 from typing import Protocol
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from sail_ros.model.layout import per_boom
 
@@ -206,6 +205,10 @@ class WaypointProfile:
         self.times, self.lengths = times, lengths
         self._start_rates = per_boom(start_rates, "start_rates")
         self._end_rates = per_boom(end_rates, "end_rates")
+        # imported here: scipy.interpolate (and the scipy.optimize it brings) takes about
+        # 0.2 s to import, which every command that never meets waypoints would pay
+        from scipy.interpolate import CubicSpline
+
         self._spline = CubicSpline(
             times, lengths, axis=0, bc_type=((1, self._start_rates), (1, self._end_rates))
         )

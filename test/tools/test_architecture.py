@@ -264,3 +264,19 @@ def test_package_xml_declares_every_import():
             assert ROSDEP_KEYS[name] in runtime, f"{name}: no <exec_depend>{ROSDEP_KEYS[name]}"
         else:  # a ROS package: its own name is the key
             assert name in runtime, f"{name}: no <exec_depend>{name}"
+
+
+@pytest.mark.parametrize("tool", ["send", "watch", "bag"])
+def test_the_terminal_commands_start_without_the_numerical_libraries(tool):
+    """`sail-ros send`, `watch` and `bag` are typed at a terminal, again and again: they
+    load none of scipy, matplotlib, pyarrow, dask (scipy alone takes about 0.3 s to
+    import; a waypoint profile imports scipy.interpolate when it is made)."""
+    heavy = ("scipy", "matplotlib", "pyarrow", "dask")
+    code = (
+        f"import sys, sail_ros.tools.{tool}; "
+        f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({heavy!r})))"
+    )
+    loaded = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
+    )
+    assert loaded.stdout.strip() == "[]", loaded.stdout
