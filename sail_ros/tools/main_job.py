@@ -59,9 +59,11 @@ EXAMPLES = (
     "sail-ros demo --time-scale 1 -o out/demo_realtime",
 )
 NOTES = """By default the simulation runs at 2x real time (about 8 s for the 16 s run),
-publishing /clock; --time-scale 1 runs it in real time. Above about 2x one integration
-step (0.01 s of simulation) is less wall time than a sail/shape message takes to build
-(~5 ms on a small machine), so some ticks come late and count as overruns. The run uses
+publishing /clock; --time-scale 1 runs it in real time. At 2x a grid step (0.01 s of
+simulation) is 5 ms of wall time, and a moving step of the model (one for many grid
+steps while the booms deploy, about 40 ms at the simulator's mode counts on a 2-core
+machine) takes longer: the tick that computes it comes late and counts as an overrun,
+about one for each of the deployment's 35 or so moving steps. The run uses
 a DDS domain that nothing else on this machine uses (two demos at once stay apart);
 discovery stays on this machine unless ROS_AUTOMATIC_DISCOVERY_RANGE says otherwise."""
 WRITES = (
