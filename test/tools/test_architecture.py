@@ -125,18 +125,21 @@ def test_integrate_never_imports_sail_model(graph):
             assert "sail_ros.model.sail_model" not in targets, name
 
 
+def imported_by(modules: list[str]) -> set[str]:
+    """Every module that importing `modules` (together, in a fresh interpreter) loads."""
+    code = f"import sys, {', '.join(modules)}\nprint(sorted(sys.modules))"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    return set(ast.literal_eval(result.stdout.strip()))
+
+
 def loaded_by(modules: list[str]) -> list[str]:
     """What importing `modules` (together, in a fresh interpreter) loads of ROS: the
     packages rclpy and *_msgs, *_interfaces, and "rclpy.node" if it is among them."""
-    code = (
-        f"import sys, {', '.join(modules)}\n"
-        "print(sorted({m.split('.')[0] for m in sys.modules if m.startswith('rclpy')"
-        " or m.split('.')[0].endswith(('_msgs', '_interfaces'))}"
-        " | ({'rclpy.node'} & set(sys.modules))))"
-    )
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr
-    return ast.literal_eval(result.stdout.strip())
+    names = imported_by(modules)
+    packages = {m.split(".")[0] for m in names}
+    ros = {p for p in packages if p == "rclpy" or p.endswith(("_msgs", "_interfaces"))}
+    return sorted(ros | ({"rclpy.node"} & names))
 
 
 def modules_of(prefixes) -> list[str]:
@@ -271,12 +274,6 @@ def test_the_terminal_commands_start_without_the_numerical_libraries(tool):
     """`sail-ros send`, `watch` and `bag` are typed at a terminal, again and again: they
     load none of scipy, matplotlib, pyarrow, dask (scipy alone takes about 0.3 s to
     import; a waypoint profile imports scipy.interpolate when it is made)."""
-    heavy = ("scipy", "matplotlib", "pyarrow", "dask")
-    code = (
-        f"import sys, sail_ros.tools.{tool}; "
-        f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({heavy!r})))"
-    )
-    loaded = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
-    )
-    assert loaded.stdout.strip() == "[]", loaded.stdout
+    heavy = {"scipy", "matplotlib", "pyarrow", "dask"}
+    loaded = {m.split(".")[0] for m in imported_by([f"sail_ros.tools.{tool}"])} & heavy
+    assert loaded == set(), loaded
