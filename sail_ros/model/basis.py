@@ -12,9 +12,9 @@ import dataclasses
 import functools
 
 import numpy as np
-from scipy.optimize import brentq
 
 from sail_ros.model.layout import triangle_mode_indices
+from sail_ros.model.roots import bracketed_root
 
 
 @functools.cache
@@ -28,7 +28,7 @@ def cantilever_roots(n: int) -> np.ndarray:
     for i in range(n):
         centre = (i + 0.5) * np.pi
         with np.errstate(over="ignore"):  # cosh overflows past b ~ 710: 1/cosh is then 0
-            roots[i] = brentq(
+            roots[i] = bracketed_root(
                 lambda b: np.cos(b) + 1.0 / np.cosh(b),
                 centre - 0.5 * np.pi + 1e-9,
                 centre + 0.5 * np.pi - 1e-9,
@@ -45,7 +45,7 @@ def pinned_free_root() -> float:
     end and free at the other vibrates at `b^2 sqrt(EI / rho_B) / L^2`. Solved as
     `sin(b) - cos(b) tanh(b) = 0` in `(pi, 3 pi / 2)`."""
     return float(
-        brentq(
+        bracketed_root(
             lambda b: np.sin(b) - np.cos(b) * np.tanh(b),
             np.pi + 1e-3,
             1.5 * np.pi,

@@ -1,6 +1,8 @@
 """Basis functions against their defining equations (model.md §2), and the quadrant
 integrals against a plain sum over the quadrature points."""
 
+import math
+
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -9,6 +11,7 @@ from sail_ros.model import basis
 from sail_ros.model.basis import (
     cantilever_modes,
     cantilever_roots,
+    pinned_free_root,
     triangle_eigenvalues,
     triangle_mode_indices,
     triangle_modes,
@@ -19,6 +22,7 @@ from sail_ros.model.integrals import (
     gauss_unit_interval,
     quadrant_integrals,
 )
+from sail_ros.model.roots import bracketed_root
 
 pytestmark = pytest.mark.model
 
@@ -167,3 +171,41 @@ def test_rotated_cosines_equal_the_direct_ones_to_round_off(n):
     exact_sin = np.sin(b.astype(np.longdouble) * x.astype(np.longdouble))
     bound = 4 * np.spacing(b[-1, 0]) + 1e-15
     assert np.abs(cos - exact_cos).max() < bound and np.abs(sin - exact_sin).max() < bound
+
+
+def test_the_bracketed_root_is_scipys_brentq_to_the_last_bit():
+    """The model's root finder takes brentq's steps: the same root, bit for bit, on the
+    model's two frequency equations (400 cantilever roots, the pinned-free one) and on
+    functions with a multiple root, a pole-like slope and a root at a bracket's end."""
+    eps4 = 4 * np.finfo(float).eps
+    with np.errstate(over="ignore"):
+        for i in range(400):
+            centre = (i + 0.5) * np.pi
+            f = lambda b: np.cos(b) + 1.0 / np.cosh(b)  # noqa: E731
+            ends = (centre - 0.5 * np.pi + 1e-9, centre + 0.5 * np.pi - 1e-9)
+            ours = bracketed_root(f, *ends, xtol=1e-15, rtol=eps4)
+            assert ours == brentq(f, *ends, xtol=1e-15, rtol=eps4), i
+    assert pinned_free_root() == brentq(
+        lambda b: np.sin(b) - np.cos(b) * np.tanh(b), np.pi + 1e-3, 1.5 * np.pi,
+        xtol=1e-15, rtol=eps4,
+    )  # fmt: skip
+    cases = [
+        (lambda x: (x - 1.3) ** 3, 0.0, 4.0),
+        (lambda x: np.tan(x) - 1e3, 0.0, 1.5707),
+        (lambda x: x * x - 2.0, 0.0, 2.0),
+        (lambda x: math.exp(x) - 5.0, -10.0, 10.0),
+        (lambda x: x - 0.25, 0.25, 3.0),
+    ]
+    for f, low, high in cases:
+        for xtol, rtol in ((1e-15, eps4), (1e-6, 1e-8), (2e-12, eps4)):
+            try:
+                expected = brentq(f, low, high, xtol=xtol, rtol=rtol)
+            except RuntimeError:  # not converged in 100 iterations: neither is ours
+                with pytest.raises(ValueError, match="no root"):
+                    bracketed_root(f, low, high, xtol, rtol)
+            else:
+                assert bracketed_root(f, low, high, xtol, rtol) == expected
+    with pytest.raises(ValueError, match="same sign"):
+        bracketed_root(lambda x: x * x + 1.0, -1.0, 1.0, 1e-12, eps4)
+    with pytest.raises(ValueError, match="no root"):
+        bracketed_root(lambda x: math.exp(x) - 2.0, 0.0, 1.0, 1e-300, 0.0, max_iterations=3)
