@@ -30,6 +30,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+# loaded with the simulator: a first waypoint command would otherwise wait, inside a
+# real-time step, for the import of scipy.interpolate (and scipy.optimize) that
+# `WaypointProfile` leaves to where it is first used (~0.3 s)
+import scipy.interpolate  # noqa: F401
+
 from sail_ros.model import CycloidalProfile, SailParameters, WaypointProfile
 from sail_ros.names import BOOM_JOINTS, LOAD_NAMES, PRESSURE_CMD
 from sail_ros.policy import Policy
