@@ -14,6 +14,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from sail_ros.nodes import bridge, recorder, replay
+from sail_ros.nodes import sim as sim_module
 from sail_ros.nodes.bridge import Bridge
 from sail_ros.nodes.control import ControlNode
 from sail_ros.nodes.recorder import Recorder
@@ -48,6 +49,23 @@ def test_an_unknown_parameter_stops_the_node(ros_context, tmp_path, node_class, 
         node_class(overrides, context=ros_context)
     assert message in str(raised.value)
     assert not (tmp_path / "bag").exists()  # the recorder made nothing
+    assert witness.get_node_names() == ["refusal_witness"]
+    witness.destroy_node()
+
+
+def test_a_simulator_that_fails_after_its_commands_node_exists_destroys_both(
+    ros_context, monkeypatch
+):
+    """The simulator takes commands with a second node: a failure after that node is
+    made (here, its thread refused) leaves neither node behind."""
+    witness = Node("refusal_witness", context=ros_context)
+
+    def refused(*args, **kwargs):
+        raise RuntimeError("no thread for the commands")
+
+    monkeypatch.setattr(sim_module, "CommandThread", refused)
+    with pytest.raises(RuntimeError, match="no thread for the commands"):
+        SimNode(context=ros_context)
     assert witness.get_node_names() == ["refusal_witness"]
     witness.destroy_node()
 
