@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
+from types import NoneType
 
 import matplotlib
 
@@ -15,6 +16,7 @@ matplotlib.use("Agg")  # files only; never a window
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.layout_engine import PlaceHolderLayoutEngine  # noqa: E402
 
 from sail_ros.outputs import staged  # noqa: E402
 from sail_ros.plots.figure_check import (  # noqa: E402
@@ -106,10 +108,15 @@ def _pieces(line: str, too_wide) -> list[str]:
 
 def titled_layout(fig, ax, title: str) -> None:
     """`ax`'s title, wrapped to the room about its centre, and the figure laid out
-    (`tight_layout`) around it: twice, since the layout moves the panel's centre."""
-    for _ in range(2):
-        ax.set_title(title)
-        fit_width(ax.title)
+    (`tight_layout`) around it; wrapped again where the layout moved the panel's centre,
+    and laid out again if that changed the lines."""
+    ax.set_title(title)
+    fit_width(ax.title)
+    fig.tight_layout()
+    wrapped = ax.title.get_text()
+    ax.set_title(title)
+    fit_width(ax.title)
+    if ax.title.get_text() != wrapped:
         fig.tight_layout()
 
 
@@ -131,10 +138,20 @@ def break_lines(t, *columns):
 def reveal_hidden(fig) -> None:
     """Draw dashed each line that would cover more than `HIDDEN_SHARE` of an earlier
     line of its panel, and its legend entry, so that the earlier one shows between the
-    dashes. Measured on the figure as laid out (once, without rendering its pixels)."""
+    dashes. Measured on the figure as laid out, without rendering its pixels."""
     if not any(len(data_lines(ax)) > 1 for ax in fig.axes):
         return
-    fig.draw_without_rendering()  # the layout and the transforms, no pixels
+    # a layout engine places the panels (`tight_layout` leaves a placeholder, which does
+    # not), and a 3-D line is projected, as the figure is drawn
+    engine = fig.get_layout_engine()
+    if not isinstance(engine, NoneType | PlaceHolderLayoutEngine) or any(
+        ax.name == "3d" for ax in fig.axes
+    ):
+        fig.draw_without_rendering()
+    else:  # the data's page positions: the panels' places are set (the figure laid out),
+        for ax in fig.axes:  # their limits and aspect settled as drawing settles them
+            ax.get_xlim(), ax.get_ylim()
+            ax.apply_aspect()
     for ax in fig.axes:
         lines = sorted(data_lines(ax), key=lambda line: line.get_zorder())  # as drawn
         dashed = [

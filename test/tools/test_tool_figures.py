@@ -3,13 +3,21 @@ small rules."""
 
 import dataclasses
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from harness import CONFIG, SMALL, SMALL_SET, assert_figure, assert_png
 
 from sail_ros.analysis.montecarlo import input_unit, load_study, run_sample, summarize
 from sail_ros.model import SailParameters
-from sail_ros.plots.common import DPI, break_lines, figure, save, titled_layout
+from sail_ros.plots.common import (
+    DPI,
+    break_lines,
+    figure,
+    reveal_hidden,
+    save,
+    titled_layout,
+)
 from sail_ros.plots.figure_check import inspect
 from sail_ros.plots.histories import equal_groups, tip_deflections_figure
 from sail_ros.plots.sail3d import exaggeration_for, true_box_height
@@ -65,6 +73,44 @@ def test_the_check_finds_clipped_overlapping_and_hidden_artists(tmp_path, figure
     )
     with pytest.raises(AssertionError, match="outside the figure"):
         assert_figure(tmp_path / "bad.png", figure_checks, 100, 100)
+
+
+@pytest.mark.parametrize("kind", ["autoscaled", "equal aspect", "log", "twin", "3d"])
+def test_lines_are_dashed_as_the_drawn_figure_shows_them(kind):
+    """`reveal_hidden` finds where lines lie on the page without drawing a 2-D figure:
+    it dashes the lines it would dash on the drawn figure, whether the panels' limits
+    still wait for autoscaling, an aspect moves a panel, a scale is logarithmic, two
+    panels share an axis or a panel is 3-D (which it draws)."""
+    t = np.linspace(1.0, 100.0, 200)
+    y = 10.0 + 8.0 * np.sin(t / 9.0)
+    # [data units] between the two lines: under a pixel on the drawn page (with an equal
+    # aspect, the panel is 20 units tall on a width of 100, and 0.2 is less than a pixel
+    # there, but more than two in the panel before its aspect is applied)
+    offset = 0.2 if kind == "equal aspect" else 0.02
+
+    def styles(draw_first: bool) -> list[str]:
+        three_d = {"subplot_kw": {"projection": "3d"}} if kind == "3d" else {}
+        fig, ax = figure(4.0, 3.0, **three_d)
+        z = (0.0 * t,) if kind == "3d" else ()
+        ax.plot(t, y, *z, label="under")
+        ax.plot(t, y + offset, *z, label="over")
+        ax.plot(t, 0.2 * t, *z, label="apart")
+        if kind == "equal aspect":
+            ax.set_aspect("equal")
+        elif kind == "log":
+            ax.set_yscale("log")
+        elif kind == "twin":
+            ax.twinx().plot(t, t, label="twin")
+        if draw_first:
+            fig.draw_without_rendering()
+        reveal_hidden(fig)
+        drawn = [line.get_linestyle() for panel in fig.axes for line in panel.get_lines()]
+        plt.close(fig)
+        return drawn
+
+    found = styles(draw_first=False)
+    assert found == styles(draw_first=True)
+    assert found[:3] == ["-", "--", "-"]
 
 
 def test_the_check_finds_a_slanted_3d_axis_label_over_a_tick_value(tmp_path):
