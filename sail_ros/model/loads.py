@@ -78,8 +78,8 @@ def input_function(loads, free_hub: bool = False):
         free_hub: whether the hub is free (else a non-zero hub wrench is refused).
 
     The result has `switch_times` when they are known (none for constant loads, a
-    `LoadSchedule`'s own); a plain callable has none, so a batch run ends its steps
-    at the output times, where its switches are to be put.
+    `LoadSchedule`'s own); a plain callable has none, and the stepper finds its jumps
+    (`StepControl.locate_jump`).
     """
     if loads is None:
         return None
