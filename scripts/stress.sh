@@ -20,6 +20,11 @@ trial() {  # trial NAME TEST [pytest args]: one test by name, wherever test/ hol
 SAIL_ROS_KILL_TRIALS="${SAIL_ROS_KILL_TRIALS:-20}" \
   trial "recorder killed at random times" test_sigkill_at_random_times_loses_only_the_open_chunk "$@"
 
+# the run's error estimate against DOP853 on the 48 drawn deployments its margin was set
+# on and on 48 of another seed (~3 min; the suite: 3 of a third seed)
+trial "the estimate on 2 x 48 drawn deployments" \
+  test_the_estimate_bounds_the_error_on_48_drawn_deployments --slow "$@"
+
 # every README block in order, the live walk-throughs and the Monte Carlo study included
 # (~2 min; the suite: the main job and the offline blocks)
 trial "the whole README" test_readme_runs_top_to_bottom --slow "$@"

@@ -387,11 +387,24 @@ def test_a_run_whose_estimate_exceeds_twice_its_tolerance_warns():
 
 
 def test_the_estimate_bounds_the_error_on_drawn_deployments_it_was_not_chosen_on():
-    """The run's estimate (`StepControl.estimate`: 1.5 times the local errors carried to
+    """The run's estimate (`StepControl.estimate`: 1.7 times the local errors carried to
     a step's end plus its dense output's) bounds the error at every output time, inside
     steps too, on deployments drawn with other seeds than those its margin was measured
     on."""
-    for label, model, profile, loads, breaks, duration, rng in drawn_deployments(3, seed=101):
+    estimate_bounds_the_error(drawn_deployments(3, seed=101))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [24, 7], ids=["the margin's own", "another seed"])
+def test_the_estimate_bounds_the_error_on_48_drawn_deployments(seed):
+    """The same on the 48 deployments `ESTIMATE_MARGIN` was set on (seed 24: the tightest
+    reads 1.06 times its error) and on 48 of another seed (scripts/stress.sh, ~80 s
+    each)."""
+    estimate_bounds_the_error(drawn_deployments(48, seed=seed))
+
+
+def estimate_bounds_the_error(draws):
+    for label, model, profile, loads, breaks, duration, rng in draws:
         q0 = model.initial_coordinates(rng.uniform(-0.1, 0.1, 4))
         t_out = np.linspace(0.0, duration, 121)
         run = model.simulate(profile, duration, q0=q0, t_eval=t_out, loads=loads)
