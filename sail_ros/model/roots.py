@@ -2,7 +2,8 @@
 extrapolation, secant steps and bisection).
 
 The model solves two frequency equations once per process (`basis`); this keeps
-`scipy.optimize`, whose import costs a fifth of a second, out of every node and tool.
+`scipy.optimize`, whose import costs a fifth of a second, out of the tools and nodes
+that make no spline (the simulator loads it with scipy.interpolate, for waypoints).
 The steps are those of scipy's `brentq` (its C routine, the same floating-point
 operations in the same order), so a root is the same to the last bit:
 `test/model/test_basis.py` holds it to that.

@@ -164,38 +164,42 @@ class SimNode(Node):
         )
         # should what follows fail, this node is destroyed here (the simulator's by `__init__`)
         with destroyed_if_refused(self._commands):
-            quiet = SubscriptionEventCallbacks(use_default_callbacks=False)
-            # command topic (resolved) -> its type, and the subscriptions of both the graph
-            # shows: all of them, and those of the type (`SUBSCRIBERS` of each answer)
-            self._command_types = {
-                self._commands.resolve_topic_name(name): topics.TOPICS[name].type_name
-                for name in commands
-            }
-            self._subscriptions_seen: dict[str, int] = {}
-            self._listeners: dict[str, int] = {}
-            self._command_subscriptions = [
-                (
-                    name,
-                    self._commands.create_subscription(
-                        topics.TOPICS[name].message_type,
-                        name,
-                        lambda data, info, name=name: self._receive(name, data, info),
-                        qos,
-                        event_callbacks=quiet,
-                        raw=True,  # read here: bytes that are no command are answered too
-                    ),
-                )
-                for name in commands
-                for qos in topics.COMMAND_INTAKE_QOS
-            ]
-            self._burst = True  # the last wake-up of the commands' node took more than one
-            self._intake = CommandThread(
-                self._commands, lambda: INTAKE_PAUSE_S if self._burst else STREAM_PAUSE_S
-            )
+            self._subscribe_commands(commands)
             self.create_service(Trigger, topics.RESET_SERVICE, self._on_reset)
             self.create_service(SetBool, topics.PAUSE_SERVICE, self._on_pause)
             self.add_on_set_parameters_callback(self._check_parameters)
             self.add_post_set_parameters_callback(self._apply_parameters)
+
+    def _subscribe_commands(self, commands) -> None:
+        """The command topics `commands` on the commands' node, and the thread that serves it."""
+        quiet = SubscriptionEventCallbacks(use_default_callbacks=False)
+        # command topic (resolved) -> its type, and the subscriptions of both the graph
+        # shows: all of them, and those of the type (`SUBSCRIBERS` of each answer)
+        self._command_types = {
+            self._commands.resolve_topic_name(name): topics.TOPICS[name].type_name
+            for name in commands
+        }
+        self._subscriptions_seen: dict[str, int] = {}
+        self._listeners: dict[str, int] = {}
+        self._command_subscriptions = [
+            (
+                name,
+                self._commands.create_subscription(
+                    topics.TOPICS[name].message_type,
+                    name,
+                    lambda data, info, name=name: self._receive(name, data, info),
+                    qos,
+                    event_callbacks=quiet,
+                    raw=True,  # read here: bytes that are no command are answered too
+                ),
+            )
+            for name in commands
+            for qos in topics.COMMAND_INTAKE_QOS
+        ]
+        self._burst = True  # the last wake-up of the commands' node took more than one
+        self._intake = CommandThread(
+            self._commands, lambda: INTAKE_PAUSE_S if self._burst else STREAM_PAUSE_S
+        )
 
     @property
     def sim(self):
