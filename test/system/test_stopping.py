@@ -16,6 +16,12 @@ def _ignoring_sigint():
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _default_sigint():
+    # what an interactive shell gives a foreground program, whatever the test runner's
+    # own SIGINT disposition is at the moment (an ignored one would be inherited)
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_a_sigint_while_starting_in_the_background_finishes_the_recording(ros_env, tmp_path):
     """The SIGINT comes while the entry point imports the recorder's modules (its second
     of imports), before the recorder exists: it is acted on when the recorder starts,
@@ -88,10 +94,12 @@ def test_a_sigint_soon_after_the_simulator_starts_ends_it_without_a_traceback(ro
 
 
 def run_script(text: str, env: dict) -> subprocess.CompletedProcess:
-    """Python `text` run in a process of its own (its output kept, at most 60 s)."""
+    """Python `text` run in a process of its own, started as from a terminal (SIGINT at
+    its default; its output kept, at most 60 s)."""
     return subprocess.run(
-        [sys.executable, "-c", text], env=env, capture_output=True, text=True, timeout=60
-    )
+        [sys.executable, "-c", text], env=env, capture_output=True, text=True, timeout=60,
+        preexec_fn=_default_sigint,
+    )  # fmt: skip
 
 
 def test_a_node_refused_at_start_whose_teardown_sticks_still_ends(ros_env):
