@@ -7,7 +7,10 @@ status (`nodes.bridge`) follows, msg_docs/bridge.md describes it.
 """
 
 STATE = "state"  # running, paused or error
-SIM_TIME = "sim_time_s"  # simulation time of the latest sample [s]
+SIM_TIME = "sim_time_s"  # simulation time now [s]
+# state samples published since start: each state topic's writer numbers its samples
+# 1, 2, ... (DDS's publication sequence number), so a reader knows it holds the newest
+STATE_SAMPLES = "state_samples"
 REAL_TIME_FACTOR = "real_time_factor"  # simulated s per wall s, last complete window
 REAL_TIME_FACTOR_WINDOW = "real_time_factor_window_s"  # that window [s of wall time]
 TIME_SCALE = "time_scale"  # the one asked for

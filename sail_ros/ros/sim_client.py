@@ -33,6 +33,9 @@ from sail_ros.messages import commands as commands_msg
 from sail_ros.ros.discovery import CLIENT_PROFILE, announce_often, subscriptions_of
 from sail_ros.ros.program import bounded_teardown
 
+# A reliable writer resends what a reader missed at its next heartbeat (Fast DDS: every
+# 3 s); a watcher waits this long [s] at most for the newest state sample.
+CATCH_UP_S = 4.0
 # Once the answers the diagnostics counted arrived, the watcher takes more until none
 # came for this long [s]: the rest of the history arrives within milliseconds.
 ANSWER_HISTORY_S = 0.3
@@ -68,6 +71,8 @@ class SimClient(Node):
         self._readers: dict[str, int] = {}  # subscriptions the simulator counted per topic
         self.latest: dict[str, object] = {}
         self.received = 0  # state messages taken
+        # per state topic: the writer's sequence number of the sample held (None: not given)
+        self.sequences: dict[str, int | None] = {}
         if watch:
             for name_ in (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT):
                 self.create_subscription(
@@ -95,17 +100,30 @@ class SimClient(Node):
                 raise NoAnswerError(f"no {what} within {timeout:g} s")
             self.executor_.spin_once(timeout_sec=0.02)
 
-    def settle(self, quiet: float = 0.01, limit: float = 1.0) -> None:
-        """Take what is already on its way (a transient-local history comes as a burst):
-        spin until no state message arrived for `quiet` [s], at most `limit` [s]."""
+    def settle(self, quiet: float = 0.01, limit: float = CATCH_UP_S) -> None:
+        """Take the newest of the state samples the simulator keeps: its transient-local
+        history comes as a burst, whose tail a loaded machine may lose and DDS resend
+        only at the writer's next heartbeat. Spin until each state topic's sample held is
+        the one the status counts (`status.STATE_SAMPLES`, the writers' sequence
+        numbers) or a later one; where the status or the middleware gives no count, until
+        no state message arrived for `quiet` [s]. At most `limit` [s]."""
         deadline = time.monotonic() + limit
         while time.monotonic() < deadline:
             before = self.received
             end = time.monotonic() + quiet
             while time.monotonic() < end:
                 self.executor_.spin_once(timeout_sec=quiet / 4)
-            if self.received == before:
+            newest = self._holds_newest()
+            if newest or (newest is None and self.received == before):
                 return
+
+    def _holds_newest(self) -> bool | None:
+        """Whether each state sample held is the newest the last status counted; None
+        where that is not known (no count in the status, no sequence numbers)."""
+        counted = int(self.latest.get("diagnostics_values", {}).get(key.STATE_SAMPLES, 0))
+        if not counted or not self.sequences or None in self.sequences.values():
+            return None
+        return all(sequence >= counted for sequence in self.sequences.values())
 
     def settle_answers(self, timeout: float, limit: float = ANSWER_HISTORY_S) -> None:
         """Take the simulator's answers already given: their transient-local history
@@ -249,8 +267,9 @@ class SimClient(Node):
             self.latest["answer"] = answers[-1]
 
     def _keeper(self, name: str):
-        def keep(message: JointState) -> None:
+        def keep(message: JointState, info: dict) -> None:
             self.latest[name] = message
+            self.sequences[name] = info.get("publication_sequence_number") or None
             self.received += 1
 
         return keep

@@ -162,6 +162,7 @@ class RealTimeRun:
         self._window = self._window_start()
         self._sampled_from = 0
         self._state_published_t = math.nan  # simulation time of the last state sent [s]
+        self.state_samples = 0  # state samples published since start
         self._waiting_since: float | None = None  # [s, clock] a step waits for its command
         self.missed_commands = 0  # steps that waited command_wait_s in vain
         self._excused_until = -math.inf  # [s] the steps of a wait in vain go up to here
@@ -492,6 +493,7 @@ class RealTimeRun:
     def _publish_state(self) -> None:
         self.outputs.state(self.stamp_ns(), self.sim.sample())
         self._state_published_t = self.sim.t
+        self.state_samples += 1
 
     def _publish_shape(self) -> None:
         self.outputs.shape(self.stamp_ns(), self.sim.q, self.sim.lengths)
@@ -538,6 +540,7 @@ class RealTimeRun:
         values = {
             key.STATE: sim.state,
             key.SIM_TIME: round(sim.t, 9),
+            key.STATE_SAMPLES: self.state_samples,
             key.REAL_TIME_FACTOR: round(rtf.value, 4),
             key.REAL_TIME_FACTOR_WINDOW: round(rtf.window, 4),
             key.TIME_SCALE: config.time_scale,

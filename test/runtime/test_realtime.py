@@ -199,7 +199,7 @@ def test_pause_resume_and_reset_hold_and_restart_the_clock(model):
 def test_a_reset_between_two_samples_sends_the_state_it_leaves_then_repeats_its_stamp(model):
     """A tick may end between two state samples (50 Hz: every 2nd step of 10 ms); a reset
     there first sends the state it leaves, so its own sample repeats that stamp (a log
-    tells a reset by it); stamps never decrease."""
+    tells a reset by it); stamps never decrease; the status counts every sample sent."""
     run, clock, outputs, _ = make_run(model, initial_tip_deflection=[0.0, 0.05, 0.0, 0.0])
     advance(run, clock, 0.35, period=0.01)
     steps = run.sim.steps
@@ -219,6 +219,10 @@ def test_a_reset_between_two_samples_sends_the_state_it_leaves_then_repeats_its_
     assert len(outputs.states) == sent + 1 and outputs.states[-1][0] == outputs.states[-2][0]
     stamps = [stamp for stamp, _ in outputs.states]
     assert np.all(np.diff(stamps) >= 0)
+    # the status counts every sample sent, the reset's pairs included (a watcher waits for
+    # the sample it counts: the state after the reset)
+    run.publish_status()
+    assert outputs.statuses[-1][key.STATE_SAMPLES] == len(outputs.states)
 
 
 def count(outputs, outcome):

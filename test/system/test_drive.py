@@ -33,6 +33,8 @@ from sail_ros import status as key
 from sail_ros import topics
 from sail_ros.bag import BagReader
 from sail_ros.messages import commands as commands_msg
+from sail_ros.messages import diagnostics as diagnostics_msg
+from sail_ros.messages import state as state_msg
 
 pytestmark = pytest.mark.multiprocess
 
@@ -400,6 +402,50 @@ def test_a_publisher_that_behaves_like_ros2_topic_pub_once_reaches_the_simulator
         node.destroy_node()
     operator.spin_until(lambda: len(answers.received) >= 5, 10.0, "five answers")
     assert [a.outcome for a in answers.received] == ["accepted"] * 5
+
+
+def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env):
+    """The tail of a simulator's kept state history can reach a late subscriber after the
+    rest (DDS resends what a loaded machine lost at the writer's next heartbeat): `watch
+    --once` shows the sample the status counts, not the newest to have arrived. A stand-in
+    simulator publishes three samples (booms at 10, 11, 12 m) and a status counting four;
+    the fourth (13 m) goes out 1.5 s after `watch` subscribed."""
+    sim_name = "/" + topics.SIM_NODE
+    state = {
+        name: operator.create_publisher(JointState, name, topics.STATE_QOS)
+        for name in (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT)
+    }
+    status = operator.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, topics.DIAGNOSTICS_QOS)
+    operator.create_publisher(DiagnosticArray, topics.COMMAND_STATUS, topics.COMMAND_STATUS_QOS)
+
+    def publish_sample(i: int) -> None:
+        stamp, zero = i * 10**9, np.zeros(4)
+        state[topics.BOOM_STATE].publish(state_msg.boom_state(stamp, np.full(4, 9.0 + i), zero))
+        state[topics.TIP_DEFLECTION].publish(state_msg.tip_deflection(stamp, zero, zero))
+        state[topics.ROOT_MOMENT].publish(state_msg.root_moment(stamp, zero))
+
+    for i in (1, 2, 3):
+        publish_sample(i)
+    values = {key.STATE: "paused", key.SIM_TIME: 4.0, key.STATE_SAMPLES: 4}
+    operator.create_timer(
+        0.1,
+        lambda: status.publish(
+            diagnostics_msg.diagnostics(4 * 10**9, "OK", "paused", values, sim_name)
+        ),
+    )
+    watching = subprocess.Popen(
+        [sys.executable, "-m", "sail_ros.cli", "watch", "--once", "--json", "--timeout", "30"],
+        env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    operator.spin_until(
+        lambda: state[topics.BOOM_STATE].get_subscription_count() > 0, 30.0, "watch to subscribe"
+    )
+    operator.spin_for(1.5)
+    publish_sample(4)
+    operator.spin_until(lambda: watching.poll() is not None, 30.0, "watch to print")
+    out, err = watching.communicate()
+    assert watching.returncode == 0, err
+    assert json.loads(out)["boom_length_m"]["a"] == 13.0
 
 
 def test_a_hub_wrench_from_the_terminal_tilts_a_free_hub_and_watch_shows_it(processes, ros_env):
