@@ -21,9 +21,10 @@ SAIL_ROS_KILL_TRIALS="${SAIL_ROS_KILL_TRIALS:-20}" \
   trial "recorder killed at random times" test_sigkill_at_random_times_loses_only_the_open_chunk "$@"
 
 # the run's error estimate against DOP853 on the 48 drawn deployments its margin was set
-# on and on 48 of another seed (~3 min; the suite: 3 of a third seed)
-trial "the estimate on 2 x 48 drawn deployments" \
-  test_the_estimate_bounds_the_error_on_48_drawn_deployments --slow "$@"
+# on, on 48 of another seed, on 24 free hubs and on 24 loaded by plain functions (~6 min;
+# the suite: 3 of a third seed and 2 free hubs loaded by plain functions)
+trial "the estimate on 144 drawn deployments" \
+  test_the_estimate_bounds_the_error_on_many_drawn_deployments --slow "$@"
 
 # every README block in order, the live walk-throughs and the Monte Carlo study included
 # (~2 min; the suite: the main job and the offline blocks)
