@@ -2,9 +2,11 @@
 
 Each tool is also its own executable under `lib/sail_ros` (what `ros2 run
 sail_ros <tool>` starts, `main_<tool>` here); both routes call the tool's same
-`main`. This module imports nothing heavy, so that `setup.py` can read `TOOLS`
-and so that an entry point keeps an early SIGINT (`early_signals`) before the
-tool's imports take their second.
+`main`. This module imports nothing but `early_signals` at its top, so that
+`setup.py` can read `TOOLS` and so that a SIGINT in a program's first tens of
+milliseconds meets the entry point's guard (exit 130, no traceback) rather than an
+import, and an entry point keeps an early SIGINT (`early_signals`) before the tool's
+imports take their second.
 
 How every program reads its command line is in `sail_ros.options`.
 """
@@ -13,8 +15,6 @@ import importlib
 import sys
 
 from sail_ros.early_signals import keep_early_sigint
-from sail_ros.options import PHYSICS_DOC
-from sail_ros.spelling import did_you_mean
 
 INTERRUPTED = 130  # the exit code of a program ended by SIGINT (128 + 2), as shells give it
 
@@ -59,6 +59,8 @@ SUMMARIES = {
 
 
 def _usage():
+    from sail_ros.options import PHYSICS_DOC
+
     width = max(len(name) for name in TOOLS)
     lines = ["usage: sail-ros <tool> [args]", "", "tools:"]
     for name in TOOLS:
@@ -71,19 +73,24 @@ def _usage():
 def main(argv=None):
     """`sail-ros <tool> [args]`; returns the exit code."""
     keep_early_sigint()
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] in ("-h", "--help"):
-        print(_usage())
-        return 0
-    name, rest = argv[0], argv[1:]
-    if name not in TOOLS:
-        hint = did_you_mean(name, TOOLS)
-        print(
-            f"sail-ros: unknown tool {name!r}{hint}; tools: {', '.join(TOOLS)}",
-            file=sys.stderr,
-        )
-        return 2
-    return _run_tool(name, rest, f"sail-ros {name}")
+    try:
+        argv = list(sys.argv[1:] if argv is None else argv)
+        if not argv or argv[0] in ("-h", "--help"):
+            print(_usage())
+            return 0
+        name, rest = argv[0], argv[1:]
+        if name not in TOOLS:
+            from sail_ros.spelling import did_you_mean
+
+            hint = did_you_mean(name, TOOLS)
+            print(
+                f"sail-ros: unknown tool {name!r}{hint}; tools: {', '.join(TOOLS)}",
+                file=sys.stderr,
+            )
+            return 2
+        return _run_tool(name, rest, f"sail-ros {name}")
+    except KeyboardInterrupt:
+        return INTERRUPTED
 
 
 def _run_tool(name: str, args: list[str], prog: str) -> int:

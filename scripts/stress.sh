@@ -34,7 +34,7 @@ trial "the whole README" test_readme_runs_top_to_bottom --slow "$@"
 # 10 s each, at a simulator that keeps real time and counts every command (~60 s)
 trial "a flood of commands" test_a_flood_of_commands_is_held_in_real_time_and_counted --slow "$@"
 
-# SIGINT 0.05 to 1.5 s after `sail-ros sim` starts: no traceback, exit 130 or 0 (~10 s; the
+# SIGINT 0.1 to 1.5 s after `sail-ros sim` starts: no traceback, exit 130 or 0 (~15 s; the
 # suite: the SIGINT sent from inside its imports)
 trial "an early SIGINT" test_a_sigint_soon_after_the_simulator_starts_ends_it_without_a_traceback --slow "$@"
 

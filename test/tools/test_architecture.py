@@ -277,3 +277,22 @@ def test_the_terminal_commands_start_without_the_numerical_libraries(tool):
     heavy = {"scipy", "matplotlib", "pyarrow", "dask"}
     loaded = {m.split(".")[0] for m in imported_by([f"sail_ros.tools.{tool}"])} & heavy
     assert loaded == set(), loaded
+
+
+def test_the_entry_points_module_loads_only_what_keeps_an_early_sigint():
+    """Every program starts by importing `sail_ros.cli` (its console scripts' first line),
+    before its `main` guards against a Ctrl-C (exit 130, no traceback): that import loads
+    nothing but `early_signals`, so the unguarded moment lasts milliseconds, not the tens
+    a module such as `options` (argparse, re) would take."""
+    bare = imported_by(["sys"])
+    loaded = imported_by(["sail_ros.cli"]) - bare
+    assert {m for m in loaded if m.startswith("sail_ros")} == {
+        "sail_ros",
+        "sail_ros.cli",
+        "sail_ros.early_signals",
+    }
+    assert loaded - {"sail_ros", "sail_ros.cli", "sail_ros.early_signals"} <= {
+        "signal",
+        "threading",
+        "_weakrefset",
+    }
