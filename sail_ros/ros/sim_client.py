@@ -73,6 +73,7 @@ class SimClient(Node):
         self.received = 0  # state messages taken
         # per state topic: the writer's sequence number of the sample held (None: not given)
         self.sequences: dict[str, int | None] = {}
+        self._states_from_simulator: bool | None = None  # found when first needed
         if watch:
             for name_ in (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT):
                 self.create_subscription(
@@ -119,9 +120,19 @@ class SimClient(Node):
 
     def _holds_newest(self) -> bool | None:
         """Whether each state sample held is the newest the last status counted; None
-        where that is not known (no count in the status, no sequence numbers)."""
+        where that is not known (no count in the status, no sequence numbers, or a state
+        another node writes: a log's replay republishes the status it recorded, whose
+        count is the recorded simulator's)."""
         counted = int(self.latest.get("diagnostics_values", {}).get(key.STATE_SAMPLES, 0))
         if not counted or not self.sequences or None in self.sequences.values():
+            return None
+        if self._states_from_simulator is None:
+            writers = self.get_publishers_info_by_topic(self.resolve_topic_name(topics.BOOM_STATE))
+            self._states_from_simulator = any(
+                f"{info.node_namespace.rstrip('/')}/{info.node_name}" == self.sim_name
+                for info in writers
+            )
+        if not self._states_from_simulator:
             return None
         return all(sequence >= counted for sequence in self.sequences.values())
 

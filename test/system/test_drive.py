@@ -408,15 +408,18 @@ def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env):
     """The tail of a simulator's kept state history can reach a late subscriber after the
     rest (DDS resends what a loaded machine lost at the writer's next heartbeat): `watch
     --once` shows the sample the status counts, not the newest to have arrived. A stand-in
-    simulator publishes three samples (booms at 10, 11, 12 m) and a status counting four;
-    the fourth (13 m) goes out 1.5 s after `watch` subscribed."""
+    simulator (a node of the simulator's name) publishes three samples (booms at 10, 11,
+    12 m) and a status counting four; the fourth (13 m) goes out 1.5 s after `watch`
+    subscribed."""
     sim_name = "/" + topics.SIM_NODE
+    simulator = Node(topics.SIM_NODE, context=operator.context)
+    operator.spinner.add_node(simulator)
     state = {
-        name: operator.create_publisher(JointState, name, topics.STATE_QOS)
+        name: simulator.create_publisher(JointState, name, topics.STATE_QOS)
         for name in (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT)
     }
-    status = operator.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, topics.DIAGNOSTICS_QOS)
-    operator.create_publisher(DiagnosticArray, topics.COMMAND_STATUS, topics.COMMAND_STATUS_QOS)
+    status = simulator.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, topics.DIAGNOSTICS_QOS)
+    simulator.create_publisher(DiagnosticArray, topics.COMMAND_STATUS, topics.COMMAND_STATUS_QOS)
 
     def publish_sample(i: int) -> None:
         stamp, zero = i * 10**9, np.zeros(4)
@@ -427,7 +430,7 @@ def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env):
     for i in (1, 2, 3):
         publish_sample(i)
     values = {key.STATE: "paused", key.SIM_TIME: 4.0, key.STATE_SAMPLES: 4}
-    operator.create_timer(
+    simulator.create_timer(
         0.1,
         lambda: status.publish(
             diagnostics_msg.diagnostics(4 * 10**9, "OK", "paused", values, sim_name)
@@ -437,13 +440,19 @@ def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env):
         [sys.executable, "-m", "sail_ros.cli", "watch", "--once", "--json", "--timeout", "30"],
         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    operator.spin_until(
-        lambda: state[topics.BOOM_STATE].get_subscription_count() > 0, 30.0, "watch to subscribe"
-    )
-    operator.spin_for(1.5)
-    publish_sample(4)
-    operator.spin_until(lambda: watching.poll() is not None, 30.0, "watch to print")
-    out, err = watching.communicate()
+    try:
+        operator.spin_until(
+            lambda: state[topics.BOOM_STATE].get_subscription_count() > 0, 30.0, "watch"
+        )
+        operator.spin_for(1.5)
+        publish_sample(4)
+        operator.spin_until(lambda: watching.poll() is not None, 30.0, "watch to print")
+        out, err = watching.communicate()
+    finally:
+        if watching.poll() is None:
+            watching.kill()
+        operator.spinner.remove_node(simulator)
+        simulator.destroy_node()
     assert watching.returncode == 0, err
     assert json.loads(out)["boom_length_m"]["a"] == 13.0
 
