@@ -36,6 +36,8 @@ from sail_ros.ros.program import bounded_teardown
 # A reliable writer resends what a reader missed at its next heartbeat (Fast DDS: every
 # 3 s); a watcher waits this long [s] at most for the newest state sample.
 CATCH_UP_S = 4.0
+# how the graph names a writer's node before it has learnt it (rmw's placeholder)
+UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 # Once the answers the diagnostics counted arrived, the watcher takes more until none
 # came for this long [s]: the rest of the history arrives within milliseconds.
 ANSWER_HISTORY_S = 0.3
@@ -73,7 +75,7 @@ class SimClient(Node):
         self.received = 0  # state messages taken
         # per state topic: the writer's sequence number of the sample held (None: not given)
         self.sequences: dict[str, int | None] = {}
-        self._states_from_simulator: bool | None = None  # found when first needed
+        self._states_from_simulator: bool | None = None  # found when the graph says
         if watch:
             for name_ in (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT):
                 self.create_subscription(
@@ -127,14 +129,22 @@ class SimClient(Node):
         if not counted or not self.sequences or None in self.sequences.values():
             return None
         if self._states_from_simulator is None:
-            writers = self.get_publishers_info_by_topic(self.resolve_topic_name(topics.BOOM_STATE))
-            self._states_from_simulator = any(
-                f"{info.node_namespace.rstrip('/')}/{info.node_name}" == self.sim_name
-                for info in writers
-            )
-        if not self._states_from_simulator:
+            self._states_from_simulator = self._writer_is_simulator()
+        if self._states_from_simulator is False:
             return None
         return all(sequence >= counted for sequence in self.sequences.values())
+
+    def _writer_is_simulator(self) -> bool | None:
+        """Whether the simulator writes the state (a node of its name among the writers of
+        its boom state); None while the graph does not name them yet (it learns a
+        writer's node after the writer itself)."""
+        writers = self.get_publishers_info_by_topic(self.resolve_topic_name(topics.BOOM_STATE))
+        names = [f"{info.node_namespace.rstrip('/')}/{info.node_name}" for info in writers]
+        if self.sim_name in names:
+            return True
+        if not names or any(UNKNOWN_NODE in name for name in names):
+            return None
+        return False
 
     def settle_answers(self, timeout: float, limit: float = ANSWER_HISTORY_S) -> None:
         """Take the simulator's answers already given: their transient-local history
