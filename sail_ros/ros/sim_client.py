@@ -139,10 +139,12 @@ class SimClient(Node):
         its boom state); None while the graph does not name them yet (it learns a
         writer's node after the writer itself)."""
         writers = self.get_publishers_info_by_topic(self.resolve_topic_name(topics.BOOM_STATE))
-        names = [f"{info.node_namespace.rstrip('/')}/{info.node_name}" for info in writers]
-        if self.sim_name in names:
+        if any(
+            info.node_name == topics.SIM_NODE and info.node_namespace == self.get_namespace()
+            for info in writers
+        ):
             return True
-        if not names or any(UNKNOWN_NODE in name for name in names):
+        if not writers or any(info.node_name == UNKNOWN_NODE for info in writers):
             return None
         return False
 
