@@ -25,6 +25,7 @@ from sail_ros.integrate.errors import AccuracyWarning
 from sail_ros.integrate.observers import RangeWatch
 from sail_ros.integrate.peaks import Peaks
 from sail_ros.model import SailModel
+from sail_ros.model.hub import hold_loads_over
 from sail_ros.model.loads import input_function
 from sail_ros.model.profiles import motion_over
 from sail_ros.model.record import StateSample, take
@@ -208,7 +209,7 @@ def hold_reactions(model: SailModel, profile, t) -> np.ndarray:
     """What a free hub's holds supply at times `t` [s] (k,) while `profile` moves the
     booms (`SailModel.hold_loads`): (k, 3) of F_x, F_y [N] in the inertial x-y plane
     and tau_z [N m] about the body z axis; zero with point-symmetric motion."""
-    return np.array([model.hold_loads(*profile(float(ti))) for ti in np.asarray(t)])
+    return hold_loads_over(model.params, *motion_over(profile, np.asarray(t, dtype=float)))
 
 
 HOLD_SPACING_S = 0.01  # the holds follow the boom motion alone: sampled this finely

@@ -6,6 +6,7 @@ A one-way chain, each module importing only those above it:
 
 - `layout`: the coordinates as named groups (booms, quadrants, a free hub), their
   slices and names, `per_boom`;
+- `integral_store`: the quadrant integrals kept on disk between processes;
 - `basis`, `integrals`: basis functions and the reference integrals (§2, §5);
 - `assembly`: the matrices of Eq. 2 as a table of named terms, lifted (§5, §6), with a
   free hub's terms (§13);

@@ -21,26 +21,27 @@ from sail_ros.model.parameters import SailParameters
 def in_plane_momenta(params: SailParameters, lengths, rates, accelerations):
     """`(P, Pd, H_z, Hd_z)` of the deploying material (model.md §13.3): in-plane momentum
     `P` (2,) [kg m/s] in the `sail` frame and its rate [N], spin momentum about z `H_z`
-    [kg m^2/s] (the film's; booms carry none) and its rate [N m]."""
+    [kg m^2/s] (the film's; booms carry none) and its rate [N m]. For motions at m times
+    (`lengths`, `rates`, `accelerations` (m, 4)): `P`, `Pd` (m, 2), `H_z`, `Hd_z` (m,)."""
     rho_b, rho_m = params.boom_linear_density, params.membrane_areal_density
-    L, Ld, Ldd = lengths, rates, accelerations
-    P = rho_b * (L * Ld) @ BOOM_DIRECTIONS
-    Pd = rho_b * (Ld**2 + L * Ldd) @ BOOM_DIRECTIONS
+    L, Ld, Ldd = (np.asarray(x, dtype=float)[..., None] for x in (lengths, rates, accelerations))
+    # each boom's values as a column (..., 4, 1): a quadrant's terms are (..., 2) or (..., 1)
+    P = rho_b * ((L * Ld) * BOOM_DIRECTIONS).sum(axis=-2)
+    Pd = rho_b * ((Ld**2 + L * Ldd) * BOOM_DIRECTIONS).sum(axis=-2)
     spin = spin_rate = 0.0
     for _, a, b in QUADRANTS:
         e_a, e_b = BOOM_DIRECTIONS[a], BOOM_DIRECTIONS[b]
-        area = L[a] * L[b]
-        velocity = Ld[a] * e_a + Ld[b] * e_b
+        La, Lda, Ldda = L[..., a, :], Ld[..., a, :], Ldd[..., a, :]
+        Lb, Ldb, Lddb = L[..., b, :], Ld[..., b, :], Ldd[..., b, :]
+        area = La * Lb
+        velocity = Lda * e_a + Ldb * e_b
         P = P + rho_m * 0.5 * area * velocity
         Pd = Pd + rho_m * (
-            0.5 * (Ld[a] * L[b] + L[a] * Ld[b]) * velocity
-            + 0.5 * area * (Ldd[a] * e_a + Ldd[b] * e_b)
+            0.5 * (Lda * Lb + La * Ldb) * velocity + 0.5 * area * (Ldda * e_a + Lddb * e_b)
         )
-        spin += rho_m * area * (L[a] * Ld[b] - L[b] * Ld[a]) / 6.0
-        spin_rate += (rho_m / 6.0) * (
-            L[a] ** 2 * (Ld[b] ** 2 + L[b] * Ldd[b]) - L[b] ** 2 * (Ld[a] ** 2 + L[a] * Ldd[a])
-        )
-    return P, Pd, spin, spin_rate
+        spin += rho_m * area * (La * Ldb - Lb * Lda) / 6.0
+        spin_rate += (rho_m / 6.0) * (La**2 * (Ldb**2 + Lb * Lddb) - Lb**2 * (Lda**2 + La * Ldda))
+    return P, Pd, spin[..., 0], spin_rate[..., 0]
 
 
 def hold_loads(model, lengths, rates=0.0, accelerations=0.0) -> np.ndarray:
@@ -53,8 +54,14 @@ def hold_loads(model, lengths, rates=0.0, accelerations=0.0) -> np.ndarray:
         per_boom(rates, "rates"),
         per_boom(accelerations, "accelerations"),
     )
-    _, force, _, torque = in_plane_momenta(model.params, *motion)
-    return np.array([force[0], force[1], torque])
+    return hold_loads_over(model.params, *motion)
+
+
+def hold_loads_over(params: SailParameters, lengths, rates, accelerations) -> np.ndarray:
+    """`hold_loads` of motions at m times (checked `lengths`, `rates`, `accelerations`
+    (m, 4)): (m, 3); of one motion (4 values each): (3,)."""
+    _, force, _, torque = in_plane_momenta(params, lengths, rates, accelerations)
+    return np.concatenate([force, torque[..., None]], axis=-1)
 
 
 def momenta(model, q, qd, lengths, rates=0.0) -> tuple[float, float, float]:

@@ -33,6 +33,7 @@ from sail_ros.model.basis import (
     triangle_mode_terms,
     trig_table,
 )
+from sail_ros.model.integral_store import stored_arrays
 
 
 def default_quadrature_order(n_boom_modes: int, n_membrane_modes: int) -> int:
@@ -322,6 +323,19 @@ def _assemble(nb: int, nm: int, blocks: dict[str, np.ndarray]) -> np.ndarray:
 
 @functools.cache
 def quadrant_integrals(n_boom_modes: int, n_membrane_modes: int, order: int) -> QuadrantIntegrals:
+    """The quadrant integrals on the collapsed rule of `order^2` points (`_built`), kept
+    in this process and, between processes, on disk (`integral_store`)."""
+    names = tuple(field.name for field in dataclasses.fields(QuadrantIntegrals))
+
+    def build() -> dict[str, np.ndarray]:
+        built = _built(n_boom_modes, n_membrane_modes, order)
+        return {name: getattr(built, name) for name in names}
+
+    key = f"quadrant_integrals_{n_boom_modes}_{n_membrane_modes}_{order}"
+    return _freeze(QuadrantIntegrals(**stored_arrays(key, names, build)))
+
+
+def _built(n_boom_modes: int, n_membrane_modes: int, order: int) -> QuadrantIntegrals:
     """The quadrant integrals on the collapsed rule of `order^2` points, block by block.
 
     Only the nonzero blocks of `S = [A; B; P]`, `R_a = (1 - xi) [A'; 0; P_xi]`,
@@ -370,61 +384,55 @@ def quadrant_integrals(n_boom_modes: int, n_membrane_modes: int, order: int) -> 
             "mm": mm(p_xi, p_eta, 1, 1),
         },
     )
-    return _freeze(
-        QuadrantIntegrals(
-            s_s=symmetric(
-                {
-                    "xx": a_a,
-                    "xe": xe(a, psi, 0, 0),
-                    "xm": xm(a, p, 0, 0),
-                    "ee": a_a,
-                    "em": em(psi, p, 0, 0),
-                    "mm": mm(p, p, 0, 0),
-                }
-            ),
-            s_ra=_assemble(
-                nb,
-                nm,
-                {
-                    "xx": a_ra,
-                    "xm": xm(a, p_xi, 1, 0),
-                    "ex": xe(da, psi, 1, 0).T,
-                    "em": em(psi, p_xi, 1, 0),
-                    "mx": xm(da, p, 1, 0).T,
-                    "mm": mm(p, p_xi, 1, 0),
-                },
-            ),
-            s_rb=_assemble(
-                nb,
-                nm,
-                {
-                    "xe": xe(a, dpsi, 0, 1),
-                    "xm": xm(a, p_eta, 0, 1),
-                    "ee": a_ra,
-                    "em": em(psi, p_eta, 0, 1),
-                    "me": em(dpsi, p, 0, 1).T,
-                    "mm": mm(p, p_eta, 0, 1),
-                },
-            ),
-            ra_ra=symmetric({"xx": ra_ra, "xm": xm(da, p_xi, 2, 0), "mm": mm(p_xi, p_xi, 2, 0)}),
-            ra_rb=ra_rb + ra_rb.T,
-            rb_rb=symmetric(
-                {"ee": ra_ra, "em": em(dpsi, p_eta, 0, 2), "mm": mm(p_eta, p_eta, 0, 2)}
-            ),
-            sxi_sxi=symmetric({"xx": da_da, "xm": xm(da, p_xi, 0, 0), "mm": mm(p_xi, p_xi, 0, 0)}),
-            seta_seta=symmetric(
-                {"ee": da_da, "em": em(dpsi, p_eta, 0, 0), "mm": mm(p_eta, p_eta, 0, 0)}
-            ),
-            s_mean=np.concatenate(
-                [xx(ones, a, 0)[0], xe(ones, psi, 0, 0)[0], xm(ones, p, 0, 0)[0]]
-            ),
-            xi_s=s_vector(u, 0),
-            eta_s=s_vector(ones, 0) - s_vector(ones, 1),
-            ra_mean=ra_vector(ones, 0),
-            xi_ra=ra_vector(u, 0),
-            eta_ra=ra_vector(ones, 0) - ra_vector(ones, 1),
-            rb_mean=rb_vector(ones, 0),
-            xi_rb=rb_vector(u, 0),
-            eta_rb=rb_vector(ones, 0) - rb_vector(ones, 1),
-        )
+    return QuadrantIntegrals(
+        s_s=symmetric(
+            {
+                "xx": a_a,
+                "xe": xe(a, psi, 0, 0),
+                "xm": xm(a, p, 0, 0),
+                "ee": a_a,
+                "em": em(psi, p, 0, 0),
+                "mm": mm(p, p, 0, 0),
+            }
+        ),
+        s_ra=_assemble(
+            nb,
+            nm,
+            {
+                "xx": a_ra,
+                "xm": xm(a, p_xi, 1, 0),
+                "ex": xe(da, psi, 1, 0).T,
+                "em": em(psi, p_xi, 1, 0),
+                "mx": xm(da, p, 1, 0).T,
+                "mm": mm(p, p_xi, 1, 0),
+            },
+        ),
+        s_rb=_assemble(
+            nb,
+            nm,
+            {
+                "xe": xe(a, dpsi, 0, 1),
+                "xm": xm(a, p_eta, 0, 1),
+                "ee": a_ra,
+                "em": em(psi, p_eta, 0, 1),
+                "me": em(dpsi, p, 0, 1).T,
+                "mm": mm(p, p_eta, 0, 1),
+            },
+        ),
+        ra_ra=symmetric({"xx": ra_ra, "xm": xm(da, p_xi, 2, 0), "mm": mm(p_xi, p_xi, 2, 0)}),
+        ra_rb=ra_rb + ra_rb.T,
+        rb_rb=symmetric({"ee": ra_ra, "em": em(dpsi, p_eta, 0, 2), "mm": mm(p_eta, p_eta, 0, 2)}),
+        sxi_sxi=symmetric({"xx": da_da, "xm": xm(da, p_xi, 0, 0), "mm": mm(p_xi, p_xi, 0, 0)}),
+        seta_seta=symmetric(
+            {"ee": da_da, "em": em(dpsi, p_eta, 0, 0), "mm": mm(p_eta, p_eta, 0, 0)}
+        ),
+        s_mean=np.concatenate([xx(ones, a, 0)[0], xe(ones, psi, 0, 0)[0], xm(ones, p, 0, 0)[0]]),
+        xi_s=s_vector(u, 0),
+        eta_s=s_vector(ones, 0) - s_vector(ones, 1),
+        ra_mean=ra_vector(ones, 0),
+        xi_ra=ra_vector(u, 0),
+        eta_ra=ra_vector(ones, 0) - ra_vector(ones, 1),
+        rb_mean=rb_vector(ones, 0),
+        xi_rb=rb_vector(u, 0),
+        eta_rb=rb_vector(ones, 0) - rb_vector(ones, 1),
     )

@@ -84,7 +84,8 @@ class SailModel(Readout):
     """Modal model of the four-boom, four-quadrant sail.
 
     The reference integrals for `(n_B, n_M)` are built once (and cached across
-    instances); every call below only scales and adds them.
+    instances and, on disk, across processes: `integral_store`); every call below only
+    scales and adds them.
 
     Args:
         params: physical parameters and mode counts (`n_membrane_modes` 0: the automatic

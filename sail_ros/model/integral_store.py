@@ -1,0 +1,95 @@
+"""The quadrant integrals kept on disk between processes.
+
+Building the integrals of the default mode counts takes about a second of CPU, and every
+simulator, tool and worker that starts builds them again; a file holds them for the next
+process. A stored set is used only if it was built by the same code (the integrals' and
+basis functions' sources and numpy's version name the file) and reads back whole;
+anything else, or a cache folder that cannot be written, builds them as before. The
+values are the built ones to the bit (`.npy` keeps every float as it is).
+
+Where: `$XDG_CACHE_HOME/sail_ros` or `~/.cache/sail_ros`; at most `KEPT_FILES` sets stay
+(the least recently used go).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+# the sets kept (a default set is about 5 MB)
+KEPT_FILES = 8
+_SOURCES = ("integrals.py", "basis.py")
+
+
+def cache_folder() -> Path | None:
+    """`$XDG_CACHE_HOME/sail_ros`, else `~/.cache/sail_ros`; None without a home."""
+    base = os.environ.get("XDG_CACHE_HOME") or (
+        str(Path.home() / ".cache") if os.environ.get("HOME") else ""
+    )
+    return Path(base) / "sail_ros" if base else None
+
+
+def _code_fingerprint() -> str:
+    """What the stored values depend on besides the counts: the sources that compute them
+    and numpy's version."""
+    digest = hashlib.sha256(np.__version__.encode())
+    here = Path(__file__).parent
+    for name in _SOURCES:
+        digest.update((here / name).read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def stored_arrays(
+    key: str, names: tuple[str, ...], build: Callable[[], dict[str, np.ndarray]]
+) -> dict[str, np.ndarray]:
+    """The arrays `names` that `build()` makes for `key` (a file-name-safe label of its
+    arguments): read from the cache folder where a set of this code is there, else built
+    and stored."""
+    folder = cache_folder()
+    path = None if folder is None else folder / f"{key}_{_code_fingerprint()}.npz"
+    if path is not None:
+        found = _read(path, names)
+        if found is not None:
+            return found
+    arrays = build()
+    if path is not None:
+        _write(path, arrays)
+    return arrays
+
+
+def _read(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray] | None:
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            if sorted(stored.files) != sorted(names):
+                return None
+            arrays = {name: stored[name] for name in names}
+        os.utime(path)  # recently used: kept longest
+        return arrays
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile):  # absent, cut short
+        return None
+
+
+def _write(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Store atomically (a reader sees the whole file or none), then keep the
+    `KEPT_FILES` most recently used sets; a folder that cannot be written stores nothing."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".part")
+        try:
+            with os.fdopen(handle, "wb") as stream:
+                np.savez(stream, **arrays)
+            os.replace(temporary, path)
+        except BaseException:
+            os.unlink(temporary)
+            raise
+        sets = sorted(path.parent.glob("*.npz"), key=lambda p: p.stat().st_mtime, reverse=True)
+        for old in sets[KEPT_FILES:]:
+            old.unlink(missing_ok=True)
+    except OSError:
+        pass
