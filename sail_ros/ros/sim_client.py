@@ -36,6 +36,8 @@ from sail_ros.ros.program import bounded_teardown
 # A reliable writer resends what a reader missed at its next heartbeat (Fast DDS: every
 # 3 s); a watcher waits this long [s] at most for the newest state sample.
 CATCH_UP_S = 4.0
+# the state topics a watcher shows (a free hub's state besides, where the simulator has one)
+WATCHED_STATE = (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT)
 # how the graph names a writer's node before it has learnt it (rmw's placeholder)
 UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 # Once the answers the diagnostics counted arrived, the watcher takes more until none
@@ -76,8 +78,9 @@ class SimClient(Node):
         # per state topic: the writer's sequence number of the sample held (None: not given)
         self.sequences: dict[str, int | None] = {}
         self._states_from_simulator: bool | None = None  # found when the graph says
+        self._hub_subscription = None
         if watch:
-            for name_ in (topics.BOOM_STATE, topics.TIP_DEFLECTION, topics.ROOT_MOMENT):
+            for name_ in WATCHED_STATE:
                 self.create_subscription(
                     JointState, name_, self._keeper(name_), topics.NEWEST_STATE_QOS
                 )
@@ -85,7 +88,7 @@ class SimClient(Node):
                 DiagnosticArray, topics.DIAGNOSTICS, self._on_diagnostics, topics.DIAGNOSTICS_QOS
             )
             hub = topics.TOPICS[topics.HUB_STATE]  # a free hub's; none arrive when clamped
-            self.create_subscription(
+            self._hub_subscription = self.create_subscription(
                 hub.message_type, topics.HUB_STATE, self._keeper(topics.HUB_STATE),
                 topics.NEWEST_STATE_QOS,
             )  # fmt: skip
@@ -121,10 +124,11 @@ class SimClient(Node):
                 return
 
     def _holds_newest(self) -> bool | None:
-        """Whether each state sample held is the newest the last status counted; None
-        where that is not known (no count in the status, no sequence numbers, or a state
-        another node writes: a log's replay republishes the status it recorded, whose
-        count is the recorded simulator's)."""
+        """Whether a sample of each state topic is held (a free hub's too, where the
+        simulator writes one) and each is the newest the last status counted; None where
+        that is not known (no count in the status, no sequence numbers, or a state another
+        node writes: a log's replay republishes the status it recorded, whose count is the
+        recorded simulator's)."""
         counted = int(self.latest.get("diagnostics_values", {}).get(key.STATE_SAMPLES, 0))
         if not counted or not self.sequences or None in self.sequences.values():
             return None
@@ -132,7 +136,10 @@ class SimClient(Node):
             self._states_from_simulator = self._writer_is_simulator()
         if self._states_from_simulator is False:
             return None
-        return all(sequence >= counted for sequence in self.sequences.values())
+        expected = list(WATCHED_STATE)
+        if self._hub_subscription is not None and self._hub_subscription.get_publisher_count():
+            expected.append(topics.HUB_STATE)
+        return all(self.sequences.get(name, 0) >= counted for name in expected)
 
     def _writer_is_simulator(self) -> bool | None:
         """Whether the simulator writes the state (a node of its name among the writers of

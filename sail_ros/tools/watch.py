@@ -21,6 +21,7 @@ from sail_ros.messages import state as state_msg
 from sail_ros.model import record
 from sail_ros.model.record import HUB_COMPONENTS
 from sail_ros.options import ToolParser, paragraphs
+from sail_ros.ros.sim_client import WATCHED_STATE
 from sail_ros.tools.client import SimClient, add_domain_option, run_client
 
 CLEAR = "\033[H\033[2J"  # cursor home, clear screen
@@ -137,7 +138,7 @@ def check(args) -> str | None:
 
 
 def run(args, client: SimClient) -> int:
-    wanted = (topics.BOOM_STATE, topics.TIP_DEFLECTION, "diagnostics")
+    wanted = (*WATCHED_STATE, "diagnostics")
     client.spin_until(
         lambda: all(name in client.latest for name in wanted),
         args.timeout,

@@ -404,13 +404,17 @@ def test_a_publisher_that_behaves_like_ros2_topic_pub_once_reaches_the_simulator
     assert [a.outcome for a in answers.received] == ["accepted"] * 5
 
 
-def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env):
+@pytest.mark.parametrize(("late", "after_s"), [("the last sample", 1.5), ("the root moments", 3.0)])
+def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env, late, after_s):
     """The tail of a simulator's kept state history can reach a late subscriber after the
-    rest (DDS resends what a loaded machine lost at the writer's next heartbeat): `watch
-    --once` shows the sample the status counts, not the newest to have arrived. A stand-in
-    simulator (a node of the simulator's name) publishes three samples (booms at 10, 11,
-    12 m) and a status counting four; the fourth (13 m) goes out 1.5 s after `watch`
-    subscribed."""
+    rest, and one topic's history after another's (DDS resends what a loaded machine lost
+    at the writer's next heartbeat): `watch --once` shows, on every state topic, the
+    sample the status counts, not the newest to have arrived. A stand-in simulator (a node
+    of the simulator's name) publishes three samples (booms at 10, 11, 12 m, root moments
+    of 1, 2, 3 N m) and a status counting four; `after_s` after `watch` subscribed go out
+    the fourth sample (13 m, 4 N m), or, with the other topics' four at once, the four
+    root moments (a watcher that did not wait for them printed their moments as NaN about
+    1.1 s after it subscribed)."""
     sim_name = "/" + topics.SIM_NODE
     simulator = Node(topics.SIM_NODE, context=operator.context)
     operator.spinner.add_node(simulator)
@@ -421,14 +425,18 @@ def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env):
     status = simulator.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, topics.DIAGNOSTICS_QOS)
     simulator.create_publisher(DiagnosticArray, topics.COMMAND_STATUS, topics.COMMAND_STATUS_QOS)
 
-    def publish_sample(i: int) -> None:
+    def publish_sample(i: int, moments: bool = True, others: bool = True) -> None:
         stamp, zero = i * 10**9, np.zeros(4)
-        state[topics.BOOM_STATE].publish(state_msg.boom_state(stamp, np.full(4, 9.0 + i), zero))
-        state[topics.TIP_DEFLECTION].publish(state_msg.tip_deflection(stamp, zero, zero))
-        state[topics.ROOT_MOMENT].publish(state_msg.root_moment(stamp, zero))
+        if others:
+            lengths = np.full(4, 9.0 + i)
+            state[topics.BOOM_STATE].publish(state_msg.boom_state(stamp, lengths, zero))
+            state[topics.TIP_DEFLECTION].publish(state_msg.tip_deflection(stamp, zero, zero))
+        if moments:
+            state[topics.ROOT_MOMENT].publish(state_msg.root_moment(stamp, np.full(4, float(i))))
 
-    for i in (1, 2, 3):
-        publish_sample(i)
+    last_only = late == "the last sample"
+    for i in (1, 2, 3) if last_only else (1, 2, 3, 4):
+        publish_sample(i, moments=last_only)
     values = {key.STATE: "paused", key.SIM_TIME: 4.0, key.STATE_SAMPLES: 4}
     simulator.create_timer(
         0.1,
@@ -444,8 +452,9 @@ def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env):
         operator.spin_until(
             lambda: state[topics.BOOM_STATE].get_subscription_count() > 0, 30.0, "watch"
         )
-        operator.spin_for(1.5)
-        publish_sample(4)
+        operator.spin_for(after_s)
+        for i in (4,) if last_only else (1, 2, 3, 4):
+            publish_sample(i, others=last_only)
         operator.spin_until(lambda: watching.poll() is not None, 30.0, "watch to print")
         out, err = watching.communicate()
     finally:
@@ -454,7 +463,8 @@ def test_watch_waits_for_the_newest_sample_its_status_counts(operator, ros_env):
         operator.spinner.remove_node(simulator)
         simulator.destroy_node()
     assert watching.returncode == 0, err
-    assert json.loads(out)["boom_length_m"]["a"] == 13.0
+    view = json.loads(out)
+    assert view["boom_length_m"]["a"] == 13.0 and view["root_moment_N_m"]["a"] == 4.0
 
 
 def test_a_hub_wrench_from_the_terminal_tilts_a_free_hub_and_watch_shows_it(processes, ros_env):
