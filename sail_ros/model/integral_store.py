@@ -35,13 +35,16 @@ def cache_folder() -> Path | None:
     return Path(base) / "sail_ros" if base else None
 
 
-def _code_fingerprint() -> str:
+def _code_fingerprint() -> str | None:
     """What the stored values depend on besides the counts: the sources that compute them
-    and numpy's version."""
+    and numpy's version; None where the sources cannot be read (nothing is stored then)."""
     digest = hashlib.sha256(np.__version__.encode())
     here = Path(__file__).parent
-    for name in _SOURCES:
-        digest.update((here / name).read_bytes())
+    try:
+        for name in _SOURCES:
+            digest.update((here / name).read_bytes())
+    except OSError:
+        return None
     return digest.hexdigest()[:16]
 
 
@@ -51,8 +54,8 @@ def stored_arrays(
     """The arrays `names` that `build()` makes for `key` (a file-name-safe label of its
     arguments): read from the cache folder where a set of this code is there, else built
     and stored."""
-    folder = cache_folder()
-    path = None if folder is None else folder / f"{key}_{_code_fingerprint()}.npz"
+    folder, fingerprint = cache_folder(), _code_fingerprint()
+    path = None if folder is None or fingerprint is None else folder / f"{key}_{fingerprint}.npz"
     if path is not None:
         found = _read(path, names)
         if found is not None:

@@ -91,3 +91,13 @@ def test_the_folder_keeps_the_most_recently_used_sets(folder):
     assert len(kept) == integral_store.KEPT_FILES
     assert "set0" not in kept and f"set{integral_store.KEPT_FILES + 2}" in kept
     assert not list(folder.glob("*.part"))
+
+
+def test_without_the_sources_to_fingerprint_nothing_is_stored(folder, monkeypatch):
+    """An install that holds only compiled modules cannot tell which code built a file:
+    the integrals are built every time, none stored."""
+    monkeypatch.setattr(integral_store, "_SOURCES", ("no_such_module.py",))
+    calls = []
+    integral_store.stored_arrays("set", NAMES, counting_build(calls))
+    integral_store.stored_arrays("set", NAMES, counting_build(calls))
+    assert len(calls) == 2 and not folder.exists()
