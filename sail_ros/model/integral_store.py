@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+
+from sail_ros.outputs import staged
 
 # the sets kept (one of the default counts is 2.5 MB)
 KEPT_FILES = 8
@@ -81,20 +82,14 @@ def _read(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray] | None:
 
 
 def _write(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Store atomically (a reader sees the whole file or none), then keep the
-    `KEPT_FILES` most recently used sets; a folder that cannot be written stores nothing."""
+    """Store whole or not at all (`outputs.staged`: a reader sees the whole file or
+    none), then keep the `KEPT_FILES` most recently used sets; a folder that cannot be
+    written stores nothing."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".part")
-        try:
-            with os.fdopen(handle, "wb") as stream:
-                np.savez(stream, **arrays)
-            os.replace(temporary, path)
-        except BaseException:
-            os.unlink(temporary)
-            raise
+        with staged(path) as building:
+            np.savez(building, **arrays)
         sets = sorted(path.parent.glob("*.npz"), key=lambda p: p.stat().st_mtime, reverse=True)
         for old in sets[KEPT_FILES:]:
             old.unlink(missing_ok=True)
-    except OSError:
+    except (OSError, ValueError):  # ValueError: `staged`'s, a file where the folder goes
         pass
