@@ -34,7 +34,8 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> dict:
     import numpy as np
 
     from sail_ros.integrate import system as system_module
-    from sail_ros.integrate.rational import PADE_POLES, STEP_MATRICES
+    from sail_ros.integrate.fast_modes import STEP_MATRICES
+    from sail_ros.integrate.rational import PADE_POLES
     from sail_ros.model import CycloidalProfile, SailModel, SailParameters
     from sail_ros.model.blocks import DenseMatrices
 

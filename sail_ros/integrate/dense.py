@@ -64,7 +64,8 @@ class MovingDense:
         turning = 2.0 * math.pi * PADE_POLES.size * len(trial.extensions) / h
         shortening = float((self.at.motion(self.t0)[0] / self.at.motion(self.t0 + h)[0]).max())
         carried = trial.carried_frequency * CARRIED_MARGIN * max(1.0, shortening) ** 2
-        return Extension(trial.extensions, trial.vibration, h, min(turning, carried))
+        slow = min(turning, carried)
+        return Extension(trial.extensions, trial.vibration, h, slow, trial.middle_omega_d)
 
     @property
     def curve_data(self) -> Extension:

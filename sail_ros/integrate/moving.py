@@ -20,10 +20,13 @@ from sail_ros.integrate.control import largest
 from sail_ros.integrate.fast_modes import (
     TURN_BACK_EXPONENT,
     FreeVibration,
+    chirps,
     follow,
     follow_floor,
     followed,
     forcing_of,
+    middle_frequencies,
+    modal_damping,
     slow_part,
 )
 from sail_ros.integrate.rational import extension_weights, moving_step
@@ -56,6 +59,8 @@ class Trial(NamedTuple):
     # the dense output's error inside the step per output kind (`attempt`): the
     # extension's, and half the followed modes' jump at the middle
     interpolation: np.ndarray | None = None
+    # [rad/s] the followed modes' damped frequencies at the step's middle, or None
+    middle_omega_d: np.ndarray | None = None
 
 
 def rational_step(at, force_at, t0, q0, p0, h, mats=None, companion=None):
@@ -84,19 +89,21 @@ def _replaced(end, q, qd, p, M, G, factor, invariant):
     return q, potrs(factor, p_new - G @ q)[0], p_new
 
 
-def _middle_jump(vibration, q_middle, half, rows) -> np.ndarray:
+def _middle_jump(vibration, middle_omega_d, q_middle, h, rows) -> np.ndarray:
     """`rows` (r, n) of the step's state at its middle as the first half represents it
-    (the start's followed modes turned on by `half` [s]) less as the second does (the
-    end's turned back): the slow part of `q_middle` in each set of modes, and each set's
-    vibration there."""
+    (the start's followed modes turned on by `h / 2` [s]) less as the second does (the
+    end's turned back), the phases through `middle_omega_d` (`fast_modes.chirps`): the
+    slow part of `q_middle` in each set of modes, and each set's vibration there."""
     start, end = vibration
+    m = start.count
+    bends = chirps(start.modes.omega_d[-m:], middle_omega_d, end.modes.omega_d[-m:], h)
     parts = []
-    for vib, t in ((start, half), (end, -half)):
-        m = vib.count
+    for vib, t, bend in ((start, 0.5 * h, bends[0]), (end, -0.5 * h, bends[1])):
         modes = vib.modes
         wd, d = modes.omega_d[-m:], modes.d[-m:]
         grow = np.minimum(-0.5 * d * t, TURN_BACK_EXPONENT)
-        e = (vib.a * np.exp(1j * wd * t + grow)).real + vib.s
+        phase = wd * t + t * t * (bend[:, 0] + t * bend[:, 1])
+        e = (vib.a * np.exp(1j * phase + grow)).real + vib.s
         V, MV = modes.V[:, -m:], modes.MV[:, -m:]
         parts.append(rows @ (q_middle - V @ (MV.T @ q_middle)) + (rows @ V) @ e)
     return parts[0] - parts[1]
@@ -168,7 +175,9 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
         # the end's slow part is the rational steps' (the halves' and the whole's agree
         # there to the error estimated)
         forcing = forcing_of(modes1, count, at.held(u, lengths1), (C1, K_extra1), q2, qd2)
-        end = follow(start, modes1, h, forcing)
+        middle_omega_d = middle_frequencies(modes0, modes1, count, mats[2], at.rayleigh)
+        damping = (modal_damping(modes0, count, C0), modal_damping(modes1, count, C1))
+        end = follow(start, modes1, h, forcing, middle_omega_d, damping)
         # the whole step's followed modes are the halves': they leave the estimate
         dq, dqd = slow_part(modes1, count, q2 - q1), slow_part(modes1, count, qd2 - qd1)
         q2, qd2, p2 = _replaced(end, q2, qd2, p2, M1, G1, factor, at.invariant)
@@ -190,7 +199,7 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
     whole_middle = c[0] * q0 + 2.0 * (w[0] @ whole[1]).real
     interpolation = largest(rows, whole_middle - qh, np.zeros_like(qh)) / 2.0**5
     if count:  # half the jump of the followed modes' representation at the middle
-        jump = _middle_jump(vibration, qh, 0.5 * h, rows)
+        jump = _middle_jump(vibration, middle_omega_d, qh, h, rows)
         interpolation[[0, 2]] += 0.5 * np.abs(jump).reshape(2, 4).max(axis=1)
     outputs = largest(rows, q2, qd2)
     # the highest mode not followed: the next below those followed, or, when a set
@@ -213,4 +222,5 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
         carried,
         None if companion is None else (qc, pc, largest(rows, q2 - qc, qd2 - qdc)),
         interpolation,
+        middle_omega_d if count else None,
     )

@@ -21,13 +21,9 @@ from math import factorial
 import numpy as np
 import scipy.linalg
 
-from sail_ros.integrate.fast_modes import TURN_BACK_EXPONENT, oscillation, turning
-from sail_ros.model.assembly import CANONICAL_DAMPING, GYROSCOPIC, MASS, STIFFNESS_CANONICAL
+from sail_ros.integrate.fast_modes import TURN_BACK_EXPONENT, chirps, oscillation, turning
 from sail_ros.model.blocks import DenseMatrices
 from sail_ros.model.lapack import getrs as _getrs  # what `lu_solve` calls
-
-# the matrices one moving step needs, in this order (`moving_step`)
-STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
 
 
 def _diagonal_pade_partial_fractions(order: int):
@@ -103,15 +99,20 @@ class Extension:
     `vibration`), whose part the extension's samples leave (`kept`) and take turned
     instead (`free`); `curve` and `followed` for the peaks (`Curves`, of this step
     alone). `slow` [rad/s]: what bounds the frequencies of all but the followed modes
-    in its samples (`SailStepper.last_curve`)."""
+    in its samples (`SailStepper.last_curve`); `middle_omega_d` [rad/s], the followed
+    modes' damped frequencies at the step's middle, through which their phase turns
+    (`fast_modes.chirps`)."""
 
-    def __init__(self, extensions: tuple, vibration: tuple, h: float, slow: float):
+    def __init__(
+        self, extensions: tuple, vibration: tuple, h: float, slow: float, middle_omega_d=None
+    ):
         self.extensions = extensions
         self.parts = len(extensions)
         self.h = h
         self.vibration = vibration
         self.slow = slow
         self.count = vibration[0].count if vibration else 0
+        self.middle_omega_d = middle_omega_d
 
     @functools.cached_property
     def curves(self) -> Curves:
@@ -158,7 +159,7 @@ class Extension:
         curves = self.curves
         seconds = (local - part) * (self.h / self.parts)
         decay = None if curves.decay is None else curves.decay[0, part]
-        turns = oscillation(seconds, curves.omega_d[0, part], decay)
+        turns = oscillation(seconds, curves.omega_d[0, part], decay, curves.chirp[0, part])
         count = self.count
         shapes = self.V[part].T
         e = turns * curves.on_e[0, part]
@@ -197,6 +198,8 @@ class Curves:
         self.V, self.MV = np.zeros((*shape, n, count)), np.zeros((*shape, n, count))
         omega_d, decay = np.zeros((*shape, count)), np.zeros((*shape, count))
         self.static, a = np.zeros((*shape, count)), np.zeros((*shape, count), dtype=complex)
+        self.chirp = np.zeros((*shape, count, 2))
+        self.omega_middle = np.zeros((len(steps), count))
         for i, step in enumerate(steps):
             k = step.count
             for part, near in enumerate(step.vibration):
@@ -206,6 +209,12 @@ class Curves:
                 omega_d[i, part, pad:] = modes.omega_d[-k:]
                 decay[i, part, pad:] = modes.d[-k:]
                 self.static[i, part, pad:], a[i, part, pad:] = near.s, near.a
+            if k and step.middle_omega_d is not None:
+                pad = count - k
+                ends = omega_d[i, 0, pad:], omega_d[i, -1, pad:]
+                bends = chirps(ends[0], step.middle_omega_d, ends[1], step.h)
+                self.chirp[i, 0, pad:], self.chirp[i, -1, pad:] = bends
+                self.omega_middle[i, pad:] = step.middle_omega_d
         self.omega_d = omega_d
         self.decay = decay if decay.any() else None
         self.on_e, self.on_v = turning(a, omega_d, self.decay)
@@ -276,7 +285,9 @@ class Curves:
             back = np.minimum(0.5 * self.decay[:, 1:] * seconds, TURN_BACK_EXPONENT)
             amplitude[:, 1:] *= np.exp(back)[..., None]
             omega = np.hypot(omega, 0.5 * self.decay)
-        return omega.max(axis=1), np.swapaxes(amplitude.max(axis=1), -1, -2)
+        # the frequency between the ends passes through the middle's (`chirps`)
+        highest = np.maximum(omega.max(axis=1), self.omega_middle)
+        return highest, np.swapaxes(amplitude.max(axis=1), -1, -2)
 
     def curve(self, step, fractions, rows, grid=None) -> tuple[np.ndarray, np.ndarray]:
         """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
@@ -303,7 +314,9 @@ class Curves:
                 features[:, orders:] = self._turns(step, part, seconds, fractions, grid)
             else:
                 decay = None if self.decay is None else self.decay[step, part]
-                features[:, orders:] = oscillation(seconds, self.omega_d[step, part], decay)
+                chirp = self.chirp[step, part]
+                turns = oscillation(seconds, self.omega_d[step, part], decay, chirp)
+                features[:, orders:] = turns
         X = self.coefficients(rows)
         out = _grouped_products(features, step * parts + part, X.reshape(-1, *X.shape[2:]))
         r = out.shape[1] // 2
@@ -311,27 +324,42 @@ class Curves:
 
     def _turns(self, step, part, seconds, fractions, grid) -> np.ndarray:
         """`oscillation` of undamped followed modes at `seconds` (m,) (`curve`) of samples
-        at `fractions` (m,) of their steps, each step of `grid` (S,) equal intervals: a
-        sample at an interval's end, `e` of them from its half's end (forward in the
-        first half, back in the second), takes the `e`-th power of its modes' turn over
-        one interval (a running product: round-off growing as `e`, 1e-14 at 100); the
-        others (the middle's sides, times asked) their cosines and sines."""
+        at `fractions` (m,) of their steps, each step of `grid` (S,) equal intervals: at
+        an interval's end, `e` of them from its half's end (forward in the first half,
+        back in the second), the phase is a cubic in `e` (`chirps`), whose turns are
+        running products of running products of running products of one turn each (the
+        third difference of a cubic is constant; round-off growing as `e^3`, 4e-12 at
+        60, where cosines and sines would cost most of the peaks' time); the others (the
+        middle's sides, times asked) their cosines and sines."""
         intervals = grid[step]
         position = fractions * intervals
         nearest = np.rint(position)
         power = np.where(part == 0, nearest, intervals - nearest).astype(int)
         count = self.count
-        turn = np.exp(1j * (self.omega_d * (self.h / grid)[:, None, None]).reshape(-1, count))
-        powers = np.empty((len(turn), int(power.max(initial=0)) + 1, count), dtype=complex)
-        powers[:, 0], powers[:, 1:] = 1.0, turn[:, None, :]
-        np.cumprod(powers, axis=1, out=powers)
-        z = powers[step * 2 + part, power]
+        # the phase at e intervals from a half's end: a e + b e^2 + c e^3 (`oscillation`)
+        spacing = np.array([1.0, -1.0])[None, :, None] * (self.h / grid)[:, None, None]
+        a = self.omega_d * spacing
+        b = self.chirp[..., 0] * spacing**2
+        c = self.chirp[..., 1] * spacing**3
+        longest = int(power.max(initial=0))
+        z = np.ones((*a.shape[:2], longest + 1, count), dtype=complex)  # (S, 2, e, count)
+        if longest:
+            # the phase's differences: a + b + c at e = 1, growing by 2 b + 6 c at e = 2,
+            # that growth by 6 c at each e after
+            z[:, :, 1] = np.exp(1j * (a + b + c))
+            if longest > 1:
+                z[:, :, 2] = np.exp(1j * (2.0 * b + 6.0 * c))
+                z[:, :, 3:] = np.exp(6j * c)[:, :, None, :]
+                np.cumprod(z[:, :, 2:], axis=2, out=z[:, :, 2:])
+            np.cumprod(z[:, :, 1:], axis=2, out=z[:, :, 1:])
+            np.cumprod(z, axis=2, out=z)
+        z = z[step, part, power]
         turns = np.empty((fractions.size, 2 * count))
-        turns[:, :count] = z.real
-        np.multiply(z.imag, (1 - 2 * part)[:, None], out=turns[:, count:])  # back: -sin
+        turns[:, :count], turns[:, count:] = z.real, z.imag
         off = np.flatnonzero(np.abs(position - nearest) > 1e-9 * intervals)
         if off.size:
-            turns[off] = oscillation(seconds[off], self.omega_d[step[off], part[off]], None)
+            chirp = self.chirp[step[off], part[off]]
+            turns[off] = oscillation(seconds[off], self.omega_d[step[off], part[off]], None, chirp)
         return turns
 
 

@@ -17,8 +17,7 @@ from typing import Protocol
 import numpy as np
 import scipy.linalg
 
-from sail_ros.integrate.fast_modes import FrozenModes
-from sail_ros.integrate.rational import STEP_MATRICES
+from sail_ros.integrate.fast_modes import STEP_MATRICES, FrozenModes
 from sail_ros.integrate.rest import exact_propagator
 from sail_ros.model.assembly import (
     DAMPING,

@@ -141,6 +141,27 @@ class BlockMatrices:
         hub = (self.border.rows @ x[..., None])[..., 0]
         return np.concatenate([elastic, hub], axis=1)
 
+    def forms(self, index: int, V: np.ndarray) -> np.ndarray:
+        """`diag(V^T A V)` of matrix `index` (`V` (n, m)): each column's quadratic form,
+        block by block (m,)."""
+        where = self.where
+        nb, nbc = self.booms.shape[-1], where.n_boom_coordinates
+        on_booms = V[:nbc].reshape(4, nb, -1)
+        on_quadrants = V[where.quadrant_slots]  # (4, n~, m)
+        out = np.einsum("bjm,bjm->m", on_booms, self.booms[index] @ on_booms)
+        out += np.einsum("qjm,qjm->m", on_quadrants, self.quadrants[index] @ on_quadrants)
+        if self.border is not None:
+            n_e = where.n_elastic
+            hub = V[n_e:]
+            out += np.einsum("hm,hm->m", hub, self.border.rows[index] @ V)
+            out += np.einsum("em,em->m", V[:n_e], self.border.columns[index] @ hub)
+        if self.low_rank is not None:
+            U, W = self.low_rank.U, self.low_rank.W
+            projected = U.T @ V[: U.shape[0]]  # (3, m)
+            forms = np.einsum("hm,hm->m", projected, np.linalg.solve(W, projected))
+            out -= self.low_rank.coefficients[index] * forms
+        return out
+
     def solve_shifted(self, taus: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """`u_j = (A_0 + tau_j A_1 + tau_j^2 A_2)^-1 rhs_j` for complex `taus` (p,) and
         `rhs` (p, n), or (p, n, m) for m right-hand sides at once: the membrane blocks
@@ -268,6 +289,10 @@ class DenseMatrices:
         if x.ndim == 1:
             return self.matrices @ x
         return (self.matrices @ x[..., None])[..., 0]
+
+    def forms(self, index: int, V: np.ndarray) -> np.ndarray:
+        """`diag(V^T A V)` of matrix `index` (`V` (n, m)) (m,)."""
+        return np.einsum("jm,jm->m", V, self.matrices[index] @ V)
 
     def solve_shifted(self, taus: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """`(A_0 + tau_j A_1 + tau_j^2 A_2)^-1 rhs_j`, dense; (p, n) complex (LAPACK's

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from sail_ros.integrate import system as system_module
-from sail_ros.integrate.rational import PADE_POLES, STEP_MATRICES
+from sail_ros.integrate.fast_modes import STEP_MATRICES
+from sail_ros.integrate.rational import PADE_POLES
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 from sail_ros.model.blocks import DenseMatrices
 
@@ -48,6 +49,13 @@ def test_blocks_add_up_to_the_assembled_matrices_and_act_like_them(
     expected = np.einsum("kij,kj->ki", full, x)
     for products in (blocks.matvec(x), DenseMatrices(full).matvec(x)):
         assert np.allclose(products, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    # the quadratic forms of many columns (the followed modes' frequencies at a middle)
+    V = rng.standard_normal((model.n, 7))
+    for k in range(len(STEP_MATRICES)):
+        forms = np.einsum("jm,jm->m", V, full[k] @ V)
+        scale = 1e-12 * np.abs(full[k]).max() * np.abs(V).sum(axis=0) ** 2
+        for mine in (blocks.forms(k, V), DenseMatrices(full).forms(k, V)):
+            assert np.all(np.abs(mine - forms) <= scale)
 
     taus = 0.07 / PADE_POLES
     rhs = rng.standard_normal((taus.size, model.n)) + 1j * rng.standard_normal((taus.size, model.n))
