@@ -207,6 +207,16 @@ def oscillation(seconds, omega_d: np.ndarray, decay: np.ndarray, chirp=None) -> 
     return turns
 
 
+def frequency_ratio(seconds, omega_d: np.ndarray, chirp) -> np.ndarray:
+    """(m, k): each mode's frequency at `t` = each of `seconds` (m,) [s] over `omega_d`
+    [rad/s] (`oscillation`'s phase's rate over its constant part; 1 for a null mode),
+    what turns the velocities `turning` gives at `omega_d` into the phase's own."""
+    t = np.asarray(seconds, dtype=float)[:, None]
+    rate = omega_d + t * (2.0 * chirp[..., 0] + 3.0 * t * chirp[..., 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(omega_d > 0, rate / omega_d, 1.0)
+
+
 def chirps(omega_start, omega_middle, omega_end, h: float) -> tuple[np.ndarray, np.ndarray]:
     """`(from_start, from_end)` (each (k, 2)): the `chirp` (`oscillation`) of a step of
     `h` [s] whose modes' damped frequencies are `omega_start`, `omega_middle` and

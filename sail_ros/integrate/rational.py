@@ -21,7 +21,13 @@ from math import factorial
 import numpy as np
 import scipy.linalg
 
-from sail_ros.integrate.fast_modes import TURN_BACK_EXPONENT, chirps, oscillation, turning
+from sail_ros.integrate.fast_modes import (
+    TURN_BACK_EXPONENT,
+    chirps,
+    frequency_ratio,
+    oscillation,
+    turning,
+)
 from sail_ros.model.blocks import DenseMatrices
 from sail_ros.model.lapack import getrs as _getrs  # what `lu_solve` calls
 
@@ -159,7 +165,8 @@ class Extension:
         curves = self.curves
         seconds = (local - part) * (self.h / self.parts)
         decay = None if curves.decay is None else curves.decay[0, part]
-        turns = oscillation(seconds, curves.omega_d[0, part], decay, curves.chirp[0, part])
+        omega_d, chirp = curves.omega_d[0, part], curves.chirp[0, part]
+        turns = oscillation(seconds, omega_d, decay, chirp)
         count = self.count
         shapes = self.V[part].T
         e = turns * curves.on_e[0, part]
@@ -167,7 +174,8 @@ class Extension:
         if not velocities:
             return e @ shapes
         v = turns * curves.on_v[0, part]
-        return e @ shapes, (v[:, :count] + v[:, count:]) @ shapes
+        v = (v[:, :count] + v[:, count:]) * frequency_ratio(seconds, omega_d, chirp)
+        return e @ shapes, v @ shapes
 
 
 class Curves:
@@ -307,20 +315,25 @@ class Curves:
         features[:, 0] = 1.0
         for j in range(1, orders):
             np.multiply(features[:, j - 1], local, out=features[:, j])
+        slopes = features
         if count:
             # from the first half's start, back from the second half's end (`free`)
             seconds = (local - part) * (self.h[step] / parts)
+            omega_d, chirp = self.omega_d[step, part], self.chirp[step, part]
             if grid is not None and self.decay is None and parts == 2:
                 features[:, orders:] = self._turns(step, part, seconds, fractions, grid)
             else:
                 decay = None if self.decay is None else self.decay[step, part]
-                chirp = self.chirp[step, part]
-                turns = oscillation(seconds, self.omega_d[step, part], decay, chirp)
-                features[:, orders:] = turns
+                features[:, orders:] = oscillation(seconds, omega_d, decay, chirp)
+            # the turns' velocities (`coefficients`) at the frequency of the moment
+            slopes = features.copy()
+            slopes[:, orders:] *= np.tile(frequency_ratio(seconds, omega_d, chirp), 2)
         X = self.coefficients(rows)
-        out = _grouped_products(features, step * parts + part, X.reshape(-1, *X.shape[2:]))
-        r = out.shape[1] // 2
-        return out[:, :r], out[:, r:]
+        X = X.reshape(-1, *X.shape[2:])
+        r = X.shape[-1] // 2
+        group = step * parts + part
+        values = _grouped_products(features, group, X[..., :r])
+        return values, _grouped_products(slopes, group, X[..., r:])
 
     def _turns(self, step, part, seconds, fractions, grid) -> np.ndarray:
         """`oscillation` of undamped followed modes at `seconds` (m,) (`curve`) of samples

@@ -210,6 +210,42 @@ def test_samples_close_enough_for_the_followed_modes_they_weigh(profile, boom):
     assert ours.samples < sum(highest)
 
 
+def test_a_steps_curve_has_the_slope_of_its_values_as_its_modes_change_frequency():
+    """Inside a step the followed modes' frequencies change (retracting from 15 m the
+    booms' rise as `1 / L^2`): the curve's slope, which the peaks' Hermite search takes,
+    is the derivative of its values, the turns' velocities at each moment's frequency
+    (central differences of the values, away from the middle, where the curve passes
+    from the start's modes to the end's)."""
+    model = SailModel(SMALL)
+    steps = []
+
+    class Steps:
+        def start(self, stepper):
+            pass
+
+        def after_step(self, stepper):
+            steps.append((stepper.t, stepper.last_curve()))
+
+    model.simulate(CycloidalProfile(15.0, 10.0, 8.0), 4.0, model.mode_state("a", 0.1),
+                   observer=Steps())  # fmt: skip
+    rows = OutputPeaks(model).rows
+    t0, checked = 0.0, 0
+    for t1, curve in steps:
+        h = t1 - t0
+        omega, _ = curve.followed(rows)
+        if omega.size:
+            delta = 1e-3 / (omega.max() * h)  # a fraction: 1e-3 rad of the fastest mode
+            fractions = np.array([0.1, 0.3, 0.7, 0.9])
+            values = [curve.curve(fractions + k * delta, rows)[0] for k in (-1, 1)]
+            _, slope = curve.curve(fractions, rows)
+            differences = (values[1] - values[0]) / (2.0 * delta * h)
+            scale = np.abs(slope).max(axis=0)
+            assert np.all(np.abs(differences - slope) <= 1e-5 * scale), (t1, h)
+            checked += 1
+        t0 = t1
+    assert checked > 5
+
+
 def test_a_batch_of_steps_gives_each_step_its_own_curve():
     """`rational.Curves` stacks steps that follow different numbers of modes (12, 8, 5 and
     4 here, retracting from 15 m to 6 m), padded with null modes: each step's samples and followed
