@@ -48,9 +48,9 @@ CUT_STEP = 0.5
 # The run's error estimate over the sum of its parts (`StepControl.account`): a local
 # Richardson estimate is asymptotic and the steps turn the resolved modes by up to 3 rad;
 # on 48 drawn deployments against DOP853 at rtol 1e-9 (`test_tolerance.drawn_deployments`,
-# seed 24) the largest sum of a step's parts read at least 0.625 of the error made at 121
+# seed 24) the largest sum of a step's parts read at least 0.62 of the error made at 121
 # output times (most inside steps; the least inside a step cut short at a load switch),
-# so 1.7 times it bounds it (the tightest 1.06 times the error)
+# so 1.7 times it bounds it (the tightest 1.05 times the error)
 ESTIMATE_MARGIN = 1.7
 # A run whose error estimate exceeds this many times its tolerance warns: the tolerance
 # is per step, and the default's whole runs stay within 2 rtol of peak (model.md §11)

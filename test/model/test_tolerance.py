@@ -459,7 +459,7 @@ def test_the_estimate_bounds_the_error_on_many_drawn_deployments(
     seed, count, free_hub, plain_callable
 ):
     """The same on the 48 deployments `ESTIMATE_MARGIN` was set on (seed 24: the tightest
-    reads 1.06 times its error), on 48 of another seed, on 24 free hubs and on 24 loaded
+    reads 1.05 times its error), on 48 of another seed, on 24 free hubs and on 24 loaded
     by plain functions (scripts/stress.sh, ~80 s for 48)."""
     estimate_bounds_the_error(drawn_deployments(count, seed, free_hub, plain_callable))
 
