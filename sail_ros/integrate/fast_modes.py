@@ -185,17 +185,20 @@ def turning(a: np.ndarray, omega_d: np.ndarray, decay: np.ndarray | None):
 TURN_BACK_EXPONENT = 700.0
 
 
-def oscillation(seconds, omega_d: np.ndarray, decay: np.ndarray, chirp=None) -> np.ndarray:
+def turned(t, omega_d: np.ndarray, chirp: np.ndarray) -> np.ndarray:
+    """The phase [rad] `omega_d t + chirp_0 t^2 + chirp_1 t^3` a mode of damped frequency
+    `omega_d` [rad/s] and `chirp` (`chirps`) turns by in `t` [s] from its reference (its
+    frequency changing over the step), broadcast over `t`, `omega_d` and `chirp[..., i]`."""
+    return t * omega_d + t * t * (chirp[..., 0] + t * chirp[..., 1])
+
+
+def oscillation(seconds, omega_d: np.ndarray, decay: np.ndarray, chirp) -> np.ndarray:
     """(m, 2k): `e^(-d t / 2) cos(phi(t))` of k modes, then `e^(-d t / 2) sin(phi(t))`,
-    at `t` = each of `seconds` (m,) [s], for damped frequencies `omega_d` [rad/s] and
-    decay rates `decay` [1/s] (each (k,), or (m, k): each time its own modes; None for
-    undamped modes): `phi(t) = omega_d t`, or with `chirp` (`(k, 2)` or `(m, k, 2)`,
-    `chirps`), `omega_d t + chirp_0 t^2 + chirp_1 t^3`, the phase of a frequency that
-    changes over the step."""
+    at `t` = each of `seconds` (m,) [s], for damped frequencies `omega_d` [rad/s], decay
+    rates `decay` [1/s] (each (k,), or (m, k): each time its own modes; None for
+    undamped modes) and `chirp` ((k, 2) or (m, k, 2)): `phi` the phase `turned`."""
     t = np.asarray(seconds, dtype=float)[:, None]
-    phase = t * omega_d
-    if chirp is not None:
-        phase += t * t * (chirp[..., 0] + t * chirp[..., 1])
+    phase = turned(t, omega_d, chirp)
     k = phase.shape[1]
     turns = np.empty((phase.shape[0], 2 * k))
     np.cos(phase, out=turns[:, :k])

@@ -28,6 +28,7 @@ from sail_ros.integrate.fast_modes import (
     middle_frequencies,
     modal_damping,
     slow_part,
+    turned,
 )
 from sail_ros.integrate.rational import extension_weights, moving_step
 from sail_ros.integrate.system import potrs
@@ -102,8 +103,7 @@ def _middle_jump(vibration, middle_omega_d, q_middle, h, rows) -> np.ndarray:
         modes = vib.modes
         wd, d = modes.omega_d[-m:], modes.d[-m:]
         grow = np.minimum(-0.5 * d * t, TURN_BACK_EXPONENT)
-        phase = wd * t + t * t * (bend[:, 0] + t * bend[:, 1])
-        e = (vib.a * np.exp(1j * phase + grow)).real + vib.s
+        e = (vib.a * np.exp(1j * turned(t, wd, bend) + grow)).real + vib.s
         V, MV = modes.V[:, -m:], modes.MV[:, -m:]
         parts.append(rows @ (q_middle - V @ (MV.T @ q_middle)) + (rows @ V) @ e)
     return parts[0] - parts[1]

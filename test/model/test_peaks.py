@@ -217,17 +217,7 @@ def test_a_steps_curve_has_the_slope_of_its_values_as_its_modes_change_frequency
     (central differences of the values, away from the middle, where the curve passes
     from the start's modes to the end's)."""
     model = SailModel(SMALL)
-    steps = []
-
-    class Steps:
-        def start(self, stepper):
-            pass
-
-        def after_step(self, stepper):
-            steps.append((stepper.t, stepper.last_curve()))
-
-    model.simulate(CycloidalProfile(15.0, 10.0, 8.0), 4.0, model.mode_state("a", 0.1),
-                   observer=Steps())  # fmt: skip
+    steps = step_curves(model, CycloidalProfile(15.0, 10.0, 8.0), 4.0)
     rows = OutputPeaks(model).rows
     t0, checked = 0.0, 0
     for t1, curve in steps:
@@ -255,8 +245,9 @@ def test_a_batch_of_steps_gives_each_step_its_own_curve():
     check_batch_of_steps(SMALL, grid=True)
 
 
-def check_batch_of_steps(params, grid=False):
-    model = SailModel(params)
+def step_curves(model, profile, seconds: float) -> list:
+    """`(t, curve)` of each step of `seconds` [s] of `profile`, boom a bent 0.1 m at the
+    start: the step's end [s] and its `SailStepper.last_curve`."""
     steps = []
 
     class Steps:
@@ -264,10 +255,15 @@ def check_batch_of_steps(params, grid=False):
             pass
 
         def after_step(self, stepper):
-            steps.append(stepper.last_curve())
+            steps.append((stepper.t, stepper.last_curve()))
 
-    model.simulate(CycloidalProfile(15.0, 6.0, 6.0), 3.0, model.mode_state("a", 0.1),
-                   observer=Steps())  # fmt: skip
+    model.simulate(profile, seconds, model.mode_state("a", 0.1), observer=Steps())
+    return steps
+
+
+def check_batch_of_steps(params, grid=False):
+    model = SailModel(params)
+    steps = [curve for _, curve in step_curves(model, CycloidalProfile(15.0, 6.0, 6.0), 3.0)]
     counts = [step.count for step in steps]
     assert len(set(counts)) >= 3 and min(counts) > 0
     batch = Curves(steps)
