@@ -111,34 +111,40 @@ class MovingDense:
         n = ext.extensions[0][0].size
         q = np.empty((fractions.size, n))
         qd = np.full_like(q, math.nan) if rates is None else np.empty_like(q)
+        momenta = np.empty_like(q) if rates == "exact" else None
         part = np.minimum((fractions * parts).astype(int), parts - 1)
+        local = fractions * parts - part
         for k in range(parts):
             inside = part == k
             if not inside.any():
                 continue
-            local = fractions[inside] * parts - k
             q_start, y_q, u, v, p_start, mats = ext.extensions[k]
-            c, w = extension_weights(local)
-            q_part = np.outer(c, q_start) + 2.0 * (w @ y_q).real
-            if rates is None:  # positions only
-                q[inside] = q_part
-                if ext.vibration:
-                    q[inside] = ext.kept(q_part, k) + ext.free(k, local, velocities=False)
+            c, w = extension_weights(local[inside])
+            q[inside] = np.outer(c, q_start) + 2.0 * (w @ y_q).real
+            if rates is None:
                 continue
             velocity = 2.0 * (w @ u).real  # sum_k 2 Re[w_k u_k]
             if rates == "exact":
-                times = t0 + (k + local) * h / parts
-                p = extended_momentum(mats, c, velocity, q_part, q_start, p_start)
-                qd_part = self.at.velocities(times, q_part, p)
+                momenta[inside] = extended_momentum(mats, c, velocity, q[inside], q_start, p_start)
             else:
                 start_qd, end_qd = ends[k]
-                drift = np.outer(local, end_qd - start_qd - 2.0 * v)
-                qd_part = np.outer(c, start_qd) + velocity + drift
-            if ext.vibration:
-                q_free, qd_free = ext.free(k, local)
-                q_part = ext.kept(q_part, k) + q_free
-                qd_part = ext.kept(qd_part, k) + qd_free
-                if rates == "exact" and self.at.invariant is not None:
-                    qd_part = self.at.velocities(times, q_part, p, qd_part)
-            q[inside], qd[inside] = q_part, qd_part
+                drift = np.outer(local[inside], end_qd - start_qd - 2.0 * v)
+                qd[inside] = np.outer(c, start_qd) + velocity + drift
+        times = t0 + fractions * h
+        if rates == "exact":  # every sample's matrices in one pass
+            qd[:] = self.at.velocities(times, q, momenta)
+        if not ext.vibration:
+            return q, qd
+        for k in range(parts):  # the followed modes put in
+            inside = part == k
+            if not inside.any():
+                continue
+            if rates is None:
+                q[inside] = ext.kept(q[inside], k) + ext.free(k, local[inside], velocities=False)
+                continue
+            q_free, qd_free = ext.free(k, local[inside])
+            q[inside] = ext.kept(q[inside], k) + q_free
+            qd[inside] = ext.kept(qd[inside], k) + qd_free
+        if rates == "exact" and self.at.invariant is not None:
+            qd[:] = self.at.velocities(times, q, momenta, qd)
         return q, qd

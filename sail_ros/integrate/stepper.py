@@ -130,10 +130,11 @@ class SailStepper:
 
     @property
     def error_estimate(self) -> dict:
-        """The estimated error accumulated since the start (or `reset`), per output kind
-        (`OUTPUT_KINDS`) in its units [m, m/s, N m, N m/s]: the sum of every moving
-        step's local estimate (an undamped sail does not forget an error), 0 for exact
-        steps at rest and for fixed steps (`rtol` None), which estimate nothing."""
+        """The estimated error of the run since the start (or `reset`), per output kind
+        (`OUTPUT_KINDS`) in its units [m, m/s, N m, N m/s]: `StepControl.estimate`, from
+        the moving steps' local errors carried along by the run of local extrapolations
+        (an undamped sail does not forget an error) and their dense output's; exact
+        steps at rest and fixed steps (`rtol` None) add nothing."""
         return dict(zip(OUTPUT_KINDS, self.control.estimate.tolist(), strict=True))
 
     @property

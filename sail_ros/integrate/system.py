@@ -194,8 +194,12 @@ class SystemAt:
         stand for all booms; the messages name the field, time and value)."""
         key = ("motion", t)
         motion = self._cache.get(key)
-        if motion is not None:
-            return motion
+        if motion is None:
+            motion = self._cache.put(key, self._motion(t))
+        return motion
+
+    def _motion(self, t):
+        """`motion` at `t` [s], evaluated and checked, not kept."""
         piece = getattr(self.profile, "piece", None)
         profile = self.profile if piece is None else piece(t, entered=t <= self.entered)
         values = profile(t)
@@ -217,7 +221,7 @@ class SystemAt:
                 per_boom(rates, f"rates at t = {t:.6g} s"),
                 per_boom(accelerations, f"accelerations at t = {t:.6g} s"),
             )
-        return self._cache.put(key, motion)
+        return motion
 
     def is_static(self, t0: float, t1: float) -> bool:
         """Whether the booms stand still over [t0, t1] [s] (the profile says)."""
@@ -343,7 +347,8 @@ class SystemAt:
         `qd_guess`, the momenta are those of `q`, `qd_guess` but on `invariant`, where they
         are `p`'s (the followed modes put in at samples, `moving._replaced`). From
         `BLOCK_SOLVE_MIN_COORDINATES` on, by blocks, one time after another."""
-        motions = [self.motion(float(t)) for t in times]
+        # samples' times: asked once, not kept (a step's own times are)
+        motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times.tolist()]
         if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
             return self._velocities_by_blocks(motions, q, p, qd_guess)
         stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
