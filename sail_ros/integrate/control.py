@@ -28,7 +28,9 @@ PHASE_PER_STEP = 2.0
 # rad: omega_r * h of an error-controlled step, the estimate's whole rational step (its
 # halves turn 1.5 rad each): there the Padé lags 5.9e-4 rad, which the estimate reads as
 # 2e-4 of the resolved mode's amplitude, a fifth of the default tolerance; a longer whole
-# step would be read as the halves' error and refused wherever that mode rings.
+# step would be read as the halves' error and refused wherever that mode rings. Past
+# about 2.6 rad the halves' difference from a lag-free whole step no longer measures
+# their error; the lag stands in for it (model.md §11, "the whole step's lag is kept").
 WHOLE_STEP_PHASE = 3.0
 # The longest step [s]: the phase bound allows 0.35 s at 10 m, this bounds longer booms'.
 DEFAULT_MAX_STEP = 0.5
