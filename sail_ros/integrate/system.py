@@ -348,7 +348,8 @@ class SystemAt:
         are `p`'s (the followed modes put in at samples, `moving._replaced`). From
         `BLOCK_SOLVE_MIN_COORDINATES` on, by blocks, one time after another."""
         # samples' times: asked once, not kept (a step's own times are)
-        motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times.tolist()]
+        times = np.asarray(times, dtype=float).tolist()
+        motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times]
         if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
             return self._velocities_by_blocks(motions, q, p, qd_guess)
         stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
