@@ -128,9 +128,10 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
     carried to the step's end, the run's error estimate (`Trial.companion`).
     `Trial.interpolation`: the extension's error inside the step, from the whole step's
     extension at its middle against the halves' state there, over `2^5` (the extension
-    matches `exp` to order 4), plus half the jump of the followed modes' representation
-    at the middle (the start's turned on, the end's turned back: the state lies
-    between)."""
+    matches `exp` to order 4; the followed modes' part of that difference, which the
+    rational steps carry at hundreds of rad, stands for the followed modes' error:
+    model.md §11), plus half the jump of the followed modes' representation at the
+    middle (the start's turned on, the end's turned back: the state lies between)."""
     half, t1 = t0 + 0.5 * h, t0 + h
     # the three rational steps' middles, as `rational_step` finds them
     mats = at.step_matrices((t0 + 0.5 * (0.5 * h), half + 0.5 * (0.5 * h), half))
