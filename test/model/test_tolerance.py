@@ -449,6 +449,14 @@ def test_the_estimate_bounds_the_error_on_a_free_hub_loaded_by_a_plain_callable(
     estimate_bounds_the_error(drawn_deployments(1, seed=seed, free_hub=True, plain_callable=True))
 
 
+def test_the_estimate_bounds_the_error_of_a_free_hub_stepping_at_the_phase_bound():
+    """A free hub (the ninth of seed 11's: 3 boom and 4 membrane modes, undamped) whose
+    steps sit at the phase bound, where a whole step without the (4, 4) Padé approximant's
+    lag reads about a third of the error the halves make and the estimate fell to 0.69
+    of the root moments' (model.md §11, "the whole step's lag is kept")."""
+    estimate_bounds_the_error(drawn_deployments(9, seed=11, free_hub=True), only=8)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("seed", "count", "free_hub", "plain_callable"),
@@ -464,9 +472,13 @@ def test_the_estimate_bounds_the_error_on_many_drawn_deployments(
     estimate_bounds_the_error(drawn_deployments(count, seed, free_hub, plain_callable))
 
 
-def estimate_bounds_the_error(draws):
-    for label, model, profile, loads, breaks, duration, rng in draws:
+def estimate_bounds_the_error(draws, only=None):
+    """The run's estimate bounds its error on each of `draws` (`drawn_deployments`), or
+    on the `only`-th alone (the draws before it drawn as well: they share the generator)."""
+    for i, (label, model, profile, loads, breaks, duration, rng) in enumerate(draws):
         q0 = model.initial_coordinates(rng.uniform(-0.1, 0.1, 4))
+        if only is not None and i != only:
+            continue
         t_out = np.linspace(0.0, duration, 121)
         run = model.simulate(profile, duration, q0=q0, t_eval=t_out, loads=loads)
         expected = tight_reference(model, profile, loads, q0, t_out, breaks)
