@@ -22,7 +22,8 @@ SAIL_ROS_KILL_TRIALS="${SAIL_ROS_KILL_TRIALS:-20}" \
 
 # the run's error estimate against DOP853 on the 48 drawn deployments its margin was set
 # on, on 48 of another seed, on 24 free hubs and on 24 loaded by plain functions (~6 min;
-# the suite: 3 of a third seed and 2 free hubs loaded by plain functions)
+# the suite: 3 of a third seed, 2 free hubs loaded by plain functions and one free hub
+# stepping at the phase bound)
 trial "the estimate on 144 drawn deployments" \
   test_the_estimate_bounds_the_error_on_many_drawn_deployments --slow "$@"
 
