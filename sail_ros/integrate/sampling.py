@@ -72,6 +72,32 @@ class GridSampler:
         limit = self.stepper.step_limit() if limit is None else limit
         return max(1, math.ceil(self.spacing / limit - 1e-9))
 
+    def _advance(self) -> int:
+        """One step of a whole number of grid intervals (as many as the tolerance accepts,
+        `StepControl.grid_intervals`, a refused step retried over fewer; exact at rest),
+        or, where one interval is more than a step may be, equal sub-steps over one.
+        Returns the intervals the last step spans (1: the stepper is at the next grid
+        time)."""
+        stepper, spacing = self.stepper, self.spacing
+        limit = stepper.step_limit()
+        if stepper.is_static(spacing):
+            stepper.step(spacing)  # exact at any length
+            return 1
+        until_stop = stepper.next_switch() - stepper.t
+        intervals = stepper.control.grid_intervals(spacing, limit, stepper.bound(), until_stop)
+        while intervals > 1:
+            if stepper.rtol is None:
+                stepper.step(intervals * spacing)
+                return intervals
+            if stepper.try_step(intervals * spacing):
+                return intervals
+            allowed = math.floor(stepper.step_limit() / spacing + 1e-9)
+            intervals = min(intervals - 1, max(1, allowed))
+        count = self.substeps(limit)
+        for _ in range(count):
+            stepper.step(spacing / count)
+        return 1
+
     def _exact(self) -> GridPoint:
         stepper = self.stepper
         lengths, rates, _ = stepper.boom_motion()
@@ -79,7 +105,7 @@ class GridSampler:
 
     def _step(self) -> None:
         start = self.point  # the stepper's state: nothing is ahead
-        intervals = self.stepper.advance_grid(self.spacing)
+        intervals = self._advance()
         if intervals > 1:
             self._ahead.extend(self._between(start, self._exact(), intervals))
         else:

@@ -193,41 +193,17 @@ class SailStepper:
                 if jump is not None and jump < self._t + h - SWITCH_RESOLUTION:
                     target = jump  # steps end where a plain callable's inputs jump
                     continue
-            if self._is_static(h) or self.rtol is None or h <= smallest:
+            if self.is_static(h) or self.rtol is None or h <= smallest:
                 self.step(h)
                 return
             if self.try_step(h):
                 return
 
-    def advance_grid(self, spacing: float) -> int:
-        """One step of a whole number of grid intervals of `spacing` [s] (as many as the
-        tolerance accepts, a refused step retried over fewer; exact at rest), or, where
-        one interval is more than a step may be, equal sub-steps over one. Returns the
-        intervals the last step spans (1: the stepper is at the next grid time)."""
-        t0, limit = self._t, self.step_limit()
-        if self._is_static(spacing):
-            self.step(spacing)  # exact at any length
-            return 1
-        intervals = self.control.grid_intervals(
-            spacing, limit, self.bound(), self.next_switch() - t0
-        )
-        while intervals > 1:
-            if self.rtol is None:
-                self.step(intervals * spacing)
-                return intervals
-            if self.try_step(intervals * spacing):
-                return intervals
-            intervals = min(intervals - 1, max(1, math.floor(self.step_limit() / spacing + 1e-9)))
-        count = max(1, math.ceil(spacing / limit - 1e-9))
-        for _ in range(count):
-            self.step(spacing / count)
-        return 1
-
     def next_switch(self) -> float:
         """The next time [s] where the inputs or the profile switch; inf if none."""
         return self.control.next_stop(self._t, self.inputs, self.at.profile)
 
-    def _is_static(self, h) -> bool:
+    def is_static(self, h) -> bool:
         """Whether the booms stand still over the next `h` [s], but for `STATIC_MARGIN` of
         it at either end (a motion that starts or ends there, at zero rate, is stepped
         exactly, whatever round-off puts its start on one side)."""
@@ -246,7 +222,7 @@ class SailStepper:
     def step(self, h: float) -> None:
         """One step of `h` [s], taken whatever its error: exact at rest; moving, the
         estimated moving step (`moving.attempt`), or one rational step without `rtol`."""
-        if self._is_static(h):
+        if self.is_static(h):
             t_mid = self._t + 0.5 * h
             lengths = self.at.motion(t_mid)[0]
             force = self._force(t_mid, lengths)
