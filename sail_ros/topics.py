@@ -113,7 +113,10 @@ STATE_QOS = _reliable(500, DurabilityPolicy.TRANSIENT_LOCAL)
 # the kept history, but only the last sample reaches Python
 NEWEST_STATE_QOS = _reliable(1, DurabilityPolicy.TRANSIENT_LOCAL)
 SHAPE_QOS = _reliable(5, DurabilityPolicy.VOLATILE)  # big messages, low rate: keep few
-DIAGNOSTICS_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
+# statuses: 100 are 5 s of them at 20 Hz, 1 s at the highest `diagnostics_rate_hz` (100),
+# so a subscriber whose process stalls (as above) still gets every one, a warning among
+# them (10 are half a second at 20 Hz)
+DIAGNOSTICS_QOS = _reliable(100, DurabilityPolicy.VOLATILE)
 CLOCK_QOS = _reliable(10, DurabilityPolicy.VOLATILE)
 # Commands. Discovery is not symmetric in time: a publisher that sees the
 # simulator's subscription may publish before the simulator has seen the
