@@ -134,8 +134,6 @@ class StepControl:
         """No proposal yet (inf), the estimate and the peaks at 0."""
         self.proposal = math.inf
         self.allowed = math.inf  # the last `limit`
-        self.at_ends = np.zeros(len(OUTPUT_KINDS))
-        self.inside = np.zeros(len(OUTPUT_KINDS))
         self.combined = np.zeros(len(OUTPUT_KINDS))
         self.peaks = np.zeros(len(OUTPUT_KINDS))
 
@@ -151,8 +149,6 @@ class StepControl:
         magnitude per output kind of the steps' run less the run of local extrapolations
         at the step's end (`moving.attempt`: the local errors carried to it), and
         `inside`, its dense output's error estimate."""
-        self.at_ends = np.maximum(self.at_ends, difference)
-        self.inside = np.maximum(self.inside, inside)
         self.combined = np.maximum(self.combined, difference + inside)
 
     def bound(self, resolved: float) -> float:
