@@ -122,11 +122,16 @@ def publish_main(argv) -> int:
         min(p.get_subscription_count() for p in publishers.values()) < args.subscribers
         or not fetched[0]
     ):
+        if stdin_closed():
+            return leave(node)
         executor.spin_once(timeout_sec=0.01)
     print("ready", flush=True)  # its own subscribers matched (`go` waits for this line)
-    sys.stdin.readline()
+    if not sys.stdin.readline():
+        return leave(node)
     period, due = 1.0 / args.rate, time.monotonic()
     for i in range(args.count):
+        if stdin_closed():
+            return leave(node)
         for topic, publisher in publishers.items():
             publisher.publish(stream_message(topic, i))
         if i == args.change_at:
@@ -135,6 +140,19 @@ def publish_main(argv) -> int:
         executor.spin_once(timeout_sec=max(0.0, due - time.monotonic()))
     print("published", flush=True)
     sys.stdin.readline()  # EOF when the test is done: parameters stay served until then
+    return leave(node)
+
+
+def stdin_closed() -> bool:
+    """The test closed this process's standard input (the only line it writes, "go",
+    was read before any call)."""
+    return bool(select.select([sys.stdin], [], [], 0.0)[0]) and not sys.stdin.readline()
+
+
+def leave(node: Node) -> int:
+    """Leave the graph before exiting: a process that is killed stays in the
+    subscribers' graph until its lease runs out."""
+    node.destroy_node()
     rclpy.shutdown()
     return 0
 
@@ -148,6 +166,7 @@ def listener_node(ros_env):
     with private_context() as context:
         node = Listener(context)
         yield node
+        node.spin_until(node.alone, 30.0, "the other processes' endpoints to leave")
         node.spinner.shutdown()
         node.destroy_node()
 
@@ -216,6 +235,16 @@ class Listener(Node):
 
     def spin_until(self, condition, timeout: float, what: str):
         wait_until(condition, timeout, what, between=self.spin_some)
+
+    def alone(self) -> bool:
+        """No other process's endpoint matches one of this node's. Fast DDS removes a
+        killed process's endpoints when its lease runs out (20 s), on a thread of its own;
+        the node is destroyed only after that, not while that thread may still be
+        unmatching its readers and writers."""
+        return not any(
+            [self.get_publishers_info_by_topic(topic) for topic in self.received]
+            + [self.get_subscriptions_info_by_topic(t) for t in ("/parameter_events", "/rosout")]
+        )
 
     def publisher_counts(self, prefix="") -> dict[str, int]:
         return {t: len(self.get_publishers_info_by_topic(prefix + t)) for t in STREAMS}
@@ -498,7 +527,6 @@ def run_until_recorder_exits(recorder, ros_env, listener, count, rate):
         code, _, err = finish(recorder, timeout=30.0)
     finally:
         recorder.kill()
-        publisher.kill()
         finish(publisher)
     listener.clear()
     return code, err
@@ -523,7 +551,6 @@ def record_and_kill(ros_env, listener, folder, recorder_args, count, kill_after_
         recorder.wait(10.0)
     finally:
         recorder.kill()
-        publisher.kill()
         finish(publisher)
 
 
@@ -669,7 +696,6 @@ def test_sigkill_at_random_times_loses_only_the_open_chunk(ros_env, listener, tm
             assert not lost_before, (trial, run_s, len(kept), len(lost), log)
             table.append((trial, run_s, len(kept), sum(1 for i in lost if live[i][0] < killed_at)))
     finally:
-        publisher.kill()
         finish(publisher)
     print("\ntrial  run [s]  boom_state kept  received live before the kill, not kept")
     for trial, run_s, kept_count, lost_count in table:
