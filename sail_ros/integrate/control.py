@@ -40,6 +40,7 @@ DEFAULT_MAX_STEP = 0.5
 DEFAULT_RTOL = 1e-3
 # Absolute floors per output [m, m/s, N m, N m/s]: the tolerance of a sail at rest.
 DEFAULT_ATOL = {"tips": 1e-6, "tip_rates": 1e-5, "root_moments": 1e-4, "root_moment_rates": 1e-3}
+ATOL_UNITS = {"tips": "m", "tip_rates": "m/s", "root_moments": "N m", "root_moment_rates": "N m/s"}
 OUTPUT_KINDS = tuple(DEFAULT_ATOL)
 # the next step is h (SAFETY / err)^(1/3), grown at most GROWTH-fold, shrunk at most to SHRINK
 SAFETY, GROWTH, SHRINK = 0.9, 1.5, 0.2
@@ -69,21 +70,32 @@ def time_slack(t: float) -> float:
     return 1e-12 * max(1.0, abs(t))
 
 
-def accuracy_warning(rtol: float | None, relative: dict) -> str:
+def accuracy_warning(
+    rtol: float | None, relative: dict, atol: dict | None = None, peaks: dict | None = None
+) -> str:
     """One line when a run's relative error estimate (per `OUTPUT_KINDS`) on tips or root
     moments exceeds `WARN_ABOVE` times the run's tolerance `RUN_TOLERANCE rtol` ("" if
-    neither does, or with fixed steps)."""
+    neither does, or with fixed steps). Its advice names the `atol` floors where one of
+    them exceeds `rtol` times the output's peak (`peaks`): there the floor, not `rtol`,
+    sets the steps."""
     if rtol is None:
         return ""
     bar = WARN_ABOVE * RUN_TOLERANCE * rtol
-    tips, moments = relative.get("tips", 0.0), relative.get("root_moments", 0.0)
-    if not (tips > bar or moments > bar):  # nan (no peak yet) does not warn
+    over = [kind for kind in ("tips", "root_moments") if relative.get(kind, 0.0) > bar]
+    if not over:  # nan (no peak yet) does not warn
         return ""
+    floors, peaks = {**DEFAULT_ATOL, **(atol or {})}, peaks or {}
+    binding = [kind for kind in over if floors[kind] > rtol * peaks.get(kind, math.inf)]
+    if binding:
+        named = ", ".join(f"{kind} = {floors[kind]:g} {ATOL_UNITS[kind]}" for kind in binding)
+        advice = f"atol ({named}) is above rtol x peak there: a smaller atol tightens it"
+    else:
+        advice = "a smaller rtol or max_step tightens it"
     return (
-        f"the run's error estimate is {100 * tips:.2g} % of peak on tips and "
-        f"{100 * moments:.2g} % on root moments, above {WARN_ABOVE:g} times its tolerance "
-        f"({100 * RUN_TOLERANCE * rtol:.2g} % of peak at rtol {rtol:g}); a smaller rtol or "
-        "max_step tightens it"
+        f"the run's error estimate is {100 * relative.get('tips', 0.0):.2g} % of peak on tips "
+        f"and {100 * relative.get('root_moments', 0.0):.2g} % on root moments, above "
+        f"{WARN_ABOVE:g} times its tolerance ({100 * RUN_TOLERANCE * rtol:.2g} % of peak at "
+        f"rtol {rtol:g}); {advice}"
     )
 
 

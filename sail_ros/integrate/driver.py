@@ -45,7 +45,9 @@ class Run(tuple):
         run.relative_error_estimate = stepper.relative_error_estimate
         run.steps, run.rejected = stepper.steps_taken, stepper.steps_rejected
         run.alarm, run.stopped_at = alarm, stopped_at
-        run.accuracy_warning = accuracy_warning(run.rtol, run.relative_error_estimate)
+        run.accuracy_warning = accuracy_warning(
+            run.rtol, run.relative_error_estimate, run.atol, stepper.peaks
+        )
         return run
 
 

@@ -9,7 +9,7 @@ import scipy.linalg
 from harness import SMALL
 from test_integration import magnus4_reference
 
-from sail_ros.integrate.control import DEFAULT_RTOL, WHOLE_STEP_PHASE
+from sail_ros.integrate.control import DEFAULT_RTOL, WHOLE_STEP_PHASE, accuracy_warning
 from sail_ros.integrate.sampling import GridSampler
 from sail_ros.integrate.stepper import SailStepper
 from sail_ros.model import BoomMotion, CycloidalProfile, SailModel, SailParameters
@@ -425,13 +425,40 @@ def test_a_run_whose_estimate_exceeds_twice_its_tolerance_warns():
     floors = {"tips": 1.0, "tip_rates": 10.0, "root_moments": 1e3, "root_moment_rates": 1e4}
     with pytest.warns(AccuracyWarning, match=r"error estimate is [0-9.]+ % of peak on tips"):
         loose = model.simulate(profile, 15.0, q0=q0, atol=floors)
-    assert loose.accuracy_warning
+    # the floors set the steps here, and the advice says so
+    assert loose.accuracy_warning.endswith(
+        "atol (tips = 1 m, root_moments = 1000 N m) is above rtol x peak there: a smaller atol "
+        "tightens it"
+    ), loose.accuracy_warning
     model = SailModel(SailParameters())
     q0 = model.initial_coordinates([0.1, 0.0, 0.0, 0.0])
     with warnings.catch_warnings():
         warnings.simplefilter("error", AccuracyWarning)
         quiet = model.simulate(profile, 15.0, q0=q0)
     assert quiet.accuracy_warning == ""
+
+
+def test_the_warnings_advice_names_the_floor_that_sets_the_steps():
+    """Over twice the tolerance: at 1e-3 of a 0.08 m tip the 1e-6 m floor is below rtol x
+    peak, and a smaller rtol is what helps; at 1e-6 of it the floor is above, and the
+    advice names it (only the outputs over the bar: root moments here)."""
+    relative = {"tips": 0.01, "root_moments": 0.02}
+    peaks = {"tips": 0.08, "root_moments": 10.0}
+    assert accuracy_warning(1e-3, relative, None, peaks) == (
+        "the run's error estimate is 1 % of peak on tips and 2 % on root moments, above 2 "
+        "times its tolerance (0.2 % of peak at rtol 0.001); a smaller rtol or max_step "
+        "tightens it"
+    )
+    relative = {"tips": 3e-6, "root_moments": 1e-4}
+    assert accuracy_warning(1e-6, relative, None, peaks).endswith(
+        "(0.0002 % of peak at rtol 1e-06); atol (root_moments = 0.0001 N m) is above rtol x "
+        "peak there: a smaller atol tightens it"
+    )
+    assert accuracy_warning(1e-6, relative, {"root_moments": 1e-7}, peaks).endswith(
+        "a smaller rtol or max_step tightens it"
+    )
+    assert accuracy_warning(1e-3, {"tips": 0.003, "root_moments": 0.004}, None, peaks) == ""
+    assert accuracy_warning(None, relative) == ""
 
 
 def test_the_estimate_bounds_the_error_on_drawn_deployments_it_was_not_chosen_on():
