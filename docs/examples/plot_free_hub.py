@@ -32,7 +32,10 @@ if ROOT is None:
     )
 
 # %%
-# The open loop: the hub's heave, tilt and the reactions of its holds.
+# The open loop: the hub's heave, tilt and the reactions of its holds. The run warns that
+# its error estimate is above twice its tolerance: on a free hub the estimate reads
+# many times the error made, about twelve times on the root moments here
+# (:doc:`/docs/model`, §11, says why).
 deploy.main(["--scenario", str(ROOT / "config" / "scenario_free_hub.yaml"), *SMALL,
              "--every", "5", "--summary", "--figures", str(FIGURES / "open")])  # fmt: skip
 
