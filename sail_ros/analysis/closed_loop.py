@@ -101,6 +101,7 @@ def run_closed_loop(
     progress=None,
     max_step: float = DEFAULT_MAX_STEP,
     rtol: float | None = DEFAULT_RTOL,
+    atol: dict | None = None,
 ) -> ClosedLoopRun:
     """Run `scenario` on `model` with the controller `design` (module docstring).
 
@@ -114,6 +115,7 @@ def run_closed_loop(
         progress: optional callable `progress(t)` after each sample.
         max_step: largest integration step [s] (`SailStepper`).
         rtol: the stepper's tolerance (None: fixed steps).
+        atol: its absolute floors per output kind, over the defaults (`SailStepper`).
 
     Raises:
         ValueError: the scenario asks what the policy refuses; the sail is clamped; a
@@ -134,8 +136,9 @@ def run_closed_loop(
     q0, qd0 = scenario.initial_state(model)
     watch = RangeWatch(model, policy)
     stepper = model.stepper(
-        scenario.profile, q0=q0, qd0=qd0, max_step=max_step, rtol=rtol, inputs=inputs
-    )
+        scenario.profile, q0=q0, qd0=qd0, max_step=max_step, rtol=rtol, atol=atol,
+        inputs=inputs,
+    )  # fmt: skip
     k = times.size
     commands, demands = np.zeros((k, len(columns))), np.zeros((k, len(columns)))
     saturated = np.zeros((k, len(columns)), dtype=bool)

@@ -28,7 +28,7 @@ from sail_ros.analysis.deployment import (
     sample_bytes,
 )
 from sail_ros.analysis.scenario import check_scenario
-from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
+from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL, atol_floors
 from sail_ros.model import SailModel, SailParameters
 from sail_ros.model.layout import Layout
 from sail_ros.policy import OutOfRangeError, Policy
@@ -48,6 +48,8 @@ class DeployRequest:
         rate: state samples per simulated second of the log and the figures [Hz].
         max_step: the largest integration step [s].
         rtol: the stepper's tolerance (0: fixed steps of `max_step`).
+        atol: its absolute floors per output kind (`control.atol_floors`; None: the
+            defaults).
         snapshots: the snapshot times [s].
         convergence: None (no reruns), () (the ladder) or `(n_B, n_M)` (one rerun).
         shape_rate: /sail/shape messages per simulated second in the log [Hz] (0: none).
@@ -61,6 +63,7 @@ class DeployRequest:
     rate: float = 50.0
     max_step: float = DEFAULT_MAX_STEP
     rtol: float = DEFAULT_RTOL
+    atol: dict | None = None
     snapshots: tuple = ()
     convergence: tuple | None = None
     shape_rate: float = 5.0
@@ -84,6 +87,7 @@ class DeployRequest:
             raise ValueError(f"--max-step must be finite and > 0 s, got {self.max_step}")
         if not 0.0 <= self.rtol < 1.0:
             raise ValueError(f"--rtol must be in [0, 1) (0: fixed steps), got {self.rtol}")
+        atol_floors(self.atol)
         if self.shape_rate < 0 or self.shape_rate > self.rate:
             raise ValueError(
                 f"--shape-rate must be in [0, --rate = {self.rate:g}] Hz, got {self.shape_rate}"
@@ -177,8 +181,9 @@ def study(
     else:
         with progress(None, duration) as reached:
             found.result = run_deployment(
-                model, scenario, t_eval, request.max_step, reached, policy=policy, rtol=rtol
-            )
+                model, scenario, t_eval, request.max_step, reached, policy=policy, rtol=rtol,
+                atol=request.atol,
+            )  # fmt: skip
     found.stopped = found.result.alarm
     if request.convergence is not None and not found.stopped:
 
@@ -233,8 +238,9 @@ def _closed_loop(model, scenario, policy, request, t_eval, progress):
     rtol = request.rtol or None
     with progress("closed loop", scenario.duration) as reached:
         closed = run_closed_loop(model, scenario, design, policy, progress=reached,
-                                 max_step=request.max_step, rtol=rtol)  # fmt: skip
+                                 max_step=request.max_step, rtol=rtol,
+                                 atol=request.atol)  # fmt: skip
     with progress("open loop", scenario.duration) as reached:
         open_loop = run_deployment(model, scenario, t_eval, request.max_step, reached,
-                                   policy=policy, rtol=rtol)  # fmt: skip
+                                   policy=policy, rtol=rtol, atol=request.atol)  # fmt: skip
     return closed, open_loop

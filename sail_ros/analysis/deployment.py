@@ -33,8 +33,9 @@ from sail_ros.policy import OutOfRangeError, Policy
 
 
 class Accuracy(NamedTuple):
-    """How a run was stepped: the tolerance `rtol` asked (None: fixed steps), the
-    achieved error estimate relative to each output's peak (`SailStepper.
+    """How a run was stepped: the tolerance `rtol` asked (None: fixed steps) and its
+    absolute floors per output (`atol`, `control.atol_floors`), the achieved error
+    estimate relative to each output's peak (`SailStepper.
     relative_error_estimate`: tips, tip_rates, root_moments, root_moment_rates) and in
     the outputs' units (`error`), the steps taken and refused, and one line when the
     estimate exceeds twice the run's tolerance (`warning`, "" if not)."""
@@ -45,12 +46,13 @@ class Accuracy(NamedTuple):
     rejected: int
     error: dict | None = None
     warning: str = ""
+    atol: dict | None = None
 
     @classmethod
     def of(cls, run) -> Accuracy:
         """Of a `driver.Run`."""
         return cls(run.rtol, run.relative_error_estimate, run.steps, run.rejected,
-                   run.error_estimate, run.accuracy_warning)  # fmt: skip
+                   run.error_estimate, run.accuracy_warning, run.atol)  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -137,6 +139,7 @@ def run_deployment(
     rtol: float | None = DEFAULT_RTOL,
     rates: str | None = "exact",
     states: bool = True,
+    atol: dict | None = None,
 ) -> DeploymentRun:
     """Integrate the scenario and sample it at `t_eval` [s] (and at its load switches,
     which thereby fall on step boundaries); the peaks of the tips and root moments
@@ -151,6 +154,7 @@ def run_deployment(
         initial: `(q0, qd0)` instead of the scenario's initial state for `model`.
         policy: the limits and alarms (default: the simulator's defaults).
         rtol: the stepper's tolerance (`SailStepper`; None: fixed steps of `max_step`).
+        atol: its absolute floors per output kind, over the defaults (`SailStepper`).
         rates: the velocities at output times inside moving steps
             (`SailStepper.states_at`): "exact", or "extension" (cheaper, off by about
             0.3 % of peak; the coordinates, the steps' ends and the peaks the same to
@@ -188,7 +192,7 @@ def run_deployment(
         t_eval = np.union1d(t_eval, switches)
     watch = RangeWatch(model, policy, tip_times=None if states else t_eval)
     stepper = model.stepper(
-        scenario.profile, q0=q0, qd0=qd0, max_step=max_step, rtol=rtol,
+        scenario.profile, q0=q0, qd0=qd0, max_step=max_step, rtol=rtol, atol=atol,
         inputs=input_function(scenario.loads, model.free_hub),
     )  # fmt: skip
     started = time.perf_counter()
@@ -257,10 +261,12 @@ def rerun_peaks(
     """
     q0, qd0 = scenario.initial_state(model)
     initial = (carried_over(q0, model, finer), carried_over(qd0, model, finer))
-    rtol = run.accuracy.rtol if run.accuracy is not None else DEFAULT_RTOL
+    accuracy = run.accuracy
+    rtol, atol = (DEFAULT_RTOL, None) if accuracy is None else (accuracy.rtol, accuracy.atol)
     rerun = run_deployment(
-        finer, scenario, run.t, max_step, progress, initial, policy, rtol, rates=None, states=False
-    )
+        finer, scenario, run.t, max_step, progress, initial, policy, rtol, rates=None,
+        states=False, atol=atol,
+    )  # fmt: skip
     if rerun.alarm:
         raise OutOfRangeError(
             f"the rerun at (n_B, n_M) = ({finer.n_boom_modes}, {finer.n_membrane_modes}): "

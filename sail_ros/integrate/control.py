@@ -70,6 +70,20 @@ def time_slack(t: float) -> float:
     return 1e-12 * max(1.0, abs(t))
 
 
+def atol_floors(atol: dict | None) -> dict:
+    """The absolute floors per output kind (`OUTPUT_KINDS`, in `ATOL_UNITS`): `atol`'s
+    over `DEFAULT_ATOL`. Raises ValueError naming an unknown kind or a floor not finite
+    and > 0."""
+    floors = dict(DEFAULT_ATOL)
+    for name, value in dict(atol or {}).items():
+        if name not in floors:
+            raise ValueError(f"atol: unknown output {name!r}; outputs are {', '.join(floors)}")
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"atol[{name!r}] must be finite and > 0, got {value!r}")
+        floors[name] = float(value)
+    return floors
+
+
 def accuracy_warning(
     rtol: float | None, relative: dict, atol: dict | None = None, peaks: dict | None = None
 ) -> str:
@@ -84,7 +98,7 @@ def accuracy_warning(
     over = [kind for kind in ("tips", "root_moments") if relative.get(kind, 0.0) > bar]
     if not over:  # nan (no peak yet) does not warn
         return ""
-    floors, peaks = {**DEFAULT_ATOL, **(atol or {})}, peaks or {}
+    floors, peaks = atol_floors(atol), peaks or {}
     binding = [kind for kind in over if floors[kind] > rtol * peaks.get(kind, math.inf)]
     if binding:
         named = ", ".join(f"{kind} = {floors[kind]:g} {ATOL_UNITS[kind]}" for kind in binding)
@@ -129,13 +143,7 @@ class StepControl:
             )
         if rtol is not None and not (math.isfinite(rtol) and 0 < rtol < 1):
             raise ValueError(f"rtol must be None or in (0, 1), got {rtol!r}")
-        floors = dict(DEFAULT_ATOL)
-        for name, value in dict(atol or {}).items():
-            if name not in floors:
-                raise ValueError(f"atol: unknown output {name!r}; outputs are {', '.join(floors)}")
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"atol[{name!r}] must be finite and > 0, got {value!r}")
-            floors[name] = float(value)
+        floors = atol_floors(atol)
         self.max_step = float(max_step)
         self.rtol = None if rtol is None else float(rtol)
         self.atol = floors

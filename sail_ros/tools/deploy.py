@@ -18,6 +18,7 @@ all as one JSON object. Writes an MCAP log with the live simulator's topics
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import dataclasses
 import functools
@@ -31,7 +32,14 @@ from sail_ros.analysis.convergence import BAR
 from sail_ros.analysis.deploy_study import DeployRequest, study
 from sail_ros.analysis.reference import OPTIONS, reference_scenario
 from sail_ros.analysis.scenario import load_scenario
-from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
+from sail_ros.integrate.control import (
+    ATOL_UNITS,
+    DEFAULT_ATOL,
+    DEFAULT_MAX_STEP,
+    DEFAULT_RTOL,
+    OUTPUT_KINDS,
+    atol_floors,
+)
 from sail_ros.options import ToolParser
 from sail_ros.plots.deploy_figures import CLOSED_LOOP_FIGURE, FIGURES, HUB_FIGURE, deploy_figures
 from sail_ros.tools.common import add_sail_options, configuration, print_written, tool_main
@@ -95,6 +103,15 @@ def build_parser() -> ToolParser:
         help=f"local error allowed per step on tips, root moments and their rates, relative "
         f"to each one's peak so far ({DEFAULT_RTOL:g}: whole runs within 0.2 %% of peak); "
         "0: fixed steps of --max-step",
+    )  # fmt: skip
+    floors = ", ".join(
+        f"{kind}={value:g} {ATOL_UNITS[kind]}" for kind, value in DEFAULT_ATOL.items()
+    )
+    parser.add_argument(
+        "--atol", type=_atol_entry, nargs="+", default=[], metavar="OUTPUT=FLOOR",
+        help=f"absolute floors of that error, in the outputs' units ({floors}): where a "
+        "floor is above rtol times its output's peak it sets the steps (the accuracy "
+        "warning says so), and a smaller one tightens the run",
     )  # fmt: skip
     parser.add_argument(
         "--summary",
@@ -165,6 +182,19 @@ def build_parser() -> ToolParser:
     return parser
 
 
+def _atol_entry(text: str) -> tuple[str, float]:
+    """One `OUTPUT=FLOOR` of --atol, checked as the stepper checks it."""
+    kind, equals, value = text.partition("=")
+    try:
+        if not equals:
+            raise ValueError(f"expected OUTPUT=FLOOR, outputs {', '.join(OUTPUT_KINDS)}")
+        floor = float(value)
+        atol_floors({kind: floor})
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(f"{text!r}: {error}") from None
+    return kind, floor
+
+
 def _scenario(args, limits=None):
     """The scenario to run and a one-line description of it; `limits` (a `Configuration`),
     if given, bound its waypoints."""
@@ -191,7 +221,7 @@ def _deploy(args) -> int:
     config = dataclasses.replace(config, sail=config.sail.resolved(scenario.shortest_length))
     snapshots = args.snapshots or list(scenario.snapshots)
     request = DeployRequest(
-        args.every, args.rate, args.max_step, args.rtol, tuple(snapshots),
+        args.every, args.rate, args.max_step, args.rtol, dict(args.atol) or None, tuple(snapshots),
         None if args.convergence is None else tuple(args.convergence), args.shape_rate,
         args.shape_divisions, args.mcap, args.figures, str(args.scenario or ""),
     )  # fmt: skip

@@ -8,6 +8,7 @@ import dataclasses
 import numpy as np
 
 from sail_ros.analysis.json_values import json_number
+from sail_ros.integrate.control import ATOL_UNITS, DEFAULT_ATOL
 from sail_ros.policy import Policy
 from sail_ros.tools.common import refine_hint
 from sail_ros.tools.tables import (
@@ -152,8 +153,17 @@ def _accuracy_line(accuracy) -> str:
     if accuracy.rtol is None:
         return f"  {steps} of fixed length: no error estimate"
     error = accuracy.relative_error
+    changed = {
+        kind: floor for kind, floor in (accuracy.atol or {}).items() if floor != DEFAULT_ATOL[kind]
+    }
+    tolerance = f"rtol {accuracy.rtol:g}"
+    if changed:  # the floors asked: the defaults go without saying
+        floors = ", ".join(
+            f"{kind} {floor:g} {ATOL_UNITS[kind]}" for kind, floor in changed.items()
+        )
+        tolerance += f" (atol {floors})"
     return (
-        f"  {steps} at rtol {accuracy.rtol:g}; error estimate: tips "
+        f"  {steps} at {tolerance}; error estimate: tips "
         f"{100 * error['tips']:.2g} %, root moments {100 * error['root_moments']:.2g} % of peak"
     )
 
@@ -211,6 +221,7 @@ def _json_report(result, config, description, convergence, holds=None) -> dict:
         "limits": limits,
         "wall_time_s": result.wall_seconds,
         "rtol": result.accuracy.rtol,
+        "atol": result.accuracy.atol if result.accuracy.rtol is not None else None,
         "steps": result.accuracy.steps,
         "relative_error_estimate": {  # null where nothing moved (0 of a peak of 0)
             name: json_number(value) for name, value in result.accuracy.relative_error.items()

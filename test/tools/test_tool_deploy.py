@@ -1,5 +1,6 @@
 """`sail-ros deploy`: the summary table, scenarios, the MCAP log and the figures."""
 
+import json
 import re
 
 import numpy as np
@@ -13,6 +14,7 @@ from sensor_msgs.msg import JointState
 from sail_ros import topics
 from sail_ros.analysis.scenario import REFERENCE, load_scenario, scenario_from_dict
 from sail_ros.bag import BagReader
+from sail_ros.integrate.control import DEFAULT_ATOL
 from sail_ros.integrate.peaks import MAX_SPACING_S, PEAK_ERROR
 from sail_ros.messages import hub as hub_msg
 from sail_ros.model import SailModel, SailParameters
@@ -64,6 +66,27 @@ def test_summary_prints_the_reference_table(capsys):
     assert 0.0 < float(found[4]) < 0.4
     assert deploy.main(["--summary", "--rtol", "0"]) == 0
     assert "steps (0 refused) of fixed length: no error estimate" in capsys.readouterr().out
+
+
+def test_atol_floors_reach_the_run_its_summary_and_its_json(capsys):
+    """Below rtol x peak the default floors set the steps (the reference deployment's
+    tips peak near 0.1 m: at rtol 1e-6 the tips' 1e-6 m floor binds); smaller ones asked
+    with --atol take more steps to a smaller estimate, and both outputs say which."""
+    base = ["--json", *SMALL_SET, "--rtol", "1e-6"]
+    assert deploy.main(base) == 0
+    default = json.loads(capsys.readouterr().out)
+    assert deploy.main([*base, "--atol", "tips=1e-8", "root_moments=1e-6"]) == 0
+    floored = json.loads(capsys.readouterr().out)
+    assert default["atol"] == DEFAULT_ATOL
+    assert floored["atol"] == {**DEFAULT_ATOL, "tips": 1e-8, "root_moments": 1e-6}
+    assert floored["steps"] > default["steps"]
+    for kind in ("tips", "root_moments"):
+        estimate = floored["relative_error_estimate"][kind]
+        assert estimate < 0.8 * default["relative_error_estimate"][kind], (kind, estimate)
+    assert deploy.main([*SMALL_SET, "--rtol", "1e-6", "--atol", "tips=1e-8", "--every", "5"]) == 0
+    assert "at rtol 1e-06 (atol tips 1e-08 m); error estimate" in capsys.readouterr().out
+    assert deploy.main(["--json", *SMALL_SET, "--rtol", "0"]) == 0
+    assert json.loads(capsys.readouterr().out)["atol"] is None  # fixed steps: no tolerance
 
 
 def test_reference_file_is_the_built_in_reference():
