@@ -65,7 +65,9 @@ class MovingDense:
         shortening = float((self.at.motion(self.t0)[0] / self.at.motion(self.t0 + h)[0]).max())
         carried = trial.carried_frequency * CARRIED_MARGIN * max(1.0, shortening) ** 2
         slow = min(turning, carried)
-        return Extension(trial.extensions, trial.vibration, h, slow, trial.middle_omega_d)
+        return Extension(
+            trial.extensions, trial.vibration, h, slow, trial.middle_omega_d, trial.middle_chirps
+        )
 
     @property
     def curve_data(self) -> Extension:

@@ -60,8 +60,10 @@ class Trial(NamedTuple):
     # the dense output's error inside the step per output kind (`attempt`): the
     # extension's, and half the followed modes' jump at the middle
     interpolation: np.ndarray | None = None
-    # [rad/s] the followed modes' damped frequencies at the step's middle, or None
+    # [rad/s] the followed modes' damped frequencies at the step's middle, or None, and
+    # the chirps of their phase from the start and from the end (`fast_modes.chirps`)
     middle_omega_d: np.ndarray | None = None
+    middle_chirps: tuple | None = None
 
 
 def rational_step(at, force_at, t0, q0, p0, h, mats=None, companion=None):
@@ -90,14 +92,13 @@ def _replaced(end, q, qd, p, M, G, factor, invariant):
     return q, potrs(factor, p_new - G @ q)[0], p_new
 
 
-def _middle_jump(vibration, middle_omega_d, q_middle, h, rows) -> np.ndarray:
+def _middle_jump(vibration, bends, q_middle, h, rows) -> np.ndarray:
     """`rows` (r, n) of the step's state at its middle as the first half represents it
     (the start's followed modes turned on by `h / 2` [s]) less as the second does (the
-    end's turned back), the phases through `middle_omega_d` (`fast_modes.chirps`): the
-    slow part of `q_middle` in each set of modes, and each set's vibration there."""
+    end's turned back), the phases bent by `bends` (`fast_modes.chirps`): the slow part
+    of `q_middle` in each set of modes, and each set's vibration there."""
     start, end = vibration
     m = start.count
-    bends = chirps(start.modes.omega_d[-m:], middle_omega_d, end.modes.omega_d[-m:], h)
     parts = []
     for vib, t, bend in ((start, 0.5 * h, bends[0]), (end, -0.5 * h, bends[1])):
         modes = vib.modes
@@ -177,6 +178,7 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
         # there to the error estimated)
         forcing = forcing_of(modes1, count, at.held(u, lengths1), (C1, K_extra1), q2, qd2)
         middle_omega_d = middle_frequencies(modes0, modes1, count, mats[2], at.rayleigh)
+        bends = chirps(modes0.omega_d[-count:], middle_omega_d, modes1.omega_d[-count:], h)
         damping = (modal_damping(modes0, count, C0), modal_damping(modes1, count, C1))
         end = follow(start, modes1, h, forcing, middle_omega_d, damping)
         # the whole step's followed modes are the halves': they leave the estimate
@@ -200,7 +202,7 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
     whole_middle = c[0] * q0 + 2.0 * (w[0] @ whole[1]).real
     interpolation = largest(rows, whole_middle - qh, np.zeros_like(qh)) / 2.0**5
     if count:  # half the jump of the followed modes' representation at the middle
-        jump = _middle_jump(vibration, middle_omega_d, qh, h, rows)
+        jump = _middle_jump(vibration, bends, qh, h, rows)
         interpolation[[0, 2]] += 0.5 * np.abs(jump).reshape(2, 4).max(axis=1)
     outputs = largest(rows, q2, qd2)
     # the highest mode not followed: the next below those followed, or, when a set
@@ -224,4 +226,5 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
         None if companion is None else (qc, pc, largest(rows, q2 - qc, qd2 - qdc)),
         interpolation,
         middle_omega_d if count else None,
+        bends if count else None,
     )

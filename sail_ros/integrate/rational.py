@@ -23,7 +23,6 @@ import scipy.linalg
 
 from sail_ros.integrate.fast_modes import (
     TURN_BACK_EXPONENT,
-    chirps,
     frequency_ratio,
     oscillation,
     turning,
@@ -106,11 +105,17 @@ class Extension:
     instead (`free`); `curve` and `followed` for the peaks (`Curves`, of this step
     alone). `slow` [rad/s]: what bounds the frequencies of all but the followed modes
     in its samples (`SailStepper.last_curve`); `middle_omega_d` [rad/s], the followed
-    modes' damped frequencies at the step's middle, through which their phase turns
-    (`fast_modes.chirps`)."""
+    modes' damped frequencies at the step's middle, through which their phase turns,
+    bent by `middle_chirps` (`fast_modes.chirps`, from the start and from the end)."""
 
     def __init__(
-        self, extensions: tuple, vibration: tuple, h: float, slow: float, middle_omega_d=None
+        self,
+        extensions: tuple,
+        vibration: tuple,
+        h: float,
+        slow: float,
+        middle_omega_d=None,
+        middle_chirps=None,
     ):
         self.extensions = extensions
         self.parts = len(extensions)
@@ -119,6 +124,7 @@ class Extension:
         self.slow = slow
         self.count = vibration[0].count if vibration else 0
         self.middle_omega_d = middle_omega_d
+        self.middle_chirps = middle_chirps
 
     @functools.cached_property
     def curves(self) -> Curves:
@@ -219,9 +225,7 @@ class Curves:
                 self.static[i, part, pad:], a[i, part, pad:] = near.s, near.a
             if k and step.middle_omega_d is not None:
                 pad = count - k
-                ends = omega_d[i, 0, pad:], omega_d[i, -1, pad:]
-                bends = chirps(ends[0], step.middle_omega_d, ends[1], step.h)
-                self.chirp[i, 0, pad:], self.chirp[i, -1, pad:] = bends
+                self.chirp[i, 0, pad:], self.chirp[i, -1, pad:] = step.middle_chirps
                 self.omega_middle[i, pad:] = step.middle_omega_d
         self.omega_d = omega_d
         self.decay = decay if decay.any() else None
