@@ -2,6 +2,8 @@
 independent tight reference, the followed high modes against the closed form at
 constant length, the error estimate, live load steps, and the options' checks."""
 
+import bisect
+
 import numpy as np
 import pytest
 import scipy.integrate
@@ -9,6 +11,9 @@ import scipy.linalg
 from harness import SMALL
 from test_integration import magnus4_reference
 
+from sail_ros.analysis.closed_loop import run_closed_loop
+from sail_ros.analysis.scenario import scenario_from_dict
+from sail_ros.control.design import HUB_WRENCH, TIP_FORCES
 from sail_ros.integrate.control import DEFAULT_RTOL, WHOLE_STEP_PHASE, accuracy_warning
 from sail_ros.integrate.sampling import GridSampler
 from sail_ros.integrate.stepper import SailStepper
@@ -482,6 +487,50 @@ def test_the_estimate_bounds_the_error_of_a_free_hub_stepping_at_the_phase_bound
     lag reads about a third of the error the halves make and the estimate fell to 0.69
     of the root moments' (model.md §11, "the whole step's lag is kept")."""
     estimate_bounds_the_error(drawn_deployments(9, seed=11, free_hub=True), only=8)
+
+
+def test_the_estimate_bounds_the_error_of_a_free_hubs_closed_loop():
+    """The same on the hub's controller closing the loop (`run_closed_loop`): a command
+    every control period (10 Hz here), each acting from its loop delay on, so the inputs
+    jump twice a period and the steps end there; the reference holds each command over
+    its own segment."""
+    profile = {"type": "cycloidal", "start": 10.0, "end": 11.0, "duration": 4.0}
+    scenario = scenario_from_dict(
+        {
+            "scenario": {
+                "duration": 4.0,
+                "profile": {
+                    **dict.fromkeys("abc", profile),
+                    "d": {"type": "cycloidal", "start": 10.0, "end": 10.25, "duration": 2.0},
+                },
+                "initial": {"mode_state": {"a": 0.05}},
+                "loads": [{"at": 0.0, "pressures": 1e-3}],
+            },
+            "sail": {"free_hub": True, "n_boom_modes": 3, "n_membrane_modes": 4},
+            "controller": {"state_rate_hz": 10.0},
+        }
+    )
+    model = SailModel(SailParameters(**scenario.sail).resolved(scenario.shortest_length))
+    closed = run_closed_loop(model, scenario, scenario.controller)
+    t = closed.run.t
+    columns = HUB_WRENCH + (TIP_FORCES if len(closed.inputs) > 3 else [])
+    acting = [float(ti) + scenario.controller.loop_delay_s for ti in t]
+    base = input_function(scenario.loads, free_hub=True)
+
+    def loads(time_s):  # as `LoopInputs`: a command acts after its time, until the next
+        u = np.array(base(time_s), dtype=float)
+        i = bisect.bisect_left(acting, time_s)
+        if i:
+            u[columns] += closed.commands[i - 1]
+        return u[:4], u[4:8], u[8:]
+
+    breaks = [a for a in acting if 0.0 < a < t[-1]]
+    expected = tight_reference(model, scenario.profile, loads, closed.run.q[0], t, breaks)
+    assert np.abs(closed.commands).max() > 0.1  # the controller does push the hub
+    tips, moments = errors(model, scenario.profile, t, closed.run.q, expected)
+    estimate = closed.run.accuracy.relative_error
+    assert estimate["tips"] >= tips and estimate["root_moments"] >= moments, (tips, moments)
+    assert moments > 1e-6  # the run makes an error the estimate has to bound
 
 
 @pytest.mark.slow
