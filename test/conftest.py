@@ -18,7 +18,7 @@ The test command runs three tests at a time (pytest-xdist, `-n 3`, a module on o
 when its tests share a module fixture, any other test wherever a worker is free); a
 test marked `timing` asserts wall-clock behaviour (real-time factor, overruns), so it
 runs while no other test does: it holds a lock exclusively that every other test holds
-shared.
+shared, from before its fixtures are set up until they are torn down.
 What the tests share besides fixtures is in `harness.py` (imported first: it puts the
 run on its private DDS domain).
 """
@@ -135,10 +135,13 @@ class _TimingLock:
     """Between xdist workers, a lock file of this run's temporary root: every other test
     holds it shared while it runs, `timing` tests exclusively; one worker runs those one
     after another (an xdist group, first in the order) and keeps the lock from the first
-    to its next other test."""
+    to its next other test. A worker takes the lock through a gate (a second file, held
+    exclusively while it waits): flock favours neither mode, and without the gate the
+    other workers' tests, each taking the lock shared as the last lets go, could keep a
+    timing test waiting for the whole run."""
 
     def __init__(self):
-        self._file = None
+        self._file = self._gate = None
         self._mode = None
 
     def hold(self, path: Path, mode: int) -> None:
@@ -146,8 +149,13 @@ class _TimingLock:
             return
         if self._file is None:
             self._file = path.open("a")  # noqa: SIM115 (held across tests)
-        fcntl.flock(self._file, fcntl.LOCK_UN)
-        fcntl.flock(self._file, mode)
+            self._gate = path.with_suffix(".gate").open("a")  # noqa: SIM115
+        fcntl.flock(self._file, fcntl.LOCK_UN)  # never held while waiting at the gate
+        fcntl.flock(self._gate, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(self._file, mode)
+        finally:
+            fcntl.flock(self._gate, fcntl.LOCK_UN)
         self._mode = mode
 
     def unlock(self) -> None:
@@ -159,24 +167,43 @@ class _TimingLock:
         if self._file is not None:
             fcntl.flock(self._file, fcntl.LOCK_UN)
             self._file.close()
-            self._file, self._mode = None, None
+            self._gate.close()
+            self._file = self._gate = self._mode = None
 
 
 _TIMING_LOCK = _TimingLock()
 
 
-@pytest.fixture(autouse=True)
-def _alone_when_timing(request, tmp_path_factory):
-    """A `timing` test runs while no test runs on another worker (see _TimingLock)."""
+def _timing(item) -> bool | None:
+    """Whether `item` is a `timing` test; None outside an xdist worker (no lock)."""
     if "PYTEST_XDIST_WORKER" not in os.environ:
-        yield
-        return
-    timing = request.node.get_closest_marker("timing") is not None
-    path = tmp_path_factory.getbasetemp().parent / "timing.lock"  # one per run
-    _TIMING_LOCK.hold(path, fcntl.LOCK_EX if timing else fcntl.LOCK_SH)
-    yield
-    if not timing:  # let a timing test of the other worker in between two others
-        _TIMING_LOCK.unlock()
+        return None
+    return item.get_closest_marker("timing") is not None
+
+
+@pytest.hookimpl(wrapper=True, tryfirst=True)
+def pytest_runtest_setup(item):
+    """A `timing` test runs while no test runs on another worker (see _TimingLock): the
+    lock is taken before the test's fixtures are set up, a module's too (they are set up
+    with its first test: a docs build or a recorded log would otherwise run beside a
+    timing test)."""
+    timing = _timing(item)
+    if timing is not None:
+        # one per run: xdist gives each worker a temporary folder in the run's own
+        path = Path(item.config.option.basetemp).parent / "timing.lock"
+        _TIMING_LOCK.hold(path, fcntl.LOCK_EX if timing else fcntl.LOCK_SH)
+    return (yield)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_teardown(item, nextitem):
+    """The lock is let go once the test's fixtures are torn down, a module's too (with its
+    last test), so a timing test of another worker can come in between two others."""
+    try:
+        return (yield)
+    finally:
+        if _timing(item) is False:
+            _TIMING_LOCK.unlock()
 
 
 def pytest_sessionfinish(session):
