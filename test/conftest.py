@@ -165,7 +165,9 @@ class _Priority:
     """This worker's CPU priority: every thread of the process (and so every thread and
     process it starts from then on) at the lowest, `nice` 19. Linux gives each thread
     its own nice value, so each is set (`setpriority` of the process sets only the
-    calling thread's)."""
+    calling thread's). A process a test starts stays in the suite's session: Linux
+    schedules a new session as a group of its own (autogroup), which nice values do not
+    reach."""
 
     LOWEST = 19
 
