@@ -16,16 +16,16 @@ The tests live by tier, one folder each, every module marked with its tier:
 size of a trial the suite runs CI-sized: it runs only with `--slow` (scripts/stress.sh).
 The test command runs three tests at a time (pytest-xdist, `-n 3`, a module on one worker
 when its tests share a module fixture, any other test wherever a worker is free); a
-test marked `timing` asserts wall-clock behaviour (real-time factor, overruns), so the
-others run at the lowest CPU priority (nice 19), from their fixtures' set-up on, and
-take only the cores it leaves idle.
+test marked `timing` asserts wall-clock behaviour (real-time factor, overruns), so it
+runs while no other test does: it holds a lock exclusively that every other test holds
+shared, from before its fixtures are set up until they are torn down.
 What the tests share besides fixtures is in `harness.py` (imported first: it puts the
 run on its private DDS domain).
 """
 
 from __future__ import annotations
 
-import contextlib
+import fcntl
 import hashlib
 import os
 import shutil
@@ -86,39 +86,9 @@ def pytest_collection_modifyitems(config, items):
         (slow if is_slow and not config.getoption("--slow") else kept).append(item)
     if slow:
         config.hook.pytest_deselected(items=slow)
-    _GROUP_SIZES.clear()
-    for item in kept:
-        group = _group(item)
-        if group is not None:
-            _GROUP_SIZES[group] = _GROUP_SIZES.get(group, 0) + 1
-    kept.sort(key=_scheduling_order)
+    # the timing tests first: one worker runs them alone while the other starts its first
+    kept.sort(key=lambda item: item.get_closest_marker("timing") is None)
     items[:] = kept
-
-
-def _group(item) -> str | None:
-    marker = item.get_closest_marker("xdist_group")
-    return None if marker is None else marker.args[0]
-
-
-def _scheduling_order(item) -> tuple[bool, int]:
-    """The order xdist hands the tests out in (`pytest_configure`): the timing tests
-    first, so that the worker that runs them (their group) does so before any other test
-    lowers its priority (`pytest_runtest_setup`); then the groups with the most tests
-    (xdist's own order, which keeps a long group from starting last)."""
-    group = _group(item)
-    size = 1 if group is None else _GROUP_SIZES[group]
-    return group != "timing", -size
-
-
-_GROUP_SIZES: dict[str, int] = {}
-
-
-def pytest_configure(config):
-    """The tests go out to the xdist workers in their collection order
-    (`_scheduling_order`): xdist's own reordering of the groups by size would put the
-    timing tests after the bigger groups."""
-    if hasattr(config.option, "loadscopereorder"):
-        config.option.loadscopereorder = False
 
 
 def pytest_collection_finish(session):
@@ -161,57 +131,83 @@ def pytest_terminal_summary(terminalreporter, config):
     )
 
 
-class _Priority:
-    """This worker's CPU priority: every thread of the process (and so every thread and
-    process it starts from then on) at the lowest, `nice` 19. Linux gives each thread
-    its own nice value, so each is set (`setpriority` of the process sets only the
-    calling thread's). A process a test starts stays in the suite's session: Linux
-    schedules a new session as a group of its own (autogroup), which nice values do not
-    reach."""
-
-    LOWEST = 19
+class _TimingLock:
+    """Between xdist workers, a lock file of this run's temporary root: every other test
+    holds it shared while it runs, `timing` tests exclusively; one worker runs those one
+    after another (an xdist group, first in the order) and keeps the lock from the first
+    to its next other test. A worker takes the lock through a gate (a second file, held
+    exclusively while it waits): flock favours neither mode, and without the gate the
+    other workers' tests, each taking the lock shared as the last lets go, could keep a
+    timing test waiting for the whole run."""
 
     def __init__(self):
-        self.lowered = False
+        self._file = self._gate = None
+        self._mode = None
 
-    def lower(self) -> None:
-        if self.lowered:
+    def hold(self, path: Path, mode: int) -> None:
+        if self._mode == mode:
             return
-        for thread in os.listdir("/proc/self/task"):
-            with contextlib.suppress(ProcessLookupError):  # a thread that has just ended
-                os.setpriority(os.PRIO_PROCESS, int(thread), self.LOWEST)
-        self.lowered = True
+        if self._file is None:
+            self._file = path.open("a")  # noqa: SIM115 (held across tests)
+            self._gate = path.with_suffix(".gate").open("a")  # noqa: SIM115
+        fcntl.flock(self._file, fcntl.LOCK_UN)  # never held while waiting at the gate
+        fcntl.flock(self._gate, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(self._file, mode)
+        finally:
+            fcntl.flock(self._gate, fcntl.LOCK_UN)
+        self._mode = mode
+
+    def unlock(self) -> None:
+        if self._file is not None:
+            fcntl.flock(self._file, fcntl.LOCK_UN)
+            self._mode = None
+
+    def release(self) -> None:
+        if self._file is not None:
+            fcntl.flock(self._file, fcntl.LOCK_UN)
+            self._file.close()
+            self._gate.close()
+            self._file = self._gate = self._mode = None
 
 
-_PRIORITY = _Priority()
+_TIMING_LOCK = _TimingLock()
 
 
 def _timing(item) -> bool | None:
-    """Whether `item` is a `timing` test; None outside an xdist worker (no priorities)."""
+    """Whether `item` is a `timing` test; None outside an xdist worker (no lock)."""
     if "PYTEST_XDIST_WORKER" not in os.environ:
         return None
     return item.get_closest_marker("timing") is not None
 
 
-@pytest.hookimpl(tryfirst=True)
+@pytest.hookimpl(wrapper=True, tryfirst=True)
 def pytest_runtest_setup(item):
-    """A `timing` test runs at its worker's own CPU priority, every other test (its
-    fixtures, a module's included, and the processes it starts) at the lowest: the
-    scheduler gives a timing test's processes the cores they ask for, and the others'
-    tests the rest, so the cores a timing test leaves idle are used. The timing tests
-    come first on the one worker that runs them (`pytest_collection_modifyitems`), and a
-    priority once lowered cannot be raised again without privileges."""
+    """A `timing` test runs while no test runs on another worker (see _TimingLock): the
+    lock is taken before the test's fixtures are set up, a module's too (they are set up
+    with its first test: a docs build or a recorded log would otherwise run beside a
+    timing test)."""
     timing = _timing(item)
-    if timing is None:
-        return
-    if not timing:
-        _PRIORITY.lower()
-    elif _PRIORITY.lowered:
-        pytest.fail(
-            f"{item.nodeid}: a timing test after another test on this worker, whose CPU "
-            "priority is lowered (the timing tests come first: see conftest.py)",
-            pytrace=False,
-        )
+    if timing is not None:
+        # one per run: xdist gives each worker a temporary folder in the run's own
+        path = Path(item.config.option.basetemp).parent / "timing.lock"
+        _TIMING_LOCK.hold(path, fcntl.LOCK_EX if timing else fcntl.LOCK_SH)
+    return (yield)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_teardown(item, nextitem):
+    """The lock is let go once the test's fixtures are torn down, a module's too (with its
+    last test), so a timing test of another worker can come in between two others."""
+    try:
+        return (yield)
+    finally:
+        if _timing(item) is False:
+            _TIMING_LOCK.unlock()
+
+
+def pytest_sessionfinish(session):
+    _TIMING_LOCK.release()
 
 
 @pytest.fixture(scope="session")
