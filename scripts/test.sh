@@ -18,5 +18,5 @@ source "$root/scripts/env.sh"
 cd "$root"
 # three tests at a time on 2 cores: much of a multi-process test is waiting (DDS discovery,
 # real-time runs, timers), which a third worker fills (test/conftest.py: which tests share
-# a worker, `timing` tests alone)
+# a worker, `timing` tests apart from the other multi-process ones)
 exec python -m pytest -n 3 --dist loadgroup "$@"

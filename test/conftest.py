@@ -17,14 +17,17 @@ size of a trial the suite runs CI-sized: it runs only with `--slow` (scripts/str
 The test command runs three tests at a time (pytest-xdist, `-n 3`, a module on one worker
 when its tests share a module fixture, any other test wherever a worker is free); a
 test marked `timing` asserts wall-clock behaviour (real-time factor, overruns), so it
-runs while no other test does: it holds a lock exclusively that every other test holds
-shared, from before its fixtures are set up until they are torn down.
+runs while no other test that keeps pace with the wall clock does (a node or
+multi-process test): it holds a lock exclusively that those hold shared, from before
+their fixtures are set up until they are torn down. The in-process tiers' tests (work
+alone, no wall-clock pace) take no lock and run beside it at the lowest CPU priority.
 What the tests share besides fixtures is in `harness.py` (imported first: it puts the
 run on its private DDS domain).
 """
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import hashlib
 import os
@@ -39,6 +42,7 @@ from harness import JS, NODE_MAJOR, Operator, Tool, private_context, ros_value
 from sail_ros.ros.discovery import CLIENT_PROFILE, PROFILE
 
 TIERS = ("model", "node", "multiprocess", "lint")
+IN_PROCESS_TIERS = ("model", "lint")  # work alone: no process keeps pace with the wall clock
 FOLDER_TIERS = {
     "model": ("model",),
     "runtime": ("model",),
@@ -86,9 +90,36 @@ def pytest_collection_modifyitems(config, items):
         (slow if is_slow and not config.getoption("--slow") else kept).append(item)
     if slow:
         config.hook.pytest_deselected(items=slow)
-    # the timing tests first: one worker runs them alone while the other starts its first
-    kept.sort(key=lambda item: item.get_closest_marker("timing") is None)
+    sizes: dict[str, int] = {}
+    for item in kept:
+        sizes[_group(item)] = sizes.get(_group(item), 0) + 1
+    kept.sort(key=lambda item: _scheduling_order(item, sizes))
     items[:] = kept
+
+
+def _group(item) -> str | None:
+    marker = item.get_closest_marker("xdist_group")
+    return None if marker is None else marker.args[0]
+
+
+def _scheduling_order(item, sizes: dict) -> tuple[bool, bool, int]:
+    """The order xdist hands the tests out in (`pytest_configure`): the timing tests first,
+    so that the worker that runs them does so before any other test lowers its priority
+    (`pytest_runtest_setup`); then the in-process tiers' groups (a docs build, a module
+    of model runs), which the other workers run beside the timing tests; then the rest,
+    the groups with the most tests first (xdist's own order)."""
+    group = _group(item)
+    beside_timing = group is not None and _tier(item) in IN_PROCESS_TIERS
+    size = 1 if group is None else sizes[group]
+    return group != "timing", not beside_timing, -size
+
+
+def pytest_configure(config):
+    """The tests go out to the xdist workers in their collection order
+    (`_scheduling_order`): xdist's own reordering of the groups by size would put the
+    timing tests after the bigger groups."""
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
 
 
 def pytest_collection_finish(session):
@@ -132,13 +163,13 @@ def pytest_terminal_summary(terminalreporter, config):
 
 
 class _TimingLock:
-    """Between xdist workers, a lock file of this run's temporary root: every other test
-    holds it shared while it runs, `timing` tests exclusively; one worker runs those one
-    after another (an xdist group, first in the order) and keeps the lock from the first
-    to its next other test. A worker takes the lock through a gate (a second file, held
-    exclusively while it waits): flock favours neither mode, and without the gate the
-    other workers' tests, each taking the lock shared as the last lets go, could keep a
-    timing test waiting for the whole run."""
+    """Between xdist workers, a lock file of this run's temporary root: every node and
+    multi-process test holds it shared while it runs, `timing` tests exclusively; one
+    worker runs those one after another (an xdist group, first in the order) and keeps the
+    lock from the first to its next other test. A worker takes the lock through a gate (a
+    second file, held exclusively while it waits): flock favours neither mode, and
+    without the gate the other workers' tests, each taking the lock shared as the last
+    lets go, could keep a timing test waiting for the whole run."""
 
     def __init__(self):
         self._file = self._gate = None
@@ -174,6 +205,35 @@ class _TimingLock:
 _TIMING_LOCK = _TimingLock()
 
 
+class _Priority:
+    """This worker's CPU priority: every thread of the process (and so every thread and
+    process it starts from then on) at the lowest, `nice` 19. Linux gives each thread
+    its own nice value, so each is set (`setpriority` of the process sets only the
+    calling thread's); a priority once lowered cannot be raised without privileges. A
+    process a test starts stays in the suite's session: Linux schedules a new session as a
+    group of its own (autogroup), beside the suite's whatever its priority."""
+
+    LOWEST = 19
+
+    def __init__(self):
+        self.lowered = False
+
+    def lower(self) -> None:
+        if self.lowered:
+            return
+        for thread in os.listdir("/proc/self/task"):
+            with contextlib.suppress(ProcessLookupError):  # a thread that has just ended
+                os.setpriority(os.PRIO_PROCESS, int(thread), self.LOWEST)
+        self.lowered = True
+
+
+_PRIORITY = _Priority()
+
+
+def _tier(item) -> str | None:
+    return dict(item.user_properties).get("tier")
+
+
 def _timing(item) -> bool | None:
     """Whether `item` is a `timing` test; None outside an xdist worker (no lock)."""
     if "PYTEST_XDIST_WORKER" not in os.environ:
@@ -183,12 +243,24 @@ def _timing(item) -> bool | None:
 
 @pytest.hookimpl(wrapper=True, tryfirst=True)
 def pytest_runtest_setup(item):
-    """A `timing` test runs while no test runs on another worker (see _TimingLock): the
-    lock is taken before the test's fixtures are set up, a module's too (they are set up
-    with its first test: a docs build or a recorded log would otherwise run beside a
-    timing test)."""
+    """A `timing` test runs at its worker's own CPU priority, while no node or
+    multi-process test runs on another worker (see _TimingLock): the lock is taken before
+    the test's fixtures are set up, a module's too (they are set up with its first test:
+    a recorded log would otherwise be made beside a timing test). Every other test first
+    lowers its worker's priority: an in-process one (the `model` tier: a docs build, model
+    runs) then runs beside the timing tests without the lock, on the cores they leave."""
     timing = _timing(item)
-    if timing is not None:
+    if timing:
+        if _PRIORITY.lowered:
+            pytest.fail(
+                f"{item.nodeid}: a timing test after another test on this worker, whose "
+                "CPU priority is lowered (the timing tests come first on one worker with "
+                "--dist loadgroup, as scripts/test.sh runs them)",
+                pytrace=False,
+            )
+    elif timing is not None:
+        _PRIORITY.lower()
+    if timing is not None and (timing or _tier(item) not in IN_PROCESS_TIERS):
         # one per run: xdist gives each worker a temporary folder in the run's own
         path = Path(item.config.option.basetemp).parent / "timing.lock"
         _TIMING_LOCK.hold(path, fcntl.LOCK_EX if timing else fcntl.LOCK_SH)

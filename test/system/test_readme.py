@@ -190,14 +190,17 @@ def run_readme(tmp_path: Path, ros_env: dict, chosen) -> tuple[str, Path]:
     env = dict(ros_env, PYTHONPATH=str(tree))  # the copy's code, not the developer's
     env.pop("AMENT_PREFIX_PATH", None)  # scripts/env.sh sets it
     log = tmp_path / "readme.log"
-    with log.open("w") as out:  # in a session of its own: a timeout ends its jobs too
+    # in a process group of its own, so that a timeout ends its jobs too; not in a session
+    # of its own, which Linux would schedule as a group of its own (autogroup), taking
+    # its share of the cores beside the whole suite's (conftest.py: CPU priorities)
+    with log.open("w") as out:
         session = subprocess.Popen(
             ["bash", "-c", "\n".join(script)],
             cwd=tree,
             env=env,
             stdout=out,
             stderr=subprocess.STDOUT,
-            start_new_session=True,
+            process_group=0,
         )
         try:
             session.wait(timeout=TIMEOUT_S)
