@@ -27,6 +27,7 @@ run on its private DDS domain).
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import fcntl
 import hashlib
@@ -90,9 +91,7 @@ def pytest_collection_modifyitems(config, items):
         (slow if is_slow and not config.getoption("--slow") else kept).append(item)
     if slow:
         config.hook.pytest_deselected(items=slow)
-    sizes: dict[str, int] = {}
-    for item in kept:
-        sizes[_group(item)] = sizes.get(_group(item), 0) + 1
+    sizes = collections.Counter(_group(item) for item in kept)
     kept.sort(key=lambda item: _scheduling_order(item, sizes))
     items[:] = kept
 
@@ -241,6 +240,15 @@ def _timing(item) -> bool | None:
     return item.get_closest_marker("timing") is not None
 
 
+def _lock_mode(item) -> int | None:
+    """How `item` holds the lock (`_TimingLock`): exclusively (a timing test), shared (a
+    node or multi-process test), or not at all (an in-process test; outside xdist)."""
+    timing = _timing(item)
+    if timing is None or (not timing and _tier(item) in IN_PROCESS_TIERS):
+        return None
+    return fcntl.LOCK_EX if timing else fcntl.LOCK_SH
+
+
 @pytest.hookimpl(wrapper=True, tryfirst=True)
 def pytest_runtest_setup(item):
     """A `timing` test runs at its worker's own CPU priority, while no node or
@@ -260,10 +268,11 @@ def pytest_runtest_setup(item):
             )
     elif timing is not None:
         _PRIORITY.lower()
-    if timing is not None and (timing or _tier(item) not in IN_PROCESS_TIERS):
+    mode = _lock_mode(item)
+    if mode is not None:
         # one per run: xdist gives each worker a temporary folder in the run's own
         path = Path(item.config.option.basetemp).parent / "timing.lock"
-        _TIMING_LOCK.hold(path, fcntl.LOCK_EX if timing else fcntl.LOCK_SH)
+        _TIMING_LOCK.hold(path, mode)
     return (yield)
 
 
@@ -274,7 +283,7 @@ def pytest_runtest_teardown(item, nextitem):
     try:
         return (yield)
     finally:
-        if _timing(item) is False:
+        if _lock_mode(item) == fcntl.LOCK_SH:
             _TIMING_LOCK.unlock()
 
 
