@@ -101,16 +101,18 @@ class FrozenModes:
         `factor` is the Cholesky factor of `M` (`scipy.linalg.cho_factor`)."""
         c, lower = factor
         Y, _ = _potrs(c, K @ self.V[:, -count:], lower=lower)
-        lam, Z = _eigh(Y.T @ K @ Y, Y.T @ M @ Y)
+        MY = M @ Y
+        lam, Z = _eigh(Y.T @ K @ Y, Y.T @ MY)
         below = float(self.omega[-count - 1]) if self.omega.size > count else self.below
-        return self._made(lam, Y @ Z, M, damping, self.updates + 1, below)
+        return self._made(lam, Y @ Z, M, damping, self.updates + 1, below, MY @ Z)
 
     @classmethod
-    def _made(cls, lam, V, M, damping, updates, below) -> FrozenModes:
+    def _made(cls, lam, V, M, damping, updates, below, MV=None) -> FrozenModes:
         lam = np.maximum(lam, 0.0)
         alpha, beta = damping
         omega, d = np.sqrt(lam), alpha + beta * lam
-        return cls(omega, V, d, M, M @ V, _damped(omega, d), updates, below)
+        MV = M @ V if MV is None else MV
+        return cls(omega, V, d, M, MV, _damped(omega, d), updates, below)
 
 
 def _eigh(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

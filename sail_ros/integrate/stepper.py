@@ -108,6 +108,8 @@ class SailStepper:
         self._qd = (self._t, qd.copy())  # the velocity at a time, kept
         self._companion = (q.copy(), self._p.copy())  # the run of local extrapolations
         self._last = None  # (t0, q0, qd0, dense output) of the last step
+        # (inputs, time [s]): a plain callable's inputs do not jump from now until then
+        self._searched = (None, -math.inf)
         self.control.restart()
         self.control.observe(self._outputs(self._t, q, qd))
 
@@ -189,7 +191,7 @@ class SailStepper:
         while True:
             h = self.control.equal_step(target - self._t, self.step_limit())
             if self.inputs is not None and not hasattr(self.inputs, "switch_times"):
-                jump = self.control.locate_jump(self._input, self._t, self._t + h)
+                jump = self._jump_within(h)
                 if jump is not None and jump < self._t + h - SWITCH_RESOLUTION:
                     target = jump  # steps end where a plain callable's inputs jump
                     continue
@@ -198,6 +200,18 @@ class SailStepper:
                 return
             if self.try_step(h):
                 return
+
+    def _jump_within(self, h: float) -> float | None:
+        """The first jump of a plain callable's inputs in a step of `h` [s] from now
+        (`StepControl.locate_jump`), or None. A stretch searched once is not searched
+        again (a step retried shorter, or cut to end at the jump found)."""
+        inputs, clear_until = self._searched
+        t1 = self._t + h
+        if inputs is self.inputs and t1 <= clear_until + time_slack(t1):
+            return None
+        jump = self.control.locate_jump(self._input, self._t, t1)
+        self._searched = (self.inputs, t1 if jump is None else jump)
+        return jump
 
     def next_switch(self) -> float:
         """The next time [s] where the inputs or the profile switch; inf if none."""
@@ -318,7 +332,7 @@ class SailStepper:
     def _input(self, t) -> np.ndarray:
         """The inputs `u` at `t`, checked."""
         u = np.asarray(self.inputs(t), dtype=float)
-        if u.ndim != 1 or not np.all(np.isfinite(u)):
+        if u.ndim != 1 or not np.isfinite(u).all():
             raise ValueError(f"inputs at t = {t:.6g} s must be finite values, got {u!r}")
         return u
 

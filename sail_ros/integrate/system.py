@@ -77,6 +77,8 @@ MODES_REFRESH = 8
 # one core, 1.5x faster at n = 160 (n_B = n_M = 20), slower at n = 80 where LAPACK on the
 # whole matrix costs less than numpy's per-call overhead on 10 x 10 blocks.
 BLOCK_SOLVE_MIN_COORDINATES = 120
+# Samples whose velocities are found in one pass (`SystemAt.velocities`)
+SAMPLES_AT_ONCE = 16
 # the kinds of entry that depend on the time (the profile's piece), not the lengths alone
 _TIMED = ("motion", "matrices", "factor")
 
@@ -223,6 +225,24 @@ class SystemAt:
             )
         return motion
 
+    def motions_inside(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`motion` at each of `times` [s] (m,), all inside one step (one piece of the
+        profile), each (m, 4): in one pass where the profile can (`motion_over`); samples'
+        times, asked once, not kept (a step's own times are)."""
+        piece = getattr(self.profile, "piece", None)
+        middle = float(times[times.size // 2])
+        profile = self.profile if piece is None else piece(middle, entered=middle <= self.entered)
+        over = getattr(profile, "over", None)
+        found = None if over is None else over(times)
+        if found is None:
+            motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times.tolist()]
+            return tuple(np.array([motion[i] for motion in motions]) for i in range(3))
+        lengths, rates, accelerations = found
+        if not (np.isfinite(found).all() and lengths.min() > 0):
+            for t in times.tolist():  # the same error as a single time's
+                self._motion(t)
+        return lengths, rates, accelerations
+
     def is_static(self, t0: float, t1: float) -> bool:
         """Whether the booms stand still over [t0, t1] [s] (the profile says)."""
         is_static = getattr(self.profile, "is_static", None)
@@ -347,13 +367,20 @@ class SystemAt:
         `qd_guess`, the momenta are those of `q`, `qd_guess` but on `invariant`, where they
         are `p`'s (the followed modes put in at samples, `moving._replaced`). From
         `BLOCK_SOLVE_MIN_COORDINATES` on, by blocks, one time after another."""
-        # samples' times: asked once, not kept (a step's own times are)
-        times = np.asarray(times, dtype=float).tolist()
-        motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times]
+        times = np.asarray(times, dtype=float)
+        if not times.size:
+            return np.empty_like(q)
+        if times.size > SAMPLES_AT_ONCE:  # the assembly's scatter indices grow with them
+            return np.concatenate([
+                self.velocities(times[i : i + SAMPLES_AT_ONCE], q[i : i + SAMPLES_AT_ONCE],
+                                p[i : i + SAMPLES_AT_ONCE],
+                                None if qd_guess is None else qd_guess[i : i + SAMPLES_AT_ONCE])
+                for i in range(0, times.size, SAMPLES_AT_ONCE)
+            ])  # fmt: skip
         if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
+            motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times.tolist()]
             return self._velocities_by_blocks(motions, q, p, qd_guess)
-        stacked = (np.array([motion[i] for motion in motions]) for i in range(3))
-        matrices = self.system.assemble((MASS, GYROSCOPIC), *stacked)
+        matrices = self.system.assemble((MASS, GYROSCOPIC), *self.motions_inside(times))
         if qd_guess is not None:
             kept = p
             p = np.einsum("mij,mj->mi", matrices[:, 0], qd_guess)

@@ -665,9 +665,6 @@ class _Plan(NamedTuple):
     border_scatter: np.ndarray  # the hub terms' and constants' places in the border
 
 
-SCATTER_CACHE = 4  # stacked scatter indices kept (`SystemAssembler._stacked_scatter`)
-
-
 class SystemAssembler:
     """Builds the matrices of Eq. 2 from the boom motion.
 
@@ -706,7 +703,7 @@ class SystemAssembler:
         )
         self._quadrant_booms = QUADRANT_BOOMS.ravel()  # the first booms, then the second
         self._plans: dict[tuple[str, ...], _Plan] = {}
-        self._scatters: dict[tuple, np.ndarray] = {}  # `_stacked_scatter`
+        self._scatters: dict[tuple[str, ...], np.ndarray] = {}  # `_stacked_scatter`
         self.blocks = BlockLayout(layout)
         self._hub: _HubCoupling | None = None  # the hub terms, lifted with the quadrants'
         self._hub_inertia = None
@@ -874,18 +871,15 @@ class SystemAssembler:
         return out[..., : len(outputs), :, :]
 
     def _stacked_scatter(self, outputs, plan: _Plan, count: int) -> np.ndarray:
-        """`plan.scatter` for `count` motions at once, each into its own matrices; the
-        last `SCATTER_CACHE` kept (a moving step asks for the same three middles each
-        time)."""
-        key = (outputs, count)
-        found = self._scatters.get(key)
-        if found is None:
-            if len(self._scatters) >= SCATTER_CACHE:
-                self._scatters.pop(next(iter(self._scatters)))
+        """`plan.scatter` for `count` motions at once, each into its own matrices: the
+        first `count` of the most asked for so far, kept per `outputs` (a moving step asks
+        for three middles, its dense output for as many times as it holds samples)."""
+        found = self._scatters.get(outputs)
+        if found is None or found.size < count * plan.scatter.size:
             size = len(plan.outputs) * self.n * self.n
             found = (plan.scatter + size * np.arange(count)[:, None]).ravel()
-            self._scatters[key] = found
-        return found
+            self._scatters[outputs] = found
+        return found[: count * plan.scatter.size]
 
 
 def _mean_axes_correction(M: np.ndarray, n_elastic: int) -> np.ndarray:

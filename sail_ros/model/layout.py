@@ -63,7 +63,7 @@ def fixed_values(value, name: str, count: int, order: str, positive: bool = Fals
         array = np.full(count, float(array))
     if array is None or array.shape != (count,):
         raise ValueError(f"{name} must be a scalar or {count} values ({order}), got {value!r}")
-    if not np.all(np.isfinite(array)):
+    if not np.isfinite(array).all():
         raise ValueError(f"{name} must be finite, got {value!r}")
     if positive and np.any(array <= 0.0):
         raise ValueError(f"{name} must be > 0, got {value!r}")

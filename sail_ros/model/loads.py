@@ -11,6 +11,8 @@ generalised forces, `Q = B_u(L) u`.
 
 from __future__ import annotations
 
+import bisect
+
 import numpy as np
 
 from sail_ros.model.layout import BOOMS, HUB_COORDINATES, QUADRANT_NAMES, fixed_values, per_boom
@@ -83,6 +85,8 @@ def input_function(loads, free_hub: bool = False):
     """
     if loads is None:
         return None
+    if isinstance(loads, LoadSchedule):  # its values were checked when it was made
+        return loads.input_function(free_hub)
     if callable(loads):
 
         def u(t):
@@ -162,6 +166,22 @@ class LoadSchedule:
             self._values.append((pressures, forces, wrench))
 
     def __call__(self, t: float) -> tuple[np.ndarray, ...]:
-        index = int(np.searchsorted(self.switch_times, t, side="right")) - 1
+        index = bisect.bisect_right(self.switch_times, t) - 1
         values = self._values[index] if index >= 0 else (np.zeros(4), np.zeros(4), np.zeros(3))
         return values if self._with_hub else values[:2]
+
+    def input_function(self, free_hub: bool = False) -> _Inputs:
+        """`input_function` of this schedule: each step's input vector made once (a
+        stepper asks for the inputs several times a step)."""
+        vectors = [
+            inputs(*values, free_hub=free_hub)
+            for values in [(np.zeros(4), np.zeros(4), np.zeros(3)), *self._values]
+        ]
+        for vector in vectors:  # shared by every call: no caller may change them
+            vector.flags.writeable = False
+        times = self.switch_times
+
+        def u(t):
+            return vectors[bisect.bisect_right(times, t)]
+
+        return _Inputs(u, times)
