@@ -247,8 +247,9 @@ class StepControl:
         times[0] = min(t0 + SWITCH_RESOLUTION, 0.5 * (t0 + times[1]))
         u = np.array([inputs(t) for t in times], dtype=float).reshape(times.size, -1)
         change = np.abs(np.diff(u, axis=0))  # (JUMP_SAMPLES, inputs)
-        padded = np.pad(change, ((1, 1), (0, 0)), constant_values=np.inf)
-        quieter = np.minimum(padded[:-2], padded[2:])  # the quieter neighbour's change
+        quieter = np.empty_like(change)  # the quieter neighbour's change
+        quieter[0], quieter[-1] = change[1], change[-2]
+        np.minimum(change[:-2], change[2:], out=quieter[1:-1])
         candidates = np.argwhere((change > JUMP_RATIO * quieter) & (change > 0))
         for interval, channel in sorted(candidates.tolist()):
             a, b = float(times[interval]), float(times[interval + 1])

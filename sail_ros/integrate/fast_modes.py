@@ -218,8 +218,7 @@ def frequency_ratio(seconds, omega_d: np.ndarray, chirp) -> np.ndarray:
     what turns the velocities `turning` gives at `omega_d` into the phase's own."""
     t = np.asarray(seconds, dtype=float)[:, None]
     rate = omega_d + t * (2.0 * chirp[..., 0] + 3.0 * t * chirp[..., 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(omega_d > 0, rate / omega_d, 1.0)
+    return np.divide(rate, omega_d, out=np.ones_like(rate), where=omega_d > 0)
 
 
 def chirps(omega_start, omega_middle, omega_end, h: float) -> tuple[np.ndarray, np.ndarray]:

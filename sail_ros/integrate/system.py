@@ -383,11 +383,11 @@ class SystemAt:
         matrices = self.system.assemble((MASS, GYROSCOPIC), *self.motions_inside(times))
         if qd_guess is not None:
             kept = p
-            p = np.einsum("mij,mj->mi", matrices[:, 0], qd_guess)
-            p += np.einsum("mij,mj->mi", matrices[:, 1], q)
+            p = (matrices[:, 0] @ qd_guess[..., None])[..., 0]
+            p += (matrices[:, 1] @ q[..., None])[..., 0]
             if self.invariant is not None:
                 p[:, self.invariant] = kept[:, self.invariant]
-        qd = p - np.einsum("mij,mj->mi", matrices[:, 1], q)
+        qd = p - (matrices[:, 1] @ q[..., None])[..., 0]  # stacked products, not einsum's
         for M, row in zip(matrices[:, 0], qd, strict=True):
             factor, _ = potrf(M, lower=True, overwrite_a=True, clean=False)
             row[:], _ = potrs(factor, row, lower=True)

@@ -58,6 +58,10 @@ def inputs(pressures=0.0, tip_forces=0.0, hub_wrench=None, free_hub: bool = Fals
         ValueError: a wrong shape or a non-finite value, naming the argument; a
             non-zero hub wrench on a clamped hub.
     """
+    if hub_wrench is None and not free_hub:
+        u = _four_and_four(pressures, tip_forces)
+        if u is not None:
+            return u
     parts = [
         per_boom(pressures, "pressures", order=QUADRANT_ORDER),
         per_boom(tip_forces, "tip_forces"),
@@ -67,6 +71,19 @@ def inputs(pressures=0.0, tip_forces=0.0, hub_wrench=None, free_hub: bool = Fals
         if free_hub:
             parts.append(wrench)
     return np.concatenate(parts)
+
+
+def _four_and_four(pressures, tip_forces) -> np.ndarray | None:
+    """The usual clamped hub's `u`, 4 finite values of each checked in one pass; None for
+    anything else (`inputs` then says what is wrong)."""
+    try:
+        p, f = np.asarray(pressures, dtype=float), np.asarray(tip_forces, dtype=float)
+    except (TypeError, ValueError):
+        return None
+    if p.shape != (4,) or f.shape != (4,):
+        return None
+    u = np.concatenate((p, f))
+    return u if np.isfinite(u).all() else None
 
 
 def input_function(loads, free_hub: bool = False):
@@ -79,9 +96,9 @@ def input_function(loads, free_hub: bool = False):
             `LoadSchedule`.
         free_hub: whether the hub is free (else a non-zero hub wrench is refused).
 
-    The result has `switch_times` when they are known (none for constant loads, a
-    `LoadSchedule`'s own); a plain callable has none, and the stepper finds its jumps
-    (`StepControl.locate_jump`).
+    The result's values are checked (`checked`: 1-D, finite). It has `switch_times` when
+    they are known (none for constant loads, a `LoadSchedule`'s own); a plain callable
+    has none, and the stepper finds its jumps (`StepControl.locate_jump`).
     """
     if loads is None:
         return None
@@ -92,6 +109,7 @@ def input_function(loads, free_hub: bool = False):
         def u(t):
             return inputs(*_unpack(loads(t)), free_hub=free_hub)
 
+        u.checked = True
         switches = getattr(loads, "switch_times", None)
         return u if switches is None else _Inputs(u, switches)
     constant = inputs(*_unpack(loads), free_hub=free_hub)
@@ -101,6 +119,8 @@ def input_function(loads, free_hub: bool = False):
 class _Inputs:
     """Inputs `t -> u` whose switch times [s] are known (`switch_times`, where the
     stepper ends its steps)."""
+
+    checked = True  # each `u` a 1-D array of finite values (`SailStepper` asks)
 
     def __init__(self, u, switch_times):
         self._u = u
