@@ -132,14 +132,24 @@ class Extension:
         return Curves((self,))
 
     @functools.cached_property
-    def V(self) -> np.ndarray:  # noqa: N802 (the matrix names of `FrozenModes`)
-        """(parts, n, count): the followed modes' shapes at each part's end of the step."""
-        return self.curves.V[0]
-
-    @functools.cached_property
-    def MV(self) -> np.ndarray:  # noqa: N802
-        """(parts, n, count): `M V` of the followed modes, as `V`."""
-        return self.curves.MV[0]
+    def _followed_parts(self) -> tuple:
+        """Per rational step, its followed modes as `free` and `kept` use them: `(V, MV,
+        omega_d, decay, chirp, on_e, on_v, static)` (`Curves`' of this step alone, read
+        off `vibration` without the padding and stacking that several steps need)."""
+        k = self.count
+        damped = any(near.modes.d[-k:].any() for near in self.vibration)
+        parts = []
+        for part, near in enumerate(self.vibration):
+            modes = near.modes
+            omega_d, decay = modes.omega_d[-k:], modes.d[-k:] if damped else None
+            if self.middle_omega_d is not None:
+                chirp = self.middle_chirps[0 if part == 0 else 1]
+            else:
+                chirp = np.zeros((k, 2))
+            on_e, on_v = turning(near.a, omega_d, decay)
+            V, MV = modes.V[:, -k:], modes.MV[:, -k:]
+            parts.append((V, MV, omega_d, decay, chirp, on_e, on_v, near.s))
+        return tuple(parts)
 
     def followed(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """`Curves.followed` of this step: (k,) and (r, k)."""
@@ -161,25 +171,24 @@ class Extension:
         in its followed modes."""
         if not self.vibration:
             return x
-        return x - (x @ self.MV[part]) @ self.V[part].T
+        V, MV, *_ = self._followed_parts[part]
+        return x - (x @ MV) @ V.T
 
     def free(self, part: int, local, velocities: bool = True):
         """The followed modes' coordinates and velocities (each (m, n)) at fractions
         `local` (m,) of the rational step `part`: its free vibration turned on by `(local
         - part) h / parts` (`fast_modes.oscillation`, `fast_modes.turning`); without
         `velocities`, the coordinates alone."""
-        curves = self.curves
+        V, _, omega_d, decay, chirp, on_e, on_v, static = self._followed_parts[part]
         seconds = (local - part) * (self.h / self.parts)
-        decay = None if curves.decay is None else curves.decay[0, part]
-        omega_d, chirp = curves.omega_d[0, part], curves.chirp[0, part]
         turns = oscillation(seconds, omega_d, decay, chirp)
         count = self.count
-        shapes = self.V[part].T
-        e = turns * curves.on_e[0, part]
-        e = e[:, :count] + e[:, count:] + curves.static[0, part]
+        shapes = V.T
+        e = turns * on_e
+        e = e[:, :count] + e[:, count:] + static
         if not velocities:
             return e @ shapes
-        v = turns * curves.on_v[0, part]
+        v = turns * on_v
         v = (v[:, :count] + v[:, count:]) * frequency_ratio(seconds, omega_d, chirp)
         return e @ shapes, v @ shapes
 
