@@ -116,12 +116,13 @@ class MovingDense:
         momenta = np.empty_like(q) if rates == "exact" else None
         part = np.minimum((fractions * parts).astype(int), parts - 1)
         local = fractions * parts - part
+        weights = extension_weights(local)  # every sample's in one solve
         for k in range(parts):
             inside = part == k
             if not inside.any():
                 continue
             q_start, y_q, u, v, p_start, mats = ext.extensions[k]
-            c, w = extension_weights(local[inside])
+            c, w = weights[0][inside], weights[1][inside]
             q[inside] = np.outer(c, q_start) + 2.0 * (w @ y_q).real
             if rates is None:
                 continue
