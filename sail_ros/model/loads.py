@@ -102,8 +102,8 @@ def input_function(loads, free_hub: bool = False):
     """
     if loads is None:
         return None
-    if isinstance(loads, LoadSchedule):  # its values were checked when it was made
-        return loads.input_function(free_hub)
+    if isinstance(loads, LoadSchedule) and type(loads).__call__ is LoadSchedule.__call__:
+        return loads.input_function(free_hub)  # its values were checked when it was made
     if callable(loads):
 
         def u(t):

@@ -16,7 +16,13 @@ from skfem.helpers import dot, grad
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters, StaticProfile
 from sail_ros.model.basis import cantilever_roots, triangle_modes
 from sail_ros.model.linear import modal_eigenvalues
-from sail_ros.model.loads import INPUT_NAMES, OUTPUT_NAMES
+from sail_ros.model.loads import (
+    INPUT_NAMES,
+    OUTPUT_NAMES,
+    LoadSchedule,
+    input_function,
+    inputs,
+)
 from sail_ros.model.profiles import BoomMotion
 
 pytestmark = pytest.mark.model
@@ -338,6 +344,31 @@ def test_load_and_damping_errors_name_the_argument(call, message):
     model = SailModel(SMALL)
     with pytest.raises(ValueError, match=re.escape(message)):
         call(model)
+
+
+def test_a_schedules_input_vectors_are_its_values_made_once():
+    """A `LoadSchedule`'s inputs (`input_function`) are the vectors of its values, made
+    when the run starts and shared by every call (read-only); before, at and after each
+    switch, those `inputs` makes of what the schedule gives. A subclass with its own
+    `__call__` is asked as a plain callable is."""
+    schedule = LoadSchedule(
+        [(1.0, 2e-5, 0.0), (2.0, None, [0.0, 1e-3, 0.0, 0.0]), (3.0, 0.0, None)]
+    )
+    for free_hub in (False, True):
+        u = input_function(schedule, free_hub)
+        assert u.switch_times == (1.0, 2.0, 3.0)
+        for t in (0.0, 0.5, 1.0, 1.5, 2.0, 2.9999, 3.0, 7.0):
+            expected = inputs(*schedule(t), free_hub=free_hub)
+            assert np.array_equal(u(t), expected) and not u(t).flags.writeable, t
+        assert u(1.5) is u(1.7)
+
+    class Doubled(LoadSchedule):
+        def __call__(self, t):
+            pressures, forces = super().__call__(t)
+            return 2.0 * pressures, 2.0 * forces
+
+    doubled = input_function(Doubled([(0.0, 1e-5, 0.0)]))
+    assert np.array_equal(doubled(1.0), inputs(2e-5, 0.0))
 
 
 @pytest.mark.parametrize(

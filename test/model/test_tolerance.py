@@ -14,7 +14,12 @@ from test_integration import magnus4_reference
 from sail_ros.analysis.closed_loop import run_closed_loop
 from sail_ros.analysis.scenario import scenario_from_dict
 from sail_ros.control.design import HUB_WRENCH, TIP_FORCES
-from sail_ros.integrate.control import DEFAULT_RTOL, WHOLE_STEP_PHASE, accuracy_warning
+from sail_ros.integrate.control import (
+    DEFAULT_RTOL,
+    WHOLE_STEP_PHASE,
+    StepControl,
+    accuracy_warning,
+)
 from sail_ros.integrate.sampling import GridSampler
 from sail_ros.integrate.stepper import SailStepper
 from sail_ros.model import BoomMotion, CycloidalProfile, SailModel, SailParameters
@@ -367,6 +372,33 @@ def test_a_callables_jump_costs_no_more_steps_than_a_schedules_switch():
         run = model.simulate(profile, 15.0, q0=q0, t_eval=t_out, loads=given)
         steps[name] = run.steps + run.rejected  # attempted
     assert steps["callable"] <= steps["schedule"] + 3, steps
+
+
+def test_a_plain_callables_stretch_is_searched_for_jumps_once():
+    """A step retried shorter, or cut to end at the jump found, does not search its
+    stretch again (`StepControl.locate_jump`): one search a step at most, where each
+    refused step and each jump would otherwise cost one more. Started again (`reset`),
+    the stepper searches afresh."""
+    model = SailModel(SMALL)
+
+    def loads(t):
+        return 1e-3, 0.05 if 5.0 <= t < 10.0 else 0.0
+
+    stepper = SailStepper(model, CycloidalProfile(10.0, 15.0, 15.0), model.mode_state("a", 0.1),
+                          inputs=input_function(loads))  # fmt: skip
+    searches = []
+
+    def locate_jump(inputs, t0, t1):
+        searches.append((t0, t1))
+        return StepControl.locate_jump(inputs, t0, t1)
+
+    stepper.control.locate_jump = locate_jump
+    stepper.advance(15.0)
+    assert stepper.steps_rejected and len(searches) <= stepper.steps_taken, searches
+    stepper.reset(model.mode_state("a", 0.1))
+    searches.clear()
+    stepper.advance(1.0)
+    assert searches
 
 
 def test_a_step_cut_short_to_reach_a_time_leaves_the_proposal():
