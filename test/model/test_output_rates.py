@@ -6,6 +6,7 @@ Carlo row) takes the cheaper one."""
 import numpy as np
 import pytest
 
+from sail_ros.integrate.system import SAMPLES_AT_ONCE
 from sail_ros.model import CycloidalProfile, SailModel, SailParameters
 
 pytestmark = pytest.mark.model
@@ -74,3 +75,39 @@ def test_simulate_without_rates_gives_the_same_coordinates():
     inside = np.isnan(qd_none).any(axis=1)
     assert 0 < inside.sum() < t.size - 1  # most outputs fall inside steps
     assert np.array_equal(qd_none[~inside], qd[~inside])
+
+
+class _Cycloid:
+    """A plain profile object: the reference deployment's motion, one time at a time (no
+    `over`, no `is_static`)."""
+
+    def __init__(self):
+        self._profile = CycloidalProfile(10.0, 15.0, 6.0)
+
+    def __call__(self, t):
+        return self._profile(t)
+
+
+def test_exact_rates_at_many_samples_and_from_a_plain_profile():
+    """Exact rates at more samples of a step than one pass takes (`SAMPLES_AT_ONCE`) are
+    those of the samples asked a few at a time; a profile without `over` (its motion one
+    time at a time) gives the rates that `CycloidalProfile` does in one pass, to
+    round-off."""
+    model = SailModel(SailParameters(n_boom_modes=3, n_membrane_modes=3))
+    q0 = model.mode_state("a", 0.02)
+    states = {}
+    for name, profile in (("cycloid", CycloidalProfile(10.0, 15.0, 6.0)), ("plain", _Cycloid())):
+        stepper = model.stepper(profile, q0=q0)
+        stepper.advance_step(6.0)
+        t0 = stepper.t
+        stepper.advance_step(6.0)
+        times = t0 + (stepper.t - t0) * np.linspace(0.01, 0.99, 3 * SAMPLES_AT_ONCE + 5)
+        q, qd = stepper.states_at(times)
+        for part in np.array_split(np.arange(times.size), 7):
+            q_part, qd_part = stepper.states_at(times[part])
+            assert np.array_equal(q_part, q[part])
+            np.testing.assert_allclose(qd_part, qd[part], rtol=0, atol=1e-12 * np.abs(qd).max())
+        states[name] = q, qd
+    (q, qd), (q_plain, qd_plain) = states["cycloid"], states["plain"]
+    np.testing.assert_allclose(q_plain, q, rtol=0, atol=1e-12 * np.abs(q).max())
+    np.testing.assert_allclose(qd_plain, qd, rtol=0, atol=1e-12 * np.abs(qd).max())
