@@ -80,9 +80,7 @@ BLOCK_SOLVE_MIN_COORDINATES = 120
 # Samples whose velocities are found in one pass (`SystemAt.velocities`)
 SAMPLES_AT_ONCE = 16
 # the kinds of entry that depend on the time (the profile's piece), not the lengths alone
-_TIMED = ("matrices", "factor")
-# Motions kept by time (`SystemAt.motion`): a step asks for a dozen, most of them twice
-MOTIONS_KEPT = 64
+_TIMED = ("motion", "matrices", "factor")
 
 
 def cho_factor(M: np.ndarray):
@@ -183,7 +181,6 @@ class SystemAt:
         # free hub's: `LinearSystem.hub_slice`), or None
         self.invariant = getattr(system, "hub_slice", None)
         self._cache = Cache()
-        self._motions: dict[float, tuple] = {}  # [s] -> (lengths, rates, accelerations)
 
     def new_piece(self, entered: float, profile=None) -> None:
         """The profile's piece (or a new `profile`) applies from `entered` [s] on: what
@@ -192,17 +189,15 @@ class SystemAt:
             self.profile = profile
         self.entered = entered
         self._cache.drop(_TIMED)
-        self._motions.clear()
 
     # the motion -----------------------------------------------------------------------
     def motion(self, t):
         """`(lengths, rates, accelerations)` at `t` [s], 4 values each, checked (scalars
         stand for all booms; the messages name the field, time and value)."""
-        motion = self._motions.get(t)
+        key = ("motion", t)
+        motion = self._cache.get(key)
         if motion is None:
-            if len(self._motions) >= MOTIONS_KEPT:
-                self._motions.clear()
-            motion = self._motions[t] = self._motion(t)
+            motion = self._cache.put(key, self._motion(t))
         return motion
 
     def _motion(self, t):
@@ -240,7 +235,7 @@ class SystemAt:
         over = getattr(profile, "over", None)
         found = None if over is None else over(times)
         if found is None:
-            motions = [self._motions.get(t) or self._motion(t) for t in times.tolist()]
+            motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times.tolist()]
             return tuple(np.array([motion[i] for motion in motions]) for i in range(3))
         lengths, rates, accelerations = found
         if not (np.isfinite(found).all() and lengths.min() > 0):
@@ -383,7 +378,7 @@ class SystemAt:
                 for i in range(0, times.size, SAMPLES_AT_ONCE)
             ])  # fmt: skip
         if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
-            motions = [self._motions.get(t) or self._motion(t) for t in times.tolist()]
+            motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times.tolist()]
             return self._velocities_by_blocks(motions, q, p, qd_guess)
         matrices = self.system.assemble((MASS, GYROSCOPIC), *self.motions_inside(times))
         if qd_guess is not None:
