@@ -131,25 +131,38 @@ class Extension:
         """This step alone as `Curves`."""
         return Curves((self,))
 
+    def part_modes(self, part: int) -> tuple:
+        """The followed modes of rational step `part` (the step's free vibration at its
+        start for the first half, at its end for the second): `(V, MV, omega_d, d, static,
+        a, chirp)` of the `count` modes; `chirp` (`fast_modes.chirps`) None where the step
+        has none."""
+        near, k = self.vibration[part], self.count
+        modes = near.modes
+        chirp = None if self.middle_omega_d is None else self.middle_chirps[part]
+        return (
+            modes.V[:, -k:],
+            modes.MV[:, -k:],
+            modes.omega_d[-k:],
+            modes.d[-k:],
+            near.s,
+            near.a,
+            chirp,
+        )
+
     @functools.cached_property
     def _followed_parts(self) -> tuple:
         """Per rational step, its followed modes as `free` and `kept` use them: `(V, MV,
-        omega_d, decay, chirp, on_e, on_v, static)` (`Curves`' of this step alone, read
-        off `vibration` without the padding and stacking that several steps need)."""
-        k = self.count
-        damped = any(near.modes.d[-k:].any() for near in self.vibration)
-        parts = []
-        for part, near in enumerate(self.vibration):
-            modes = near.modes
-            omega_d, decay = modes.omega_d[-k:], modes.d[-k:] if damped else None
-            if self.middle_omega_d is not None:
-                chirp = self.middle_chirps[0 if part == 0 else 1]
-            else:
-                chirp = np.zeros((k, 2))
-            on_e, on_v = turning(near.a, omega_d, decay)
-            V, MV = modes.V[:, -k:], modes.MV[:, -k:]
-            parts.append((V, MV, omega_d, decay, chirp, on_e, on_v, near.s))
-        return tuple(parts)
+        omega_d, decay, chirp, on_e, on_v, static)`, as `Curves` holds them for this step
+        alone, without the padding and stacking that several steps need."""
+        parts = [self.part_modes(part) for part in range(len(self.vibration))]
+        damped = any(d.any() for _, _, _, d, *_ in parts)
+        followed = []
+        for V, MV, omega_d, d, static, a, chirp in parts:
+            decay = d if damped else None
+            on_e, on_v = turning(a, omega_d, decay)
+            chirp = np.zeros((self.count, 2)) if chirp is None else chirp
+            followed.append((V, MV, omega_d, decay, chirp, on_e, on_v, static))
+        return tuple(followed)
 
     def followed(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """`Curves.followed` of this step: (k,) and (r, k)."""
@@ -224,17 +237,15 @@ class Curves:
         self.chirp = np.zeros((*shape, count, 2))
         self.omega_middle = np.zeros((len(steps), count))
         for i, step in enumerate(steps):
-            k = step.count
-            for part, near in enumerate(step.vibration):
-                modes, pad = near.modes, count - k  # the null modes first
-                self.V[i, part, :, pad:] = modes.V[:, -k:]
-                self.MV[i, part, :, pad:] = modes.MV[:, -k:]
-                omega_d[i, part, pad:] = modes.omega_d[-k:]
-                decay[i, part, pad:] = modes.d[-k:]
-                self.static[i, part, pad:], a[i, part, pad:] = near.s, near.a
-            if k and step.middle_omega_d is not None:
-                pad = count - k
-                self.chirp[i, 0, pad:], self.chirp[i, -1, pad:] = step.middle_chirps
+            pad = count - step.count  # the null modes first
+            for part in range(len(step.vibration)):
+                V, MV, wd, d, static, amplitude, chirp = step.part_modes(part)
+                self.V[i, part, :, pad:], self.MV[i, part, :, pad:] = V, MV
+                omega_d[i, part, pad:], decay[i, part, pad:] = wd, d
+                self.static[i, part, pad:], a[i, part, pad:] = static, amplitude
+                if chirp is not None:
+                    self.chirp[i, part, pad:] = chirp
+            if step.count and step.middle_omega_d is not None:
                 self.omega_middle[i, pad:] = step.middle_omega_d
         self.omega_d = omega_d
         self.decay = decay if decay.any() else None

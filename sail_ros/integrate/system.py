@@ -377,10 +377,10 @@ class SystemAt:
                                 None if qd_guess is None else qd_guess[i : i + SAMPLES_AT_ONCE])
                 for i in range(0, times.size, SAMPLES_AT_ONCE)
             ])  # fmt: skip
+        motions = self.motions_inside(times)
         if self.system.n >= BLOCK_SOLVE_MIN_COORDINATES:
-            motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times.tolist()]
-            return self._velocities_by_blocks(motions, q, p, qd_guess)
-        matrices = self.system.assemble((MASS, GYROSCOPIC), *self.motions_inside(times))
+            return self._velocities_by_blocks(list(zip(*motions, strict=True)), q, p, qd_guess)
+        matrices = self.system.assemble((MASS, GYROSCOPIC), *motions)
         if qd_guess is not None:
             kept = p
             p = (matrices[:, 0] @ qd_guess[..., None])[..., 0]

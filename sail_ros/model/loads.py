@@ -161,8 +161,9 @@ class LoadSchedule:
 
     def __init__(self, steps):
         self.switch_times: list[float] = []
-        self._values: list[tuple[np.ndarray, ...]] = []
         pressures, forces, wrench = np.zeros(4), np.zeros(4), np.zeros(3)
+        # the values from each switch time on, after those before the first (zero)
+        self._values: list[tuple[np.ndarray, ...]] = [(pressures, forces, wrench)]
         self._with_hub = False
         for i, step in enumerate(steps):
             if len(step) not in (3, 4):
@@ -186,17 +187,13 @@ class LoadSchedule:
             self._values.append((pressures, forces, wrench))
 
     def __call__(self, t: float) -> tuple[np.ndarray, ...]:
-        index = bisect.bisect_right(self.switch_times, t) - 1
-        values = self._values[index] if index >= 0 else (np.zeros(4), np.zeros(4), np.zeros(3))
+        values = self._values[bisect.bisect_right(self.switch_times, t)]
         return values if self._with_hub else values[:2]
 
     def input_function(self, free_hub: bool = False) -> _Inputs:
         """`input_function` of this schedule: each step's input vector made once (a
         stepper asks for the inputs several times a step)."""
-        vectors = [
-            inputs(*values, free_hub=free_hub)
-            for values in [(np.zeros(4), np.zeros(4), np.zeros(3)), *self._values]
-        ]
+        vectors = [inputs(*values, free_hub=free_hub) for values in self._values]
         for vector in vectors:  # shared by every call: no caller may change them
             vector.flags.writeable = False
         times = self.switch_times
