@@ -170,12 +170,27 @@ def reference(n_boom_modes, n_membrane_modes, load, t_out):
     return q
 
 
+def eigh_seconds(model, repeat: int = 5) -> float:
+    """The least a moving step with frozen modes costs [s]: one generalised symmetric
+    eigen-decomposition of the model's `(K, M)` at the deployment's middle (12.5 m),
+    best of `repeat`."""
+    import numpy as np
+    import scipy.linalg
+
+    M, K = model.mass_and_stiffness(np.full(4, 12.5))
+    decompositions = []
+    for _ in range(repeat):
+        began = time.perf_counter()
+        scipy.linalg.eigh(K, M)
+        decompositions.append(time.perf_counter() - began)
+    return min(decompositions)
+
+
 def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> list[dict]:
     os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     import warnings
 
     import numpy as np
-    import scipy.linalg
 
     from sail_ros.integrate.driver import simulate
     from sail_ros.model.loads import input_function
@@ -246,13 +261,7 @@ def measure(n_boom_modes: int, n_membrane_modes: int, repeat: int) -> list[dict]
             began = time.perf_counter()
             outcomes[name] = run()
             walls[name].append(time.perf_counter() - began)
-    M, K = model.mass_and_stiffness(np.full(4, 12.5))  # the deployment's middle
-    decompositions = []
-    for _ in range(5):
-        began = time.perf_counter()
-        scipy.linalg.eigh(K, M)
-        decompositions.append(time.perf_counter() - began)
-    eigh_s = min(decompositions)
+    eigh_s = eigh_seconds(model)
     rows = []
     for name, load, _ in cases:
         steps, q, estimate, refused = outcomes[name]

@@ -3,7 +3,8 @@
 Prints, on this machine: the wall time of the study on a local cluster of 1 and
 of 2 worker processes (one thread each) and the speed-up, with the cases batched
 (`execution.batch_sizes`: down to one case per task at the end) and one case per
-task; the time of one sample called directly, and at the default (converged) mode
+task; the time of one sample called directly, its integration's steps against the
+least a step costs (one eigen-decomposition), and at the default (converged) mode
 counts; a sample's cost split into building its model, integrating, its outputs and the
 rest (transport: the worker-seconds per sample beyond the sample's own); Dask's overhead
 per case (an empty case through the cluster); whether the rows are the same from 1 and
@@ -23,6 +24,7 @@ import sys
 import time
 
 from machine import stolen_seconds
+from model_benchmark import eigh_seconds
 from results import Results
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -54,6 +56,22 @@ def empty(case):
     return case
 
 
+def step_floor(params, rows) -> dict:
+    """Where a sample's integration goes: its steps (accepted and refused, the mean over
+    `rows`) against the least a step with frozen modes costs, one generalised symmetric
+    eigen-decomposition at the model's size (`model_benchmark.eigh_seconds`)."""
+    import numpy as np
+
+    from sail_ros.model import SailModel
+
+    model = SailModel(params)
+    steps = np.mean([sum(row["_steps"]) for row in rows])
+    integrate = np.mean([row["_seconds"][1] for row in rows])
+    eigh = eigh_seconds(model)
+    return {"n": model.n, "steps": steps, "eigh_s": eigh, "integrate_s": integrate,
+            "ratio": integrate / (steps * eigh)}  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=1000)
@@ -76,11 +94,11 @@ def main() -> None:
 
     run_sample(cases[0])  # integrals built and cached, as in a warm worker
     started, stolen_before = time.perf_counter(), stolen_seconds()
-    for case in cases[:20]:
-        row = run_sample(case)
-        assert not row["error"], row["error"]
+    direct_rows = [run_sample(case) for case in cases[:20]]
     direct = (time.perf_counter() - started) / 20
     stolen_direct = stolen_seconds() - stolen_before
+    assert not any(row["error"] for row in direct_rows)
+    floor = step_floor(SailParameters.from_dict(base), direct_rows)
 
     # the same sample at the default (converged) counts, called directly
     default = SailParameters().resolved(10.0)
@@ -117,6 +135,10 @@ def main() -> None:
     print(f"samples                      {args.samples} (reference deployment, n_B, n_M = 4, 6)")
     print(f"one sample, called directly  {1e3 * direct:.1f} ms  (20 samples; steal "
           f"{stolen_direct:.2f} s)")  # fmt: skip
+    print(f"its integration              {1e3 * floor['integrate_s']:.1f} ms: {floor['steps']:.1f} "
+          f"steps (refused too) x {1e3 * floor['integrate_s'] / floor['steps']:.2f} ms, "
+          f"{floor['ratio']:.0f} times one eigh a step ({1e3 * floor['eigh_s']:.3f} ms at "
+          f"n = {floor['n']})")  # fmt: skip
     print(f"at the default counts        {1e3 * direct_default:.0f} ms a sample (n_B, n_M = "
           f"{default_counts}; 3 samples)")  # fmt: skip
     print(f"1 worker                     {walls[1, None]:.1f} s  "
@@ -141,6 +163,10 @@ def main() -> None:
         ["measure", "value"],
         [
             ["one sample, called directly [ms]", round(1e3 * direct, 1)],
+            ["its integration [ms]", round(1e3 * floor["integrate_s"], 1)],
+            ["its steps (refused too)", round(floor["steps"], 1)],
+            [f"one eigh at n = {floor['n']} [ms]", round(1e3 * floor["eigh_s"], 3)],
+            ["integration / (steps x eigh)", round(floor["ratio"])],
             [
                 f"one sample at the default counts ({default_counts}) [ms]",
                 round(1e3 * direct_default),

@@ -426,10 +426,11 @@ def run_sample(case) -> dict:
             row["peak_hold_force_N"] = holds.force
             row["peak_hold_torque_N_m"] = holds.torque
         row["error"] = ""
-        # for the envelopes and the benchmark's cost split [s], not the CSV
+        # for the envelopes and the benchmark's cost split [s] and steps, not the CSV
         row["_tips"] = run.tips.astype(np.float32)
         row["_t"] = run.t
         row["_seconds"] = (built - started, integrated - built, time.perf_counter() - integrated)
+        row["_steps"] = (run.accuracy.steps, run.accuracy.rejected)
     except Exception as error:  # a sample that fails is a row, not a crashed study
         row["error"] = f"{type(error).__name__}: {error}".replace("\n", " ")
     return row
