@@ -170,7 +170,7 @@ def reference(n_boom_modes, n_membrane_modes, load, t_out):
     return q
 
 
-def eigh_seconds(model, repeat: int = 5) -> float:
+def eigh_seconds(model, repeat: int = 20) -> float:
     """The least a moving step with frozen modes costs [s]: one generalised symmetric
     eigen-decomposition of the model's `(K, M)` at the deployment's middle (12.5 m),
     best of `repeat`."""
