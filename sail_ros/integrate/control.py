@@ -2,7 +2,7 @@
 
 The step is chosen to meet a tolerance on the outputs users read (tips, root moments,
 their rates; `rtol` of each one's peak so far, `atol` floors): a moving step's error is
-estimated (`moving.attempt`) and the next step is `h (SAFETY / error)^(1/3)` (the
+estimated (`moving.attempt`) and the next step is `h SAFETY error^(-1/3)` (the
 midpoint rule's local error goes as `h^3`). `max_step` and `WHOLE_STEP_PHASE` rad of the
 resolved frequency bound it from above; `rtol=None` takes fixed steps under `max_step`
 and `PHASE_PER_STEP` rad alone. No step passes the inputs' or the profile's switches
@@ -42,7 +42,7 @@ DEFAULT_RTOL = 1e-3
 DEFAULT_ATOL = {"tips": 1e-6, "tip_rates": 1e-5, "root_moments": 1e-4, "root_moment_rates": 1e-3}
 ATOL_UNITS = {"tips": "m", "tip_rates": "m/s", "root_moments": "N m", "root_moment_rates": "N m/s"}
 OUTPUT_KINDS = tuple(DEFAULT_ATOL)
-# the next step is h (SAFETY / err)^(1/3), grown at most GROWTH-fold, shrunk at most to SHRINK
+# the next step is h SAFETY err^(-1/3), grown at most GROWTH-fold, shrunk at most to SHRINK
 SAFETY, GROWTH, SHRINK = 0.9, 1.5, 0.2
 # A step cut below this fraction of the one allowed (to end at a stop: a switch, a jump, the
 # run's end) leaves the proposal as it was: its error says little of a full step's, whose
@@ -55,9 +55,10 @@ CUT_STEP = 0.5
 # output times (most inside steps; the least inside a step cut short at a load switch),
 # so 1.7 times it bounds it (the tightest 1.05 times the error)
 ESTIMATE_MARGIN = 1.7
-# A run whose error estimate exceeds this many times its tolerance warns: the tolerance
-# is per step, and the default's whole runs stay within 2 rtol of peak (model.md §11)
+# A whole run's tolerance, in rtol of peak: the tolerance is per step, and the default's
+# whole runs stay within 2 rtol of peak (model.md §11)
 RUN_TOLERANCE = 2.0
+# A run whose error estimate exceeds this many times its run's tolerance warns
 WARN_ABOVE = 2.0
 # A plain callable's inputs are sampled at this many intervals over a step, and a change
 # this many times every other interval's is looked at as a jump (`locate_jump`)
@@ -125,22 +126,14 @@ class StepControl:
 
     Args:
         max_step: largest step [s].
-        resolved_frequency: highest angular frequency [rad/s] a step must resolve, or
-            None for the system's own at the current lengths.
         rtol: local error allowed per moving step on each output relative to its peak
             so far; None: fixed steps with no estimate.
         atol: absolute floors per output kind (`OUTPUT_KINDS`), overriding `DEFAULT_ATOL`.
     """
 
-    def __init__(self, max_step, resolved_frequency, rtol, atol):
+    def __init__(self, max_step, rtol, atol):
         if not (math.isfinite(max_step) and max_step > 0):
             raise ValueError(f"max_step must be finite and > 0, got {max_step!r}")
-        if resolved_frequency is not None and not (
-            math.isfinite(resolved_frequency) and resolved_frequency > 0
-        ):
-            raise ValueError(
-                f"resolved_frequency must be finite and > 0, got {resolved_frequency!r}"
-            )
         if rtol is not None and not (math.isfinite(rtol) and 0 < rtol < 1):
             raise ValueError(f"rtol must be None or in (0, 1), got {rtol!r}")
         floors = atol_floors(atol)
@@ -183,10 +176,15 @@ class StepControl:
         return self.allowed
 
     @staticmethod
+    def equal_steps(length: float, limit: float) -> int:
+        """How many equal steps cover `length` [s], none above `limit` [s]."""
+        return max(1, math.ceil(length / limit - 1e-9))
+
+    @staticmethod
     def equal_step(remaining: float, limit: float) -> float:
         """A step [s] of equal steps to a target `remaining` [s] away, none above `limit`:
         an abrupt change of step size costs the midpoint rule accuracy."""
-        return remaining / max(1, math.ceil(remaining / limit - 1e-9))
+        return remaining / StepControl.equal_steps(remaining, limit)
 
     def grid_intervals(self, spacing: float, limit: float, bound: float, until_stop: float) -> int:
         """How many grid intervals of `spacing` [s] the next moving step tries: as many as
@@ -216,7 +214,8 @@ class StepControl:
         return error if math.isfinite(error) else math.inf
 
     def accepted(self, h: float, trial) -> None:
-        """A moving step of `h` [s] was taken: its estimate added, the next step proposed."""
+        """A moving step of `h` [s] was taken: the next step proposed from its error, the
+        outputs' peaks grown by its end's (its estimate goes to `account`)."""
         if self.rtol is None:
             return
         proposal = h * min(GROWTH, SAFETY * max(trial.error, 1e-12) ** (-1.0 / 3.0))

@@ -14,12 +14,11 @@ import math
 import numpy as np
 
 from sail_ros.integrate.rational import PADE_POLES, Extension, extended_momentum, extension_weights
-from sail_ros.integrate.rest import Rest, rest_states
+from sail_ros.integrate.rest import Rest, rest_curve, rest_states
 
 # The moving system's frequencies lie within this factor of its frozen modes' (the motion's
 # gyroscopic and `N` terms shift them by `|Ld| beta / (L omega)`, below 1e-2: `fast_modes`)
 CARRIED_MARGIN = 1.1
-RATES = ("exact", "extension", "slope", None)
 
 
 class RestDense:
@@ -40,8 +39,7 @@ class RestDense:
         return q, qd
 
     def curve(self, fractions, rows):
-        q, qd = rest_states(self.rest, fractions)
-        return q @ rows.T, qd @ rows.T
+        return rest_curve(self.rest, fractions, rows)
 
 
 class MovingDense:
@@ -91,13 +89,9 @@ class MovingDense:
         peak on the reference deployment); "exact", the extension's canonical momenta
         `p(f)` and `qd = M^-1 (p - G q)` with the matrices at each sample's own time, so
         that linear invariants (a free hub's momenta) hold at the samples as at the steps'
-        ends and the rates are as accurate as the positions; "slope", the time
-        derivative of the curve `q(f)` itself (what a Hermite interpolation between
-        samples needs); None, none (`qd` nan)."""
+        ends and the rates are as accurate as the positions; None, none (`qd` nan)."""
         ext = self.extension
         fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
-        if rates == "slope":
-            return ext.curve(fractions, None)
         parts, h, t0 = ext.parts, self.h, self.t0
         # the ends of each rational step: the step's ends, and its middle when halved
         # (the extension's rates start and end there; exact rates need no ends)

@@ -51,10 +51,15 @@ class Run(tuple):
         return run
 
 
-def check_times(t_eval, t_end: float, t0: float = 0.0) -> np.ndarray:
-    """`t_eval` as increasing finite times within [t0, t_end] [s] (ValueError if not)."""
+def check_end(t_end: float, t0: float = 0.0) -> None:
+    """ValueError unless `t_end` [s] is finite and after `t0` [s]."""
     if not (np.isfinite(t_end) and t_end > t0):
         raise ValueError(f"t_end must be finite and > {t0:g}, got {t_end!r}")
+
+
+def check_times(t_eval, t_end: float, t0: float = 0.0) -> np.ndarray:
+    """`t_eval` as increasing finite times within [t0, t_end] [s] (ValueError if not)."""
+    check_end(t_end, t0)
     t_eval = np.asarray(t_eval, dtype=float)
     if t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)):
         raise ValueError(f"t_eval must be a non-empty 1-D array of finite times, got {t_eval!r}")
@@ -168,7 +173,8 @@ def simulate(system: LinearSystem, profile, t_end: float, q0=None, qd0=None, t_e
         progress: optional callable `progress(t)` after each step.
         inputs: callable `t -> u` or None (with `switch_times` [s], steps end there).
         observer: optional object that sees every step: `start(stepper)`,
-            `after_step(stepper)` (e.g. `peaks.OutputPeaks`), and `finish()` if it has one.
+            `after_step(stepper)` (e.g. `peaks.OutputPeaks`), and at the end `finish()`, or
+            else `flush()`, if it has one.
         rates: the velocities at output times inside steps (`SailStepper.states_at`):
             "exact", "extension" (off by about 0.3 % of peak) or None (`qd` nan there),
             for a caller that reads the coordinates alone; `q` the same to the bit.
@@ -181,8 +187,7 @@ def simulate(system: LinearSystem, profile, t_end: float, q0=None, qd0=None, t_e
     """
     stepper = SailStepper(system, profile, q0=q0, qd0=qd0, inputs=inputs, **options)
     if t_eval is None:
-        if not (np.isfinite(t_end) and t_end > 0):
-            raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
+        check_end(t_end)
         count = int(np.ceil(t_end / stepper.max_step - 1e-9))
         t_eval = np.linspace(0.0, t_end, count + 1)
     observers = () if observer is None else (_Observer(observer),)
@@ -193,7 +198,8 @@ def simulate(system: LinearSystem, profile, t_end: float, q0=None, qd0=None, t_e
 
 
 class _Observer:
-    """An observer that may lack `finish`."""
+    """An observer that may lack `finish`: its `flush` ends it then (`peaks.OutputPeaks`),
+    or nothing."""
 
     def __init__(self, observer):
         self.observer = observer
@@ -222,8 +228,7 @@ def simulate_on_grid(
 
     Args and returns as `simulate`, with the grid in place of `t_eval`.
     """
-    if not (np.isfinite(t_end) and t_end > 0):
-        raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
+    check_end(t_end)
     stepper = SailStepper(system, profile, q0=q0, qd0=qd0, **options)
     sampler = GridSampler(stepper, spacing)
     count = int(np.floor(t_end / sampler.spacing + 1e-9))

@@ -70,7 +70,7 @@ STEP_MATRICES = (MASS, CANONICAL_DAMPING, STIFFNESS_CANONICAL, GYROSCOPIC)
 @dataclass(frozen=True)
 class FrozenModes:
     """Modes of `(K, M)` at fixed lengths: frequencies `omega` [rad/s] ascending, `V`
-    (n, k) with `V^T M V = I`, modal damping `d` [1/s], `M`, `MV = M V` and the damped
+    (n, k) with `V^T M V = I`, modal damping `d` [1/s], `MV = M V` and the damped
     frequencies `omega_d` [rad/s] (`_damped`); all n of them (`updates` 0), or the k
     highest carried on from a neighbouring length (`updated`, `updates` since the last
     full set). `below` [rad/s]: the highest mode a carried-on set leaves out, as the set
@@ -79,7 +79,6 @@ class FrozenModes:
     omega: np.ndarray
     V: np.ndarray
     d: np.ndarray
-    M: np.ndarray
     MV: np.ndarray
     omega_d: np.ndarray
     updates: int = 0
@@ -112,7 +111,7 @@ class FrozenModes:
         alpha, beta = damping
         omega, d = np.sqrt(lam), alpha + beta * lam
         MV = M @ V if MV is None else MV
-        return cls(omega, V, d, M, MV, _damped(omega, d), updates, below)
+        return cls(omega, V, d, MV, _damped(omega, d), updates, below)
 
 
 def _eigh(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -39,15 +39,13 @@ _MIDDLE = extension_weights(np.array([0.5]))
 
 class Trial(NamedTuple):
     """One attempted moving step: the state at its end, its error against the tolerance
-    (<= 1 meets it), the estimated error per output (`OUTPUT_KINDS`, their units), and
-    what dense output needs: the rational steps' extensions and the followed modes."""
+    (<= 1 meets it), and what dense output needs: the rational steps' extensions and the
+    followed modes."""
 
-    h: float
     q: np.ndarray
     p: np.ndarray
     qd: np.ndarray | None
     error: float
-    estimate: np.ndarray
     extensions: tuple
     vibration: tuple  # (FreeVibration at the start, at the end) or ()
     middle: object = None  # the whole step's matrices (`STEP_MATRICES`), at its middle
@@ -69,7 +67,9 @@ class Trial(NamedTuple):
 def rational_step(at, force_at, t0, q0, p0, h, mats=None, companion=None):
     """One exponential-midpoint step of `h` [s] from `(q0, p0)` at `t0` with the rational
     approximant: `(q1, p1, extension)`; `at` the `SystemAt`, `force_at(t, lengths)` the
-    inputs' generalised force (or None), `mats` the matrices at the middle if at hand."""
+    inputs' generalised force (or None), `mats` the matrices at the middle if at hand.
+    With a `companion` start `(q, p)`, its step too, with the same solves: `(q1, p1,
+    extension, (q, p) at the end)` (`rational.moving_step`)."""
     t_mid = t0 + 0.5 * h
     lengths = at.motion(t_mid)[0]
     force = force_at(t_mid, lengths)
@@ -79,17 +79,23 @@ def rational_step(at, force_at, t0, q0, p0, h, mats=None, companion=None):
 
 
 def _replaced(end, q, qd, p, M, G, factor, invariant):
-    """`(q, qd, p)` with the followed modes' part replaced by their vibration `end`; the
-    canonical momenta on `invariant` (a free hub's coordinates: cyclic, their momenta
-    linear invariants, which the rational step keeps exactly) kept as they were, the
-    velocities made to agree (the followed modes are frozen modes, blind to the
+    """`(q, qd, p)` with the followed modes' part replaced by their vibration `end`, the
+    momenta as `_momenta` keeps them (the followed modes are frozen modes, blind to the
     gyroscopic coupling that carries momentum to the hub while the booms move)."""
     q, qd = end.replace_in(q, qd)
+    return (q, *_momenta(q, qd, p, M, G, factor, invariant))
+
+
+def _momenta(q, qd, p, M, G, factor, invariant):
+    """`(qd, p_new)` for a state `(q, qd)` changed from one of momenta `p`: `p_new = M qd +
+    G q` but on `invariant` (a free hub's coordinates: cyclic, their momenta linear
+    invariants, which the rational step keeps exactly), where `p` is kept and the
+    velocities are made to agree (`factor`: the Cholesky factor of `M`)."""
     p_new = M @ qd + G @ q
     if invariant is None:
-        return q, qd, p_new
+        return qd, p_new
     p_new[invariant] = p[invariant]
-    return q, potrs(factor, p_new - G @ q)[0], p_new
+    return potrs(factor, p_new - G @ q)[0], p_new
 
 
 def _middle_jump(vibration, bends, q_middle, h, rows) -> np.ndarray:
@@ -105,8 +111,7 @@ def _middle_jump(vibration, bends, q_middle, h, rows) -> np.ndarray:
         wd, d = modes.omega_d[-m:], modes.d[-m:]
         grow = np.minimum(-0.5 * d * t, TURN_BACK_EXPONENT)
         e = (vib.a * np.exp(1j * turned(t, wd, bend) + grow)).real + vib.s
-        V, MV = modes.V[:, -m:], modes.MV[:, -m:]
-        parts.append(rows @ (q_middle - V @ (MV.T @ q_middle)) + (rows @ V) @ e)
+        parts.append(rows @ slow_part(modes, m, q_middle) + (rows @ modes.V[:, -m:]) @ e)
     return parts[0] - parts[1]
 
 
@@ -114,7 +119,7 @@ def fixed(at, force_at, t0, q0, p0, h) -> Trial:
     """One rational step of `h` [s], no estimate (fixed steps)."""
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported on commit
         q, p, extension = rational_step(at, force_at, t0, q0, p0, h)
-    return Trial(h, q, p, None, 0.0, np.zeros(4), (extension,), ())
+    return Trial(q, p, None, 0.0, (extension,), ())
 
 
 def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None) -> Trial:
@@ -191,11 +196,7 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
         dq, dqd = q2 - q1, qd2 - qd1
     if companion is not None:  # the halves' error is a third of their difference
         qc, qdc = qc + dq / 3.0, qdc + dqd / 3.0
-        pc_new = M1 @ qdc + G1 @ qc
-        if at.invariant is not None:  # a free hub's momenta: exact in every run
-            pc_new[at.invariant] = pc[at.invariant]
-            qdc = potrs(factor, pc_new - G1 @ qc)[0]
-        pc = pc_new
+        qdc, pc = _momenta(qc, qdc, pc, M1, G1, factor, at.invariant)  # a free hub's exact
     rows = at.rows(lengths1)
     estimate = largest(rows, dq, dqd) / 3.0
     c, w = _MIDDLE
@@ -212,12 +213,10 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
     else:
         carried = float(modes0.omega[0]) if modes0.omega.size < at.system.n else 0.0
     return Trial(
-        h,
         q2,
         p2,
         qd2,
         error_of(estimate, outputs),
-        estimate,
         (first, second),
         vibration,
         mats[2],

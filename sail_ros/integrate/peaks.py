@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 from sail_ros.integrate.rational import Curves
-from sail_ros.integrate.rest import Rest, rest_states
+from sail_ros.integrate.rest import Rest, rest_curve
 
 PEAK_PHASE = 0.5  # rad of the slow part's highest frequency between two samples of a step
 # the cubic Hermite's error over a sine sampled every PEAK_PHASE rad, of its amplitude
@@ -38,7 +38,7 @@ PEAK_ERROR = PEAK_PHASE**4 / 384.0
 MAX_SPACING_S = 0.01  # s: at least 100 Hz, however slow the modes
 BATCH_STEPS = 16  # steps sampled together (`OutputPeaks`) ...
 # ... and no more than this many coordinates times steps: past it the stacked arrays
-# outgrow the caches (at n = 160, 16 steps at a time cost what one did, 4 a fifth less)
+# outgrow the processor's caches, and batching saves nothing
 BATCH_COORDINATES = 640
 
 
@@ -172,8 +172,7 @@ def _extrema(t0, t1, y0, y1, yd0, yd1) -> tuple[np.ndarray, np.ndarray]:
     h = (t1 - t0)[:, None]
     d0, d1 = yd0 * h, yd1 * h  # rates per unit of the interval's parameter s
     # p(s) = y0 + s (d0 + s (c2 + s c3)) on s in [0, 1]; p'(s) = a s^2 + b s + d0
-    rise = y1 - y0
-    c2, c3 = 3.0 * rise - 2.0 * d0 - d1, d0 + d1 - 2.0 * rise
+    c2, c3 = hermite_cubic(y0, d0, y1, d1)
     a, b = 3.0 * c3, 2.0 * c2
     with np.errstate(invalid="ignore", divide="ignore"):
         discriminant = b * b - 4.0 * a * d0
@@ -343,8 +342,7 @@ class OutputPeaks:
         y, yd = np.empty((step.size, len(self.rows))), np.empty((step.size, len(self.rows)))
         for i, rest in enumerate(rests):
             inside = step == i
-            q, qd = rest_states(rest, fractions[inside])
-            y[inside], yd[inside] = q @ self.rows.T, qd @ self.rows.T
+            y[inside], yd[inside] = rest_curve(rest, fractions[inside], self.rows)
         return y, yd
 
     def _grow_scale(self, largest, lengths) -> None:
@@ -465,9 +463,16 @@ def motion_cubic(h, lengths0, rates0, lengths1, rates1) -> np.ndarray:
     `h` [s], (..., 1)) of the cubic Hermite through the boom lengths [m] and rates [m/s]
     (..., 4) at the step's ends."""
     d0, d1 = rates0 * h, rates1 * h
-    rise = lengths1 - lengths0
-    cubic = (lengths0, d0, 3.0 * rise - 2.0 * d0 - d1, d0 + d1 - 2.0 * rise)
+    cubic = (lengths0, d0, *hermite_cubic(lengths0, d0, lengths1, d1))
     return np.stack(np.broadcast_arrays(*cubic))
+
+
+def hermite_cubic(y0, d0, y1, d1):
+    """`(c2, c3)`: the coefficients of `s^2` and `s^3` of the cubic Hermite `y0 + d0 s +
+    c2 s^2 + c3 s^3` on `s` in [0, 1] through the values `y0`, `y1` and slopes (per unit
+    of `s`) `d0`, `d1` at its ends."""
+    rise = y1 - y0
+    return 3.0 * rise - 2.0 * d0 - d1, d0 + d1 - 2.0 * rise
 
 
 def cubic_motion(fractions, h, cubic) -> tuple[np.ndarray, np.ndarray]:

@@ -323,12 +323,12 @@ class Curves:
 
     def curve(self, step, fractions, rows, grid=None) -> tuple[np.ndarray, np.ndarray]:
         """`rows q` and its slope `rows dq/dt` [per s] (each (m, r); `rows` None: `q` and
-        `dq/dt` themselves) at `fractions` (m,) of the steps `step` (m,) (`between`, rates
-        "slope"): each sample's features in its own rational step (the powers `x^j` of its
-        fraction `x` of that step, the followed modes' turns) times that step's
-        coefficients (`coefficients`). The same curve as `between`'s positions, summed
-        otherwise (round-off apart). `grid`: each step's number of equal intervals (S,),
-        most samples being at their ends (`_turns`)."""
+        `dq/dt` themselves) at `fractions` (m,) of the steps `step` (m,): each sample's
+        features in its own rational step (the powers `x^j` of its fraction `x` of that
+        step, the followed modes' turns) times that step's coefficients (`coefficients`).
+        The same curve as `between`'s positions, summed otherwise (round-off apart).
+        `grid`: each step's number of equal intervals (S,), most samples being at their
+        ends (`_turns`)."""
         fractions = np.asarray(fractions, dtype=float)
         parts, m = self.parts, fractions.size
         part = np.minimum((fractions * parts).astype(int), parts - 1)
@@ -435,7 +435,7 @@ def _power_series() -> tuple[np.ndarray, np.ndarray]:
 
 _POWER_WEIGHTS, _POWER_SLOPES = _power_series()
 _POWER_SERIES = np.vstack([_POWER_WEIGHTS, _POWER_SLOPES])
-# the factors of `Extension.coordinates`' rows after the start: 2 Re y_q,k, -2 Im y_q,k
+# the factors of `Curves.raw`'s rows after the start: 2 Re y_q,k, -2 Im y_q,k
 _SIGNS = np.array([2.0, -2.0] * PADE_POLES.size)[:, None]
 
 
@@ -472,20 +472,22 @@ def moving_step(q0, p0, mats, h, force, companion=None):
         u, u_c = both[..., 0], both[..., 1]
     else:
         u = mats.solve_shifted(taus, rhs)
+    q1, p1, v = _recombined(q0, p0, u, taus, mats)
+    # y_q,k, u_k and the matrices at the middle: for the continuous extension
+    extension = (q0, q0 + taus[:, None] * u, u, v, p0, mats)
+    if companion is None:
+        return q1, p1, extension
+    end_c = _recombined(*companion, u_c, taus, mats)[:2]
+    return q1, p1, extension, end_c
+
+
+def _recombined(q0, p0, u, taus, mats):
+    """`(q1, p1, v)` of a rational step from `(q0, p0)` whose solves are `u_k` (`u`, one
+    row a pole pair) at `taus` under its matrices `mats` (`moving_step`)."""
     weighted = PADE_WEIGHTS[:, None] * u
     v = weighted.sum(axis=0).real
     s = _PADE_WEIGHT_SUM * q0 + (taus[:, None] * weighted).sum(axis=0).real
-    # y_q,k, u_k and the matrices at the middle: for the continuous extension
-    extension = (q0, q0 + taus[:, None] * u, u, v, p0, mats)
-    p1 = _PADE_CONSTANT * p0 + 2.0 * _products(mats, v, s)
-    if companion is None:
-        return _PADE_CONSTANT * q0 + 2.0 * s, p1, extension
-    qc, pc = companion
-    weighted_c = PADE_WEIGHTS[:, None] * u_c
-    v_c = weighted_c.sum(axis=0).real
-    s_c = _PADE_WEIGHT_SUM * qc + (taus[:, None] * weighted_c).sum(axis=0).real
-    end_c = (_PADE_CONSTANT * qc + 2.0 * s_c, _PADE_CONSTANT * pc + 2.0 * _products(mats, v_c, s_c))
-    return _PADE_CONSTANT * q0 + 2.0 * s, p1, extension, end_c
+    return _PADE_CONSTANT * q0 + 2.0 * s, _PADE_CONSTANT * p0 + 2.0 * _products(mats, v, s), v
 
 
 def _products(mats, v: np.ndarray, s: np.ndarray) -> np.ndarray:

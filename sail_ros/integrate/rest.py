@@ -1,4 +1,4 @@
-"""The exact step while the booms stand still (docs/model.md §4): `G = N = 0` and `M`,
+"""The exact step while the booms stand still (docs/model.md §11): `G = N = 0` and `M`,
 `K` fixed, so `exp(h B)` follows from the modes of `(K, M)`. Rayleigh damping is
 classical (`V^T C_d V` diagonal): each mode is a damped oscillator with its own exact
 2 x 2 propagator. A load held over the step moves the elastic modes' equilibrium to
@@ -69,7 +69,7 @@ def rest_step(propagator, q, p, h, force) -> tuple[np.ndarray, np.ndarray, Rest]
     if force is None:
         x = P @ x
     else:  # elastic modes about their equilibrium q_s = K^-1 Q (p_s = 0: nothing moves
-        # there); rigid ones (model.md §13.10) accelerate uniformly: eta += h^2 f / 2,
+        # there); rigid ones (model.md §13.7) accelerate uniformly: eta += h^2 f / 2,
         # etad += h f
         rigid = lam == 0.0
         modal = V.T @ force
@@ -134,3 +134,9 @@ def modal_propagator(lam, d, tau):
     a = np.where(equal, e1 * (1.0 - r1 * tau), (r1 * e2 - r2 * e1) / safe)
     b = np.where(equal, tau * e1, (e1 - e2) / safe)
     return a.real, b.real, (-lam * b).real, (a - d * b).real
+
+
+def rest_curve(rest: Rest, fractions, rows) -> tuple[np.ndarray, np.ndarray]:
+    """`rows q`, `rows qd` (each (m, r)) at `fractions` (m,) of the step at rest `rest`."""
+    q, qd = rest_states(rest, fractions)
+    return q @ rows.T, qd @ rows.T

@@ -10,8 +10,8 @@ points inside from the step's continuous extension (`SailStepper.between`):
 the rational steps' own resolvent solutions recombined for a fraction of the
 step, accurate to `(omega h)^5` for a mode and not amplifying any, with the
 followed high modes turned in phase (a cubic through the ends' `q` and `qd`
-overshoots the modes a step does not resolve: 4.6 % of the peak root moment
-at n_B = n_M = 20). The step's end is the integrator's own state.
+would overshoot the modes a step does not resolve, which the root moments show,
+model.md §11). The step's end is the integrator's own state.
 
 While the booms stand still over a grid interval, one exact step (the cached
 propagator: a matrix-vector product) lands on the next grid point. A grid
@@ -70,7 +70,7 @@ class GridSampler:
         """Equal sub-steps a moving grid interval needs under the step limit `limit` [s]
         (default the stepper's now, `SailStepper.step_limit`)."""
         limit = self.stepper.step_limit() if limit is None else limit
-        return max(1, math.ceil(self.spacing / limit - 1e-9))
+        return self.stepper.control.equal_steps(self.spacing, limit)
 
     def _advance(self) -> int:
         """One step of a whole number of grid intervals (as many as the tolerance accepts,

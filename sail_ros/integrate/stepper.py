@@ -72,7 +72,7 @@ class SailStepper:
         atol=None,
         on_step=None,
     ):
-        self.control = StepControl(max_step, resolved_frequency, rtol, atol)
+        self.control = StepControl(max_step, rtol, atol)
         self.system = system
         self.at = SystemAt(system, profile, resolved_frequency)
         self.inputs = inputs

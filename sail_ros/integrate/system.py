@@ -73,9 +73,9 @@ CACHE_BYTES = 192 * 2**20
 # A step's end takes the followed modes from its start's by one subspace iteration; every
 # this many steps (and where the start has too few) all modes are found afresh.
 MODES_REFRESH = 8
-# From this many coordinates the moving step solves by blocks (`blocks.py`): measured on
-# one core, 1.5x faster at n = 160 (n_B = n_M = 20), slower at n = 80 where LAPACK on the
-# whole matrix costs less than numpy's per-call overhead on 10 x 10 blocks.
+# From this many coordinates the moving step solves by blocks (`blocks.py`), faster on one
+# core at n = 160 (n_B = n_M = 20); below, LAPACK on the whole matrix costs less than
+# numpy's per-call overhead on 10 x 10 blocks.
 BLOCK_SOLVE_MIN_COORDINATES = 120
 # Samples whose velocities are found in one pass (`SystemAt.velocities`)
 SAMPLES_AT_ONCE = 16
@@ -112,10 +112,8 @@ def _nbytes(value, depth: int = 3) -> int:
         if all(type(item) is np.ndarray for item in value):  # a motion, a set of matrices
             return sum(item.nbytes for item in value)
         return sum(_nbytes(item, depth - 1) for item in value)
-    if hasattr(value, "__dict__"):
+    if hasattr(value, "__dict__"):  # dataclasses (`FrozenModes`) too
         return sum(_nbytes(item, depth - 1) for item in vars(value).values())
-    if hasattr(value, "__dataclass_fields__"):
-        return sum(_nbytes(getattr(value, name), depth - 1) for name in value.__dataclass_fields__)
     return 0
 
 
@@ -168,10 +166,18 @@ def rayleigh_of(system) -> tuple[float, float]:
 class SystemAt:
     """`system` (a `LinearSystem`) under the boom motion `profile`, at the times asked.
 
-    `entered` [s]: since when the profile's current piece applies (a piecewise profile's
-    `piece`: at a switch, the piece that starts there once the stepper has reached it)."""
+    `resolved_frequency` [rad/s]: the highest frequency a step must resolve, or None for
+    the system's own at the current lengths. `entered` [s]: since when the profile's
+    current piece applies (a piecewise profile's `piece`: at a switch, the piece that
+    starts there once the stepper has reached it)."""
 
     def __init__(self, system: LinearSystem, profile, resolved_frequency: float | None = None):
+        if resolved_frequency is not None and not (
+            math.isfinite(resolved_frequency) and resolved_frequency > 0
+        ):
+            raise ValueError(
+                f"resolved_frequency must be finite and > 0, got {resolved_frequency!r}"
+            )
         self.system = system
         self.profile = profile
         self.resolved_frequency = resolved_frequency
@@ -200,11 +206,15 @@ class SystemAt:
             motion = self._cache.put(key, self._motion(t))
         return motion
 
+    def _profile_at(self, t: float):
+        """The profile that gives the motion at `t` [s]: a piecewise profile's piece there
+        (`entered`), or the profile."""
+        piece = getattr(self.profile, "piece", None)
+        return self.profile if piece is None else piece(t, entered=t <= self.entered)
+
     def _motion(self, t):
         """`motion` at `t` [s], evaluated and checked, not kept."""
-        piece = getattr(self.profile, "piece", None)
-        profile = self.profile if piece is None else piece(t, entered=t <= self.entered)
-        values = profile(t)
+        values = self._profile_at(t)(t)
         try:  # three arrays of 4 (the usual case) checked as one
             stacked = np.array(values, dtype=float)
         except (TypeError, ValueError):  # ragged: a scalar among them, or wrong sizes
@@ -229,10 +239,7 @@ class SystemAt:
         """`motion` at each of `times` [s] (m,), all inside one step (one piece of the
         profile), each (m, 4): in one pass where the profile can (`motion_over`); samples'
         times, asked once, not kept (a step's own times are)."""
-        piece = getattr(self.profile, "piece", None)
-        middle = float(times[times.size // 2])
-        profile = self.profile if piece is None else piece(middle, entered=middle <= self.entered)
-        over = getattr(profile, "over", None)
+        over = getattr(self._profile_at(float(times[times.size // 2])), "over", None)
         found = None if over is None else over(times)
         if found is None:
             motions = [self._cache.get(("motion", t)) or self._motion(t) for t in times.tolist()]

@@ -912,7 +912,7 @@ def test_the_momenta_hold_at_the_default_tolerance_inside_and_between_steps():
     know nothing of the gyroscopic coupling that carries momentum to the hub while the
     booms move: the hub's canonical momenta are kept as the rational step leaves them
     (`moving._replaced`), at the steps' ends and at the outputs inside them, so `p_z`,
-    `H_x`, `H_y` stay constant to 1e-9 of their peak (they drifted by 1e-4)."""
+    `H_x`, `H_y` stay constant to 1e-9 of their peak."""
     model, run, profile = point_symmetric_run(free(hub_mass=20.0, hub_inertia_x=10.0,
                                                    hub_inertia_y=10.0))  # fmt: skip
     assert run.steps < 0.5 * run[0].size * 10  # steps of several outputs
