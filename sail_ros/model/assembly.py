@@ -13,7 +13,7 @@ into one or more of the system matrices:
     GYROSCOPIC           G                         (canonical form)
     GYROSCOPIC_SKEW      G - G^T                   (canonical form)
     STIFFNESS_CANONICAL  K - N                     (canonical form)
-    CANONICAL_DAMPING    G - G^T + S_h + C_d       (canonical form)
+    CANONICAL_DAMPING    G - G^T + S_h + C_d       (canonical form; S_h with a free hub)
     SPIN_HOLD            S_h, the spin hold's gyroscopic term (free hub, model.md §13.3)
 
 `BOOM_TERMS` and `QUADRANT_TERMS` below are the whole physics of the
@@ -112,7 +112,8 @@ class Term:
 
     Attributes:
         name: what the term is, in model.md's words.
-        integral: the field of `BoomIntegrals` / `QuadrantIntegrals`.
+        integral: the field of `BoomIntegrals` / `QuadrantIntegrals` (a hub term's: of
+            the hub's integrals, `hub_integrals`).
         coefficient: `(motion, constants) -> 4 values` (one per boom or quadrant).
         matrices: the outputs the term belongs to.
         skew: use `integral - integral^T` (the gyroscopic `G - G^T`).
@@ -316,7 +317,7 @@ class _PolynomialBatch:
                 row = self._keys.setdefault(key, len(self._keys))
                 self._entries.append((i, row, factor * f.scale, powers.get("Lf", 0)))
         self.exponents = np.array(list(self._keys), dtype=float).reshape(-1, len(self.names))
-        self._cache = (None, None, None)  # constants, motion type -> (factors, rows)
+        self._cache = (None, None, None)  # constants, motion type -> (folded weights, rows)
 
     def __call__(self, motion, constants: Constants) -> np.ndarray:
         """(..., 4, columns): the weight of each column for each of the 4 components (at
@@ -335,8 +336,6 @@ class _PolynomialBatch:
         return (monomials.T @ weights).reshape(*variables.shape[1:], -1)
 
 
-# The gyroscopic `G` of a term feeds G, and G - G^T feeds C and the canonical damping.
-_SKEW = (DAMPING, GYROSCOPIC_SKEW, CANONICAL_DAMPING)
 RHO_B, RHO_M = "boom_linear_density", "membrane_areal_density"
 
 

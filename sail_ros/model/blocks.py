@@ -238,7 +238,7 @@ class BlockMatrices:
     def _border(self, powers, rhs):
         """The border of the shifted matrices: its columns on the elastic rows
         (p, n_e, b), its rows on the elastic columns (p, b, n_e), the corner
-        (p, b, b) and its right-hand side (p, b): b = 3 (the hub's rows) or 6 (and
+        (p, b, b) and its right-hand side (p, b, m): b = 3 (the hub's rows) or 6 (and
         the low-rank part's three), with `rhs` (p, n, m)."""
         p, n_e = powers.shape[0], self.where.n_elastic
         count = powers.shape[1]
@@ -265,7 +265,7 @@ class BlockMatrices:
 def _combine(powers: np.ndarray, blocks: np.ndarray) -> np.ndarray:
     """`sum_i powers[:, i] blocks[i]` for real `blocks` (c, ...) and `powers` (p, c):
     complex powers' real and imaginary parts written straight into the complex result
-    (a third of the time of forming them apart and adding)."""
+    (no temporaries for the two parts and their sum)."""
     flat = blocks.reshape(blocks.shape[0], -1)
     if not np.iscomplexobj(powers):
         return (powers @ flat).reshape(powers.shape[0], *blocks.shape[1:])
@@ -277,9 +277,10 @@ def _combine(powers: np.ndarray, blocks: np.ndarray) -> np.ndarray:
 
 
 class DenseMatrices:
-    """`k` matrices held in full, `(k, n, n)`, with the operations of `BlockMatrices`:
-    for small systems, where one LAPACK call on the whole matrix costs less than
-    numpy's per-call overhead on many small blocks."""
+    """`k` matrices held in full, `(k, n, n)`, with the operations of `BlockMatrices`
+    the moving step uses (`matvec`, `forms`, `solve_shifted`): for small systems, where
+    one LAPACK call on the whole matrix costs less than numpy's per-call overhead on many
+    small blocks."""
 
     def __init__(self, matrices: np.ndarray):
         self.matrices = matrices

@@ -1,5 +1,6 @@
 """A free hub's momenta and the holds' reactions (model.md §13.3, §13.5): functions of a
-`SailModel`, whose methods of the same names call them."""
+`SailModel` (its methods `hold_loads` and `momenta` call those names) and the helpers
+behind them and its modes and inputs with a free hub."""
 
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ Building the integrals of the default mode counts takes about a second of CPU, a
 simulator, tool and worker that starts builds them again; a file holds them for the next
 process. A stored set is used only if it was built by the same code (a digest of the
 modules they are computed from and numpy's version names the file) and reads back whole;
-anything else, or a cache folder that cannot be written, builds them as before. The
+anything else, or a cache folder that cannot be written, builds them afresh. The
 values are the built ones to the bit (`.npy` keeps every float as it is).
 
 Where: `$XDG_CACHE_HOME/sail_ros` or `~/.cache/sail_ros`; at most `KEPT_FILES` sets stay

@@ -1,6 +1,8 @@
 """The sail's linear analysis at frozen lengths and rates: the first-order form and its
 eigenvalues (seed Eq. 3), the linear plant, the static answer to constant loads (model.md
-§11, §13.6). Functions of a `SailModel`, whose methods of the same names call them."""
+§7, §12, §13.6). Functions of a `SailModel` (its methods `state_matrix`, `eigenvalues`,
+`static_deflection`, `rigid_body_acceleration` and `state_space` call those names) and
+the helpers they share."""
 
 from __future__ import annotations
 

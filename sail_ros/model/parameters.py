@@ -32,14 +32,14 @@ DEFAULT_RESOLVED_LENGTH = 10.0
 # the node whose parameters in a ROS 2 params file give the sail (the simulator's)
 SIMULATOR_NODE = "sail_sim"
 # The live simulator's sail defaults where they differ from this table's (the offline
-# tools'): a membrane band of 1.4 keeps 106 membrane modes per quadrant at 10 m against
-# 181, a model stepped at 2x real time on 2 cores, whose peaks stay within the
-# convergence bar (docs/model.md §10.1). The simulator and the controller node, which
+# tools'): a narrower membrane band keeps fewer membrane modes, a model the simulator steps
+# faster than real time, whose peaks stay within the convergence bar (docs/model.md
+# §10.1). The simulator and the controller node, which
 # must design for the simulator's sail, declare these; the simulator says so at start.
 LIVE_DEFAULTS = {"membrane_band": 1.4}
 SAIL_PREFIX = "sail."  # the simulator's parameter `sail.<field>` is SailParameters.<field>
 # a free hub's fields (docs/model.md §13.8): given as parameters only when the hub is free, so
-# a clamped sail's parameters are the ones it always had
+# a clamped sail's parameter set does not depend on them
 HUB_FIELDS = ("free_hub", "hub_mass", "hub_inertia_x", "hub_inertia_y", "stowed_mass_on_hub")
 
 

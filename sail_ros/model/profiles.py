@@ -390,9 +390,6 @@ class SwitchedProfile:
             raise ValueError("SwitchedProfile: one profile per time, times increasing")
         self.switch_times = tuple(float(t) for t in self.times[1:])
 
-    def _at(self, t):
-        return self.piece(t)
-
     def piece(self, t, entered: bool = True):
         """The profile in force at `t` [s]; at a switch time (within SWITCH_RESOLUTION)
         the one that starts there, or (`entered` False) the one that ends there (the
@@ -407,7 +404,7 @@ class SwitchedProfile:
         return self.piece(t)(t)
 
     def is_static(self, t0, t1) -> bool:
-        return self._at(t0) is self._at(t1) and self._at(t0).is_static(t0, t1)
+        return self.piece(t0) is self.piece(t1) and self.piece(t0).is_static(t0, t1)
 
 
 class BoomMotion:

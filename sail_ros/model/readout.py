@@ -1,5 +1,5 @@
 """The model's coordinates and what they read as: names, slices, the inputs and outputs
-(model.md §6, §11), tip deflections, root moments, bent starting states and the state
+(model.md §6, §7, §12), tip deflections, root moments, bent starting states and the state
 record. `SailModel` is one."""
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ class Readout:
 
     def output_rows(self, lengths) -> np.ndarray:
         """(8, n): tip deflections [m] and root moments [N m] per unit coordinate at 4
-        checked `lengths` (`loads.OUTPUT_NAMES`; `stepper.LinearSystem`)."""
+        checked `lengths` (`loads.OUTPUT_NAMES`; `integrate.system.LinearSystem`)."""
         rows = self.length_free_rows.copy()
         rows[4:] /= np.asarray(lengths, dtype=float)[:, None] ** 2
         return rows

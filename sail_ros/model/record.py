@@ -74,7 +74,7 @@ FIELD_NAMES = tuple(field.name for field in SAMPLE_FIELDS)
 STEPPER_FIELDS = FIELD_NAMES[:4]  # lengths, rates, q, qd: what the integrator carries
 OPTIONAL_FIELDS = ("hub",)  # None when the sail has none
 
-# a free hub's six values, each with its unit (model.md §13.9)
+# a free hub's six values, each with its unit (model.md §13.8)
 HUB_COMPONENTS = ("z_h_m", "theta_x_rad", "theta_y_rad", "zd_h_m_s", "thd_x_rad_s", "thd_y_rad_s")
 
 

@@ -52,7 +52,7 @@ from sail_ros.model.readout import Readout
 
 # A free hub turns a boom's root from clamped into guided (hub heaving) or pinned (hub
 # tilting) when light: the pinned-free frequency is the highest, (3.92660 / 1.87510)^2 =
-# 4.39 times the clamped-free one (model.md §13.10), so the step rule's bound is raised
+# 4.39 times the clamped-free one (model.md §13.7), so the step rule's bound is raised
 # by that factor.
 FREE_HUB_FREQUENCY_FACTOR = float((pinned_free_root() / cantilever_roots(1)[0]) ** 2)
 
@@ -211,7 +211,7 @@ class SailModel(Readout):
         return self.modes_of(M, K)
 
     def modes_of(self, M: np.ndarray, K: np.ndarray):
-        """`normal_modes` from `M` and `K` already assembled (`stepper.LinearSystem`)."""
+        """`normal_modes` from `M` and `K` already assembled (`integrate.system.LinearSystem`)."""
         return hub.free_modes(self, M, K) if self.free_hub else scipy.linalg.eigh(K, M)
 
     def state_matrix(self, lengths, rates=0.0, accelerations=0.0) -> np.ndarray:
@@ -292,12 +292,12 @@ class SailModel(Readout):
 
     def state_space(self, lengths, rates=0.0):
         """The linear plant `(A, B, C, D)` at frozen lengths [m] and constant rates [m/s],
-        `x = [q; qd]` (model.md §11; `linear.state_space`)."""
+        `x = [q; qd]` (model.md §12; `linear.state_space`)."""
         return linear.state_space(self, lengths, rates)
 
     def assemble(self, outputs, lengths, rates, accelerations) -> np.ndarray:
         """`evaluate` without the checks, for arrays of 4 already checked (the stepper's
-        hot path; `stepper.LinearSystem`); only a length beyond the stowed material's
+        hot path; `integrate.system.LinearSystem`); only a length beyond the stowed material's
         reach is refused (free hub with `stowed_mass_on_hub`)."""
         if self._stowed_limit is not None and lengths.max() > self._stowed_limit:
             self._check_stowed(lengths, "lengths")
@@ -306,7 +306,7 @@ class SailModel(Readout):
     def assemble_blocks(self, outputs, lengths, rates, accelerations):
         """`assemble` as unassembled boom and quadrant blocks, with the hub's rows and
         columns as a border when it is free (`blocks.BlockMatrices`;
-        `stepper.LinearSystem`)."""
+        `integrate.system.LinearSystem`)."""
         if self._stowed_limit is not None and lengths.max() > self._stowed_limit:
             self._check_stowed(lengths, "lengths")
         return self.assembler.evaluate_blocks(outputs, lengths, rates, accelerations)

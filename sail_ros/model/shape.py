@@ -10,11 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from sail_ros.model.basis import cantilever_modes, triangle_modes
-from sail_ros.model.layout import BOOMS, QUADRANTS, per_boom
+from sail_ros.model.layout import BOOM_DIRECTIONS, BOOMS, QUADRANTS, per_boom
 from sail_ros.model.sail_model import SailModel
-
-# unit vectors of booms a, b, c, d in the sail plane (x along a, y along b)
-BOOM_DIRECTIONS = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
 
 
 def reference_triangulation(divisions: int):
