@@ -1,9 +1,9 @@
 """The closed loop offline: the live controller's discrete loop on the model.
 
 `run_closed_loop` runs a scenario with the controller of its `controller:` section
-(`control.DesignSettings`) through the model's stepper as `sail_control` runs beside
+(`control.settings.DesignSettings`) through the model's stepper as `sail_control` runs beside
 the simulator: the stepper goes to each sample time `t_k = k T`, the controller
-(`control.DiscreteController`, the same gains, period and delay model) takes the
+(`control.loop.DiscreteController`, the same gains, period and delay model) takes the
 measured outputs there and gives a command, and the command acts from `t_k +
 loop_delay_s` until the next one replaces it (the stepper ends a step there). The
 scenario's own loads act beside it (a tip force of the controller adds to the

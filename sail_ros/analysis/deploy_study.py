@@ -48,7 +48,7 @@ class DeployRequest:
         rate: state samples per simulated second of the log and the figures [Hz].
         max_step: the largest integration step [s].
         rtol: the stepper's tolerance (0: fixed steps of `max_step`).
-        atol: its absolute floors per output kind (`control.atol_floors`; None: the
+        atol: its absolute floors per output kind (`integrate.control.atol_floors`; None: the
             defaults).
         snapshots: the snapshot times [s].
         convergence: None (no reruns), () (the ladder) or `(n_B, n_M)` (one rerun).
@@ -144,7 +144,7 @@ def study(
         check: calls a check of the policy (`check(method, *args)`), so its error can
             say where the limits came from.
         progress: `progress(what, total)`, a context giving a callable of the simulated
-            time reached [s] (or None), around each run ("" the first).
+            time reached [s] (or None), around each run (None the first).
 
     Raises:
         ValueError: the request or the scenario asks what the model or the policy refuse.

@@ -84,7 +84,7 @@ def log_changes(log: LogSeries) -> list[LoadChange]:
     recorded scenario; a live simulator's its solar pressure from the first sample, each
     accepted load command from when the simulator applied it, and the loads a reset
     zeroes (all but the solar pressure). None without simulation time or without the
-    answers' held values (a log from before they held them)."""
+    answers' held values (a log whose answers do not hold them)."""
     if log.scenario is not None:
         return schedule_changes(scenario_from_dict(log.scenario).loads)
     if not log.simulation_time or log.boom is None:

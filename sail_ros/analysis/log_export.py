@@ -5,8 +5,9 @@ Every reader of recorder logs (`sail-ros report`, `sail-ros replay`,
 
 - topics, types, QoS (as the recorder stores the simulator's publishers')
   from `sail_ros.topics`, message contents from `sail_ros.messages`:
-  `/clock`, `/sail/boom_state`, `/sail/modal_state`, `/sail/tip_deflection`
-  at every output time, `/sail/shape` at the shape rate; no `/diagnostics`
+  `/clock`, `/sail/boom_state`, `/sail/modal_state`, `/sail/tip_deflection`,
+  `/sail/root_moment` (and a free hub's `/sail/hub_state`) at every output time,
+  `/sail/shape` at the shape rate; no `/diagnostics`
   (an offline run has no real-time pacing to report);
 - time: header stamps, log time and publish time are all simulation time in
   ns since LOG_EPOCH_NS = 0, the Unix epoch, so t = 0 s is

@@ -2,7 +2,7 @@
 
 A log holds samples (50 Hz by default), not the run: its peaks are taken from
 the cubic Hermite through each pair of samples with the rates the log holds
-(`model.peaks.PeakSearch`): the tip rates of `/sail/tip_deflection`, and for
+(`integrate.peaks.PeakSearch`): the tip rates of `/sail/tip_deflection`, and for
 the root moments `d/dt (EI psi''(0)^T p / L^2)` from `/sail/modal_state`'s
 velocities and `/sail/boom_state`'s rates. That interpolation is only as good
 as the sampling: a boom mode of frequency omega sampled every `dt` with

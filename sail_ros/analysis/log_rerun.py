@@ -123,7 +123,7 @@ def _runs(t) -> list[slice]:
 
 
 def applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:
-    """`(simulation time, topic, the four values then held)` of every load command the
+    """`(simulation time, topic, the values then held)` of every load command the
     simulator accepted, from its answers on sail/command_status (the recorder takes them
     from the start, where a command's short-lived publisher may come and go unseen)."""
     status = topics.absolute(topics.COMMAND_STATUS, log.namespace)
@@ -143,8 +143,8 @@ def applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:
         held = answer.values.get(commands_msg.LOADS_HELD)
         if held is None:
             raise ValueError(
-                f"the answers to {answer.topic} hold no {commands_msg.LOADS_HELD} (a log from "
-                "before they did): the loads of the run are unknown"
+                f"the answers to {answer.topic} hold no {commands_msg.LOADS_HELD}: "
+                "the loads of the run are unknown"
             )
         values = np.array(load_yaml(held), dtype=float)
         applied.append((float(answer.values["t_start_s"]), loads[answer.topic], values))

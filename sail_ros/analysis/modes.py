@@ -171,7 +171,7 @@ def clamped_counterparts(free: SailModel, modes: Modes, clamped_model: SailModel
     """For each elastic group of `modes` (of `free`, a free-hub model) the group of
     `clamped` (of `clamped_model`: the same sail with the hub clamped, at the same lengths)
     that holds most of its shapes: the hub stiffens some modes (it turns a boom's clamped
-    root into a guided or pinned one when light, model.md §13.10) and leaves others, so
+    root into a guided or pinned one when light, model.md §13.7) and leaves others, so
     the order of the two lists differs; pairing by shape puts each beside its own."""
     M = clamped_model.mass_and_stiffness(clamped.lengths)[0]
     elastic = modes.vectors[: free.n_elastic]

@@ -3,7 +3,7 @@
 The recorder stores each event that changed the simulator's parameters as a
 metadata record `sail_sim_parameter_changes` (`sail_ros.bag.recording`: the node,
 the node's clock and the log time of the event, and name, old and new value of
-each parameter). Logs written before it did so have the events only on
+each parameter). A log without that record has the events only on
 `/parameter_events`: they are read from there, the old values followed from the
 first `sail_sim_parameters` record.
 

@@ -34,8 +34,8 @@ class PlantTable:
         plant: the `analysis.plant.LinearPlant`.
         params: the sail it was built from; described: its parameters in words.
         listed: the poles listed, lowest first (`analysis.plant.poles`).
-        unstable: how many of all its poles have a positive real part (beyond
-            1e-9 of their frequency).
+        unstable: how many of its poles (`poles`: one of each oscillatory pair) have a
+            positive real part (beyond 1e-9 of their frequency).
     """
 
     plant: LinearPlant

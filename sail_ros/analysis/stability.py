@@ -108,7 +108,8 @@ def growth(params, length, rate, prestress) -> tuple[float, float]:
 
 
 def is_unstable(max_real: float, max_abs: float, rtol: float = INSTABILITY_RTOL) -> bool:
-    """The instability criterion `max Re > rtol * max |lambda|` (module docstring)."""
+    """The instability criterion `max Re > rtol * max |lambda|` (module docstring), of
+    scalars or arrays alike."""
     return max_real > rtol * max_abs
 
 
@@ -142,7 +143,7 @@ class PrestressSweep:
     @property
     def unstable(self) -> np.ndarray:
         """Instability flag per prestress."""
-        return self.max_real > INSTABILITY_RTOL * self.max_abs
+        return is_unstable(self.max_real, self.max_abs)
 
 
 def critical_prestress(
@@ -167,7 +168,7 @@ def prestress_sweep(
     prestresses = np.asarray(prestresses, dtype=float)
     values = np.array([growth(params, length, rate, s) for s in prestresses])
     max_real, max_abs = values[:, 0], values[:, 1]
-    unstable = max_real > INSTABILITY_RTOL * max_abs
+    unstable = is_unstable(max_real, max_abs)
     changes = int(np.count_nonzero(unstable[1:] != unstable[:-1]))
     if not unstable.any():
         status, critical = STABLE, None

@@ -196,7 +196,8 @@ def attempt(at, force_at, input_at, t0, q0, p0, qd0, h, error_of, companion=None
         dq, dqd = q2 - q1, qd2 - qd1
     if companion is not None:  # the halves' error is a third of their difference
         qc, qdc = qc + dq / 3.0, qdc + dqd / 3.0
-        qdc, pc = _momenta(qc, qdc, pc, M1, G1, factor, at.invariant)  # a free hub's exact
+        # a free hub's momenta: exact in every run
+        qdc, pc = _momenta(qc, qdc, pc, M1, G1, factor, at.invariant)
     rows = at.rows(lengths1)
     estimate = largest(rows, dq, dqd) / 3.0
     c, w = _MIDDLE

@@ -112,10 +112,9 @@ def _print_table(run_result, table_times, description, config) -> None:
     if run_result.hub is not None:
         _print_hub_table(run_result, rows)
     print()
-    simulated, wall = float(run_result.t[-1]), run_result.wall_seconds
     print(
-        f"  {simulated:g} s simulated in {wall:.3f} s wall "
-        f"({simulated / max(wall, 1e-9):.0f}x real time)"
+        f"  {float(run_result.t[-1]):g} s simulated in {run_result.wall_seconds:.3f} s wall "
+        f"({run_result.real_time_factor:.0f}x real time)"
     )
     print(_accuracy_line(run_result.accuracy))
 
