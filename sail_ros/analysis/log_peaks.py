@@ -19,7 +19,7 @@ import dataclasses
 
 import numpy as np
 
-from sail_ros.analysis.log_series import LogSeries
+from sail_ros.analysis.log_series import LogSeries, runs_of
 from sail_ros.integrate.peaks import Peak, Peaks, PeakSearch, with_tilt
 from sail_ros.model import SailModel
 from sail_ros.model.sail_model import cantilever_frequencies
@@ -82,19 +82,12 @@ def log_peaks(log: LogSeries, model: SailModel | None) -> LogPeaks:
     return LogPeaks(Peaks(tips, moments, hub), tuple(interpolated), spacing, *unresolved)
 
 
-def _segments(t):
-    """Index ranges where the times increase (a reset repeats a time)."""
-    breaks = np.flatnonzero(np.diff(t) <= 0) + 1
-    edges = [0, *breaks.tolist(), t.size]
-    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
-
-
 def _search(t, values, rates) -> Peak:
     """Without rates the cubic between two samples is monotone (zero end slopes): the
     largest sample is the peak."""
     rates = np.zeros_like(values) if rates is None else rates
     search = PeakSearch(values.shape[1])
-    for part in _segments(t):
+    for part in runs_of(t):
         search.restart()
         search.add(t[part], values[part], rates[part])
     return Peak(search.value, search.time)

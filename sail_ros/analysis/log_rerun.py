@@ -26,7 +26,7 @@ from rclpy.serialization import deserialize_message
 
 from sail_ros import topics
 from sail_ros.analysis.deployment import carried_over
-from sail_ros.analysis.log_series import LogSeries
+from sail_ros.analysis.log_series import LogSeries, runs_of
 from sail_ros.bag import BagReader
 from sail_ros.integrate.peaks import OutputPeaks, Peak, Peaks
 from sail_ros.messages import commands as commands_msg
@@ -67,7 +67,7 @@ def rerun_log(log: LogSeries, model: SailModel, carried_from: SailModel | None =
     commands = applied_loads(log)
     solar = solar_pressure(log)
     tips, found = np.empty((t.size, 4)), []
-    for part in _runs(t):
+    for part in runs_of(t):
         times = t[part]
         start = times[0]
         q0, qd0 = q_logged[part.start], qd_logged[part.start]
@@ -113,13 +113,6 @@ def _paired(first, second) -> tuple[np.ndarray, np.ndarray]:
         else:
             j += 1
     return np.array(rows_a, dtype=int), np.array(rows_b, dtype=int)
-
-
-def _runs(t) -> list[slice]:
-    """Index ranges of the log's runs: a reset repeats the last stamp."""
-    breaks = np.flatnonzero(np.diff(t) <= 0) + 1
-    edges = [0, *breaks.tolist(), t.size]
-    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
 
 
 def applied_loads(log: LogSeries) -> list[tuple[float, str, np.ndarray]]:

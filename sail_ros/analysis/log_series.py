@@ -146,6 +146,14 @@ class LogSeries:
         return params.resolved(shortest)
 
 
+def runs_of(t) -> list[slice]:
+    """Index ranges of a log's runs in its times `t` [s]: where they increase (a reset
+    repeats the last stamp)."""
+    breaks = np.flatnonzero(np.diff(t) <= 0) + 1
+    edges = [0, *breaks.tolist(), t.size]
+    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
+
+
 def _joint_series(messages, topic: str) -> JointSeries | None:
     if not messages:
         return None
