@@ -15,24 +15,19 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
-import time
-import warnings
 
 import numpy as np
 
-from sail_ros.analysis.deployment import Accuracy, DeploymentRun, output_times
+from sail_ros.analysis.deployment import DeploymentRun, output_times, stepped_run
 from sail_ros.analysis.scenario import Scenario, check_scenario
 from sail_ros.control.design import HUB_WRENCH, TIP_FORCES, command_limits
 from sail_ros.control.loop import DiscreteController
 from sail_ros.control.schedule import GainSchedule, design_schedule
 from sail_ros.control.settings import DesignSettings
 from sail_ros.integrate.control import DEFAULT_MAX_STEP, DEFAULT_RTOL
-from sail_ros.integrate.driver import run
-from sail_ros.integrate.errors import AccuracyWarning
 from sail_ros.integrate.observers import RangeWatch
 from sail_ros.model import IntegrationError, SailModel
 from sail_ros.model.loads import input_function
-from sail_ros.model.profiles import motion_over
 from sail_ros.policy import Policy
 
 
@@ -156,17 +151,8 @@ def run_closed_loop(
         if progress is not None:
             progress(t)
 
-    started = time.perf_counter()
-    with warnings.catch_warnings():  # said by the run's `accuracy.warning`
-        warnings.simplefilter("ignore", AccuracyWarning)
-        result = run(stepper, times, scenario.duration, (watch,), at_outputs=sample)
-    wall = time.perf_counter() - started
-    t, q, qd = result
-    kept = t.size
-    lengths, rates, _ = motion_over(scenario.profile, t)
-    states = model.sample(t, lengths, rates, q, qd)
-    accuracy = Accuracy.of(result)
-    run_ = DeploymentRun(states, wall, watch.peaks.peaks, watch.warning, result.alarm, accuracy)
+    run_ = stepped_run(model, scenario, stepper, watch, times, at_outputs=sample)
+    kept = run_.t.size
     return ClosedLoopRun(
         run_, commands[:kept], demands[:kept], saturated[:kept], schedule.inputs, schedule, limits
     )

@@ -195,10 +195,18 @@ def run_deployment(
         scenario.profile, q0=q0, qd0=qd0, max_step=max_step, rtol=rtol, atol=atol,
         inputs=input_function(scenario.loads, model.free_hub),
     )  # fmt: skip
+    return stepped_run(model, scenario, stepper, watch, t_eval, rates=rates, states=states,
+                       progress=progress)  # fmt: skip
+
+
+def stepped_run(model, scenario, stepper, watch: RangeWatch, t_eval, **options) -> DeploymentRun:
+    """`stepper` run over `scenario` to the output times `t_eval` [s] (`driver.run`, its
+    `options`), seen by `watch`: the `DeploymentRun` with its wall time, outputs, true
+    peaks and accuracy (whose warning it says rather than warns)."""
     started = time.perf_counter()
     with warnings.catch_warnings():  # said by the run's `accuracy.warning`
         warnings.simplefilter("ignore", AccuracyWarning)
-        result = run(stepper, t_eval, scenario.duration, (watch,), rates, states, progress)
+        result = run(stepper, t_eval, scenario.duration, (watch,), **options)
     wall = time.perf_counter() - started
     t, q, qd = result
     lengths, rates, _ = motion_over(scenario.profile, t)
