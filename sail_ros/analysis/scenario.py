@@ -39,8 +39,6 @@ from pathlib import Path
 import numpy as np
 
 from sail_ros.analysis.schema import (
-    BOOM_NAMES,
-    QUADRANT_NAMES,
     Section,
     check_each,
     check_number,
@@ -55,13 +53,12 @@ from sail_ros.model import (
     WaypointProfile,
     yaml_values,
 )
-from sail_ros.model.layout import Layout
+from sail_ros.model.layout import BOOMS, QUADRANT_NAMES, Layout
 from sail_ros.model.loads import LoadSchedule
 from sail_ros.model.profiles import BoomMotion, JammedProfile
 from sail_ros.policy import Policy
 from sail_ros.spelling import did_you_mean
 
-BOOMS = BOOM_NAMES
 POSITIVE = {"minimum": 0.0, "above_minimum": True}
 
 TOP = Section(
@@ -353,7 +350,7 @@ def check_scenario(scenario: Scenario, model: SailModel, policy: Policy) -> None
             pressures, forces = scenario.loads(t)
             for values, names, what, pressure in (
                 (pressures, QUADRANT_NAMES, "pressures", True),
-                (forces, BOOM_NAMES, "tip_forces", False),
+                (forces, BOOMS, "tip_forces", False),
             ):
                 for name, value in zip(names, values, strict=True):
                     policy.check_load(f"scenario.loads[{i}].{what}.{name}", value, pressure)
@@ -384,7 +381,7 @@ def _loads(spec, duration: float, where: str) -> LoadSchedule | None:
                 pressures, f"{here}.pressures", QUADRANT_NAMES, LOAD["pressures"].spec
             )
         if forces is not None:
-            forces = check_each(forces, f"{here}.tip_forces", BOOM_NAMES, LOAD["tip_forces"].spec)
+            forces = check_each(forces, f"{here}.tip_forces", BOOMS, LOAD["tip_forces"].spec)
         steps.append((t, pressures, forces))
     try:
         return LoadSchedule(steps)

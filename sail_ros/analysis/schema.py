@@ -16,11 +16,10 @@ import dataclasses
 import numpy as np
 
 from sail_ros.model.fields import Spec, check_value, range_text, table_cell
+from sail_ros.model.layout import BOOMS
 from sail_ros.spelling import did_you_mean
 
 REQUIRED = "required"
-BOOM_NAMES = ("a", "b", "c", "d")
-QUADRANT_NAMES = ("ab", "bc", "cd", "da")
 
 # kind -> how the documentation names it
 KINDS = {
@@ -126,7 +125,7 @@ def check_each(value, where: str, names: tuple[str, ...], spec: Spec) -> np.ndar
     array of 4, each checked and named by its element: `...tip_forces.b`."""
     if isinstance(value, list | tuple):
         if len(value) != len(names):
-            order = "booms" if names == BOOM_NAMES else "quadrants"
+            order = "booms" if names == BOOMS else "quadrants"
             raise ValueError(
                 f"{where} must be a scalar or {len(names)} values ({order} "
                 f"{', '.join(names)}), got {len(value)}: {value!r}"
