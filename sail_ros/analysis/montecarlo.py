@@ -482,8 +482,7 @@ def summarize(study: Study, rows: list[dict], base_sail: dict, worst: int = 5) -
     good = [row for row in rows if row is not None and not row.get("error")]
     failed = sum(1 for row in rows if row is not None and row.get("error"))
     percentiles = {}
-    hub = HUB_OUTPUTS if any(HUB_OUTPUTS[0] in row for row in good) else ()
-    for name in (*OUTPUTS, *hub):
+    for name in (*OUTPUTS, *hub_outputs(good)):
         values = np.array([row[name] for row in good], dtype=float)
         if values.size:
             low, middle, high = np.percentile(values, [5, 50, 95])
@@ -514,8 +513,12 @@ def summarize(study: Study, rows: list[dict], base_sail: dict, worst: int = 5) -
 def csv_columns(study: Study, rows=()) -> list[str]:
     """The CSV's columns: the sample, its inputs, the outputs (a free hub's when a row
     has them) and the error."""
-    hub = HUB_OUTPUTS if any(r is not None and HUB_OUTPUTS[0] in r for r in rows) else ()
-    return ["sample", *study.input_names, *OUTPUTS, *hub, "error"]
+    return ["sample", *study.input_names, *OUTPUTS, *hub_outputs(rows), "error"]
+
+
+def hub_outputs(rows) -> tuple[str, ...]:
+    """A free hub's outputs (`HUB_OUTPUTS`) when one of `rows` has them, else ()."""
+    return HUB_OUTPUTS if any(r is not None and HUB_OUTPUTS[0] in r for r in rows) else ()
 
 
 def csv_text(study: Study, rows: list[dict]) -> str:
