@@ -103,6 +103,12 @@ class Convergence:
     def finest(self) -> Level:
         return self.levels[-1]
 
+    @property
+    def holds(self) -> bool:
+        """The run's peaks are within `bar` of the finest level's and the ladder settled
+        (`warning` says nothing)."""
+        return self.converged and self.change.largest() <= self.bar
+
     def warning(self, hint: str) -> str:
         """One line when the run's peaks are not within the bar of the finest rerun's, or
         the reruns did not settle ("" if both hold); `hint` says how to refine."""

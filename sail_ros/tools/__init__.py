@@ -1,1 +1,2 @@
-"""Command-line tools (`sail-ros <tool>`): thin shells around `sail_ros.model`."""
+"""Command-line tools (`sail-ros <tool>`): thin shells around `sail_ros.analysis` and
+`sail_ros.model`."""

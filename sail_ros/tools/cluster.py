@@ -13,27 +13,25 @@ uses a cluster started with the standard `dask scheduler` and `dask worker`
 commands; its workers must have sail_ros installed.
 
 Some of Dask's defaults cost the model's many small steps CPU in a worker, and
-local workers go without them (`LOCAL_WORKER_CONFIG`; measured, a sample took
-21-34 % more CPU in a worker with Dask's defaults than called in a plain
-process, 7-11 % more without the first two):
+local workers go without them (`LOCAL_WORKER_CONFIG`;
+`benchmarks/montecarlo_dask.py` measures a worker's time per sample against a
+sample called in a plain process):
 - MALLOC_TRIM_THRESHOLD_=65536, which the nanny sets before it starts a worker
   (`distributed.nanny.pre-spawn-environ`): glibc then returns freed memory to
   the system at once and, the threshold being set, no longer raises its mmap
-  threshold, so the model's short-lived arrays come back as page faults (12-26
-  % more CPU). Local workers keep glibc's own settings; a value set in the
-  environment still reaches them.
+  threshold, so the model's short-lived arrays come back as page faults. Local
+  workers keep glibc's own settings; a value set in the environment still reaches
+  them.
 - the statistical profiler (`distributed.worker.profile`), which takes the
-  worker's stack every 10 ms (10-15 % more CPU): the dashboard's profile page
+  worker's stack every 10 ms: the dashboard's profile page
   of a local cluster stays empty.
 - the event loops' periodic work, which wakes a worker's loop thread many times a
   second and takes the interpreter from the thread that computes: the tick that
   watches for a blocked loop (every 20 ms), the system monitor (500 ms) and the
   memory monitor (100 ms). Local workers tick every second, look at the system
-  every 5 s and at their memory every second: on 2 workers, a sample's wall time
-  beyond its thread's CPU time went from 3.4-3.6 to 0.9-1.0 ms, the main process's
-  CPU from 0.56-0.77 to 0.16-0.17 s per 400 samples, and 400 samples from 15.1-15.4
-  to 14.0-14.2 s. A blocked loop or a worker's memory growth is then seen within a
-  second, not a fraction of one.
+  every 5 s and at their memory every second: less of a sample's wall time goes
+  beyond its thread's CPU time, and a blocked loop or a worker's memory growth is
+  still seen within a second.
 An external cluster's workers are started by their owner (`dask worker`), with
 that owner's settings: the same holds there.
 """

@@ -129,11 +129,6 @@ def configuration(args: argparse.Namespace, sail_section: dict | None = None, wh
     return config
 
 
-def sail_parameters(args: argparse.Namespace) -> SailParameters:
-    """The sail of --config and --set (`configuration(args).sail`)."""
-    return configuration(args).sail
-
-
 def tool_main(build_parser, body):
     """A tool's `main(argv=None)`: the options of `build_parser()` read from `argv`
     (default: the command line), then `body(args)` under `run`; returns the exit code."""

@@ -252,7 +252,7 @@ def _json_report(result, config, description, convergence, holds=None) -> dict:
             "root_moment_change": per_boom(change.moments),
             "tip_deflection_change_own": per_boom(change.tips_own),
             "root_moment_change_own": per_boom(change.moments_own),
-            "converged": convergence.converged and change.largest() <= convergence.bar,
+            "converged": convergence.holds,
             "stopped": convergence.stopped,
         }
     return report

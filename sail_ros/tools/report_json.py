@@ -105,7 +105,7 @@ def _rerun_json(rerun) -> dict | None:
             "tip_deflection_change_own": _per_boom(change.tips_own),
             "root_moment_change": _per_boom(change.moments),
             "root_moment_change_own": _per_boom(change.moments_own),
-            "converged": change.largest() <= convergence.bar,
+            "converged": convergence.holds,
         }
     return report
 

@@ -53,14 +53,8 @@ class ReportResult:
         said = [f"warning: the rerun: {warning}" for warning in rerun.warnings]
         said += [f"warning: the rerun on a finer model: {w}" for w in rerun.finer_warnings]
         convergence = rerun.convergence
-        if convergence is not None and convergence.change.largest() > convergence.bar:
-            finest = convergence.finest
-            said.append(
-                f"warning: peaks not converged: against (n_B, n_M) = ({finest.n_boom_modes}, "
-                f"{finest.n_membrane_modes}) they are off by up to "
-                f"{100 * convergence.change.largest():.3g} % of the largest of their kind; "
-                f"{refine_hint(rerun.params)}"
-            )
+        if convergence is not None and not convergence.holds:
+            said.append(convergence.warning(refine_hint(rerun.params)))
         return said
 
     def _print_log(self) -> None:

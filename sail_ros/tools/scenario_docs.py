@@ -64,7 +64,12 @@ def main(argv=None) -> int:
         print("usage: python -m sail_ros.tools.scenario_docs docs/scenarios.md", file=sys.stderr)
         return 2
     path = Path(argv[0])
-    path.write_text(update(path.read_text()))
+    try:
+        text = update(path.read_text())
+    except (OSError, ValueError) as error:
+        print(f"error: {path}: {error}", file=sys.stderr)
+        return 2
+    path.write_text(text)
     print(f"wrote {path}")
     return 0
 
