@@ -153,8 +153,7 @@ def study(
     request.check(duration)
     if request.convergence:  # explicit counts: checked before the run
         finer_parameters(params, *request.convergence)
-    coordinates = 4 * (params.n_boom_modes + params.membrane_modes) + 3 * params.free_hub
-    _output_size(request, duration, coordinates)
+    _output_size(request, duration, params.coordinates)
     table_times = np.unique(np.append(np.arange(0.0, duration, request.every), duration))
     grid = output_times(duration, request.rate)
     if request.outputs:

@@ -55,6 +55,15 @@ class RealTimeFactor:
     def measured(self) -> np.ndarray:
         return self.factor[np.isfinite(self.factor)]
 
+    def summary(self) -> dict:
+        """The measured factor's `mean`, `min`, `max` and `count` (`count` 0 alone when
+        none was measured)."""
+        measured = self.measured
+        if not measured.size:
+            return {"count": 0}
+        return {"mean": measured.mean(), "min": measured.min(), "max": measured.max(),
+                "count": measured.size}  # fmt: skip
+
 
 @dataclasses.dataclass(frozen=True)
 class LogReport:

@@ -144,6 +144,12 @@ class SailParameters:
         return min(self.membrane_mode_need, MAX_MEMBRANE_MODES)
 
     @property
+    def coordinates(self) -> int:
+        """The model's generalised coordinates: `4 (n_B + n_M)`, and a free hub's 3 (n_M as
+        `membrane_modes` gives it)."""
+        return 4 * (self.n_boom_modes + self.membrane_modes) + 3 * self.free_hub
+
+    @property
     def membrane_mode_need(self) -> int:
         """The automatic count: every clamped-triangle mode `(m, n)` whose frequency
         `(pi / L) sqrt(N0 / rho_M) sqrt(m^2 + n^2)` at `L = resolved_length` (10 m when 0)

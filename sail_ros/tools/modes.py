@@ -127,7 +127,7 @@ def _modes(args) -> int:
     params = config.sail
     lengths = config.per_boom(args.lengths or [params.full_boom_length], "--lengths")
     params = params.resolved(min(lengths))
-    coordinates = 4 * (params.n_boom_modes + params.membrane_modes) + 3 * params.free_hub
+    coordinates = params.coordinates
     if not 1 <= args.count <= coordinates:
         raise ValueError(
             f"--count must be in [1, {coordinates}] (the model's coordinates), got {args.count}"

@@ -125,14 +125,4 @@ def _energies_json(energies) -> dict | None:
 
 
 def _realtime_json(realtime) -> dict | None:
-    if realtime is None:
-        return None
-    measured = realtime.measured
-    if not measured.size:
-        return {"count": 0}
-    return {
-        "mean": measured.mean(),
-        "min": measured.min(),
-        "max": measured.max(),
-        "count": measured.size,
-    }
+    return None if realtime is None else realtime.summary()

@@ -149,10 +149,10 @@ class ReportResult:
         if realtime is None:
             print(f"  {self.found.missing['real_time_factor']}")
         elif realtime.measured.size:
-            measured = realtime.measured
+            rtf = realtime.summary()
             print(
-                f"  real-time factor: mean {measured.mean():.3g}, min {measured.min():.3g}, "
-                f"max {measured.max():.3g} over {measured.size} diagnostics messages"
+                f"  real-time factor: mean {rtf['mean']:.3g}, min {rtf['min']:.3g}, "
+                f"max {rtf['max']:.3g} over {rtf['count']} diagnostics messages"
             )
 
 
