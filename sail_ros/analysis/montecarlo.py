@@ -510,6 +510,27 @@ def summarize(study: Study, rows: list[dict], base_sail: dict, worst: int = 5) -
     )
 
 
+def accuracy_warning(rows: list[dict]) -> str:
+    """One line when samples' error estimates exceed twice their tolerance (their
+    `_accuracy_warning`): how many, and the largest's own warning; "" if none does."""
+    warned = [row for row in rows if row.get("_accuracy_warning")]
+    if not warned:
+        return ""
+    worst = max(warned, key=lambda row: row["error_estimate"])
+    return (
+        f"warning: {len(warned)} of {len(rows)} samples' error estimates exceed twice "
+        f"their tolerance, the largest sample {worst['sample']}: {worst['_accuracy_warning']}"
+    )
+
+
+def tip_histories(rows: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    """`(t, tips)`: the tip deflections [m] of the samples `rows` (that ran) on the first
+    one's output times [s] (k,), (samples, k, 4)."""
+    t = rows[0]["_t"]
+    tips = [[np.interp(t, row["_t"], row["_tips"][:, k]) for k in range(4)] for row in rows]
+    return t, np.stack(tips).transpose(0, 2, 1)
+
+
 def csv_columns(study: Study, rows=()) -> list[str]:
     """The CSV's columns: the sample, its inputs, the outputs (a free hub's when a row
     has them) and the error."""

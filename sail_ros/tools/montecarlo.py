@@ -28,6 +28,7 @@ from tqdm import tqdm
 from sail_ros.analysis.execution import run_cases
 from sail_ros.analysis.montecarlo import (
     HUB_OUTPUTS,
+    accuracy_warning,
     check_study,
     csv_text,
     input_unit,
@@ -36,6 +37,7 @@ from sail_ros.analysis.montecarlo import (
     sample_scenario,
     study_sail,
     summarize,
+    tip_histories,
 )
 from sail_ros.options import ToolParser, paragraphs
 from sail_ros.outputs import staged
@@ -106,15 +108,9 @@ def _montecarlo(args) -> int:
     summary = summarize(study, rows, base_sail, WORST)
     text = _summary_text(study, summary, config.policy)
     print(text)
-    warned = [row for row in rows if row.get("_accuracy_warning")]
-    if warned:
-        worst = max(warned, key=lambda row: row["error_estimate"])
-        print(
-            f"warning: {len(warned)} of {len(rows)} samples' error estimates exceed twice "
-            f"their tolerance, the largest sample {worst['sample']}: "
-            f"{worst['_accuracy_warning']}",
-            file=sys.stderr,
-        )
+    warning = accuracy_warning(rows)
+    if warning:
+        print(warning, file=sys.stderr)
     with staged(out, "--out") as folder:
         folder.mkdir()
         (folder / "samples.csv").write_text(csv_text(study, rows))
@@ -193,10 +189,7 @@ def _figures(study, rows, summary, out: Path) -> list[Path]:
     good = [row for row in rows if not row.get("error")]
     if not good:
         return []
-    t = good[0]["_t"]
-    tips = np.stack(
-        [[np.interp(t, row["_t"], row["_tips"][:, k]) for k in range(4)] for row in good]
-    ).transpose(0, 2, 1)  # (samples, times, booms) on the first sample's times
+    t, tips = tip_histories(good)
     title = study.description
     envelopes_path, peaks_path, influence_path = (out / name for name in FIGURES)
     written = [envelopes_figure(t, tips, envelopes_path, title)]

@@ -13,6 +13,7 @@ from sail_ros.analysis.deployment import hold_reactions
 from sail_ros.analysis.execution import batch_size, batch_sizes
 from sail_ros.analysis.montecarlo import (
     HUB_OUTPUTS,
+    accuracy_warning,
     run_sample,
     sample_scenario,
     study_from_dict,
@@ -98,6 +99,21 @@ def test_a_clamped_study_has_no_hub_outputs():
     assert row["error"] == "" and not set(HUB_OUTPUTS) & set(row)
     summary = summarize(study, [row], SMALL.to_dict())
     assert not set(HUB_OUTPUTS) & set(summary.percentiles)
+
+
+def test_the_samples_accuracy_warnings_are_counted_and_the_largest_said():
+    """One line for a study whose samples' error estimates exceed twice their tolerance:
+    how many of them, and the largest estimate's own warning; none when no sample warns."""
+    rows = [
+        {"sample": 0, "error_estimate": 0.001, "_accuracy_warning": ""},
+        {"sample": 1, "error_estimate": 0.006, "_accuracy_warning": "six"},
+        {"sample": 2, "error_estimate": 0.009, "_accuracy_warning": "nine"},
+        {"sample": 3, "error_estimate": 0.005, "_accuracy_warning": "five"},
+    ]
+    line = accuracy_warning(rows)
+    assert line.startswith("warning: 3 of 4 samples' error estimates exceed twice")
+    assert line.endswith("the largest sample 2: nine")
+    assert accuracy_warning(rows[:1]) == ""
 
 
 def test_a_switch_is_no_dispersion():
