@@ -46,7 +46,6 @@ class DomainLease:
     def __init__(self, lock_path: Path = LOCK_PATH):
         self._lock_path = lock_path
         self._lock = None
-        self.domain: int | None = None
 
     def __enter__(self) -> int:
         self._lock = open(self._lock_path, "a")  # noqa: SIM115 (held across the block)
@@ -57,7 +56,6 @@ class DomainLease:
         for offset in range(span):
             domain = FIRST_DOMAIN + (start - FIRST_DOMAIN + offset) % span
             if not domain_in_use(domain, ports):
-                self.domain = domain
                 return domain
         self.__exit__()
         raise RuntimeError(f"every DDS domain from {FIRST_DOMAIN} to {LAST_DOMAIN} is in use")

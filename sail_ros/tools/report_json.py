@@ -10,8 +10,7 @@ from sail_ros.analysis.json_values import plain
 from sail_ros.analysis.log_peaks import RESOLVED_PHASE
 from sail_ros.analysis.log_report import LogReport
 from sail_ros.model.layout import BOOMS
-
-HUB_NAMES = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")  # of `Peaks.hub`, in JSON
+from sail_ros.tools.tables import HUB_NAMES
 
 
 def report_json(path: Path, found: LogReport, warnings: list[str], written: list[Path]) -> dict:

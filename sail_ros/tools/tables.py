@@ -100,13 +100,17 @@ def print_hub_peak_table(hub, indent: str = "  ") -> None:
     print(f"{indent}{'  at t [s]':<12}" + "".join(_cell(v, "18.3f") for v in hub.time_s))
 
 
+# a free hub's peaks (`Peaks.hub`) as --json names them: `peak_<name>`, and
+# `peak_<name less its unit>_time_s`
+HUB_NAMES = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")
+
+
 def hub_peaks_json(hub, holds) -> dict:
     """A free hub's true peaks and its holds' peak reactions, for --json."""
-    names = ("heave_m", "tilt_x_rad", "tilt_y_rad", "tilt_rad")
-    report = {f"peak_{name}": float(v) for name, v in zip(names, hub.value, strict=True)}
+    report = {f"peak_{name}": float(v) for name, v in zip(HUB_NAMES, hub.value, strict=True)}
     report |= {
         f"peak_{name.rsplit('_', 1)[0]}_time_s": json_number(v)
-        for name, v in zip(names, hub.time_s, strict=True)
+        for name, v in zip(HUB_NAMES, hub.time_s, strict=True)
     }
     report |= {
         "peak_hold_force_N": holds.force,
