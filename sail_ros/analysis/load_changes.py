@@ -8,8 +8,7 @@ import dataclasses
 
 import numpy as np
 
-from sail_ros import topics
-from sail_ros.analysis.log_rerun import applied_loads, solar_pressure
+from sail_ros.analysis.log_rerun import HeldLoads, applied_loads, solar_pressure
 from sail_ros.analysis.log_series import LogSeries
 from sail_ros.analysis.scenario import scenario_from_dict
 from sail_ros.model.layout import BOOMS, QUADRANT_NAMES
@@ -98,18 +97,14 @@ def log_changes(log: LogSeries) -> list[LoadChange]:
     resets = t[1:][np.diff(t) <= 0]
     events = [(float(t[0]), "start", None)] + [(float(r), "reset", None) for r in resets]
     events += [(time, topic, values) for time, topic, values in commands]
-    held = {topics.PRESSURE_CMD: np.zeros(4), topics.TIP_FORCE_CMD: np.zeros(4),
-            topics.HUB_WRENCH_CMD: np.zeros(3)}  # fmt: skip
+    held = HeldLoads()
     steps = []
     for time, what, values in sorted(events, key=lambda event: event[0]):
         if what in ("start", "reset"):
-            held = {name: np.zeros_like(value) for name, value in held.items()}
+            held.reset()
         else:
-            held[what] = values
-        components = _components(
-            held[topics.PRESSURE_CMD] + solar, held[topics.TIP_FORCE_CMD],
-            held[topics.HUB_WRENCH_CMD],
-        )  # fmt: skip
+            held.apply(what, values)
+        components = _components(*held.inputs(solar))
         if steps and steps[-1][0] == time:
             steps.pop()
         steps.append((time, components))

@@ -150,21 +150,41 @@ def solar_pressure(log: LogSeries) -> float:
     return float(load_yaml(text)) if text is not None else 0.0
 
 
+class HeldLoads:
+    """The loads a simulator holds from its accepted load commands (`applied_loads`): each
+    command topic's latest values, zeros at a run's start and after a reset."""
+
+    def __init__(self):
+        self.reset()
+
+    def reset(self) -> None:
+        self.values = {topics.PRESSURE_CMD: np.zeros(4), topics.TIP_FORCE_CMD: np.zeros(4),
+                       topics.HUB_WRENCH_CMD: np.zeros(3)}  # fmt: skip
+
+    def apply(self, topic: str, values) -> None:
+        self.values[topic] = values
+
+    def inputs(self, solar: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Copies of the pressures [Pa] with the solar pressure `solar` [Pa] added, the tip
+        forces [N] and the hub wrench [N, N m, N m]."""
+        values = self.values
+        return (values[topics.PRESSURE_CMD] + solar, values[topics.TIP_FORCE_CMD].copy(),
+                values[topics.HUB_WRENCH_CMD].copy())  # fmt: skip
+
+
 def _schedule(commands, solar: float, start: float, end: float) -> LoadSchedule | None:
     """The loads of one run from `start` to `end` [s] (times from its start): the commands
     applied in it, held; a run starts unloaded but for the solar pressure."""
-    held = {topics.PRESSURE_CMD: np.zeros(4), topics.TIP_FORCE_CMD: np.zeros(4)}
-    held[topics.HUB_WRENCH_CMD] = np.zeros(3)
+    held = HeldLoads()
 
     def step(t):
-        pressures, forces, wrench = held.values()
-        return (t, pressures + solar, forces.copy(), wrench.copy())
+        return (t, *held.inputs(solar))
 
     steps = [step(0.0)]
     for t, topic, values in commands:
         if not start < t <= end:
             continue
-        held[topic] = values
+        held.apply(topic, values)
         if t - start == steps[-1][0]:
             steps.pop()
         steps.append(step(t - start))
